@@ -1,0 +1,184 @@
+"""The ``touchdown`` command line (SPEC.md section 2). Exit codes: 0 done, 1 the work failed,
+2 bad usage or bad input (one line on stderr naming the file, key or field; no traceback)."""
+from __future__ import annotations
+
+import json
+import re
+import sys
+import tomllib
+from pathlib import Path
+
+import click
+
+import scenarios as builtin
+from logs import LogError
+from sim.integrators import METHODS
+from sim.scenario import ScenarioError, parse_text
+
+
+class UserError(click.ClickException):
+    """A user's mistake: message on one line, exit 2."""
+
+    exit_code = 2
+
+    def show(self, file=None) -> None:
+        click.echo(f"touchdown: {self.format_message()}", err=True)
+
+
+def parse_sets(sets: tuple[str, ...]) -> dict:
+    """``--set sim.dt=0.02`` -> {"sim.dt": 0.02}. Values are TOML (bare words are strings);
+    ``ships[0].mass`` and ``ships.0.mass`` both address the first ship."""
+    out = {}
+    for item in sets:
+        if "=" not in item:
+            raise UserError(f"--set {item!r}: expected KEY=VALUE")
+        key, raw = item.split("=", 1)
+        key = re.sub(r"\[(\d+)\]", r".\1", key.strip())
+        try:
+            value = tomllib.loads(f"v = {raw}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = raw
+        out[key] = value
+    return out
+
+
+def load_scenario(spec: str, sets: tuple[str, ...] = ()):
+    """A scenario from a TOML path or a built-in name; returns (scenario, source)."""
+    overrides = parse_sets(sets)
+    path = Path(spec)
+    if path.suffix == ".toml" or path.exists():
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"{spec}: cannot read: {exc.strerror}") from None
+        except UnicodeDecodeError:
+            raise UserError(f"{spec}: not UTF-8 text") from None
+        source = str(path)
+    elif spec in builtin.names():
+        text, source = builtin.text(spec), spec
+    else:
+        raise UserError(f"{spec}: no such file or built-in scenario (see `touchdown scenarios`)")
+    try:
+        return parse_text(text, source, overrides), source
+    except ScenarioError as exc:
+        raise UserError(str(exc)) from None
+
+
+def _progress(total: int, label: str):
+    """A rich progress bar on a terminal; nothing otherwise."""
+    if not sys.stdout.isatty():
+        return None
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+    prog = Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total} ticks"),
+                    TimeRemainingColumn())
+    prog.start()
+    prog.add_task(label, total=total)
+    return prog
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="touchdown", message="%(version)s")
+def main() -> None:
+    """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
+
+
+@main.command("scenarios")
+def scenarios_cmd() -> None:
+    """List the built-in scenarios: name and one-line description."""
+    names = builtin.names()
+    width = max(map(len, names))
+    for name in names:
+        click.echo(f"{name:<{width}}  {builtin.description(name)}")
+
+
+@main.command(help="Run SCENARIO (a .toml file or a built-in name) and write its MCAP log. "
+                   "Integrators (sim.integrator): " + ", ".join(sorted(METHODS)) + ".")
+@click.argument("scenario")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="log file (default NAME.mcap)")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="override a scenario key, e.g. sim.dt=0.02 or ships[0].mass=9000; repeatable")
+@click.option("--redis", "redis_url", default=None, metavar="URL",
+              help="also publish events to this Redis (e.g. redis://127.0.0.1:6379/0)")
+@click.option("--stream", default="galaxy:ships", show_default=True, help="Redis stream name")
+def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
+           stream: str) -> None:
+    from logs.mcap_log import LogWriter
+    from sim.run import run
+
+    scn, source = load_scenario(scenario, sets)
+    out = Path(output) if output else Path(f"{scn.name}.mcap")
+    publisher = None
+    if redis_url:
+        from logs.redis_stream import EventPublisher
+        try:
+            publisher = EventPublisher(redis_url, stream)
+        except LogError as exc:
+            raise UserError(str(exc)) from None
+    try:
+        writer = LogWriter(out, scn, source)
+    except OSError as exc:
+        raise UserError(f"{out}: cannot write: {exc.strerror}") from None
+    n_ticks = scn.params.sim.n_ticks
+    prog = _progress(n_ticks, scn.name)
+    events = 0
+    try:
+        with writer:
+            for rec in run(scn):
+                msgs = writer.write(rec)
+                events += len(msgs)
+                if publisher is not None:
+                    publisher.publish(msgs)
+                if prog is not None and rec.tick % 50 == 0:
+                    prog.update(prog.task_ids[0], completed=rec.tick)
+    except KeyboardInterrupt:
+        if prog is not None:
+            prog.stop()
+        click.echo(f"interrupted at tick {writer.last_tick}; the log holds ticks 0..{writer.last_tick}"
+                   f" and is finished: {out}", err=True)
+        sys.exit(130)
+    except LogError as exc:
+        raise click.ClickException(str(exc)) from None
+    finally:
+        if prog is not None:
+            prog.stop()
+        if publisher is not None:
+            publisher.close()
+    click.echo(f"{out}: {n_ticks + 1} ticks, {scn.initial.n} ship(s), {events} event(s)")
+
+
+@main.command()
+@click.argument("log", type=click.Path(dir_okay=False))
+@click.option("--events", is_flag=True, help="one object per state transition instead of per tick")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to FILE, not stdout")
+def export(log: str, events: bool, output: str | None) -> None:
+    """JSON Lines of LOG: one object per ship per tick (or per event with --events)."""
+    from logs.export import event_rows, tick_rows, write_jsonl
+    from logs.mcap_log import LogReader
+
+    try:
+        with LogReader(log) as reader:
+            rows = event_rows(reader) if events else tick_rows(reader)
+            if output:
+                tmp = Path(output + ".partial")
+                with open(tmp, "w", encoding="utf-8") as f:
+                    write_jsonl(rows, f)
+                tmp.replace(output)
+            else:
+                write_jsonl(rows, sys.stdout)
+    except LogError as exc:
+        raise UserError(str(exc)) from None
+    except BrokenPipeError:
+        sys.stderr.close()
+
+
+@main.command()
+@click.argument("what", type=click.Choice(["speed"]))
+@click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
+def bench(what: str, quick: bool) -> None:
+    """Benchmarks; figures with units and the machine. `speed`: recording and stepping rates."""
+    from bench import speed
+    speed.main(quick=quick)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,236 @@
+"""The MCAP log: one ScenarioRecord, one TickBatch per tick, a TransitionEvent per transition, and a
+LogSummary at the end. Chunked, zstd-compressed, CRCs on, protobuf schemas embedded, so that stock
+readers (``mcap-protobuf-support``, Foxglove) decode every message without this project.
+
+Log times are simulation time, ``tick * dt`` in integer nanoseconds, never the wall clock.
+
+Writing goes to ``OUT.mcap.partial`` and is renamed to ``OUT.mcap`` only once the footer is
+written: a file under the final name is always a finished MCAP. A writer that is interrupted
+(Ctrl-C) finishes what it has and marks the summary ``complete = false``.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.schema import register_schema
+
+from logs import LogError
+from logs.codec import decode_tick, encode_tick
+from proto import touchdown_pb2 as pb
+from sim import __version__ as PROJECT_VERSION
+from sim.enums import EventKind, SurfaceState
+from sim.run import TickRecord
+from sim.scenario import Scenario
+from sim.state import STATE_ARRAY_FIELDS
+
+LOG_FORMAT_VERSION = 1
+TOPIC_SCENARIO = "/touchdown/scenario"
+TOPIC_TICKS = "/touchdown/ticks"
+TOPIC_EVENTS = "/touchdown/events"
+TOPIC_SUMMARY = "/touchdown/summary"
+OUTPUT_FIELDS = ("altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
+                 "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm")
+
+
+def tick_arrays(rec: TickRecord) -> dict[str, np.ndarray]:
+    """Every per-ship array of a TickBatch, by field name."""
+    arrays = rec.state.arrays()
+    for name in OUTPUT_FIELDS:
+        arrays[name] = getattr(rec.outputs, name)
+    arrays["input_throttle"] = rec.inputs.throttle
+    arrays["input_rcs"] = rec.inputs.rcs
+    arrays["input_hold"] = rec.inputs.hold
+    return arrays
+
+
+def ship_state_message(scn: Scenario, rec_state, i: int) -> pb.ShipState:
+    st = SurfaceState(int(rec_state.surface_state[i]))
+    p, v, q, w = (rec_state.pos_m[i], rec_state.vel_mps[i], rec_state.quat[i],
+                  rec_state.omega_body_radps[i])
+    r_hat = p / math.sqrt(float(p @ p))
+    ez = np.array([2 * (q[1] * q[3] + q[0] * q[2]), 2 * (q[2] * q[3] - q[0] * q[1]),
+                   1 - 2 * (q[1] ** 2 + q[2] ** 2)])
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
+    return pb.ShipState(
+        ship_id=scn.params.ships.ship_id[i], player_id=scn.params.ships.player_id[i],
+        landed_body_name="" if st is SurfaceState.FLYING else scn.params.body.name,
+        position_m=pb.Vec3(x=p[0], y=p[1], z=p[2]), velocity_mps=pb.Vec3(x=v[0], y=v[1], z=v[2]),
+        attitude=pb.Quaternion(w=q[0], x=q[1], y=q[2], z=q[3]),
+        omega_body_radps=pb.Vec3(x=w[0], y=w[1], z=w[2]),
+        mass_kg=float(rec_state.mass_kg[i]), fuel_kg=float(rec_state.fuel_kg[i]), state=int(st),
+        tilt_deg=tilt, surface_contact_state=st.seed_string)
+
+
+def event_message(scn: Scenario, rec: TickRecord, ev) -> pb.TransitionEvent:
+    return pb.TransitionEvent(
+        event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * scn.params.sim.dt_s,
+        ship_id=scn.params.ships.ship_id[ev.ship], player_id=scn.params.ships.player_id[ev.ship],
+        body=scn.params.body.name, from_state=ev.from_state, to_state=ev.to_state,
+        ship=ship_state_message(scn, rec.state, ev.ship))
+
+
+def scenario_message(scn: Scenario, source: str) -> pb.ScenarioRecord:
+    return pb.ScenarioRecord(
+        log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=scn.name,
+        description=scn.description, resolved_json=json.dumps(scn.resolved, sort_keys=True),
+        integrator=scn.params.sim.integrator, dt_s=scn.params.sim.dt_s,
+        ship_ids=list(scn.params.ships.ship_id), player_ids=list(scn.params.ships.player_id),
+        body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks)
+
+
+class LogWriter:
+    """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice."""
+
+    def __init__(self, path: str | os.PathLike, scn: Scenario, source: str,
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
+        self.path = Path(path)
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        self.scn = scn
+        self._dt_ns = int(round(scn.params.sim.dt_s * 1e9))
+        self._flush_every = flush_every_ticks
+        self._stream = open(self.partial, "wb")
+        self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
+                            enable_crcs=True)
+        self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
+        self._channels = {}
+        for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
+                           (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary)):
+            schema_id = register_schema(self._mcap, cls)
+            self._channels[topic] = self._mcap.register_channel(topic, "protobuf", schema_id)
+        self._seq = {t: 0 for t in self._channels}
+        self._mcap.add_metadata("touchdown", {
+            "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
+            "scenario": scn.name, "integrator": scn.params.sim.integrator,
+            "dt_s": repr(scn.params.sim.dt_s)})
+        self._put(TOPIC_SCENARIO, 0, scenario_message(scn, source).SerializeToString())
+        self.last_tick = -1
+        self.event_count = 0
+        self._closed = False
+
+    def _put(self, topic: str, tick: int, data: bytes) -> None:
+        t_ns = tick * self._dt_ns
+        self._mcap.add_message(self._channels[topic], log_time=t_ns, data=data,
+                               publish_time=t_ns, sequence=self._seq[topic])
+        self._seq[topic] += 1
+
+    def write(self, rec: TickRecord) -> list[pb.TransitionEvent]:
+        """Append one tick; returns its events as messages (for publishing elsewhere too)."""
+        data = encode_tick(rec.tick, rec.tick * self.scn.params.sim.dt_s, rec.state.n,
+                           tick_arrays(rec))
+        self._put(TOPIC_TICKS, rec.tick, data)
+        msgs = [event_message(self.scn, rec, ev) for ev in rec.events]
+        for m in msgs:
+            self._put(TOPIC_EVENTS, rec.tick, m.SerializeToString())
+        self.event_count += len(msgs)
+        self.last_tick = rec.tick
+        if self._flush_every and rec.tick % self._flush_every == 0:
+            self._mcap.flush()  # bounds what a killed writer loses
+        return msgs
+
+    def close(self, complete: bool = True, reason: str = "") -> None:
+        """Write the summary and the MCAP footer, then move the file to its final name."""
+        if self._closed:
+            return
+        self._closed = True
+        summary = pb.LogSummary(last_tick=max(self.last_tick, 0), complete=complete, reason=reason,
+                                event_count=self.event_count)
+        self._put(TOPIC_SUMMARY, max(self.last_tick, 0), summary.SerializeToString())
+        self._mcap.finish()
+        self._stream.close()
+        os.replace(self.partial, self.path)
+
+    def abandon(self) -> None:
+        """Drop the partial file (an error before anything worth keeping)."""
+        if not self._closed:
+            self._closed = True
+            self._stream.close()
+            self.partial.unlink(missing_ok=True)
+
+    def __enter__(self) -> "LogWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close(complete=False, reason="interrupted")
+        else:
+            self.abandon()
+
+
+@dataclass(frozen=True)
+class TickData:
+    tick: int
+    t_s: float
+    ship_count: int
+    arrays: dict[str, np.ndarray]
+
+    def vec(self, name: str, width: int) -> np.ndarray:
+        return self.arrays[name].reshape(self.ship_count, width)
+
+
+class LogReader:
+    """Read a Touchdown log. CRCs are checked; any damage raises :class:`LogError`."""
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        try:
+            self._file = open(self.path, "rb")
+        except OSError as exc:
+            raise LogError(f"{self.path}: cannot open: {exc.strerror}") from None
+        self.scenario: pb.ScenarioRecord | None = None
+        self.summary: pb.LogSummary | None = None
+        for topic, data in self._iter({TOPIC_SCENARIO}):
+            self.scenario = pb.ScenarioRecord.FromString(data)
+            break
+        if self.scenario is None:
+            raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
+
+    def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
+        self._file.seek(0)
+        try:
+            reader = make_reader(self._file, validate_crcs=True)
+            for _schema, channel, message in reader.iter_messages(topics=list(topics)):
+                yield channel.topic, message.data
+        except LogError:
+            raise
+        except Exception as exc:  # mcap, zstd, struct: all mean "damaged"
+            raise LogError(f"{self.path}: damaged or not an MCAP file "
+                           f"({type(exc).__name__}: {exc})") from None
+
+    def ticks(self) -> Iterator[TickData]:
+        for _topic, data in self._iter({TOPIC_TICKS}):
+            try:
+                tick, t_s, n, arrays = decode_tick(data)
+            except LogError as exc:
+                raise LogError(f"{self.path}: {exc}") from None
+            yield TickData(tick, t_s, n, arrays)
+
+    def events(self) -> Iterator[pb.TransitionEvent]:
+        for _topic, data in self._iter({TOPIC_EVENTS}):
+            yield pb.TransitionEvent.FromString(data)
+
+    def read_summary(self) -> pb.LogSummary | None:
+        for _topic, data in self._iter({TOPIC_SUMMARY}):
+            self.summary = pb.LogSummary.FromString(data)
+        return self.summary
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> "LogReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+__all__ = ["LogWriter", "LogReader", "TickData", "STATE_ARRAY_FIELDS", "tick_arrays"]

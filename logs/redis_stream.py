@@ -1,0 +1,50 @@
+"""Publishing transition events to a Redis stream (SPEC.md section 5).
+
+Each entry carries ``event, ship_id, player_id, body`` as plain strings (as the seed shows), plus
+``tick``, ``from_state``, ``to_state`` and ``proto`` (the encoded TransitionEvent). One pipeline per
+tick keeps the round trips down.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import redis
+
+from logs import LogError
+from proto import touchdown_pb2 as pb
+from sim.enums import SurfaceState
+
+DEFAULT_URL = "redis://127.0.0.1:6379/0"
+DEFAULT_STREAM = "galaxy:ships"
+
+
+def entry_fields(ev: pb.TransitionEvent) -> dict[str, str | bytes]:
+    return {"event": ev.event, "ship_id": ev.ship_id, "player_id": ev.player_id, "body": ev.body,
+            "tick": str(ev.tick), "from_state": SurfaceState(ev.from_state).label,
+            "to_state": SurfaceState(ev.to_state).label, "proto": ev.SerializeToString()}
+
+
+class EventPublisher:
+    """XADD each event to ``stream``; errors become one-line :class:`LogError`s naming the URL."""
+
+    def __init__(self, url: str = DEFAULT_URL, stream: str = DEFAULT_STREAM):
+        self.url, self.stream = url, stream
+        try:
+            self._client = redis.Redis.from_url(url, socket_connect_timeout=3)
+            self._client.ping()
+        except (redis.exceptions.RedisError, ValueError) as exc:
+            raise LogError(f"redis {url}: {exc}") from None
+
+    def publish(self, events: Sequence[pb.TransitionEvent]) -> None:
+        if not events:
+            return
+        try:
+            pipe = self._client.pipeline(transaction=False)
+            for ev in events:
+                pipe.xadd(self.stream, entry_fields(ev))
+            pipe.execute()
+        except redis.exceptions.RedisError as exc:
+            raise LogError(f"redis {self.url}: {exc}") from None
+
+    def close(self) -> None:
+        self._client.close()

@@ -1,0 +1,75 @@
+"""Stepping methods, chosen by name (``sim.integrator``). Each advances free ships by one (sub)step h.
+
+A method takes the state y = (p, v, q, omega_b) and the contact evaluation at its start, and returns
+the new y and the normal-force impulse it applied divided by h (the mean normal force over the
+step, which bounds the friction impulse). Friction is applied afterwards as an impulse
+(:mod:`sim.friction`), so every method shares one friction law.
+
+``semi_implicit_euler`` is the seed's (``velocity += accel dt; position += velocity dt``). An unknown
+name is an error, never a silent fallback.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from sim import vec
+from sim.dynamics import FreeBodies, contact_at, derivatives
+from sim.contact import ContactEval
+
+Y = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+Method = Callable[[FreeBodies, float, float, Y, ContactEval, np.ndarray], tuple[Y, np.ndarray]]
+
+
+def explicit_euler(fb: FreeBodies, t_s: float, h: float, y: Y, ce: ContactEval, absorbing
+                   ) -> tuple[Y, np.ndarray]:
+    """y += h f(y): first order, unstable on the undamped spring for any h."""
+    p, v, q, w = y
+    dp, dv, dq, dw = derivatives(fb, ce, p, v, q, w)
+    return (p + h * dp, v + h * dv, vec.quat_normalize(q + h * dq), w + h * dw), ce.normal_n
+
+
+def semi_implicit_euler(fb: FreeBodies, t_s: float, h: float, y: Y, ce: ContactEval, absorbing
+                        ) -> tuple[Y, np.ndarray]:
+    """The seed's method: velocities first, then positions with the new velocities."""
+    p, v, q, w = y
+    _, dv, _, dw = derivatives(fb, ce, p, v, q, w)
+    v1 = v + h * dv
+    w1 = w + h * dw
+    return (p + h * v1, v1, vec.quat_integrate(q, w1, h), w1), ce.normal_n
+
+
+def rk4(fb: FreeBodies, t_s: float, h: float, y: Y, ce: ContactEval, absorbing
+        ) -> tuple[Y, np.ndarray]:
+    """Classical fourth-order Runge-Kutta; the quaternion is renormalised at the end."""
+    p, v, q, w = y
+    k1 = derivatives(fb, ce, p, v, q, w)
+
+    def stage(kprev, frac):
+        ys = tuple(a + (frac * h) * b for a, b in zip(y, kprev))
+        ce_s = contact_at(fb, t_s + frac * h, *ys, absorbing)
+        return derivatives(fb, ce_s, *ys), ce_s.normal_n
+
+    k2, n2 = stage(k1, 0.5)
+    k3, n3 = stage(k2, 0.5)
+    k4, n4 = stage(k3, 1.0)
+    out = tuple(a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+                for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4))
+    normal_mean = (ce.normal_n + 2.0 * n2 + 2.0 * n3 + n4) / 6.0
+    return (out[0], out[1], vec.quat_normalize(out[2]), out[3]), normal_mean
+
+
+#: Every method by name. Issue 4 adds more; an unknown name is rejected when a scenario is loaded.
+METHODS: dict[str, Method] = {
+    "explicit_euler": explicit_euler,
+    "semi_implicit_euler": semi_implicit_euler,
+    "rk4": rk4,
+}
+
+
+def method(name: str) -> Method:
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ValueError(f"unknown integrator {name!r}; known: {', '.join(sorted(METHODS))}") from None

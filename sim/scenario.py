@@ -1,0 +1,441 @@
+"""Scenarios: a TOML document (SPEC.md section 3) checked key by key and resolved into parameters,
+the initial state and the input schedule. Parsing only: reading files is the caller's job.
+
+Every key has a default except ``name``, ``duration``, ``ships`` and each ship's ``id``. Unknown
+keys, wrong types, non-finite or out-of-range values raise :class:`ScenarioError`, whose message
+names the file and the key (``bounce.toml: ships[0].initial.tilt_deg: ...``).
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from sim import constants as C
+from sim.contact import foot_offsets_w
+from sim.enums import HoldMode, SurfaceState
+from sim.integrators import METHODS
+from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
+                        Terrain)
+from sim.state import Inputs, State
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run; ``str()`` is one line naming the source and the key."""
+
+    def __init__(self, source: str, key: str, problem: str):
+        self.source, self.key, self.problem = source, key, problem
+        super().__init__(f"{source}: {key}: {problem}")
+
+
+# -- key tables: name -> (kind, default, check) -------------------------------------------------
+REQUIRED = object()
+Check = Callable[[Any], str | None]
+
+
+def _range(lo: float | None = None, hi: float | None = None, lo_open: bool = False,
+           hi_open: bool = False) -> Check:
+    def check(x):
+        if lo is not None and (x < lo or (lo_open and x == lo)):
+            return f"must be {'>' if lo_open else '>='} {lo:g}, got {x:g}"
+        if hi is not None and (x > hi or (hi_open and x == hi)):
+            return f"must be {'<' if hi_open else '<='} {hi:g}, got {x:g}"
+        return None
+    return check
+
+
+def _choice(options) -> Check:
+    opts = sorted(options)
+    return lambda x: None if x in opts else f"must be one of {', '.join(opts)}; got {x!r}"
+
+
+POS = _range(0.0, lo_open=True)
+NONNEG = _range(0.0)
+
+TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0.0, 1e7, lo_open=True)),
+       "description": ("str", "", None)}
+SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
+       "integrator": ("str", "rk4", _choice(METHODS)),
+       "max_substep": ("float", 0.0025, _range(0.0, 1.0))}
+CONTACT = {
+    "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
+    "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
+    "settle_angular_vel": ("float", 0.01, POS), "settle_linear_vel": ("float", 0.5, POS),
+    "tipped_angle_deg": ("float", 80.0, _range(0.0, 180.0, lo_open=True, hi_open=True)),
+    "damping_ratio": ("float", 0.3, _range(0.0, 100.0)),
+    "friction_static": ("float", 0.8, _range(0.0, 10.0)),
+    "friction_kinetic": ("float", 0.5, _range(0.0, 10.0)),
+    "align_on_touchdown": ("bool", True, None), "settle_time": ("float", 0.5, _range(0.0, 1e4)),
+    "absorb_damping_ratio": ("float", 1.0, _range(0.0, 100.0)),
+    "friction_model": ("str", "coulomb", _choice({"coulomb", "seed"})),
+    "tipped_rest_deg": ("float", 90.0, _range(0.0, 180.0, lo_open=True)),
+    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, POS)}
+BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, POS),
+        "gm": ("float", None, POS), "surface_gravity": ("float", None, POS),
+        "rotation_period": ("float", 0.0, None), "terrain": ("table", None, None)}
+TERRAIN = {"base_height": ("float", 0.0, _range(-1e5, 1e5)), "bumps": ("list", [], None)}
+BUMP = {"east": ("float", 0.0, None), "north": ("float", 0.0, None),
+        "radius": ("float", REQUIRED, POS), "height": ("float", REQUIRED, _range(-1e5, 1e5))}
+CONTROLLER = {"bandwidth": ("float", 1.0, _range(0.0, 100.0, lo_open=True))}
+SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),
+        "mass": ("float", 10000.0, POS), "fuel_mass": ("float", 2000.0, NONNEG),
+        "com_height": ("float", 3.0, POS), "leg_radius": ("float", 2.26, NONNEG),
+        "inertia": ("vec3", None, POS), "max_thrust": ("float", 60000.0, NONNEG),
+        "max_rcs_torque": ("float", 20000.0, NONNEG), "isp": ("float", C.DEFAULT_ISP_S, POS),
+        "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, POS), "rcs_arm": ("float", 2.0, POS),
+        "initial": ("table", None, None), "inputs": ("list", [], None)}
+INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "tipped"})),
+           "altitude": ("float", None, _range(-100.0, 1e7)),  # default: 10 flying, else 0
+           "vertical_speed": ("float", 0.0, _range(-1e4, 1e4)),
+           "horizontal_speed": ("float", 0.0, _range(-1e4, 1e4)),
+           "heading_deg": ("float", 0.0, _range(-360.0, 360.0)),
+           "tilt_deg": ("float", 0.0, _range(0.0, 180.0)),
+           "angular_velocity": ("vec3", [0.0, 0.0, 0.0], _range(-100.0, 100.0)),
+           "east": ("float", 0.0, _range(-1e5, 1e5)), "north": ("float", 0.0, _range(-1e5, 1e5))}
+INPUT = {"t": ("float", REQUIRED, _range(0.0)), "throttle": ("float", 0.0, _range(0.0, 1.0)),
+         "rcs": ("vec3", [0.0, 0.0, 0.0], _range(-1.0, 1.0)),
+         "hold": ("str", "off", _choice({m.label for m in HoldMode}))}
+
+
+class _Reader:
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, key: str, problem: str):
+        raise ScenarioError(self.source, key, problem)
+
+    def table(self, raw: Any, spec: dict, prefix: str) -> dict:
+        """Checks ``raw`` against ``spec``; returns every key, defaults filled in."""
+        if not isinstance(raw, dict):
+            self.fail(prefix.rstrip(".") or "(top level)", "must be a table")
+        for key in sorted(raw):
+            if key not in spec:
+                self.fail(prefix + key, f"unknown key (known: {', '.join(sorted(spec))})")
+        out = {}
+        for key, (kind, default, check) in spec.items():
+            full = prefix + key
+            if key not in raw:
+                if default is REQUIRED:
+                    self.fail(full, "required key is missing")
+                out[key] = default
+                continue
+            val = self.value(raw[key], kind, full)
+            if check is not None:
+                for x in (val if kind == "vec3" else [val]):
+                    problem = check(x)
+                    if problem:
+                        self.fail(full, problem)
+            out[key] = val
+        return out
+
+    def value(self, x: Any, kind: str, key: str):
+        if kind == "float":
+            if isinstance(x, bool) or not isinstance(x, (int, float)):
+                self.fail(key, f"must be a number, got {type(x).__name__}")
+            if not math.isfinite(x):
+                self.fail(key, f"must be finite, got {x}")
+            return float(x)
+        if kind == "str":
+            if not isinstance(x, str):
+                self.fail(key, f"must be a string, got {type(x).__name__}")
+            return x
+        if kind == "bool":
+            if not isinstance(x, bool):
+                self.fail(key, f"must be true or false, got {type(x).__name__}")
+            return x
+        if kind == "vec3":
+            if not isinstance(x, list) or len(x) != 3:
+                self.fail(key, "must be a list of 3 numbers")
+            return [self.value(e, "float", f"{key}[{i}]") for i, e in enumerate(x)]
+        if kind == "table":
+            if not isinstance(x, dict):
+                self.fail(key, "must be a table")
+            return x
+        if kind == "list":
+            if not isinstance(x, list):
+                self.fail(key, "must be an array of tables")
+            return x
+        raise AssertionError(kind)
+
+
+@dataclass(frozen=True)
+class InputChange:
+    tick: int
+    ship: int
+    throttle: float
+    rcs: tuple[float, float, float]
+    hold: int
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A resolved scenario: ``resolved`` is the document with every default filled in (what logs
+    store, and what re-parses to the same scenario)."""
+
+    name: str
+    description: str
+    resolved: dict
+    params: Params
+    initial: State
+    input_changes: tuple[InputChange, ...]  # sorted by (tick, ship)
+
+    def inputs_at(self, tick: int, base: Inputs | None = None, from_tick: int = 0) -> Inputs:
+        """The commands in force during ``tick``: a fold of the changes over (from_tick, tick]
+        onto ``base`` (the commands in force at ``from_tick``; none given: everything off)."""
+        if base is None:
+            n = self.initial.n
+            base = Inputs(np.zeros(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8))
+            from_tick = -1
+        throttle, rcs, hold = base.throttle.copy(), base.rcs.copy(), base.hold.copy()
+        for ch in self.input_changes:
+            if from_tick < ch.tick <= tick:
+                throttle[ch.ship] = ch.throttle
+                rcs[ch.ship] = ch.rcs
+                hold[ch.ship] = ch.hold
+        return Inputs(throttle, rcs, hold)
+
+
+def parse_text(text: str, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(source, "(syntax)", str(exc)) from None
+    return parse(doc, source, overrides)
+
+
+def apply_overrides(doc: dict, overrides: dict[str, Any], source: str) -> dict:
+    """``{"sim.dt": 0.02, "ships.0.mass": 9000}``: set keys by dotted path (lists by index)."""
+    import copy
+    doc = copy.deepcopy(doc)
+    for path, value in overrides.items():
+        parts = path.split(".")
+        node: Any = doc
+        for i, part in enumerate(parts[:-1]):
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(source, path, f"no list element {part!r}")
+                node = node[int(part)]
+            else:
+                if part not in node:
+                    node[part] = {}
+                node = node[part]
+                if not isinstance(node, (dict, list)):
+                    raise ScenarioError(source, path, f"{'.'.join(parts[:i + 1])} is not a table")
+        last = parts[-1]
+        if isinstance(node, list):
+            if not last.isdigit() or int(last) >= len(node):
+                raise ScenarioError(source, path, f"no list element {last!r}")
+            node[int(last)] = value
+        else:
+            node[last] = value
+    return doc
+
+
+def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
+    """Check and resolve a scenario document (a dict as ``tomllib`` gives it)."""
+    if overrides:
+        doc = apply_overrides(doc, overrides, source)
+    rd = _Reader(source)
+    top_spec = {**TOP, "sim": ("table", {}, None), "contact": ("table", {}, None),
+                "body": ("table", {}, None), "controller": ("table", {}, None),
+                "ships": ("list", REQUIRED, None)}
+    top = rd.table(doc, top_spec, "")
+    sim = rd.table(top["sim"], SIM, "sim.")
+    con = rd.table(top["contact"], CONTACT, "contact.")
+    body = rd.table(top["body"], BODY, "body.")
+    ctl = rd.table(top["controller"], CONTROLLER, "controller.")
+    if con["bounce_speed"] > con["crash_speed"]:
+        rd.fail("contact.bounce_speed", "must not exceed contact.crash_speed")
+    if con["friction_kinetic"] > con["friction_static"]:
+        rd.fail("contact.friction_kinetic", "must not exceed contact.friction_static")
+    if con["tipped_angle_deg"] <= con["settle_tilt_deg"]:
+        rd.fail("contact.tipped_angle_deg", "must exceed contact.settle_tilt_deg")
+    if con["tipped_rest_deg"] < con["tipped_angle_deg"]:
+        rd.fail("contact.tipped_rest_deg", "must be at least contact.tipped_angle_deg")
+    if (body["gm"] is None) == (body["surface_gravity"] is None):
+        if body["gm"] is None:
+            body["gm"] = C.MOON_GM_M3PS2
+        else:
+            rd.fail("body.gm", "give exactly one of body.gm and body.surface_gravity")
+    if body["gm"] is None:
+        body["gm"] = body["surface_gravity"] * body["radius"] ** 2
+    body["surface_gravity"] = None
+    del body["surface_gravity"]
+    terrain = rd.table(body["terrain"] or {}, TERRAIN, "body.terrain.")
+    terrain["bumps"] = [rd.table(b, BUMP, f"body.terrain.bumps[{i}].")
+                        for i, b in enumerate(terrain["bumps"])]
+    body["terrain"] = terrain
+    if not top["ships"]:
+        rd.fail("ships", "at least one ship is required")
+    ships = []
+    seen: set[str] = set()
+    for i, raw in enumerate(top["ships"]):
+        pre = f"ships[{i}]."
+        sh = rd.table(raw, SHIP, pre)
+        if sh["id"] in seen:
+            rd.fail(pre + "id", f"duplicate ship id {sh['id']!r}")
+        seen.add(sh["id"])
+        if sh["player_id"] is None:
+            sh["player_id"] = "player-" + sh["id"]
+        if sh["fuel_mass"] >= sh["mass"]:
+            rd.fail(pre + "fuel_mass", "must be less than mass")
+        if sh["inertia"] is None:
+            # uniform solid cylinder of radius leg_radius and length 2 com_height
+            r, length, m = max(sh["leg_radius"], 0.5), 2.0 * sh["com_height"], sh["mass"]
+            ixx = m * (3.0 * r * r + length * length) / 12.0
+            sh["inertia"] = [ixx, ixx, 0.5 * m * r * r]
+        sh["initial"] = rd.table(sh["initial"] or {}, INITIAL, pre + "initial.")
+        if sh["initial"]["altitude"] is None:
+            sh["initial"]["altitude"] = 10.0 if sh["initial"]["state"] == "flying" else 0.0
+        sh["inputs"] = [rd.table(x, INPUT, f"{pre}inputs[{j}].") for j, x in enumerate(sh["inputs"])]
+        ts = [x["t"] for x in sh["inputs"]]
+        if ts != sorted(ts):
+            rd.fail(pre + "inputs", "entries must be in order of t")
+        _check_initial(rd, sh, con, pre + "initial.")
+        ships.append(sh)
+    resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
+    return _build(resolved)
+
+
+def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
+    ini = sh["initial"]
+    crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"]))
+    if ini["state"] in ("landed", "tipped"):
+        for key in ("vertical_speed", "horizontal_speed"):
+            if ini[key] != 0.0:
+                rd.fail(pre + key, f"must be 0 for a {ini['state']} ship (it is pinned)")
+        if ini["altitude"] != 0.0 and ini["state"] == "tipped":
+            rd.fail(pre + "altitude", "must be 0 for a tipped ship (it is pinned)")
+    if ini["state"] == "landed" and ini["tilt_deg"] >= crit:
+        rd.fail(pre + "tilt_deg", f"a landed ship must stand: tilt below the critical {crit:.2f} deg")
+    if ini["state"] == "tipped" and not (con["tipped_angle_deg"] < ini["tilt_deg"]
+                                         <= con["tipped_rest_deg"]):
+        rd.fail(pre + "tilt_deg", "a tipped ship needs contact.tipped_angle_deg < tilt_deg <= "
+                                  "contact.tipped_rest_deg")
+    if ini["state"] == "contact" and ini["tilt_deg"] >= con["tipped_angle_deg"]:
+        rd.fail(pre + "tilt_deg", "a ship in contact must be tilted less than contact.tipped_angle_deg")
+
+
+def _quat_from_axes(ex, ey, ez) -> np.ndarray:
+    """Unit quaternion (w,x,y,z) of the rotation whose matrix has columns ex, ey, ez (Shepperd)."""
+    m = np.array([ex, ey, ez]).T
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0:
+        s = math.sqrt(tr + 1.0) * 2
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
+        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
+        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+    else:
+        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
+        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+    q = np.array(q)
+    return q / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+
+
+def _build(res: dict) -> Scenario:
+    sim, con, body, ships = res["sim"], res["contact"], res["body"], res["ships"]
+    ter = body["terrain"]
+    terrain = Terrain(
+        base_height_m=ter["base_height"],
+        bump_east_m=tuple(b["east"] for b in ter["bumps"]),
+        bump_north_m=tuple(b["north"] for b in ter["bumps"]),
+        bump_radius_m=tuple(b["radius"] for b in ter["bumps"]),
+        bump_height_m=tuple(b["height"] for b in ter["bumps"]))
+    bp = BodyParams(name=body["name"], radius_m=body["radius"], gm_m3ps2=body["gm"],
+                    rotation_period_s=body["rotation_period"], terrain=terrain)
+    cp = ContactParams(
+        crash_speed_mps=con["crash_speed"], bounce_speed_mps=con["bounce_speed"],
+        settle_tilt_deg=con["settle_tilt_deg"], settle_angular_vel_radps=con["settle_angular_vel"],
+        settle_linear_vel_mps=con["settle_linear_vel"], tipped_angle_deg=con["tipped_angle_deg"],
+        damping_ratio=con["damping_ratio"], friction_static=con["friction_static"],
+        friction_kinetic=con["friction_kinetic"], align_on_touchdown=con["align_on_touchdown"],
+        settle_time_s=con["settle_time"], absorb_damping_ratio=con["absorb_damping_ratio"],
+        friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
+        stiffness_per_kg=con["stiffness_per_kg"])
+    spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
+                     duration_s=res["duration"])
+
+    def col(key, dtype=float):
+        return np.array([s[key] for s in ships], dtype=dtype)
+
+    shp = ShipParams(
+        ship_id=tuple(s["id"] for s in ships), player_id=tuple(s["player_id"] for s in ships),
+        mass0_kg=col("mass"), fuel0_kg=col("fuel_mass"), com_height_m=col("com_height"),
+        leg_radius_m=col("leg_radius"), inertia0_kgm2=np.array([s["inertia"] for s in ships]),
+        max_thrust_n=col("max_thrust"), max_rcs_torque_nm=col("max_rcs_torque"),
+        isp_s=col("isp"), rcs_isp_s=col("rcs_isp"), rcs_arm_m=col("rcs_arm"))
+    params = Params(spar, cp, bp, shp, ControllerParams(res["controller"]["bandwidth"]))
+    initial = _initial_state(params, ships)
+    changes = []
+    for i, s in enumerate(ships):
+        for x in s["inputs"]:
+            tick = int(math.ceil(x["t"] / spar.dt_s - 1e-9))
+            changes.append(InputChange(tick, i, x["throttle"], tuple(x["rcs"]),
+                                       int(HoldMode.from_label(x["hold"]))))
+    changes.sort(key=lambda c: (c.tick, c.ship))
+    return Scenario(res["name"], res["description"], res, params, initial, tuple(changes))
+
+
+def _initial_state(params: Params, ships: list[dict]) -> State:
+    n = len(ships)
+    body, terrain = params.body, params.body.terrain
+    om = body.omega_radps
+    pos, vel, quat, omega = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 4)), np.zeros((n, 3))
+    surf = np.zeros(n, dtype=np.int8)
+    absorbing = np.zeros(n, dtype=bool)
+    from sim import vec
+
+    def v3(x) -> np.ndarray:
+        return np.asarray(x, dtype=float).reshape(1, 3)
+
+    for i, s in enumerate(ships):
+        ini = s["initial"]
+        # sim.vec keeps even the set-up elementwise IEEE arithmetic: a replay on another CPU
+        # rebuilds this state bit for bit
+        r_hat = vec.unit(v3([body.radius_m, ini["east"], ini["north"]]))
+        east = vec.unit(vec.cross(v3([0.0, 0.0, 1.0]), r_hat))
+        north = vec.cross(r_hat, east)
+        hd = math.radians(ini["heading_deg"])
+        fwd = math.cos(hd) * north + math.sin(hd) * east
+        th = math.radians(ini["tilt_deg"])
+        ez = math.cos(th) * r_hat + math.sin(th) * fwd
+        ex = math.cos(th) * fwd - math.sin(th) * r_hat
+        ey = vec.cross(ez, ex)
+        quat[i] = _quat_from_axes(ex[0], ey[0], ez[0])
+        h, a = s["com_height"], s["leg_radius"]
+        drop = h * math.cos(th) + a * abs(math.sin(th))
+        ground = body.radius_m + float(terrain.height_m(np.array([ini["east"]]),
+                                                        np.array([ini["north"]]))[0])
+        altitude = ini["altitude"]
+        pos[i] = (r_hat * (ground + altitude + drop))[0]
+        surf_v = om * np.array([-pos[i, 1], pos[i, 0], 0.0])
+        vel[i] = surf_v + ini["vertical_speed"] * r_hat[0] + ini["horizontal_speed"] * fwd[0]
+        state = SurfaceState.from_label(ini["state"])
+        surf[i] = state
+        absorbing[i] = state != SurfaceState.FLYING and abs(ini["vertical_speed"]) < \
+            params.contact.bounce_speed_mps
+    # body-frame angular velocity: the scenario's (relative to the surface) plus the body's spin
+    spin_w = np.zeros((n, 3))
+    spin_w[:, 2] = om
+    omega = np.array([s["initial"]["angular_velocity"] for s in ships]) + vec.quat_rotate_inv(quat, spin_w)
+    offsets = foot_offsets_w(quat, params.ships.leg_radius_m, params.ships.com_height_m)
+    radial = [vec.dot(o, vec.unit(pos)) for o in offsets]
+    lowest = np.zeros((n, 3))
+    best = np.full(n, np.inf)
+    for o, rd in zip(offsets, radial):
+        lower = rd < best
+        lowest = np.where(lower[:, None], pos + o, lowest)
+        best = np.where(lower, rd, best)
+    return State(
+        tick=0, surface_state=surf, pos_m=pos, vel_mps=vel, quat=quat, omega_body_radps=omega,
+        mass_kg=params.ships.mass0_kg.copy(), fuel_kg=params.ships.fuel0_kg.copy(),
+        absorbing=absorbing, sliding=np.zeros(n, dtype=bool), settle_ticks=np.zeros(n, dtype=np.int64),
+        pivot_rate_radps=np.zeros(n), pin_pos_bf_m=pos.copy(), pin_quat_bf=quat.copy(),
+        pin_pivot_bf_m=lowest)

@@ -1,0 +1,449 @@
+"""The tick: ``step(params, state, inputs) -> (state, outputs, events)``, a pure function.
+
+Phases, in order (each a function below):
+
+1. ``commands``     throttle and RCS torque actually applied (fuel, hold-mode controller)
+2. ``free_flight``  flying and contact ships: integrate, friction, and the in-flight transitions
+                    (contact, crash, liftoff, tipped) at every sub-step; ships near the ground
+                    take ``n_fine_substeps`` sub-steps, ships far above take one and do no contact work
+3. ``settle``       contact -> landed once the settle thresholds have held for ``settle_time``
+4. ``pinned``       landed, tipped and crashed ships turn with the body; liftoff; tipped pivot
+                    dynamics and righting
+5. ``burn``         fuel and mass
+6. ``observe``      the tick's telemetry
+
+A ship's numbers depend only on its own state, inputs and parameters: every operation is elementwise
+over the batch (no reductions across ships, no BLAS), so a ship stepped alone or among thousands
+gives bit-identical results. Decisions compare cosines and squared speeds, never angles.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from sim import contact, friction, vec
+from sim.constants import G0_MPS2
+from sim.dynamics import FreeBodies, contact_at
+from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
+from sim.integrators import method
+from sim.params import Params
+from sim.state import Event, Inputs, Outputs, State
+
+FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True)
+class Commands:
+    throttle: np.ndarray  # (N,)
+    thrust_n: np.ndarray  # (N,)
+    rcs_torque_body_nm: np.ndarray  # (N, 3)
+
+    def take(self, idx: np.ndarray) -> "Commands":
+        return Commands(self.throttle[idx], self.thrust_n[idx], self.rcs_torque_body_nm[idx])
+
+
+def body_rotation(params: Params, t_s: float) -> tuple[float, float]:
+    """(cos, sin) of the body's rotation angle Omega t. One scalar libm call per instant, shared by
+    every ship, so it cannot make ships differ."""
+    theta = params.body.omega_radps * t_s
+    return (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
+
+
+def rotate_z(v: np.ndarray, c: float, s: float) -> np.ndarray:
+    """Rotate inertial vectors (N,3) by angle (c = cos, s = sin) about +z."""
+    out = v.copy()
+    out[:, 0] = c * v[:, 0] - s * v[:, 1]
+    out[:, 1] = s * v[:, 0] + c * v[:, 1]
+    return out
+
+
+def quat_z(c: float, s: float, n: int) -> np.ndarray:
+    """Quaternions (n,4) of the rotation about +z whose angle has cosine c and sine s (half-angle
+    formulas: sqrt only)."""
+    ch = math.sqrt(max(0.0, 0.5 * (1.0 + c)))
+    sh = math.copysign(math.sqrt(max(0.0, 0.5 * (1.0 - c))), s)
+    q = np.zeros((n, 4))
+    q[:, 0] = ch
+    q[:, 3] = sh
+    return q
+
+
+def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
+    """Omega z x p: velocity of the body's surface (or a pinned ship) at p."""
+    om = params.body.omega_radps
+    out = np.zeros_like(p)
+    out[:, 0] = -om * p[:, 1]
+    out[:, 1] = om * p[:, 0]
+    return out
+
+
+def body_spin_in_body_frame(params: Params, q: np.ndarray) -> np.ndarray:
+    """The body's spin (0, 0, Omega) expressed in each ship's body frame."""
+    return vec.quat_rotate_inv(q, np.broadcast_to(_Z * params.body.omega_radps, (q.shape[0], 3)))
+
+
+def inertia(params: Params, st: State) -> np.ndarray:
+    """Principal inertia (N,3), scaled with the wet mass (fuel spread like the structure)."""
+    return params.ships.inertia0_kgm2 * (st.mass_kg / params.ships.mass0_kg)[:, None]
+
+
+# -- 1. commands ---------------------------------------------------------------------------------
+def commands(params: Params, st: State, inputs: Inputs) -> Commands:
+    """Applied throttle and RCS torque. The hold-mode controller (flying and contact) is a PD law,
+    tau = -I (w_c^2 err + 2 w_c omega_rel), saturated at max_rcs_torque; a non-zero manual RCS
+    command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
+    sh = params.ships
+    live = (st.fuel_kg > 0.0) & (st.surface_state != CRASHED)
+    throttle = np.where(live, np.clip(inputs.throttle, 0.0, 1.0), 0.0)
+    max_tau = sh.max_rcs_torque_nm[:, None]
+    manual = np.clip(inputs.rcs, -1.0, 1.0) * max_tau
+
+    bw = params.controller.bandwidth_radps
+    omega_rel = st.omega_body_radps - body_spin_in_body_frame(params, st.quat)
+    up_b = vec.quat_rotate_inv(st.quat, vec.unit(st.pos_m))
+    ez_b = np.broadcast_to(_Z, up_b.shape)
+    err = np.where((inputs.hold == HoldMode.RADIAL)[:, None], vec.cross(ez_b, up_b), 0.0)
+    auto = inertia(params, st) * (bw * bw * err - 2.0 * bw * omega_rel)
+    auto = np.clip(auto, -max_tau, max_tau)
+    controlled = ((inputs.hold != HoldMode.OFF)
+                  & ((st.surface_state == FLYING) | (st.surface_state == CONTACT)))
+    auto = np.where(controlled[:, None], auto, 0.0)
+    rcs = np.where(manual != 0.0, manual, auto)
+    rcs = np.where(live[:, None], rcs, 0.0)
+    return Commands(throttle, throttle * sh.max_thrust_n, rcs)
+
+
+# -- 2. free flight ------------------------------------------------------------------------------
+def near_ground(params: Params, st: State, cmd: Commands) -> np.ndarray:
+    """True for ships that might touch the ground within this tick (conservative bound)."""
+    sh, body, dt = params.ships, params.body, params.sim.dt_s
+    ter = body.terrain
+    terrain_max = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
+    reach_down = sh.com_height_m + sh.leg_radius_m
+    clearance = vec.norm(st.pos_m) - body.radius_m - terrain_max - reach_down
+    speed = vec.norm(st.vel_mps)
+    accel = body.surface_gravity_mps2 + cmd.thrust_n / st.mass_kg
+    reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
+    return clearance < reach
+
+
+def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool) -> FreeBodies:
+    cp = params.contact
+    m = st.mass_kg
+    k = cp.stiffness_per_kg * m
+    two_omega_m = 2.0 * cp.omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
+    return FreeBodies(
+        mass_kg=m, inertia_kgm2=inertia(params, st), thrust_n=cmd.thrust_n,
+        rcs_torque_body_nm=cmd.rcs_torque_body_nm, leg_radius_m=params.ships.leg_radius_m,
+        com_height_m=params.ships.com_height_m, k_npm=k, c_nspm=cp.damping_ratio * two_omega_m,
+        c_absorb_nspm=cp.absorb_damping_ratio * two_omega_m, gm_m3ps2=params.body.gm_m3ps2,
+        body_radius_m=params.body.radius_m, body_omega_radps=params.body.omega_radps,
+        params=params, touching=touching)
+
+
+def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
+    """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
+
+    Half-way quaternion: (1 + ez.r, ez x r) normalised (sqrt only)."""
+    ez = vec.quat_rotate(q, np.broadcast_to(_Z, r_hat.shape))
+    rot = np.empty((q.shape[0], 4))
+    rot[:, 0] = 1.0 + vec.dot(ez, r_hat)
+    rot[:, 1:] = vec.cross(ez, r_hat)
+    degenerate = rot[:, 0] <= 0.0  # upside down: no unique smallest rotation; leave as is
+    rot = np.where(degenerate[:, None], np.array([1.0, 0.0, 0.0, 0.0]), rot)
+    return vec.quat_normalize(vec.quat_mul(vec.quat_normalize(rot), q))
+
+
+def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Inertial pose -> body-fixed pose at body angle (c, s)."""
+    return rotate_z(p, c, -s), vec.quat_mul(quat_z(c, -s, p.shape[0]), q)
+
+
+def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
+                t0_s: float) -> tuple[State, np.ndarray, list[tuple[int, int, int]]]:
+    """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
+
+    Returns the new sub-batch, the last sub-step's friction force (N), and transitions as
+    (local ship index, from, to) in the order they happened."""
+    cp, dt = params.contact, params.sim.dt_s
+    h = dt / n_sub
+    fb = _free_bodies(params, st, cmd, touching)
+    advance = method(params.sim.integrator)
+    n = st.n
+    p, v, q, w = st.pos_m, st.vel_mps, st.quat, st.omega_body_radps
+    surf = st.surface_state.copy()
+    absorbing = st.absorbing.copy()
+    sliding = st.sliding.copy()
+    settle = st.settle_ticks.copy()
+    pin_p, pin_q, pin_pivot = st.pin_pos_bf_m.copy(), st.pin_quat_bf.copy(), st.pin_pivot_bf_m.copy()
+    pivot_rate = st.pivot_rate_radps.copy()
+    friction_n = np.zeros(n)
+    active = np.ones(n, dtype=bool)
+    transitions: list[tuple[int, int, int]] = []
+    ce = contact_at(fb, t0_s, p, v, q, w, absorbing)
+    for j in range(n_sub):
+        t_end = t0_s + (j + 1) * h
+        (p1, v1, q1, w1), normal_mean = advance(fb, t0_s + j * h, h, (p, v, q, w), ce, absorbing)
+        fr = np.zeros(n)
+        if touching:
+            v1, w1, sliding1, fr = friction.apply(
+                cp.friction_model, cp.friction_static, cp.friction_kinetic, h,
+                params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, p1, v1, q1, w1,
+                normal_mean, ce.cop_w, sliding)
+            sliding = np.where(active, sliding1, sliding)
+        keep = active[:, None]
+        p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in ((p1, p), (v1, v), (q1, q), (w1, w)))
+        friction_n = np.where(active, fr, friction_n)
+        ce = contact_at(fb, t_end, p, v, q, w, absorbing)
+
+        # in-flight transitions, decided on this sub-step's end state
+        r_hat = vec.unit(p)
+        v_rad = vec.dot(v, r_hat)
+        ez = vec.quat_rotate(q, np.broadcast_to(_Z, p.shape))
+        cos_tilt = vec.dot(ez, r_hat)
+        pen = ce.max_penetration_m
+        was = surf.copy()
+        touch = active & (was == FLYING) & (pen > 0.0) & (v_rad < 0.0)
+        impact = -v_rad
+        crash = (touch & (impact > cp.crash_speed_mps)) | (
+            active & (was == CONTACT) & (v_rad < -cp.crash_speed_mps))
+        touch_ok = touch & ~crash
+        # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
+        # lift a foot clear while the ship still descends; that is not a liftoff)
+        lift = active & (was == CONTACT) & ~crash & (pen < 0.0) & (v_rad > 0.0)
+        tip = active & (was == CONTACT) & ~crash & ~lift & (cos_tilt < cp.cos_tipped)
+        v_rel = v - surface_velocity(params, p)
+        tip_crash = tip & (vec.dot(v_rel, v_rel) > cp.crash_speed_mps ** 2)
+        crash = crash | tip_crash
+        tip = tip & ~tip_crash
+
+        if touch_ok.any():
+            absorbing = np.where(touch_ok, impact < cp.bounce_speed_mps, absorbing)
+            sliding = np.where(touch_ok, False, sliding)
+            settle = np.where(touch_ok, 0, settle)
+            if cp.align_on_touchdown:
+                q = np.where(touch_ok[:, None], align_to_surface(q, r_hat), q)
+                w = np.where(touch_ok[:, None], body_spin_in_body_frame(params, q), w)
+                ce = contact_at(fb, t_end, p, v, q, w, absorbing)
+        c, s = body_rotation(params, t_end)
+        if tip.any():
+            pp, pq = pin_pose(p, q, c, s)
+            pin_p = np.where(tip[:, None], pp, pin_p)
+            pin_q = np.where(tip[:, None], pq, pin_q)
+            pin_pivot = np.where(tip[:, None], rotate_z(ce.lowest_foot_w, c, -s), pin_pivot)
+            axis = vec.unit(vec.cross(r_hat, ez))
+            omega_rel_w = vec.quat_rotate(q, w) - surface_spin_w(params, n)
+            pivot_rate = np.where(tip, vec.dot(omega_rel_w, axis), pivot_rate)
+        if crash.any():
+            pp, pq = pin_pose(p, q, c, s)
+            pin_p = np.where(crash[:, None], pp, pin_p)
+            pin_q = np.where(crash[:, None], pq, pin_q)
+        surf = np.where(touch_ok, CONTACT, surf)
+        surf = np.where(lift, FLYING, surf)
+        surf = np.where(tip, TIPPED, surf)
+        surf = np.where(crash, CRASHED, surf)
+        changed = surf != was
+        for i in np.flatnonzero(changed):
+            transitions.append((int(i), int(was[i]), int(surf[i])))
+        active = active & ~tip & ~crash
+    pinned = (surf == TIPPED) | (surf == CRASHED)
+    v = np.where(pinned[:, None], surface_velocity(params, p), v)
+    w = np.where(pinned[:, None], body_spin_in_body_frame(params, q), w)
+    out = replace(st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q,
+                  omega_body_radps=w, absorbing=absorbing, sliding=sliding, settle_ticks=settle,
+                  pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
+                  pin_pivot_bf_m=pin_pivot)
+    return out, friction_n, transitions
+
+
+def surface_spin_w(params: Params, n: int) -> np.ndarray:
+    return np.broadcast_to(_Z * params.body.omega_radps, (n, 3))
+
+
+# -- 3. settle -----------------------------------------------------------------------------------
+def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray]:
+    """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
+    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands).
+    Returns the new state and the mask of ships that landed."""
+    cp = params.contact
+    in_contact = st.surface_state == CONTACT
+    r_hat = vec.unit(st.pos_m)
+    v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
+    v_rad = vec.dot(v_rel, r_hat)
+    v_tan = v_rel - vec.scale(r_hat, v_rad)
+    omega_rel = st.omega_body_radps - body_spin_in_body_frame(params, st.quat)
+    ez = vec.quat_rotate(st.quat, np.broadcast_to(_Z, r_hat.shape))
+    lin2 = cp.settle_linear_vel_mps ** 2
+    ok = (in_contact & (v_rad * v_rad < lin2) & (vec.dot(v_tan, v_tan) < lin2)
+          & (vec.dot(omega_rel, omega_rel) < cp.settle_angular_vel_radps ** 2)
+          & (vec.dot(ez, r_hat) > cp.cos_settle_tilt))
+    ticks = np.where(ok, st.settle_ticks + 1, 0)
+    need = max(1, int(math.ceil(cp.settle_time_s / params.sim.dt_s - 1e-9)))
+    landed = ok & (ticks >= need)
+    if not landed.any():
+        return replace(st, settle_ticks=ticks), landed
+    c, s = body_rotation(params, t_end_s)
+    pp, pq = pin_pose(st.pos_m, st.quat, c, s)
+    m3 = landed[:, None]
+    return replace(
+        st, settle_ticks=np.where(landed, 0, ticks),
+        surface_state=np.where(landed, LANDED, st.surface_state).astype(np.int8),
+        vel_mps=np.where(m3, surface_velocity(params, st.pos_m), st.vel_mps),
+        omega_body_radps=np.where(m3, body_spin_in_body_frame(params, st.quat),
+                                  st.omega_body_radps),
+        pin_pos_bf_m=np.where(m3, pp, st.pin_pos_bf_m), pin_quat_bf=np.where(m3, pq, st.pin_quat_bf),
+    ), landed
+
+
+# -- 4. pinned -----------------------------------------------------------------------------------
+def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
+           ) -> tuple[State, list[tuple[int, int, int]]]:
+    """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
+    frame at the tick's end; liftoff when the engine's push along local up beats the weight; tipped
+    ships turn about their pivot foot:
+
+        I_p theta'' = m g (h sin theta - a cos theta) + tau_rcs . axis,   I_p = I_axis + m |d|^2
+
+    (d: pivot to centre of mass), resting on the hull at ``tipped_rest_deg``; righted (back to
+    contact) when tilt < tipped_angle while turning upright. A hull impact faster than
+    ``crash_speed`` (the centre of mass's speed) crashes the ship."""
+    cp, dt, sh = params.contact, params.sim.dt_s, params.ships
+    n = st.n
+    surf = st.surface_state.copy()
+    p_bf, q_bf, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
+    rate = st.pivot_rate_radps.copy()
+    up = vec.unit(p_bf)
+    ez = vec.quat_rotate(q_bf, np.broadcast_to(_Z, up.shape))
+    m = st.mass_kg
+    g = params.body.gm_m3ps2 / vec.dot(p_bf, p_bf)
+    transitions: list[tuple[int, int, int]] = []
+
+    tipped = surf == TIPPED
+    if tipped.any():
+        axis = vec.unit(vec.cross(up, ez))
+        d = p_bf - pivot
+        tau_g = vec.dot(vec.cross(d, vec.scale(up, -m * g)), axis)
+        tau_rcs = vec.dot(vec.quat_rotate(q_bf, cmd.rcs_torque_body_nm), axis)
+        axis_b = vec.quat_rotate_inv(q_bf, axis)
+        d_ax = vec.dot(d, axis)
+        i_p = vec.dot(axis_b, inertia(params, st) * axis_b) + m * (vec.dot(d, d) - d_ax * d_ax)
+        rate1 = rate + (tau_g + tau_rcs) / i_p * dt
+        resting = vec.dot(ez, up) <= cp.cos_tipped_rest
+        hull_hit = tipped & resting & (rate1 > 0.0)
+        hull_crash = hull_hit & (rate1 * vec.norm(d) > cp.crash_speed_mps)
+        rate1 = np.where(hull_hit, 0.0, rate1)
+        rot = vec.quat_from_rotvec(vec.scale(axis, rate1 * dt))
+        q_new = vec.quat_normalize(vec.quat_mul(rot, q_bf))
+        p_new = pivot + vec.quat_rotate(rot, d)
+        q_bf = np.where(tipped[:, None], q_new, q_bf)
+        p_bf = np.where(tipped[:, None], p_new, p_bf)
+        rate = np.where(tipped, rate1, rate)
+        up = vec.unit(p_bf)
+        ez = vec.quat_rotate(q_bf, np.broadcast_to(_Z, up.shape))
+        righted = tipped & ~hull_crash & (vec.dot(ez, up) > cp.cos_tipped) & (rate < 0.0)
+        surf = np.where(hull_crash, CRASHED, surf)
+        surf = np.where(righted, CONTACT, surf)
+    else:
+        righted = np.zeros(n, dtype=bool)
+        axis = np.zeros((n, 3))
+
+    liftable = (surf == LANDED) | (surf == TIPPED)
+    lift = liftable & (cmd.thrust_n * vec.dot(ez, up) > m * g)
+    surf = np.where(lift, FLYING, surf)
+
+    c, s = body_rotation(params, t_end_s)
+    p = rotate_z(p_bf, c, s)
+    q = vec.quat_mul(quat_z(c, s, n), q_bf)
+    v = surface_velocity(params, p)
+    w = body_spin_in_body_frame(params, q)
+    if righted.any():
+        axis_w = rotate_z(axis, c, s)
+        d_w = p - rotate_z(pivot, c, s)
+        spin = vec.scale(axis_w, rate)
+        v = np.where(righted[:, None], v + vec.cross(spin, d_w), v)
+        w = np.where(righted[:, None], w + vec.quat_rotate_inv(q, spin), w)
+    for i in np.flatnonzero(surf != st.surface_state):
+        transitions.append((int(i), int(st.surface_state[i]), int(surf[i])))
+    freed = righted | lift
+    out = replace(
+        st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q, omega_body_radps=w,
+        pivot_rate_radps=np.where(freed, 0.0, rate), pin_pos_bf_m=p_bf, pin_quat_bf=q_bf,
+        absorbing=np.where(freed, True, st.absorbing), sliding=np.where(freed, False, st.sliding),
+        settle_ticks=np.where(freed, 0, st.settle_ticks))
+    return out, transitions
+
+
+# -- 5. burn -------------------------------------------------------------------------------------
+def burn(params: Params, st: State, cmd: Commands) -> State:
+    """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
+    sh = params.ships
+    rcs_thrust = (np.abs(cmd.rcs_torque_body_nm[:, 0]) + np.abs(cmd.rcs_torque_body_nm[:, 1])
+                  + np.abs(cmd.rcs_torque_body_nm[:, 2])) / sh.rcs_arm_m
+    flow = cmd.thrust_n / (sh.isp_s * G0_MPS2) + rcs_thrust / (sh.rcs_isp_s * G0_MPS2)
+    used = np.minimum(flow * params.sim.dt_s, st.fuel_kg)
+    return replace(st, fuel_kg=st.fuel_kg - used, mass_kg=st.mass_kg - used)
+
+
+# -- 6. observe ----------------------------------------------------------------------------------
+def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
+            t_s: float) -> Outputs:
+    """Telemetry at the end of the tick."""
+    fb = _free_bodies(params, st, cmd, touching=True)
+    ce = contact_at(fb, t_s, st.pos_m, st.vel_mps, st.quat, st.omega_body_radps, st.absorbing)
+    r_hat = vec.unit(st.pos_m)
+    v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
+    v_rad = vec.dot(v_rel, r_hat)
+    v_tan = vec.norm(v_rel - vec.scale(r_hat, v_rad))
+    ez = vec.quat_rotate(st.quat, np.broadcast_to(_Z, r_hat.shape))
+    surf = st.surface_state
+    g = params.body.gm_m3ps2 / vec.dot(st.pos_m, st.pos_m)
+    held = (surf == LANDED) | (surf == TIPPED)
+    normal = np.where(held, st.mass_kg * g, np.where(surf == CRASHED, 0.0, np.abs(ce.normal_n)))
+    altitude = -ce.max_penetration_m
+    return Outputs(
+        altitude_m=altitude, penetration_m=np.maximum(ce.max_penetration_m, 0.0),
+        cos_tilt=vec.dot(ez, r_hat), v_radial_mps=v_rad, v_tangential_mps=v_tan,
+        normal_force_n=normal, friction_force_n=np.where(held, 0.0, friction_n),
+        throttle=cmd.throttle, rcs_torque_body_nm=cmd.rcs_torque_body_nm)
+
+
+# -- the step ------------------------------------------------------------------------------------
+def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, list[Event]]:
+    """Advance the batch by one tick: the phases above, in order."""
+    dt = params.sim.dt_s
+    t0 = state.tick * dt
+    t1 = (state.tick + 1) * dt
+    cmd = commands(params, state, inputs)
+    surf0 = state.surface_state
+    free = (surf0 == FLYING) | (surf0 == CONTACT)
+    fine = free & ((surf0 == CONTACT) | near_ground(params, state, cmd))
+    st = state
+    friction_n = np.zeros(state.n)
+    found: list[tuple[int, int, int, int]] = []  # (ship, order, from, to)
+    groups = ((np.flatnonzero(fine), params.sim.n_fine_substeps, True),
+              (np.flatnonzero(free & ~fine), 1, False))
+    for idx, n_sub, touching in groups:
+        if idx.size == 0:
+            continue
+        part, fr, trans = free_flight(params.take(idx), state.take(idx), cmd.take(idx), n_sub,
+                                      touching, t0)
+        st = st.put(idx, part)
+        friction_n[idx] = fr
+        found += [(int(idx[i]), k, a, b) for k, (i, a, b) in enumerate(trans)]
+    st, landed = settle(params, st, t1)
+    found += [(int(i), 1 << 30, CONTACT, LANDED) for i in np.flatnonzero(landed)]
+    held = np.flatnonzero((surf0 == LANDED) | (surf0 == TIPPED) | (surf0 == CRASHED))
+    if held.size:
+        part, trans = pinned(params.take(held), st.take(held), cmd.take(held), t1)
+        st = st.put(held, part)
+        found += [(int(held[i]), 1 << 31, a, b) for i, a, b in trans]
+    st = burn(params, st, cmd)
+    st = replace(st, tick=state.tick + 1)
+    out = observe(params, st, cmd, friction_n, t1)
+    found.sort(key=lambda e: (e[0], e[1]))
+    events = [Event(st.tick, ship, int(TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]), a, b)
+              for ship, _, a, b in found]
+    return st, out, events
