@@ -22,6 +22,7 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
                 "tick": td.tick, "t": td.t_s, "ship_id": ship_id,
                 "state": _STATE[int(a["surface_state"][i])],
                 "altitude": float(a["altitude_m"][i]), "penetration": float(a["penetration_m"][i]),
+                "peak_penetration": float(a["peak_penetration_m"][i]),
                 "tilt_deg": math.degrees(math.acos(c)),
                 "v_radial": float(a["v_radial_mps"][i]),
                 "v_tangential": float(a["v_tangential_mps"][i]),
@@ -38,7 +39,7 @@ def event_rows(reader: LogReader) -> Iterator[dict]:
             "event": ev.event, "tick": ev.tick, "t": ev.t_s, "ship_id": ev.ship_id,
             "player_id": ev.player_id, "body": ev.body,
             "from_state": _STATE[ev.from_state], "to_state": _STATE[ev.to_state],
-            "tilt_deg": ev.ship.tilt_deg, "surface_contact_state": ev.ship.surface_contact_state,
+            "v_radial": ev.v_radial_mps, "tilt_deg": ev.ship.tilt_deg, "surface_contact_state": ev.ship.surface_contact_state,
         }
 
 

@@ -36,7 +36,7 @@ TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
 TOPIC_EVENTS = "/touchdown/events"
 TOPIC_SUMMARY = "/touchdown/summary"
-OUTPUT_FIELDS = ("altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
+OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
                  "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm")
 
 
@@ -74,7 +74,7 @@ def event_message(scn: Scenario, rec: TickRecord, ev) -> pb.TransitionEvent:
         event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * scn.params.sim.dt_s,
         ship_id=scn.params.ships.ship_id[ev.ship], player_id=scn.params.ships.player_id[ev.ship],
         body=scn.params.body.name, from_state=ev.from_state, to_state=ev.to_state,
-        ship=ship_state_message(scn, rec.state, ev.ship))
+        ship=ship_state_message(scn, rec.state, ev.ship), v_radial_mps=ev.v_radial_mps)
 
 
 def scenario_message(scn: Scenario, source: str) -> pb.ScenarioRecord:

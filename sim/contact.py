@@ -78,6 +78,17 @@ def foot_offsets_w(q: np.ndarray, leg_radius_m: np.ndarray, com_height_m: np.nda
     return out
 
 
+def lowest_foot_penetration(pos_m: np.ndarray, quat: np.ndarray, leg_radius_m: np.ndarray,
+                            com_height_m: np.ndarray, ground: Ground) -> np.ndarray:
+    """Penetration of the deepest foot (negative: height of the lowest foot above its ground);
+    the same numbers as :func:`evaluate`'s ``max_penetration_m``, without the forces."""
+    deepest = np.full(pos_m.shape[0], -np.inf)
+    for offset in foot_offsets_w(quat, leg_radius_m, com_height_m):
+        foot = pos_m + offset
+        deepest = np.maximum(deepest, ground.surface_radius_m(foot) - vec.norm(foot))
+    return deepest
+
+
 def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: np.ndarray,
              leg_radius_m: np.ndarray, com_height_m: np.ndarray, k_npm: np.ndarray,
              c_nspm: np.ndarray, c_absorb_nspm: np.ndarray, absorbing: np.ndarray,

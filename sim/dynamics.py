@@ -62,7 +62,7 @@ def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):
     r2 = vec.dot(p, p)
     r = np.sqrt(r2)
     a = vec.scale(p, -fb.gm_m3ps2 / (r2 * r))
-    ez = vec.quat_rotate(q, np.broadcast_to(np.array([0.0, 0.0, 1.0]), p.shape))
+    ez = vec.quat_axis_z(q)
     force = ce.force_w + vec.scale(ez, fb.thrust_n)
     a = a + force / fb.mass_kg[:, None]
     tau_b = vec.quat_rotate_inv(q, ce.torque_w) + fb.rcs_torque_body_nm

@@ -28,7 +28,7 @@ def initial_record(scn: Scenario) -> TickRecord:
     n = st.n
     none = Inputs(np.zeros(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8))
     idle = Commands(np.zeros(n), np.zeros(n), np.zeros((n, 3)))
-    return TickRecord(0, st, observe(scn.params, st, idle, np.zeros(n), 0.0), [], none)
+    return TickRecord(0, st, observe(scn.params, st, idle, np.zeros(n), np.zeros(n), np.zeros(n), 0.0), [], none)
 
 
 def run(scn: Scenario, start: State | None = None, start_inputs: Inputs | None = None,

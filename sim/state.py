@@ -76,6 +76,7 @@ class Outputs:
 
     altitude_m: np.ndarray  # (N,) lowest foot above the terrain under it (negative = penetrating)
     penetration_m: np.ndarray  # (N,) max(0, -altitude)
+    peak_penetration_m: np.ndarray  # (N,) deepest penetration at any sub-step of the tick (>= 0)
     cos_tilt: np.ndarray  # (N,) cosine of the long axis' angle from local up
     v_radial_mps: np.ndarray  # (N,) + = up, relative to the surface
     v_tangential_mps: np.ndarray  # (N,) speed along the surface, relative to it
@@ -94,3 +95,6 @@ class Event:
     kind: int  # EventKind
     from_state: int  # SurfaceState
     to_state: int  # SurfaceState
+    #: radial speed (+ up, relative to the surface) at the sub-step of the transition: the impact
+    #: speed of a contact, the separation speed of a liftoff
+    v_radial_mps: float = 0.0

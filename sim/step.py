@@ -148,7 +148,7 @@ def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
     """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
 
     Half-way quaternion: (1 + ez.r, ez x r) normalised (sqrt only)."""
-    ez = vec.quat_rotate(q, np.broadcast_to(_Z, r_hat.shape))
+    ez = vec.quat_axis_z(q)
     rot = np.empty((q.shape[0], 4))
     rot[:, 0] = 1.0 + vec.dot(ez, r_hat)
     rot[:, 1:] = vec.cross(ez, r_hat)
@@ -163,11 +163,13 @@ def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarr
 
 
 def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
-                t0_s: float) -> tuple[State, np.ndarray, list[tuple[int, int, int]]]:
+                t0_s: float
+                ) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, int, float]]]:
     """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
 
-    Returns the new sub-batch, the last sub-step's friction force (N), and transitions as
-    (local ship index, from, to) in the order they happened."""
+    Returns the new sub-batch, the last sub-step's friction force (N), the normal force at the
+    end (N), the deepest penetration of any sub-step (m), and transitions as (local ship index, from, to, v_radial) in the order
+    they happened."""
     cp, dt = params.contact, params.sim.dt_s
     h = dt / n_sub
     fb = _free_bodies(params, st, cmd, touching)
@@ -182,10 +184,13 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     pivot_rate = st.pivot_rate_radps.copy()
     friction_n = np.zeros(n)
     active = np.ones(n, dtype=bool)
-    transitions: list[tuple[int, int, int]] = []
+    transitions: list[tuple[int, int, int, float]] = []
+    peak = np.zeros(n)
     ce = contact_at(fb, t0_s, p, v, q, w, absorbing)
+    v_rad = vec.dot(v, vec.unit(p))
     for j in range(n_sub):
         t_end = t0_s + (j + 1) * h
+        pen_before, v_rad_before = ce.max_penetration_m, v_rad
         (p1, v1, q1, w1), normal_mean = advance(fb, t0_s + j * h, h, (p, v, q, w), ce, absorbing)
         fr = np.zeros(n)
         if touching:
@@ -202,12 +207,20 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         # in-flight transitions, decided on this sub-step's end state
         r_hat = vec.unit(p)
         v_rad = vec.dot(v, r_hat)
-        ez = vec.quat_rotate(q, np.broadcast_to(_Z, p.shape))
+        ez = vec.quat_axis_z(q)
         cos_tilt = vec.dot(ez, r_hat)
         pen = ce.max_penetration_m
+        peak = np.where(active & (pen > peak), pen, peak)
         was = surf.copy()
         touch = active & (was == FLYING) & (pen > 0.0) & (v_rad < 0.0)
-        impact = -v_rad
+        # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
+        # damper acts from the first millimetre, so the sub-step's end speed is already lower):
+        # v_cross^2 = v^2 + 2 a_down height, a_down = g - T cos(tilt) / m.
+        a_down = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * cos_tilt / fb.mass_kg
+        above_before = np.maximum(-pen_before, 0.0)
+        impact = np.where(v_rad_before < 0.0, np.sqrt(np.maximum(
+            v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0)), -v_rad)
+        separation = np.sqrt(np.maximum(v_rad * v_rad + 2.0 * a_down * np.maximum(-pen, 0.0), 0.0))
         crash = (touch & (impact > cp.crash_speed_mps)) | (
             active & (was == CONTACT) & (v_rad < -cp.crash_speed_mps))
         touch_ok = touch & ~crash
@@ -247,7 +260,13 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         surf = np.where(crash, CRASHED, surf)
         changed = surf != was
         for i in np.flatnonzero(changed):
-            transitions.append((int(i), int(was[i]), int(surf[i])))
+            if was[i] == FLYING:
+                speed = -impact[i]
+            elif surf[i] == FLYING:
+                speed = separation[i]
+            else:
+                speed = v_rad[i]
+            transitions.append((int(i), int(was[i]), int(surf[i]), float(speed)))
         active = active & ~tip & ~crash
     pinned = (surf == TIPPED) | (surf == CRASHED)
     v = np.where(pinned[:, None], surface_velocity(params, p), v)
@@ -256,7 +275,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                   omega_body_radps=w, absorbing=absorbing, sliding=sliding, settle_ticks=settle,
                   pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
                   pin_pivot_bf_m=pin_pivot)
-    return out, friction_n, transitions
+    return out, friction_n, np.abs(ce.normal_n), peak, transitions
 
 
 def surface_spin_w(params: Params, n: int) -> np.ndarray:
@@ -275,7 +294,7 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
     v_rad = vec.dot(v_rel, r_hat)
     v_tan = v_rel - vec.scale(r_hat, v_rad)
     omega_rel = st.omega_body_radps - body_spin_in_body_frame(params, st.quat)
-    ez = vec.quat_rotate(st.quat, np.broadcast_to(_Z, r_hat.shape))
+    ez = vec.quat_axis_z(st.quat)
     lin2 = cp.settle_linear_vel_mps ** 2
     ok = (in_contact & (v_rad * v_rad < lin2) & (vec.dot(v_tan, v_tan) < lin2)
           & (vec.dot(omega_rel, omega_rel) < cp.settle_angular_vel_radps ** 2)
@@ -300,7 +319,7 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
-           ) -> tuple[State, list[tuple[int, int, int]]]:
+           ) -> tuple[State, list[tuple[int, int, int, float]]]:
     """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
     frame at the tick's end; liftoff when the engine's push along local up beats the weight; tipped
     ships turn about their pivot foot:
@@ -316,10 +335,10 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
     p_bf, q_bf, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
     rate = st.pivot_rate_radps.copy()
     up = vec.unit(p_bf)
-    ez = vec.quat_rotate(q_bf, np.broadcast_to(_Z, up.shape))
+    ez = vec.quat_axis_z(q_bf)
     m = st.mass_kg
     g = params.body.gm_m3ps2 / vec.dot(p_bf, p_bf)
-    transitions: list[tuple[int, int, int]] = []
+    transitions: list[tuple[int, int, int, float]] = []
 
     tipped = surf == TIPPED
     if tipped.any():
@@ -342,7 +361,7 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
         p_bf = np.where(tipped[:, None], p_new, p_bf)
         rate = np.where(tipped, rate1, rate)
         up = vec.unit(p_bf)
-        ez = vec.quat_rotate(q_bf, np.broadcast_to(_Z, up.shape))
+        ez = vec.quat_axis_z(q_bf)
         righted = tipped & ~hull_crash & (vec.dot(ez, up) > cp.cos_tipped) & (rate < 0.0)
         surf = np.where(hull_crash, CRASHED, surf)
         surf = np.where(righted, CONTACT, surf)
@@ -365,8 +384,9 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
         spin = vec.scale(axis_w, rate)
         v = np.where(righted[:, None], v + vec.cross(spin, d_w), v)
         w = np.where(righted[:, None], w + vec.quat_rotate_inv(q, spin), w)
+    v_rad = vec.dot(v - surface_velocity(params, p), vec.unit(p))
     for i in np.flatnonzero(surf != st.surface_state):
-        transitions.append((int(i), int(st.surface_state[i]), int(surf[i])))
+        transitions.append((int(i), int(st.surface_state[i]), int(surf[i]), float(v_rad[i])))
     freed = righted | lift
     out = replace(
         st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q, omega_body_radps=w,
@@ -389,24 +409,27 @@ def burn(params: Params, st: State, cmd: Commands) -> State:
 
 # -- 6. observe ----------------------------------------------------------------------------------
 def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
-            t_s: float) -> Outputs:
-    """Telemetry at the end of the tick."""
-    fb = _free_bodies(params, st, cmd, touching=True)
-    ce = contact_at(fb, t_s, st.pos_m, st.vel_mps, st.quat, st.omega_body_radps, st.absorbing)
+            normal_n: np.ndarray, peak_pen_m: np.ndarray, t_s: float) -> Outputs:
+    """Telemetry at the end of the tick. Forces come from the free-flight phase (free ships) or
+    are the weight (landed, tipped); only the feet's geometry is computed here."""
+    c, s = body_rotation(params, t_s)
+    ground = contact.Ground(params.body.radius_m, params.body.terrain, c, s)
+    pen = contact.lowest_foot_penetration(st.pos_m, st.quat, params.ships.leg_radius_m,
+                                          params.ships.com_height_m, ground)
     r_hat = vec.unit(st.pos_m)
     v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
     v_rad = vec.dot(v_rel, r_hat)
     v_tan = vec.norm(v_rel - vec.scale(r_hat, v_rad))
-    ez = vec.quat_rotate(st.quat, np.broadcast_to(_Z, r_hat.shape))
     surf = st.surface_state
     g = params.body.gm_m3ps2 / vec.dot(st.pos_m, st.pos_m)
     held = (surf == LANDED) | (surf == TIPPED)
-    normal = np.where(held, st.mass_kg * g, np.where(surf == CRASHED, 0.0, np.abs(ce.normal_n)))
-    altitude = -ce.max_penetration_m
+    normal = np.where(held, st.mass_kg * g, np.where(surf == CRASHED, 0.0, normal_n))
     return Outputs(
-        altitude_m=altitude, penetration_m=np.maximum(ce.max_penetration_m, 0.0),
-        cos_tilt=vec.dot(ez, r_hat), v_radial_mps=v_rad, v_tangential_mps=v_tan,
-        normal_force_n=normal, friction_force_n=np.where(held, 0.0, friction_n),
+        altitude_m=-pen, penetration_m=np.maximum(pen, 0.0),
+        peak_penetration_m=np.maximum(peak_pen_m, pen).clip(0.0),
+        cos_tilt=vec.dot(vec.quat_axis_z(st.quat), r_hat), v_radial_mps=v_rad,
+        v_tangential_mps=v_tan, normal_force_n=normal,
+        friction_force_n=np.where(held, 0.0, friction_n),
         throttle=cmd.throttle, rcs_torque_body_nm=cmd.rcs_torque_body_nm)
 
 
@@ -422,28 +445,32 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     fine = free & ((surf0 == CONTACT) | near_ground(params, state, cmd))
     st = state
     friction_n = np.zeros(state.n)
-    found: list[tuple[int, int, int, int]] = []  # (ship, order, from, to)
+    normal_n = np.zeros(state.n)
+    peak_pen = np.zeros(state.n)
+    found: list[tuple[int, int, int, int, float]] = []  # (ship, order, from, to, v_radial)
     groups = ((np.flatnonzero(fine), params.sim.n_fine_substeps, True),
               (np.flatnonzero(free & ~fine), 1, False))
     for idx, n_sub, touching in groups:
         if idx.size == 0:
             continue
-        part, fr, trans = free_flight(params.take(idx), state.take(idx), cmd.take(idx), n_sub,
-                                      touching, t0)
+        part, fr, nf, peak, trans = free_flight(params.take(idx), state.take(idx), cmd.take(idx),
+                                                n_sub, touching, t0)
         st = st.put(idx, part)
         friction_n[idx] = fr
-        found += [(int(idx[i]), k, a, b) for k, (i, a, b) in enumerate(trans)]
+        normal_n[idx] = nf
+        peak_pen[idx] = peak
+        found += [(int(idx[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
     st, landed = settle(params, st, t1)
-    found += [(int(i), 1 << 30, CONTACT, LANDED) for i in np.flatnonzero(landed)]
+    found += [(int(i), 1 << 30, CONTACT, LANDED, 0.0) for i in np.flatnonzero(landed)]
     held = np.flatnonzero((surf0 == LANDED) | (surf0 == TIPPED) | (surf0 == CRASHED))
     if held.size:
         part, trans = pinned(params.take(held), st.take(held), cmd.take(held), t1)
         st = st.put(held, part)
-        found += [(int(held[i]), 1 << 31, a, b) for i, a, b in trans]
+        found += [(int(held[i]), 1 << 31, a, b, vr) for i, a, b, vr in trans]
     st = burn(params, st, cmd)
     st = replace(st, tick=state.tick + 1)
-    out = observe(params, st, cmd, friction_n, t1)
+    out = observe(params, st, cmd, friction_n, normal_n, peak_pen, t1)
     found.sort(key=lambda e: (e[0], e[1]))
-    events = [Event(st.tick, ship, int(TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]), a, b)
-              for ship, _, a, b in found]
+    events = [Event(st.tick, ship, int(TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]), a, b,
+                    vr) for ship, _, a, b, vr in found]
     return st, out, events

@@ -22,7 +22,7 @@ def dot(a: Array, b: Array) -> Array:
 
 def cross(a: Array, b: Array) -> Array:
     """a x b for (N,3) arrays -> (N,3)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
     out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
     out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
@@ -57,6 +57,16 @@ def quat_rotate(q: Array, v: Array) -> Array:
     return v + scale(t, q[:, 0]) + cross(u, t)
 
 
+def quat_axis_z(q: Array) -> Array:
+    """The body z axis (the long axis) in the inertial frame: q (0,0,1) q*."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out = np.empty((q.shape[0], 3))
+    out[:, 0] = 2.0 * (x * z + w * y)
+    out[:, 1] = 2.0 * (y * z - w * x)
+    out[:, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return out
+
+
 def quat_rotate_inv(q: Array, v: Array) -> Array:
     """Rotate inertial vectors v into the body frame (by the conjugate of q)."""
     qc = q.copy()
@@ -68,7 +78,7 @@ def quat_mul(a: Array, b: Array) -> Array:
     """Hamilton product a (x) b for (N,4) arrays."""
     aw, ax, ay, az = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
     bw, bx, by, bz = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[:, 0] = aw * bw - ax * bx - ay * by - az * bz
     out[:, 1] = aw * bx + ax * bw + ay * bz - az * by
     out[:, 2] = aw * by - ax * bz + ay * bw + az * bx

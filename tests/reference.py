@@ -1,0 +1,132 @@
+"""Independent references for the physics tests. Nothing here imports the simulation.
+
+* The vertical bounce of an upright lander: x = penetration (+ down), v = x' (+ down),
+      x'' = g(r) - max(0, w^2 x + 2 zeta w v)   while x > 0,   x'' = g(r) otherwise,
+  with w = sqrt(k/m) = 10 rad/s (seed: k = 100 m). Two solutions are built:
+  ``bounce_closed_form`` (uniform g: ballistic parabola, then the damped oscillator
+  x(t) = x_eq + e^{-zeta w t}(A cos w_d t + B sin w_d t) until the force reaches zero, found by
+  brentq, then ballistic again) and ``bounce_ode`` (scipy solve_ivp, DOP853 at rtol 1e-11, with
+  events at x = 0 and at the clamp, and point-mass gravity GM / r^2).
+* The pivot topple of a rigid lander on its rim foot:
+      I_p theta'' = m g L sin(theta - theta_c),  L = sqrt(h^2 + a^2), theta_c = atan(a / h),
+  I_p = I_transverse + m L^2 (parallel axis), solved by solve_ivp with an event at the tipped angle.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+OMEGA = 10.0  # sqrt(k/m), rad/s, from the seed's k = 100 m
+
+
+@dataclass(frozen=True)
+class Bounce:
+    impact_speed_mps: float
+    max_penetration_m: float
+    separation_speed_mps: float
+    apex_m: float  # height of the feet above the surface at the first apex
+    contact_duration_s: float
+
+
+def bounce_closed_form(g: float, v_impact: float, zeta: float = 0.3, w: float = OMEGA) -> Bounce:
+    """First bounce under uniform gravity, starting at x = 0 with speed v_impact downward."""
+    wd = w * math.sqrt(1.0 - zeta * zeta)
+    x_eq = g / (w * w)
+    a0 = -x_eq  # x(0) - x_eq
+    b0 = (v_impact + zeta * w * a0) / wd  # from x'(0) = v_impact
+
+    def x(t):
+        return x_eq + math.exp(-zeta * w * t) * (a0 * math.cos(wd * t) + b0 * math.sin(wd * t))
+
+    def v(t):
+        e = math.exp(-zeta * w * t)
+        return e * ((-zeta * w * a0 + wd * b0) * math.cos(wd * t)
+                    + (-zeta * w * b0 - wd * a0) * math.sin(wd * t))
+
+    def force(t):
+        return w * w * x(t) + 2.0 * zeta * w * v(t)
+
+    # maximum compression: first zero of v
+    t_grid = np.linspace(1e-6, math.pi / wd, 2000)
+    vs = np.array([v(t) for t in t_grid])
+    k = int(np.argmax(vs < 0.0))
+    t_max = brentq(v, t_grid[k - 1], t_grid[k], xtol=1e-15)
+    # the clamp: first zero of the force after maximum compression
+    t_grid = np.linspace(t_max, t_max + 2 * math.pi / wd, 4000)
+    fs = np.array([force(t) for t in t_grid])
+    k = int(np.argmax(fs < 0.0))
+    t_sep = brentq(force, t_grid[k - 1], t_grid[k], xtol=1e-15)
+    # ballistic from (x(t_sep), v(t_sep)) up to x = 0, decelerated by g: v0^2 = v^2 - 2 g x
+    xs, vsep = x(t_sep), v(t_sep)
+    v_out = math.sqrt(vsep * vsep - 2.0 * g * xs)  # speed when the feet leave, upward
+    t_up = (-vsep - v_out) / g
+    return Bounce(v_impact, x(t_max), v_out, v_out * v_out / (2.0 * g), t_sep + t_up)
+
+
+def bounce_ode(gm: float, radius_m: float, v_impact: float, zeta: float = 0.3,
+               w: float = OMEGA, x0: float = 0.0) -> Bounce:
+    """First bounce with point-mass gravity; x = radius - r (feet), from x0 with v_impact down."""
+
+    def g(x):
+        r = radius_m - x
+        return gm / (r * r)
+
+    def force(y):
+        return w * w * y[0] + 2.0 * zeta * w * y[1]
+
+    def rhs_contact(t, y):
+        return [y[1], g(y[0]) - force(y)]
+
+    def rhs_free(t, y):
+        return [y[1], g(y[0])]
+
+    opts = dict(method="DOP853", rtol=1e-11, atol=1e-12)
+    # compression until the force clamps (and the maximum on the way)
+    clamp = lambda t, y: force(y)
+    clamp.terminal, clamp.direction = True, -1
+    vmax = lambda t, y: y[1]
+    vmax.direction = -1
+    sol = solve_ivp(rhs_contact, (0.0, 10.0), [x0, v_impact], events=[clamp, vmax], **opts)
+    x_max = float(sol.y_events[1][0][0])
+    t1, y1 = sol.t[-1], sol.y[:, -1]
+    # ballistic with the feet still below ground, up to x = 0
+    surface = lambda t, y: y[0]
+    surface.terminal, surface.direction = True, -1
+    sol2 = solve_ivp(rhs_free, (t1, t1 + 10.0), y1, events=[surface], **opts)
+    t2, y2 = sol2.t[-1], sol2.y[:, -1]
+    v_out = -float(y2[1])
+    # apex: v = 0
+    top = lambda t, y: y[1]
+    top.terminal, top.direction = True, 1
+    sol3 = solve_ivp(rhs_free, (t2, t2 + 1000.0), y2, events=[top], **opts)
+    apex = -float(sol3.y[0, -1])
+    return Bounce(v_impact, x_max, v_out, apex, t2)
+
+
+def critical_angle_rad(com_height_m: float, leg_radius_m: float) -> float:
+    """Tilt at which the centre of mass is over the rim foot: atan(a / h) (seed, Topple Dynamics)."""
+    return math.atan2(leg_radius_m, com_height_m)
+
+
+def topple_time(g: float, mass_kg: float, i_transverse_kgm2: float, com_height_m: float,
+                leg_radius_m: float, theta0_rad: float, theta_end_rad: float,
+                about_pivot: bool = True) -> float:
+    """Time for a lander at rest at theta0 (past critical) to reach theta_end, pivoting on its rim
+    foot. ``about_pivot=False`` uses the seed's inertia about the centre of mass instead."""
+    h, a = com_height_m, leg_radius_m
+    big_l = math.hypot(h, a)
+    tc = critical_angle_rad(h, a)
+    i_p = i_transverse_kgm2 + (mass_kg * big_l * big_l if about_pivot else 0.0)
+
+    def rhs(t, y):
+        return [y[1], mass_kg * g * big_l * math.sin(y[0] - tc) / i_p]
+
+    reach = lambda t, y: y[0] - theta_end_rad
+    reach.terminal, reach.direction = True, 1
+    sol = solve_ivp(rhs, (0.0, 1e4), [theta0_rad, 0.0], events=[reach], method="DOP853",
+                    rtol=1e-11, atol=1e-12)
+    return float(sol.t_events[0][0])

@@ -1,0 +1,47 @@
+"""Small helpers to build scenarios in tests, straight from dicts (the TOML structure)."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from sim.enums import EventKind, SurfaceState
+from sim.run import run
+from sim.scenario import Scenario, parse
+
+
+def scene(initial: dict | None = None, *, ship: dict | None = None, contact: dict | None = None,
+          body: dict | None = None, sim: dict | None = None, inputs: list | None = None,
+          duration: float = 10.0, ships: list | None = None) -> Scenario:
+    doc = {"name": "test", "duration": duration, "sim": sim or {}, "contact": contact or {},
+           "body": body or {}}
+    if ships is None:
+        ships = [{"id": "s", **(ship or {}), "initial": initial or {}, "inputs": inputs or []}]
+    doc["ships"] = copy.deepcopy(ships)
+    return parse(doc, "test")
+
+
+def records(scn: Scenario, **kw) -> list:
+    return list(run(scn, **kw))
+
+
+def events(recs, ship: int = 0) -> list[tuple[int, str, float]]:
+    """[(tick, 'ship.contact', v_radial), ...] for one ship."""
+    return [(r.tick, EventKind(e.kind).topic, e.v_radial_mps) for r in recs for e in r.events
+            if e.ship == ship]
+
+
+def topics(recs, ship: int = 0) -> list[str]:
+    return [t for _, t, _ in events(recs, ship)]
+
+
+def final_state(recs, ship: int = 0) -> SurfaceState:
+    return SurfaceState(int(recs[-1].state.surface_state[ship]))
+
+
+def series(recs, name: str, ship: int = 0) -> np.ndarray:
+    return np.array([getattr(r.outputs, name)[ship] for r in recs])
+
+
+def tilt_deg(recs, ship: int = 0) -> np.ndarray:
+    return np.degrees(np.arccos(np.clip(series(recs, "cos_tilt", ship), -1.0, 1.0)))
