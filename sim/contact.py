@@ -92,8 +92,12 @@ def lowest_foot_penetration(pos_m: np.ndarray, quat: np.ndarray, leg_radius_m: n
 def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: np.ndarray,
              leg_radius_m: np.ndarray, com_height_m: np.ndarray, k_npm: np.ndarray,
              c_nspm: np.ndarray, c_absorb_nspm: np.ndarray, absorbing: np.ndarray,
-             ground: Ground) -> ContactEval:
-    """Normal force, its moment, and penetration for every ship (see the module docstring)."""
+             ground: Ground, engage_m: np.ndarray | float = 0.0) -> ContactEval:
+    """Normal force, its moment, and penetration for every ship (see the module docstring).
+
+    ``engage_m``: a foot counts as touching from ``pen > -engage_m``; a step that starts exactly
+    at the surface crossing passes a micrometre so that rounding cannot leave out the damper's
+    jump at its first stage."""
     n = pos_m.shape[0]
     force = np.zeros((n, 3))
     torque = np.zeros((n, 3))
@@ -113,7 +117,7 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
         pen_rate = -vec.dot(v_foot, n_hat)
         f = k_leg * pen + c_leg * pen_rate
         f = np.where(absorbing, f, np.maximum(f, 0.0))
-        f = np.where(pen > 0.0, f, 0.0)
+        f = np.where(pen > -engage_m, f, 0.0)
         f_vec = vec.scale(n_hat, f)
         force += f_vec
         torque += vec.cross(offset, f_vec)

@@ -49,12 +49,15 @@ class FreeBodies:
         return Ground(self.body_radius_m, self.params.body.terrain, c, s)
 
 
-def contact_at(fb: FreeBodies, t_s: float, p, v, q, w_b, absorbing) -> ContactEval:
+def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
+               engage_m: np.ndarray | float = 0.0) -> ContactEval:
+    """The ground's action at one state. ``ground`` fixes the body's rotation angle: it is taken
+    at the start of each sub-step and held over it (Omega h < 1e-6 rad for any real body)."""
     if not fb.touching:
         return no_contact(p.shape[0], p)
     omega_w = vec.quat_rotate(q, w_b)
     return evaluate(p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm,
-                    fb.c_absorb_nspm, absorbing, fb.ground_at(t_s))
+                    fb.c_absorb_nspm, absorbing, ground, engage_m)
 
 
 def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):

@@ -186,23 +186,55 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     active = np.ones(n, dtype=bool)
     transitions: list[tuple[int, int, int, float]] = []
     peak = np.zeros(n)
-    ce = contact_at(fb, t0_s, p, v, q, w, absorbing)
+    ground = fb.ground_at(t0_s)
+    ce = contact_at(fb, ground, p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
+
+    def substep(h_step, y, ce_start, sliding_start):
+        """One integrator step plus the friction impulse; returns (y, sliding, friction N)."""
+        y1, normal_mean = advance(fb, ground, h_step, y, ce_start, absorbing)
+        if not touching:
+            return y1, sliding_start, np.zeros(n)
+        v1, w1, sl, fr = friction.apply(
+            cp.friction_model, cp.friction_static, cp.friction_kinetic, h_step,
+            params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, y1[0], y1[1], y1[2], y1[3],
+            normal_mean, ce_start.cop_w, sliding_start)
+        return (y1[0], v1, y1[2], w1), sl, fr
+
     for j in range(n_sub):
         t_end = t0_s + (j + 1) * h
+        ground = fb.ground_at(t0_s + j * h)
         pen_before, v_rad_before = ce.max_penetration_m, v_rad
-        (p1, v1, q1, w1), normal_mean = advance(fb, t0_s + j * h, h, (p, v, q, w), ce, absorbing)
-        fr = np.zeros(n)
+        h_first: float | np.ndarray = h
+        crossing = np.zeros(n, dtype=bool)
         if touching:
-            v1, w1, sliding1, fr = friction.apply(
-                cp.friction_model, cp.friction_static, cp.friction_kinetic, h,
-                params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, p1, v1, q1, w1,
-                normal_mean, ce.cop_w, sliding)
-            sliding = np.where(active, sliding1, sliding)
+            # Contact onset inside the sub-step: the damper's force jumps to c v at the surface,
+            # so step exactly to the crossing (ballistic time of flight of the lowest foot,
+            # tau = 2 z / (v + sqrt(v^2 + 2 a z))) and from there to the sub-step's end.
+            z = -pen_before
+            v_down = -v_rad
+            a_dn = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * vec.dot(
+                vec.quat_axis_z(q), vec.unit(p)) / fb.mass_kg
+            disc = v_down * v_down + 2.0 * a_dn * np.where(z > 0.0, z, 0.0)
+            denom = v_down + np.sqrt(np.maximum(disc, 0.0))
+            tau = 2.0 * z / np.where(denom > 0.0, denom, 1.0)
+            crossing = (active & (surf == FLYING) & (z > 0.0) & (v_down > 0.0) & (disc >= 0.0)
+                        & (denom > 0.0) & (tau < h))
+            h_first = np.where(crossing, tau, h)
+        y1, sliding1, fr = substep(h_first, (p, v, q, w), ce, sliding)
+        if crossing.any():
+            ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, 1e-6, 0.0))
+            y2, sliding2, fr2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
+            c3 = crossing[:, None]
+            y1 = tuple(np.where(c3, b, a) for a, b in zip(y1, y2))
+            sliding1 = np.where(crossing, sliding2, sliding1)
+            fr = np.where(crossing, fr2, fr)
+        sliding = np.where(active, sliding1, sliding)
         keep = active[:, None]
-        p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in ((p1, p), (v1, v), (q1, q), (w1, w)))
+        p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in zip(y1, (p, v, q, w)))
         friction_n = np.where(active, fr, friction_n)
-        ce = contact_at(fb, t_end, p, v, q, w, absorbing)
+        ground = fb.ground_at(t_end)
+        ce = contact_at(fb, ground, p, v, q, w, absorbing)
 
         # in-flight transitions, decided on this sub-step's end state
         r_hat = vec.unit(p)
@@ -240,7 +272,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             if cp.align_on_touchdown:
                 q = np.where(touch_ok[:, None], align_to_surface(q, r_hat), q)
                 w = np.where(touch_ok[:, None], body_spin_in_body_frame(params, q), w)
-                ce = contact_at(fb, t_end, p, v, q, w, absorbing)
+                ce = contact_at(fb, ground, p, v, q, w, absorbing)
         c, s = body_rotation(params, t_end)
         if tip.any():
             pp, pq = pin_pose(p, q, c, s)

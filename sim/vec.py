@@ -153,5 +153,5 @@ def quat_from_rotvec(phi: Array) -> Array:
 def quat_integrate(q: Array, omega_body: Array, dt: float | Array) -> Array:
     """q(t+dt) for constant body-frame angular velocity: q (x) exp(omega dt / 2)."""
     dt_arr = np.asarray(dt, dtype=float)
-    phi = omega_body * (dt_arr[:, None] if dt_arr.ndim else dt_arr)
+    phi = omega_body * (dt_arr[:, None] if dt_arr.ndim else dt)
     return quat_normalize(quat_mul(q, quat_from_rotvec(phi)))
