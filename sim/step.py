@@ -253,8 +253,10 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         impact = np.where(v_rad_before < 0.0, np.sqrt(np.maximum(
             v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0)), -v_rad)
         separation = np.sqrt(np.maximum(v_rad * v_rad + 2.0 * a_down * np.maximum(-pen, 0.0), 0.0))
+        # in contact: descending faster than crash_speed at either end of the sub-step (the
+        # damper may already have slowed it by the end)
         crash = (touch & (impact > cp.crash_speed_mps)) | (
-            active & (was == CONTACT) & (v_rad < -cp.crash_speed_mps))
+            active & (was == CONTACT) & (np.minimum(v_rad, v_rad_before) < -cp.crash_speed_mps))
         touch_ok = touch & ~crash
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)

@@ -1,0 +1,197 @@
+"""Every transition of the seed's table, and both sides of every threshold."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from scenes import events, final_state, records, scene, tilt_deg, topics
+from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from sim.enums import SurfaceState
+from sim.step import settle
+
+G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
+M = 10000.0
+
+
+def drop(speed, **kw):
+    """A ship whose feet are 1 mm up, descending at ``speed``: the impact speed is ``speed``."""
+    return records(scene({"altitude": 0.001, "vertical_speed": -speed}, **kw))
+
+
+# -- crash speed: first contact, re-contact, contact, tipped ---------------------------------------
+@pytest.mark.parametrize("speed,crashed", [(49.9, False), (50.1, True)])
+def test_crash_speed_at_first_contact(speed, crashed):
+    recs = drop(speed, duration=1.0)
+    assert topics(recs)[0] == ("ship.crashed" if crashed else "ship.contact")
+    assert (final_state(recs) is SurfaceState.CRASHED) == crashed
+
+
+@pytest.mark.parametrize("speed,crashed", [(49.9, False), (50.1, True)])
+def test_crash_speed_while_in_contact(speed, crashed):
+    recs = records(scene({"state": "contact", "altitude": 0.0, "vertical_speed": -speed},
+                         duration=1.0))
+    assert ("ship.crashed" in topics(recs)) == crashed
+
+
+@pytest.mark.parametrize("speed,crashed", [(49.9, False), (50.1, True)])
+def test_crash_speed_when_tipping_over(speed, crashed):
+    """A ship tipping past tipped_angle faster than crash_speed (SEED-NOTES: 'tipped ship contacts
+    ground at high speed') crashes; slower, it is tipped. Feet clear of the ground: no contact force
+    changes the speed over the sub-step it takes to tip."""
+    v_down, v_side = 1.0, math.sqrt(speed * speed - 1.0)
+    recs = records(scene({"state": "contact", "altitude": 0.5, "tilt_deg": 79.99,
+                          "vertical_speed": -v_down, "horizontal_speed": v_side,
+                          "angular_velocity": [0.0, 1.0, 0.0]},
+                         contact={"align_on_touchdown": False}, duration=0.2))
+    assert topics(recs)[0] == ("ship.crashed" if crashed else "ship.tipped")
+
+
+def test_recontact_after_a_bounce_above_crash_speed_crashes():
+    """SEED-NOTES 7: only thrust can make a re-contact faster than the impact (the built-in
+    'recontact-crash' flips the ship in flight and fires downward)."""
+    import scenarios
+    from sim.scenario import parse_text
+    recs = records(parse_text(scenarios.text("recontact-crash"), "recontact-crash"))
+    names = topics(recs)
+    assert names[:2] == ["ship.contact", "ship.liftoff"] and names[-1] == "ship.crashed"
+    assert events(recs)[-1][2] < -50.0  # the re-contact speed
+
+
+# -- bounce speed ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("speed,bounces", [(9.9, False), (10.1, True)])
+def test_bounce_speed_separates_impacts_that_bounce(speed, bounces):
+    recs = drop(speed, duration=8.0)
+    assert ("ship.liftoff" in topics(recs)) == bounces
+    if not bounces:
+        assert topics(recs) == ["ship.contact", "ship.landed"]
+
+
+def test_bounce_speed_zero_restores_the_bare_force_law():
+    """SEED-NOTES 1: with the clamp alone a 5 m/s lunar impact leaves the ground again."""
+    assert "ship.liftoff" in topics(drop(5.0, duration=4.0, contact={"bounce_speed": 0.0}))
+    assert "ship.liftoff" not in topics(drop(5.0, duration=4.0))
+
+
+# -- tipped angle (a wide footprint keeps 79 deg stable: critical = atan(10/1) = 84.3 deg) --------
+@pytest.mark.parametrize("tilt,tips", [(79.0, False), (81.0, True)])
+def test_tipped_angle(tilt, tips):
+    recs = records(scene({"altitude": 0.01, "vertical_speed": -0.5, "tilt_deg": tilt},
+                         contact={"align_on_touchdown": False},
+                         ship={"com_height": 1.0, "leg_radius": 10.0}, duration=20.0))
+    assert ("ship.tipped" in topics(recs)) == tips
+    if tips:  # past tipped_angle but short of its 84.3 deg critical angle: it rights itself
+        assert topics(recs)[:3] == ["ship.contact", "ship.tipped", "ship.righted"]
+    else:
+        assert final_state(recs) is SurfaceState.LANDED
+
+
+# -- landed: thresholds held for settle_time (SEED-NOTES 3) ---------------------------------------
+def _contact_state():
+    scn = scene({"state": "contact", "altitude": -G / 100.0}, duration=1.0)
+    return scn.params, scn.initial
+
+
+def _settles(params, st, ticks=1):
+    out = None
+    for _ in range(ticks):
+        st, landed = settle(params, st, 0.0)
+        out = landed
+    return bool(out[0])
+
+
+def _with_velocity(st, radial=0.0, tangential=0.0):
+    r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
+    t_hat = np.cross([0.0, 0.0, 1.0], r_hat)
+    t_hat /= np.linalg.norm(t_hat)
+    return replace(st, vel_mps=(radial * r_hat + tangential * t_hat)[None, :])
+
+
+@pytest.mark.parametrize("value,lands", [(0.49, True), (0.51, False)])
+@pytest.mark.parametrize("axis", ["radial", "tangential"])
+def test_settle_linear_speed(axis, value, lands):
+    params, st = _contact_state()
+    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
+    assert _settles(params, _with_velocity(st, **{axis: value}), need) == lands
+
+
+@pytest.mark.parametrize("value,lands", [(0.0099, True), (0.0101, False)])
+def test_settle_angular_speed(value, lands):
+    params, st = _contact_state()
+    st = replace(st, omega_body_radps=np.array([[value, 0.0, 0.0]]))
+    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
+    assert _settles(params, st, need) == lands
+
+
+@pytest.mark.parametrize("tilt,lands", [(4.9, True), (5.1, False)])
+def test_settle_tilt(tilt, lands):
+    scn = scene({"state": "contact", "altitude": 0.0, "tilt_deg": tilt}, duration=1.0)
+    need = math.ceil(scn.params.contact.settle_time_s / scn.params.sim.dt_s)
+    assert _settles(scn.params, scn.initial, need) == lands
+
+
+def test_settle_time_must_pass_in_full():
+    params, st = _contact_state()
+    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
+    assert not _settles(params, st, need - 1)
+    assert _settles(params, st, need)
+
+
+def test_never_lands_at_the_bottom_of_a_bounce():
+    """Every tick of a 20 m/s bounce sampled at the moment of maximum compression would pass the
+    seed's instantaneous test; with settle_time it never lands before the rebound."""
+    names = topics(drop(20.0, duration=15.0))
+    assert names[:2] == ["ship.contact", "ship.liftoff"]
+
+
+# -- liftoff: thrust against weight ---------------------------------------------------------------
+@pytest.mark.parametrize("ratio,lifts", [(0.99, False), (1.01, True)])
+def test_liftoff_when_thrust_beats_weight(ratio, lifts):
+    max_thrust = 60000.0
+    throttle = ratio * M * G / max_thrust
+    recs = records(scene({"state": "landed"}, ship={"max_thrust": max_thrust},
+                         inputs=[{"t": 0.0, "throttle": throttle}], duration=0.5))
+    assert ("ship.liftoff" in topics(recs)) == lifts
+
+
+def test_thrusting_off_during_contact():
+    recs = records(scene({"altitude": 0.5, "vertical_speed": -15.0},
+                         inputs=[{"t": 0.1, "throttle": 1.0}], duration=4.0))
+    assert topics(recs) == ["ship.contact", "ship.liftoff"]
+    assert final_state(recs) is SurfaceState.FLYING
+
+
+# -- righting: RCS torque against gravity's about the pivot ---------------------------------------
+@pytest.mark.parametrize("ratio,rights", [(0.95, False), (1.05, True)])
+def test_righting_needs_rcs_torque_above_gravitys(ratio, rights):
+    h = 3.0
+    torque = ratio * M * G * h  # gravity's moment about the pivot at 90 deg: m g h
+    recs = records(scene({"state": "tipped", "tilt_deg": 90.0},
+                         ship={"max_rcs_torque": torque, "fuel_mass": 5000.0},
+                         inputs=[{"t": 0.0, "rcs": [0.0, -1.0, 0.0]}], duration=8.0))
+    assert ("ship.righted" in topics(recs)) == rights
+
+
+@pytest.mark.parametrize("ratio,lifts", [(0.99, False), (1.01, True)])
+def test_tipped_ship_lifts_off_when_its_engine_points_up_enough(ratio, lifts):
+    tilt = 81.0
+    max_thrust = ratio * M * G / math.cos(math.radians(tilt))
+    recs = records(scene({"state": "tipped", "tilt_deg": tilt},
+                         ship={"max_thrust": max_thrust, "fuel_mass": 5000.0},
+                         inputs=[{"t": 0.0, "throttle": 1.0}], duration=0.2))
+    assert ("ship.liftoff" in topics(recs)) == lifts
+
+
+# -- touchdown alignment (SEED-NOTES 6) -----------------------------------------------------------
+@pytest.mark.parametrize("align", [True, False])
+def test_align_on_touchdown(align):
+    recs = records(scene({"altitude": 0.2, "vertical_speed": -1.0, "tilt_deg": 10.0,
+                          "angular_velocity": [0.1, 0.0, 0.0]},
+                         contact={"align_on_touchdown": align}, duration=0.6))
+    tick = events(recs)[0][0]
+    assert events(recs)[0][1] == "ship.contact"
+    tilt = tilt_deg(recs)[tick]
+    if align:
+        assert tilt < 0.05
+    else:
+        assert tilt > 9.0
