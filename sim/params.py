@@ -25,7 +25,7 @@ class SimParams:
 
     dt_s: float = 0.05
     integrator: str = "rk4"
-    max_substep_s: float = 0.01
+    max_substep_s: float = 0.025
     duration_s: float = 30.0
 
     @cached_property

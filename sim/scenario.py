@@ -59,7 +59,7 @@ TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0
        "description": ("str", "", None)}
 SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
        "integrator": ("str", "rk4", _choice(METHODS)),
-       "max_substep": ("float", 0.01, _range(0.0, 1.0))}
+       "max_substep": ("float", 0.025, _range(0.0, 1.0))}
 CONTACT = {
     "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
     "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),

@@ -1,8 +1,8 @@
 """The vertical bounce against the exact piecewise damped-oscillator solution (tests/reference.py).
 
-Claim (README): with the default method (rk4) and tick (0.05 s, 10 ms contact sub-steps), the
+Claim (README): with the default method (rk4) and tick (0.05 s, 25 ms contact sub-steps), the
 first bounce of a 20-49 m/s impact matches the exact solution to 1% (the issue's bar; held here
-to 0.2%, measured ~0.02%) in maximum penetration,
+to 0.5%, measured <= 0.15%) in maximum penetration,
 separation speed and apex.
 """
 import math
@@ -48,6 +48,6 @@ def test_default_method_matches_exact_bounce_to_1_percent(v0):
     expected_impact = math.sqrt(v0 * v0 + 2 * G_MOON * alt0)
     assert v_imp == pytest.approx(expected_impact, rel=1e-4)
     ref = bounce_ode(MOON_GM_M3PS2, MOON_RADIUS_M, expected_impact)
-    assert peak == pytest.approx(ref.max_penetration_m, rel=0.002)
-    assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.002)
-    assert apex == pytest.approx(ref.apex_m, rel=0.002)
+    assert peak == pytest.approx(ref.max_penetration_m, rel=0.005)
+    assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.005)
+    assert apex == pytest.approx(ref.apex_m, rel=0.005)
