@@ -39,14 +39,16 @@ class State:
         return replace(self, **{f.name: getattr(self, f.name)[idx] for f in fields(self)
                                 if f.name != "tick"})
 
-    def put(self, idx: np.ndarray, part: "State") -> "State":
-        """A copy of self with the ships at ``idx`` replaced by ``part``."""
+    def put(self, parts: "list[tuple[np.ndarray, State]]") -> "State":
+        """A copy of self with the ships at each ``idx`` replaced by its ``part`` (one copy of
+        each array, whatever the number of parts)."""
         out = {}
         for f in fields(self):
             if f.name == "tick":
                 continue
             arr = getattr(self, f.name).copy()
-            arr[idx] = getattr(part, f.name)
+            for idx, part in parts:
+                arr[idx] = getattr(part, f.name)
             out[f.name] = arr
         return replace(self, **out)
 

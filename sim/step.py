@@ -492,38 +492,43 @@ def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
 
 # -- the step ------------------------------------------------------------------------------------
 def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, list[Event]]:
-    """Advance the batch by one tick: the phases above, in order."""
+    """Advance the batch by one tick: the phases above, in order. Each phase works on the ships
+    it concerns only (index groups), so idle ships cost little."""
     dt = params.sim.dt_s
     t0 = state.tick * dt
     t1 = (state.tick + 1) * dt
+    n = state.n
     cmd = commands(params, state, inputs)
     surf0 = state.surface_state
     free = (surf0 == FLYING) | (surf0 == CONTACT)
     fine = free & ((surf0 == CONTACT) | near_ground(params, state, cmd))
-    st = state
-    friction_n = np.zeros(state.n)
-    normal_n = np.zeros(state.n)
-    peak_pen = np.zeros(state.n)
+    friction_n = np.zeros(n)
+    normal_n = np.zeros(n)
+    peak_pen = np.zeros(n)
     found: list[tuple[int, int, int, int, float]] = []  # (ship, order, from, to, v_radial)
+    parts: list[tuple[np.ndarray, State]] = []
     groups = ((np.flatnonzero(fine), params.sim.n_fine_substeps, True),
               (np.flatnonzero(free & ~fine), 1, False))
     for idx, n_sub, touching in groups:
         if idx.size == 0:
             continue
-        part, fr, nf, peak, trans = free_flight(params.take(idx), state.take(idx), cmd.take(idx),
+        sub_params = params.take(idx)
+        part, fr, nf, peak, trans = free_flight(sub_params, state.take(idx), cmd.take(idx),
                                                 n_sub, touching, t0)
-        st = st.put(idx, part)
+        if touching:
+            part, landed = settle(sub_params, part, t1)
+            trans = trans + [(int(i), CONTACT, LANDED, 0.0) for i in np.flatnonzero(landed)]
+        parts.append((idx, part))
         friction_n[idx] = fr
         normal_n[idx] = nf
         peak_pen[idx] = peak
         found += [(int(idx[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
-    st, landed = settle(params, st, t1)
-    found += [(int(i), 1 << 30, CONTACT, LANDED, 0.0) for i in np.flatnonzero(landed)]
-    held = np.flatnonzero((surf0 == LANDED) | (surf0 == TIPPED) | (surf0 == CRASHED))
+    held = np.flatnonzero(~free)
     if held.size:
-        part, trans = pinned(params.take(held), st.take(held), cmd.take(held), t1)
-        st = st.put(held, part)
-        found += [(int(held[i]), 1 << 31, a, b, vr) for i, a, b, vr in trans]
+        part, trans = pinned(params.take(held), state.take(held), cmd.take(held), t1)
+        parts.append((held, part))
+        found += [(int(held[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
+    st = state.put(parts)
     st = burn(params, st, cmd)
     st = replace(st, tick=state.tick + 1)
     out = observe(params, st, cmd, friction_n, normal_n, peak_pen, t1)
