@@ -101,16 +101,21 @@ def commands(params: Params, st: State, inputs: Inputs) -> Commands:
     max_tau = sh.max_rcs_torque_nm[:, None]
     manual = np.clip(inputs.rcs, -1.0, 1.0) * max_tau
 
-    bw = params.controller.bandwidth_radps
-    omega_rel = st.omega_body_radps - body_spin_in_body_frame(params, st.quat)
-    up_b = vec.quat_rotate_inv(st.quat, vec.unit(st.pos_m))
-    ez_b = np.broadcast_to(_Z, up_b.shape)
-    err = np.where((inputs.hold == HoldMode.RADIAL)[:, None], vec.cross(ez_b, up_b), 0.0)
-    auto = inertia(params, st) * (bw * bw * err - 2.0 * bw * omega_rel)
-    auto = np.clip(auto, -max_tau, max_tau)
     controlled = ((inputs.hold != HoldMode.OFF)
                   & ((st.surface_state == FLYING) | (st.surface_state == CONTACT)))
-    auto = np.where(controlled[:, None], auto, 0.0)
+    auto = np.zeros_like(manual)
+    ctl = np.flatnonzero(controlled)
+    if ctl.size:  # elementwise on the controlled ships only: the same numbers, less work
+        bw = params.controller.bandwidth_radps
+        q = st.quat[ctl]
+        omega_rel = st.omega_body_radps[ctl] - body_spin_in_body_frame(params, q)
+        up_b = vec.quat_rotate_inv(q, vec.unit(st.pos_m[ctl]))
+        ez_b = np.broadcast_to(_Z, up_b.shape)
+        radial = (inputs.hold[ctl] == HoldMode.RADIAL)[:, None]
+        err = np.where(radial, vec.cross(ez_b, up_b), 0.0)
+        inertia_ctl = sh.inertia0_kgm2[ctl] * (st.mass_kg[ctl] / sh.mass0_kg[ctl])[:, None]
+        tau = inertia_ctl * (bw * bw * err - 2.0 * bw * omega_rel)
+        auto[ctl] = np.clip(tau, -max_tau[ctl], max_tau[ctl])
     rcs = np.where(manual != 0.0, manual, auto)
     rcs = np.where(live[:, None], rcs, 0.0)
     return Commands(throttle, throttle * sh.max_thrust_n, rcs)
