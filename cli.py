@@ -172,6 +172,42 @@ def export(log: str, events: bool, output: str | None) -> None:
 
 
 @main.command()
+@click.argument("log", type=click.Path(dir_okay=False))
+@click.option("--verify", is_flag=True, help="re-run and compare every tick bit for bit")
+@click.option("--from-tick", type=click.IntRange(min=0), default=None,
+              help="start from the keyframe at this tick")
+@click.option("--to-tick", type=click.IntRange(min=0), default=None, help="stop at this tick")
+@click.option("--ship", "ship_id", default=None, help="re-run this ship alone")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="what-if: change a setting (e.g. sim.integrator=semi_implicit_euler)")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="what-if: write the new log")
+def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
+           ship_id: str | None, sets: tuple[str, ...], output: str | None) -> None:
+    """Re-run LOG from its own recorded scenario and inputs.
+
+    With --verify: compare with the recording bit for bit (exit 0 identical, 1 diverged).
+    With --set: the same inputs under changed settings; prints how far it departs."""
+    from replay.verify import verify as run_verify
+    from replay.whatif import what_if
+
+    if verify and sets:
+        raise UserError("--verify re-runs the log as recorded; it does not take --set")
+    if from_tick is not None and to_tick is not None and to_tick < from_tick:
+        raise UserError(f"--to-tick {to_tick} is before --from-tick {from_tick}")
+    try:
+        if sets or output:
+            res = what_if(log, parse_sets(sets), output, ship_id)
+            click.echo(res.report())
+            return
+        res = run_verify(log, from_tick, to_tick, ship_id)
+    except LogError as exc:
+        raise UserError(str(exc)) from None
+    click.echo(res.report())
+    if verify and not res.identical:
+        sys.exit(1)
+
+
+@main.command()
 @click.argument("what", type=click.Choice(["speed"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 def bench(what: str, quick: bool) -> None:

@@ -29,7 +29,7 @@ from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
 from sim.run import TickRecord
 from sim.scenario import Scenario
-from sim.state import STATE_ARRAY_FIELDS
+from sim.state import STATE_ARRAY_FIELDS, Inputs, State
 
 LOG_FORMAT_VERSION = 1
 TOPIC_SCENARIO = "/touchdown/scenario"
@@ -176,6 +176,26 @@ class TickData:
     def vec(self, name: str, width: int) -> np.ndarray:
         return self.arrays[name].reshape(self.ship_count, width)
 
+    def state(self) -> State:
+        """The full state recorded at this tick (every tick is a keyframe)."""
+        n, a = self.ship_count, self.arrays
+        try:
+            return State(
+                tick=self.tick, surface_state=a["surface_state"].astype(np.int8),
+                pos_m=self.vec("pos_m", 3), vel_mps=self.vec("vel_mps", 3), quat=self.vec("quat", 4),
+                omega_body_radps=self.vec("omega_body_radps", 3), mass_kg=a["mass_kg"],
+                fuel_kg=a["fuel_kg"], absorbing=a["absorbing"].astype(bool),
+                sliding=a["sliding"].astype(bool), settle_ticks=a["settle_ticks"].astype(np.int64),
+                pivot_rate_radps=a["pivot_rate_radps"], pin_pos_bf_m=self.vec("pin_pos_bf_m", 3),
+                pin_quat_bf=self.vec("pin_quat_bf", 4), pin_pivot_bf_m=self.vec("pin_pivot_bf_m", 3))
+        except (KeyError, ValueError) as exc:
+            raise LogError(f"tick {self.tick}: incomplete state record ({exc})") from None
+
+    def inputs(self) -> Inputs:
+        """The commands applied during the step into this tick."""
+        return Inputs(self.arrays["input_throttle"], self.vec("input_rcs", 3),
+                      self.arrays["input_hold"].astype(np.int8))
+
 
 class LogReader:
     """Read a Touchdown log. CRCs are checked; any damage raises :class:`LogError`."""
@@ -194,11 +214,13 @@ class LogReader:
         if self.scenario is None:
             raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
 
-    def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
+    def _iter(self, topics: set[str], start_ns: int | None = None, end_ns: int | None = None
+              ) -> Iterator[tuple[str, bytes]]:
         self._file.seek(0)
         try:
             reader = make_reader(self._file, validate_crcs=True)
-            for _schema, channel, message in reader.iter_messages(topics=list(topics)):
+            for _schema, channel, message in reader.iter_messages(
+                    topics=list(topics), start_time=start_ns, end_time=end_ns):
                 yield channel.topic, message.data
         except LogError:
             raise
@@ -206,8 +228,15 @@ class LogReader:
             raise LogError(f"{self.path}: damaged or not an MCAP file "
                            f"({type(exc).__name__}: {exc})") from None
 
-    def ticks(self) -> Iterator[TickData]:
-        for _topic, data in self._iter({TOPIC_TICKS}):
+    def tick_time_ns(self, tick: int) -> int:
+        return tick * int(round(self.scenario.dt_s * 1e9))
+
+    def ticks(self, first: int | None = None, last: int | None = None) -> Iterator[TickData]:
+        """The tick records, optionally only ticks first..last (found through the chunk index,
+        without reading the rest of the file)."""
+        start = None if first is None else self.tick_time_ns(first)
+        end = None if last is None else self.tick_time_ns(last) + 1
+        for _topic, data in self._iter({TOPIC_TICKS}, start, end):
             try:
                 tick, t_s, n, arrays = decode_tick(data)
             except LogError as exc:

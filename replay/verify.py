@@ -1,0 +1,177 @@
+"""``touchdown replay LOG --verify``: re-run a log from its recorded scenario and compare every
+recorded number, bit for bit, with today's code.
+
+The log is self-sufficient: its ScenarioRecord holds the resolved scenario (every default filled in),
+so no other file is read. Every TickBatch is a full-state keyframe, so a window ``first..last``
+starts from the state recorded at ``first`` instead of tick 0.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from logs import LogError
+from logs.codec import PACKED
+from logs.mcap_log import LogReader, tick_arrays
+from sim import __version__ as PROJECT_VERSION
+from sim.run import run
+from sim.scenario import Scenario, ScenarioError, parse
+
+#: per-ship width of each packed field (vectors 3, quaternions 4)
+WIDTH = {name: (4 if "quat" in name else 3 if name in (
+    "pos_m", "vel_mps", "omega_body_radps", "pin_pos_bf_m", "pin_pivot_bf_m",
+    "rcs_torque_body_nm", "input_rcs") else 1) for _, name, _ in PACKED}
+
+
+@dataclass
+class Divergence:
+    tick: int
+    t_s: float
+    ship_id: str
+    field: str  # e.g. "vel_mps[2]"
+    recorded: float
+    replayed: float
+
+
+@dataclass
+class VerifyResult:
+    log_version: str
+    log_method: str
+    log_dt_s: float
+    first_tick: int
+    last_tick: int
+    ships: list[str]
+    ticks_compared: int = 0
+    numbers_compared: int = 0
+    divergence: Divergence | None = None
+    recent_events: list[str] = field(default_factory=list)
+    recovered_note: str = ""
+
+    @property
+    def identical(self) -> bool:
+        return self.divergence is None and self.ticks_compared > 0
+
+    def report(self) -> str:
+        head = (f"log: touchdown {self.log_version}, method {self.log_method}, dt {self.log_dt_s:g} s;"
+                f" today: touchdown {PROJECT_VERSION}")
+        if self.log_version != PROJECT_VERSION:
+            head += "  (the log was written by another version)"
+        lines = [head]
+        if self.recovered_note:
+            lines.append(self.recovered_note)
+        if self.divergence is None:
+            lines.append(f"identical: ticks {self.first_tick}..{self.last_tick}, "
+                         f"{len(self.ships)} ship(s), {self.numbers_compared:,} numbers compared "
+                         f"bit for bit")
+            return "\n".join(lines)
+        d = self.divergence
+        lines.append(f"DIVERGED at tick {d.tick} (t = {d.t_s:.4f} s), ship {d.ship_id}, "
+                     f"field {d.field}")
+        lines.append(f"  recorded {d.recorded!r}")
+        lines.append(f"  replayed {d.replayed!r}  (difference {d.replayed - d.recorded:.3e})")
+        if self.recent_events:
+            lines.append("  last transitions of that ship before it:")
+            lines += [f"    {e}" for e in self.recent_events]
+        else:
+            lines.append("  no transition of that ship before it")
+        return "\n".join(lines)
+
+
+def scenario_of(reader: LogReader, ship_id: str | None = None,
+                overrides: dict | None = None) -> tuple[Scenario, int | None]:
+    """The log's scenario (optionally one ship of it); returns it and that ship's index."""
+    rec = reader.scenario
+    try:
+        doc = json.loads(rec.resolved_json)
+    except json.JSONDecodeError as exc:
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON ({exc})") from None
+    index = None
+    if ship_id is not None:
+        ids = [s.get("id") for s in doc.get("ships", [])]
+        if ship_id not in ids:
+            raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
+                           f"{', '.join(map(str, ids))})")
+        index = ids.index(ship_id)
+        doc["ships"] = [doc["ships"][index]]
+    try:
+        return parse(doc, str(reader.path), overrides), index
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+
+
+def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int):
+    """(ship, field, component, recorded, replayed) of the first differing number, or None."""
+    best = None
+    for _, name, _ in PACKED:
+        w = WIDTH[name]
+        recorded = np.asarray(rec_arrays.get(name, np.zeros(0)))
+        replayed = np.asarray(new_arrays[name])
+        if ship_slice is not None:
+            recorded = recorded.reshape(-1, w)[ship_slice].ravel() if recorded.size else recorded
+        replayed = replayed.reshape(n_new * w)
+        if recorded.shape != replayed.shape:
+            return (0, name, 0, float("nan"), float("nan"))
+        if replayed.dtype.kind == "f":
+            diff = recorded.astype(np.float64).view(np.uint64) != replayed.view(np.uint64)
+        else:
+            diff = recorded.astype(np.int64) != replayed.astype(np.int64)
+        hits = np.flatnonzero(diff)
+        if hits.size:
+            k = int(hits[0])
+            cand = (k // w, name, k % w, float(recorded[k]), float(replayed[k]))
+            if best is None or cand[0] < best[0]:
+                best = cand
+    return best
+
+
+def verify(path: str, first: int | None = None, last: int | None = None,
+           ship_id: str | None = None) -> VerifyResult:
+    with LogReader(path) as reader:
+        sr = reader.scenario
+        scn, index = scenario_of(reader, ship_id)
+        ids = list(scn.params.ships.ship_id)
+        res = VerifyResult(sr.project_version, sr.integrator, sr.dt_s, first or 0,
+                           last if last is not None else int(sr.n_ticks), ids)
+        ticks = reader.ticks(first, last)
+        start = None
+        if first:
+            try:
+                key = next(ticks)
+            except StopIteration:
+                raise LogError(f"{path}: no tick {first} in this log") from None
+            start = key.state()
+            if index is not None:
+                start = start.take(np.array([index]))
+            res.ticks_compared += 1
+        sim = run(scn, start=start, last_tick=res.last_tick)
+        ship_slice = None if index is None else index
+        for recorded in ticks:
+            try:
+                new = next(sim)
+            except StopIteration:
+                break
+            if new.tick != recorded.tick:
+                raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
+                               f"found {recorded.tick})")
+            arrays = tick_arrays(new)
+            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n)
+            res.ticks_compared += 1
+            res.numbers_compared += sum(np.size(a) for a in arrays.values())
+            res.last_tick = recorded.tick
+            if hit is not None:
+                ship, name, comp, a, b = hit
+                fld = f"{name}[{comp}]" if WIDTH[name] > 1 else name
+                res.divergence = Divergence(recorded.tick, recorded.t_s, ids[ship], fld, a, b)
+                res.recent_events = [
+                    f"tick {e.tick}: {e.event} {_label(e.from_state)} -> {_label(e.to_state)}"
+                    for e in reader.events() if e.ship_id == ids[ship] and e.tick <= recorded.tick
+                ][-3:]
+                break
+        return res
+
+
+def _label(state: int) -> str:
+    from sim.enums import SurfaceState
+    return SurfaceState(state).label
