@@ -220,7 +220,7 @@ class LogReader:
         try:
             reader = make_reader(self._file, validate_crcs=True)
             for _schema, channel, message in reader.iter_messages(
-                    topics=list(topics), start_time=start_ns, end_time=end_ns):
+                    topics=list(topics), starting_at=start_ns, ending_at=end_ns):
                 yield channel.topic, message.data
         except LogError:
             raise
@@ -235,7 +235,7 @@ class LogReader:
         """The tick records, optionally only ticks first..last (found through the chunk index,
         without reading the rest of the file)."""
         start = None if first is None else self.tick_time_ns(first)
-        end = None if last is None else self.tick_time_ns(last) + 1
+        end = None if last is None else self.tick_time_ns(last)
         for _topic, data in self._iter({TOPIC_TICKS}, start, end):
             try:
                 tick, t_s, n, arrays = decode_tick(data)

@@ -1,0 +1,151 @@
+"""Replay: bit-for-bit verification, the first divergence, keyframe windows, one ship alone,
+other SIMD paths, and what-if runs."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from cli import main
+from logs.codec import decode_tick, encode_tick
+from logs.mcap_log import TOPIC_TICKS, LogReader
+from replay.verify import verify
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("replay")
+    out = {}
+    for name, sets in (("bounce", ["duration=16"]), ("fleet", ["duration=8"])):
+        path = d / f"{name}.mcap"
+        args = ["record", name, "-o", str(path)] + [x for s in sets for x in ("--set", s)]
+        r = CliRunner().invoke(main, args)
+        assert r.exit_code == 0, r.output
+        out[name] = path
+    return out
+
+
+def rewrite(src: Path, dst: Path, tick: int, field: str, index: int, delta_ulps: int = 1):
+    """Copy a log, nudging one number of one tick record by a few units in the last place."""
+    with open(src, "rb") as f, open(dst, "wb") as g:
+        w = Writer(g)
+        w.start()
+        schemas, channels = {}, {}
+        for schema, channel, message in make_reader(f).iter_messages():
+            if schema.id not in schemas:
+                schemas[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = w.register_channel(channel.topic, channel.message_encoding,
+                                                          schemas[schema.id])
+            data = message.data
+            if channel.topic == TOPIC_TICKS:
+                t, t_s, n, arrays = decode_tick(data)
+                if t == tick:
+                    a = arrays[field].copy()
+                    a[index] = np.nextafter(a[index], np.inf) if delta_ulps == 1 else a[index] + 1
+                    arrays[field] = a
+                    data = encode_tick(t, t_s, n, arrays)
+            w.add_message(channels[channel.id], message.log_time, data, message.publish_time,
+                          message.sequence)
+        w.finish()
+
+
+def test_identical_rerun_verifies(logs):
+    r = CliRunner().invoke(main, ["replay", str(logs["bounce"]), "--verify"])
+    assert r.exit_code == 0, r.output
+    assert "identical: ticks 0..320" in r.output
+
+
+@pytest.mark.parametrize("tick,field,index,shown", [
+    (57, "vel_mps", 2, "vel_mps[2]"),
+    (200, "altitude_m", 0, "altitude_m"),
+    (3, "fuel_kg", 0, "fuel_kg"),
+])
+def test_a_one_ulp_edit_is_found_at_exactly_its_tick_and_field(logs, tmp_path, tick, field,
+                                                                 index, shown):
+    bad = tmp_path / "edited.mcap"
+    rewrite(logs["bounce"], bad, tick, field, index)
+    r = CliRunner().invoke(main, ["replay", str(bad), "--verify"])
+    assert r.exit_code == 1, r.output
+    assert f"DIVERGED at tick {tick}" in r.output
+    assert f"field {shown}" in r.output
+    assert "ship lander-1" in r.output
+    if tick > 20:
+        assert "ship.contact" in r.output  # the last transitions before the divergence
+
+
+def test_edit_in_a_fleet_names_the_ship(logs, tmp_path):
+    bad = tmp_path / "edited.mcap"
+    rewrite(logs["fleet"], bad, 40, "pos_m", 3 * 4 + 1)  # ship 4 ("slider"), y
+    res = verify(str(bad))
+    assert res.divergence.tick == 40
+    assert res.divergence.ship_id == "slider"
+    assert res.divergence.field == "pos_m[1]"
+
+
+def test_keyframe_window_matches_the_run_from_tick_zero(logs):
+    res = verify(str(logs["fleet"]), first=60, last=140)
+    assert res.identical and res.first_tick == 60 and res.last_tick == 140
+    # and an edit inside the window is still found from the keyframe
+    r = CliRunner().invoke(main, ["replay", str(logs["fleet"]), "--verify", "--from-tick", "100",
+                                  "--to-tick", "120"])
+    assert r.exit_code == 0, r.output
+
+
+def test_one_ship_of_many_replays_alone_bit_identically(logs):
+    for ship in ("soft", "bouncer", "toppler", "hover"):
+        res = verify(str(logs["fleet"]), ship_id=ship)
+        assert res.identical, res.report()
+        assert res.ships == [ship]
+
+
+def test_unknown_ship_is_a_user_error(logs):
+    r = CliRunner().invoke(main, ["replay", str(logs["fleet"]), "--verify", "--ship", "nope"])
+    assert r.exit_code == 2
+    assert "nope" in r.output and "Traceback" not in r.output
+
+
+def test_other_simd_paths_and_another_batch_replay_bit_identically(logs):
+    """Re-run in subprocesses with numpy's widest SIMD extensions switched off, whole and one
+    ship alone (another batch composition)."""
+    import numpy as np  # noqa: F401
+    from numpy._core._multiarray_umath import __cpu_features__ as feats
+    wide = [f for f in ("AVX512_SPR", "AVX512_ICL", "X86_V4", "X86_V3", "AVX512F", "AVX2")
+            if feats.get(f)]
+    if not wide:
+        pytest.skip("this CPU has no SIMD extension above numpy's baseline to switch off")
+    for disabled, extra in ((wide[:1], []), (wide, ["--ship", "bouncer"])):
+        env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=" ".join(disabled))
+        r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(logs["fleet"]),
+                            "--verify", *extra], env=env, capture_output=True, text=True,
+                           cwd=ROOT, timeout=300)
+        assert r.returncode == 0, (disabled, r.stdout, r.stderr)
+        assert "identical" in r.stdout
+
+
+def test_what_if_reports_departures_and_writes_a_log(logs, tmp_path):
+    out = tmp_path / "whatif.mcap"
+    r = CliRunner().invoke(main, ["replay", str(logs["bounce"]), "--set",
+                                  "sim.integrator=semi_implicit_euler", "--set",
+                                  "sim.max_substep=0", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "largest position difference" in r.output
+    pos = float(r.output.split("largest position difference: ")[1].split(" m")[0])
+    assert pos > 0.1  # the seed's method at the plain tick bounces visibly differently
+    assert "ship.liftoff" in r.output and "|" in r.output
+    with LogReader(out) as reader:
+        assert reader.scenario.integrator == "semi_implicit_euler"
+    assert verify(str(out)).identical  # the new log is itself a replayable recording
+
+
+def test_what_if_with_no_change_departs_by_nothing(logs):
+    r = CliRunner().invoke(main, ["replay", str(logs["bounce"]), "--set", "sim.dt=0.05"])
+    assert r.exit_code == 0, r.output
+    assert "largest position difference: 0 m" in r.output
