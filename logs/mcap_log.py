@@ -18,12 +18,12 @@ from pathlib import Path
 from typing import Iterator
 
 import numpy as np
-from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
 from logs.codec import decode_tick, encode_tick
+from logs.safe_read import ReadStatus, iter_messages
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
@@ -208,25 +208,21 @@ class LogReader:
             raise LogError(f"{self.path}: cannot open: {exc.strerror}") from None
         self.scenario: pb.ScenarioRecord | None = None
         self.summary: pb.LogSummary | None = None
+        self.status = ReadStatus()
         for topic, data in self._iter({TOPIC_SCENARIO}):
-            self.scenario = pb.ScenarioRecord.FromString(data)
+            try:
+                self.scenario = pb.ScenarioRecord.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged scenario record ({exc})") from None
             break
         if self.scenario is None:
             raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
 
     def _iter(self, topics: set[str], start_ns: int | None = None, end_ns: int | None = None
               ) -> Iterator[tuple[str, bytes]]:
-        self._file.seek(0)
-        try:
-            reader = make_reader(self._file, validate_crcs=True)
-            for _schema, channel, message in reader.iter_messages(
-                    topics=list(topics), starting_at=start_ns, ending_at=end_ns):
-                yield channel.topic, message.data
-        except LogError:
-            raise
-        except Exception as exc:  # mcap, zstd, struct: all mean "damaged"
-            raise LogError(f"{self.path}: damaged or not an MCAP file "
-                           f"({type(exc).__name__}: {exc})") from None
+        for topic, _t, data in iter_messages(self._file, str(self.path), topics, start_ns, end_ns,
+                                             self.status):
+            yield topic, data
 
     def tick_time_ns(self, tick: int) -> int:
         return tick * int(round(self.scenario.dt_s * 1e9))
@@ -245,11 +241,17 @@ class LogReader:
 
     def events(self) -> Iterator[pb.TransitionEvent]:
         for _topic, data in self._iter({TOPIC_EVENTS}):
-            yield pb.TransitionEvent.FromString(data)
+            try:
+                yield pb.TransitionEvent.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged event record ({exc})") from None
 
     def read_summary(self) -> pb.LogSummary | None:
         for _topic, data in self._iter({TOPIC_SUMMARY}):
-            self.summary = pb.LogSummary.FromString(data)
+            try:
+                self.summary = pb.LogSummary.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged summary record ({exc})") from None
         return self.summary
 
     def close(self) -> None:

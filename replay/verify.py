@@ -169,6 +169,12 @@ def verify(path: str, first: int | None = None, last: int | None = None,
                     for e in reader.events() if e.ship_id == ids[ship] and e.tick <= recorded.tick
                 ][-3:]
                 break
+        if not reader.status.complete:
+            res.recovered_note = (
+                f"the log ends without a footer (its writer was stopped): recovered "
+                f"{res.ticks_compared} tick(s), {res.first_tick}..{res.last_tick}"
+                + (f"; the rest is damaged ({reader.status.damage})" if reader.status.damage
+                   else ""))
         return res
 
 
