@@ -100,8 +100,10 @@ def scenarios_cmd() -> None:
 @click.option("--redis", "redis_url", default=None, metavar="URL",
               help="also publish events to this Redis (e.g. redis://127.0.0.1:6379/0)")
 @click.option("--stream", default="galaxy:ships", show_default=True, help="Redis stream name")
+@click.option("--keyframe-every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="write the full state every N ticks (replay seeks from keyframes)")
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
-           stream: str) -> None:
+           stream: str, keyframe_every: int) -> None:
     from logs.mcap_log import LogWriter
     from sim.run import run
 
@@ -115,7 +117,7 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
         except LogError as exc:
             raise UserError(str(exc)) from None
     try:
-        writer = LogWriter(out, scn, source)
+        writer = LogWriter(out, scn, source, keyframe_interval=keyframe_every)
     except OSError as exc:
         raise UserError(f"{out}: cannot write: {exc.strerror}") from None
     n_ticks = scn.params.sim.n_ticks

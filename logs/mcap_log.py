@@ -32,10 +32,15 @@ from sim.scenario import Scenario
 from sim.state import STATE_ARRAY_FIELDS, Inputs, State
 
 LOG_FORMAT_VERSION = 1
+_EMPTY = np.zeros(0)
 TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
 TOPIC_EVENTS = "/touchdown/events"
 TOPIC_SUMMARY = "/touchdown/summary"
+#: state fields written only on keyframe ticks; the rest (positions, attitudes, masses, states,
+#: telemetry, commands) are on every tick
+KEYFRAME_ONLY = ("vel_mps", "omega_body_radps", "absorbing", "sliding", "settle_ticks",
+                 "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m")
 OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
                  "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm")
 
@@ -77,20 +82,23 @@ def event_message(scn: Scenario, rec: TickRecord, ev) -> pb.TransitionEvent:
         ship=ship_state_message(scn, rec.state, ev.ship), v_radial_mps=ev.v_radial_mps)
 
 
-def scenario_message(scn: Scenario, source: str) -> pb.ScenarioRecord:
+def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
+                     ) -> pb.ScenarioRecord:
     return pb.ScenarioRecord(
         log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=scn.name,
         description=scn.description, resolved_json=json.dumps(scn.resolved, sort_keys=True),
         integrator=scn.params.sim.integrator, dt_s=scn.params.sim.dt_s,
         ship_ids=list(scn.params.ships.ship_id), player_ids=list(scn.params.ships.player_id),
-        body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks)
+        body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks,
+        keyframe_interval=keyframe_interval)
 
 
 class LogWriter:
     """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice."""
 
     def __init__(self, path: str | os.PathLike, scn: Scenario, source: str,
-                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
+                 keyframe_interval: int = 1):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.scn = scn
@@ -110,7 +118,11 @@ class LogWriter:
             "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
             "scenario": scn.name, "integrator": scn.params.sim.integrator,
             "dt_s": repr(scn.params.sim.dt_s)})
-        self._put(TOPIC_SCENARIO, 0, scenario_message(scn, source).SerializeToString())
+        if keyframe_interval < 1:
+            raise ValueError("keyframe_interval must be at least 1")
+        self.keyframe_interval = keyframe_interval
+        self._put(TOPIC_SCENARIO, 0,
+                  scenario_message(scn, source, keyframe_interval).SerializeToString())
         self.last_tick = -1
         self.event_count = 0
         self._closed = False
@@ -123,8 +135,11 @@ class LogWriter:
 
     def write(self, rec: TickRecord) -> list[pb.TransitionEvent]:
         """Append one tick; returns its events as messages (for publishing elsewhere too)."""
-        data = encode_tick(rec.tick, rec.tick * self.scn.params.sim.dt_s, rec.state.n,
-                           tick_arrays(rec))
+        arrays = tick_arrays(rec)
+        if rec.tick % self.keyframe_interval:
+            for name in KEYFRAME_ONLY:
+                arrays[name] = _EMPTY
+        data = encode_tick(rec.tick, rec.tick * self.scn.params.sim.dt_s, rec.state.n, arrays)
         self._put(TOPIC_TICKS, rec.tick, data)
         msgs = [event_message(self.scn, rec, ev) for ev in rec.events]
         for m in msgs:
@@ -176,9 +191,15 @@ class TickData:
     def vec(self, name: str, width: int) -> np.ndarray:
         return self.arrays[name].reshape(self.ship_count, width)
 
+    @property
+    def is_keyframe(self) -> bool:
+        return all(name in self.arrays for name in KEYFRAME_ONLY)
+
     def state(self) -> State:
-        """The full state recorded at this tick (every tick is a keyframe)."""
+        """The full state recorded at this tick (a keyframe)."""
         n, a = self.ship_count, self.arrays
+        if not self.is_keyframe:
+            raise LogError(f"tick {self.tick} is not a keyframe")
         try:
             return State(
                 tick=self.tick, surface_state=a["surface_state"].astype(np.int8),
@@ -223,6 +244,10 @@ class LogReader:
         for topic, _t, data in iter_messages(self._file, str(self.path), topics, start_ns, end_ns,
                                              self.status):
             yield topic, data
+
+    @property
+    def keyframe_interval(self) -> int:
+        return max(1, int(self.scenario.keyframe_interval))
 
     def tick_time_ns(self, tick: int) -> int:
         return tick * int(round(self.scenario.dt_s * 1e9))

@@ -106,7 +106,9 @@ def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int
     best = None
     for _, name, _ in PACKED:
         w = WIDTH[name]
-        recorded = np.asarray(rec_arrays.get(name, np.zeros(0)))
+        if name not in rec_arrays:  # not on this tick (a field written on keyframes only)
+            continue
+        recorded = np.asarray(rec_arrays[name])
         replayed = np.asarray(new_arrays[name])
         if ship_slice is not None:
             recorded = recorded.reshape(-1, w)[ship_slice].ravel() if recorded.size else recorded
@@ -132,6 +134,8 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         sr = reader.scenario
         scn, index = scenario_of(reader, ship_id)
         ids = list(scn.params.ships.ship_id)
+        if first:  # start from the nearest keyframe at or before ``first``
+            first -= first % reader.keyframe_interval
         res = VerifyResult(sr.project_version, sr.integrator, sr.dt_s, first or 0,
                            last if last is not None else int(sr.n_ticks), ids)
         ticks = reader.ticks(first, last)
@@ -158,7 +162,7 @@ def verify(path: str, first: int | None = None, last: int | None = None,
             arrays = tick_arrays(new)
             hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n)
             res.ticks_compared += 1
-            res.numbers_compared += sum(np.size(a) for a in arrays.values())
+            res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
             res.last_tick = recorded.tick
             if hit is not None:
                 ship, name, comp, a, b = hit

@@ -70,11 +70,11 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
                 k = round(old_tick)
                 if abs(old_tick - k) > 1e-6 or k not in old_ticks:
                     continue
-                old = old_ticks[k].state()
+                old_pos, old_quat = old_ticks[k].vec("pos_m", 3), old_ticks[k].vec("quat", 4)
                 if index is not None:
-                    old = old.take(np.array([index]))
-                dp = np.linalg.norm(old.pos_m - rec.state.pos_m, axis=1)
-                dots = np.abs(np.sum(old.quat * rec.state.quat, axis=1)).clip(0.0, 1.0)
+                    old_pos, old_quat = old_pos[index:index + 1], old_quat[index:index + 1]
+                dp = np.linalg.norm(old_pos - rec.state.pos_m, axis=1)
+                dots = np.abs(np.sum(old_quat * rec.state.quat, axis=1)).clip(0.0, 1.0)
                 dang = np.degrees(2.0 * np.arccos(dots))
                 i, j = int(np.argmax(dp)), int(np.argmax(dang))
                 if dp[i] > res.max_position_diff_m:

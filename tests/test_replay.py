@@ -149,3 +149,20 @@ def test_what_if_with_no_change_departs_by_nothing(logs):
     r = CliRunner().invoke(main, ["replay", str(logs["bounce"]), "--set", "sim.dt=0.05"])
     assert r.exit_code == 0, r.output
     assert "largest position difference: 0 m" in r.output
+
+
+def test_sparse_keyframes_seek_from_the_nearest_one(tmp_path):
+    path = tmp_path / "sparse.mcap"
+    r = CliRunner().invoke(main, ["record", "bounce", "--set", "duration=16", "--keyframe-every",
+                                  "50", "-o", str(path)])
+    assert r.exit_code == 0, r.output
+    with LogReader(path) as reader:
+        assert reader.keyframe_interval == 50
+        flags = {td.tick: td.is_keyframe for td in reader.ticks()}
+    assert flags[0] and flags[50] and flags[300] and not flags[51] and not flags[299]
+    res = verify(str(path), first=130, last=200)
+    assert res.identical and res.first_tick == 100  # started from the keyframe at 100
+    assert verify(str(path)).identical
+    bad = tmp_path / "edited.mcap"
+    rewrite(path, bad, 77, "altitude_m", 0)  # a non-keyframe tick: telemetry is still checked
+    assert verify(str(bad)).divergence.tick == 77
