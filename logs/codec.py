@@ -39,7 +39,8 @@ def _varint(n: int) -> bytes:
 
 
 def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.ndarray]) -> bytes:
-    """Serialise one TickBatch. ``arrays`` maps each packed field's name to its per-ship array."""
+    """Serialise one TickBatch. ``arrays`` maps packed field names to per-ship arrays; a missing
+    or empty one is left out, as protobuf leaves out an empty repeated field."""
     parts = []
     if tick:
         parts.append(b"\x08" + _varint(tick))
@@ -48,8 +49,8 @@ def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.nda
     if ship_count:
         parts.append(b"\x18" + _varint(ship_count))
     for num, name, dt in PACKED:
-        arr = arrays[name]
-        if arr.size == 0:
+        arr = arrays.get(name)
+        if arr is None or arr.size == 0:  # absent, like an empty repeated field
             continue
         if dt == "u1":
             a = np.ascontiguousarray(arr, dtype=np.int64).ravel()
