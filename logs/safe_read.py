@@ -69,13 +69,14 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
                 and (end_ns is None or m.log_time <= end_ns))
 
     if _has_footer(f, size):
-        yield from _indexed(f, name, size, wanted)
+        yield from _indexed(f, name, size, wanted, start_ns, end_ns)
         return
     status.complete = False
     yield from _walk(f, name, wanted, status)
 
 
-def _indexed(f, name: str, size: int, wanted) -> Iterator[tuple[str, int, bytes]]:
+def _indexed(f, name: str, size: int, wanted, start_ns: int | None, end_ns: int | None
+             ) -> Iterator[tuple[str, int, bytes]]:
     try:
         f.seek(size - len(MAGIC) - _FOOTER_RECORD)
         footer = next(StreamReader(f, skip_magic=True, record_size_limit=64).records)
@@ -98,6 +99,9 @@ def _indexed(f, name: str, size: int, wanted) -> Iterator[tuple[str, int, bytes]
                 chunk_indexes.append(rec)
         chunk_indexes.sort(key=lambda c: (c.message_start_time, c.chunk_start_offset))
         for ci in chunk_indexes:
+            if ((start_ns is not None and ci.message_end_time < start_ns)
+                    or (end_ns is not None and ci.message_start_time > end_ns)):
+                continue  # seeking: chunks outside the window are never read
             if ci.chunk_length > MAX_RECORD_BYTES or not 0 < ci.chunk_start_offset < size:
                 raise LogError(f"{name}: a chunk index points outside the file or claims "
                                f"{ci.chunk_length:,} bytes")
