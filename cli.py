@@ -210,12 +210,17 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
 
 
 @main.command()
-@click.argument("what", type=click.Choice(["speed"]))
+@click.argument("what", type=click.Choice(["speed", "replay"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 def bench(what: str, quick: bool) -> None:
-    """Benchmarks; figures with units and the machine. `speed`: recording and stepping rates."""
-    from bench import speed
-    speed.main(quick=quick)
+    """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates;
+    `replay`: verify against record speed, seeking in a long log, what keyframes cost."""
+    if what == "speed":
+        from bench import speed
+        speed.main(quick=quick)
+    else:
+        from bench import replay_speed
+        replay_speed.main(quick=quick)
 
 
 if __name__ == "__main__":
