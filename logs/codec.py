@@ -38,6 +38,9 @@ def _varint(n: int) -> bytes:
             return bytes(out)
 
 
+_TAG = {name: bytes([((num << 3) | 2)]) if num < 16 else None for num, name, _ in PACKED}
+
+
 def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.ndarray]) -> bytes:
     """Serialise one TickBatch. ``arrays`` maps packed field names to per-ship arrays; a missing
     or empty one is left out, as protobuf leaves out an empty repeated field."""
@@ -59,7 +62,8 @@ def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.nda
             payload = a.astype(np.uint8).tobytes()
         else:
             payload = np.ascontiguousarray(arr, dtype=dt).tobytes()
-        parts.append(_varint((num << 3) | 2) + _varint(len(payload)) + payload)
+        tag = _TAG[name] or _varint((num << 3) | 2)
+        parts.append(tag + _varint(len(payload)) + payload)
     return b"".join(parts)
 
 

@@ -75,6 +75,8 @@ def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
     """Omega z x p: velocity of the body's surface (or a pinned ship) at p."""
     om = params.body.omega_radps
     out = np.zeros_like(p)
+    if om == 0.0:
+        return out
     out[:, 0] = -om * p[:, 1]
     out[:, 1] = om * p[:, 0]
     return out
@@ -82,6 +84,8 @@ def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
 
 def body_spin_in_body_frame(params: Params, q: np.ndarray) -> np.ndarray:
     """The body's spin (0, 0, Omega) expressed in each ship's body frame."""
+    if params.body.omega_radps == 0.0:
+        return np.zeros((q.shape[0], 3))
     return vec.quat_rotate_inv(q, np.broadcast_to(_Z * params.body.omega_radps, (q.shape[0], 3)))
 
 
@@ -164,6 +168,8 @@ def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
 
 def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarray, np.ndarray]:
     """Inertial pose -> body-fixed pose at body angle (c, s)."""
+    if c == 1.0 and s == 0.0:
+        return p.copy(), q.copy()
     return rotate_z(p, c, -s), vec.quat_mul(quat_z(c, -s, p.shape[0]), q)
 
 
@@ -435,9 +441,13 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
     lift = liftable & (cmd.thrust_n * vec.dot(ez, up) > m * g)
     surf = np.where(lift, FLYING, surf)
 
-    c, s = body_rotation(params, t_end_s)
-    p = rotate_z(p_bf, c, s)
-    q = vec.quat_mul(quat_z(c, s, n), q_bf)
+    if params.body.omega_radps == 0.0:  # the body-fixed frame is the inertial one
+        c, s = 1.0, 0.0
+        p, q = p_bf, q_bf
+    else:
+        c, s = body_rotation(params, t_end_s)
+        p = rotate_z(p_bf, c, s)
+        q = vec.quat_mul(quat_z(c, s, n), q_bf)
     v = surface_velocity(params, p)
     w = body_spin_in_body_frame(params, q)
     if righted.any():
