@@ -67,10 +67,29 @@ def rk4(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, absorbin
     return (out[0], out[1], vec.quat_normalize(out[2]), out[3]), normal_mean
 
 
-#: Every method by name. Issue 4 adds more; an unknown name is rejected when a scenario is loaded.
+def velocity_verlet(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, absorbing
+                    ) -> tuple[Y, np.ndarray]:
+    """Kick-drift-kick (second order, symplectic for position-only forces). The closing kick
+    evaluates the force at the new position with the half-step velocity, the usual explicit form
+    when the force also depends on velocity (the damper)."""
+    p, v, q, w = y
+    _, a0, _, al0 = derivatives(fb, ce, p, v, q, w)
+    v_half = v + times(0.5 * h, a0)
+    w_half = w + times(0.5 * h, al0)
+    p1 = p + times(h, v_half)
+    q1 = vec.quat_integrate(q, w_half, h)
+    ce1 = contact_at(fb, ground, p1, v_half, q1, w_half, absorbing)
+    _, a1, _, al1 = derivatives(fb, ce1, p1, v_half, q1, w_half)
+    v1 = v_half + times(0.5 * h, a1)
+    w1 = w_half + times(0.5 * h, al1)
+    return (p1, v1, q1, w1), 0.5 * (ce.normal_n + ce1.normal_n)
+
+
+#: Every method by name; an unknown name is rejected when a scenario is loaded.
 METHODS: dict[str, Method] = {
     "explicit_euler": explicit_euler,
     "semi_implicit_euler": semi_implicit_euler,
+    "velocity_verlet": velocity_verlet,
     "rk4": rk4,
 }
 

@@ -59,7 +59,8 @@ TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0
        "description": ("str", "", None)}
 SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
        "integrator": ("str", "rk4", _choice(METHODS)),
-       "max_substep": ("float", 0.025, _range(0.0, 1.0))}
+       "max_substep": ("float", 0.025, _range(0.0, 1.0)),
+       "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"}))}
 CONTACT = {
     "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
     "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
@@ -296,8 +297,49 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
             rd.fail(pre + "inputs", "entries must be in order of t")
         _check_initial(rd, sh, con, pre + "initial.")
         ships.append(sh)
+    _check_stability(rd, sim, con, ships)
     resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
     return _build(resolved)
+
+
+#: the sub-step is kept within this fraction of a method's stability limit when it is chosen for you:
+#: near the limit a stable method still cancels most of the contact's physical damping
+STABILITY_MARGIN = 0.5
+
+
+def contact_omega_max(con: dict, ships: list[dict]) -> float:
+    """The fastest contact mode of the scene, rad/s: the four-foot bounce w = sqrt(k/m), or one
+    foot alone rocking the ship, w^2 = (k/4)(1/m + a^2 / I_transverse) (a normal force at a
+    foot has lever arm leg_radius about the transverse axes)."""
+    kpm = con["stiffness_per_kg"]
+    w2 = kpm
+    for sh in ships:
+        i_t = min(sh["inertia"][0], sh["inertia"][1])
+        w2 = max(w2, 0.25 * kpm * (1.0 + sh["mass"] * sh["leg_radius"] ** 2 / i_t))
+    return math.sqrt(w2)
+
+
+def _check_stability(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> None:
+    """SEED-NOTES 8: refuse, or sub-step further, a method and sub-step that would be unstable on
+    the scene's stiffest contact mode (sim.stability explains the bound); ``allow`` runs it anyway."""
+    from sim.stability import largest_stable_wh
+    n_sub = 1 if sim["max_substep"] <= 0.0 else max(1, math.ceil(sim["dt"] / sim["max_substep"] - 1e-9))
+    h = sim["dt"] / n_sub
+    w = contact_omega_max(con, ships)
+    bound = min(largest_stable_wh(sim["integrator"], z)
+                for z in (con["damping_ratio"], con["absorb_damping_ratio"]))
+    if w * h < bound * STABILITY_MARGIN or sim["on_unstable"] == "allow":
+        return
+    if bound == 0.0:
+        rd.fail("sim.integrator", f"{sim['integrator']} is unstable on an undamped contact at any "
+                                  "step; use another method or damping")
+    need = math.ceil(w * sim["dt"] / (bound * STABILITY_MARGIN))
+    if sim["on_unstable"] == "error":
+        rd.fail("sim.dt", f"{sim['integrator']} with a contact sub-step of {h:g} s is unstable for "
+                          f"this scene's contact (omega h = {w * h:.3f} >= its limit {bound:.3f}); "
+                          f"set sim.max_substep <= {sim['dt'] / need:.6g} or sim.on_unstable = "
+                          f"\"substep\"")
+    sim["max_substep"] = sim["dt"] / need
 
 
 def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:

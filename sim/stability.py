@@ -1,0 +1,69 @@
+"""Linear stability of each stepping method on the contact's damped oscillator.
+
+While a foot is compressed, the ground is the linear oscillator x'' = -w^2 x - 2 zeta w x'
+(w = sqrt(k/m) = 10 rad/s for the seed's k = 100 m). One step of a method maps (x, x') by a 2x2
+amplification matrix M(w h, zeta); the step is stable when M's spectral radius is at most one.
+The largest stable w h is found by bisection (a fixed 80 halvings) on that radius. SEED-NOTES 8:
+with damping the undamped bound w h < 2 no longer holds (explicit Euler is stable only for
+w h below about 0.6 at zeta = 0.3, and not at all without damping).
+
+Used when a scenario is loaded (not inside the step): a method and sub-step that would be unstable
+for the scene's contact are sub-stepped further or refused, as ``sim.on_unstable`` says.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_HALVINGS = 80
+_SEARCH_MAX = 16.0  # w h beyond any method here
+
+
+def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
+    """One step of ``method`` on x'' = -x - 2 zeta x' in units where w = 1, step wh."""
+    a = np.array([[0.0, 1.0], [-1.0, -2.0 * zeta]])
+    eye = np.eye(2)
+    h = wh
+    if method == "explicit_euler":
+        return eye + h * a
+    if method == "semi_implicit_euler":
+        # v1 = v + h (-x - 2 zeta v); x1 = x + h v1
+        kick = np.array([[1.0, 0.0], [-h, 1.0 - 2.0 * zeta * h]])
+        drift = np.array([[1.0, h], [0.0, 1.0]])
+        return drift @ kick
+    if method == "velocity_verlet":
+        # v_half = v + h/2 a(x, v); x1 = x + h v_half; v1 = v_half + h/2 a(x1, v_half)
+        half_kick = np.array([[1.0, 0.0], [-h / 2, 1.0 - zeta * h]])
+        drift = np.array([[1.0, h], [0.0, 1.0]])
+        return half_kick @ drift @ half_kick
+    if method == "rk4":
+        ha = h * a
+        return eye + ha + ha @ ha / 2 + ha @ ha @ ha / 6 + ha @ ha @ ha @ ha / 24
+    raise ValueError(f"no stability analysis for method {method!r}")
+
+
+def spectral_radius(m: np.ndarray) -> float:
+    tr, det = m[0, 0] + m[1, 1], m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    disc = tr * tr / 4.0 - det
+    if disc < 0.0:  # complex pair: |lambda|^2 = det
+        return math.sqrt(max(det, 0.0))
+    r = math.sqrt(disc)
+    return max(abs(tr / 2.0 + r), abs(tr / 2.0 - r))
+
+
+def largest_stable_wh(method: str, zeta: float) -> float:
+    """The largest w h for which ``method`` does not amplify (0 if none: explicit Euler, zeta 0)."""
+    def stable(wh):
+        return spectral_radius(amplification(method, wh, zeta)) <= 1.0 + 1e-12
+
+    lo, hi = 0.0, _SEARCH_MAX
+    if not stable(1e-9):
+        return 0.0
+    for _ in range(_HALVINGS):
+        mid = 0.5 * (lo + hi)
+        if stable(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
