@@ -274,7 +274,11 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)
         lift = active & (was == CONTACT) & ~crash & (pen < 0.0) & (v_rad > 0.0)
-        tip = active & (was == CONTACT) & ~crash & ~lift & (cos_tilt < cp.cos_tipped)
+        # past tipped_angle in contact; a touchdown already past it lies down at once (its hull,
+        # which the model does not have, would be what touches)
+        lying_down = touch & (not cp.align_on_touchdown)
+        tip = (active & (((was == CONTACT) & ~lift) | lying_down) & ~crash
+               & (cos_tilt < cp.cos_tipped))
         v_rel = v - surface_velocity(params, p)
         tip_crash = tip & (vec.dot(v_rel, v_rel) > cp.crash_speed_mps ** 2)
         crash = crash | tip_crash
@@ -285,8 +289,14 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             sliding = np.where(touch_ok, False, sliding)
             settle = np.where(touch_ok, 0, settle)
             if cp.align_on_touchdown:
-                q = np.where(touch_ok[:, None], align_to_surface(q, r_hat), q)
-                w = np.where(touch_ok[:, None], body_spin_in_body_frame(params, q), w)
+                # snap the attitude to local up (seed), then move the ship out along it so that
+                # its deepest foot is as deep as before the snap: turning must not bury the feet
+                snap = touch_ok & ~tip
+                q = np.where(snap[:, None], align_to_surface(q, r_hat), q)
+                w = np.where(snap[:, None], body_spin_in_body_frame(params, q), w)
+                ce = contact_at(fb, ground, p, v, q, w, absorbing)
+                lift_m = np.where(snap, np.maximum(ce.max_penetration_m - pen, 0.0), 0.0)
+                p = p + vec.scale(r_hat, lift_m)
                 ce = contact_at(fb, ground, p, v, q, w, absorbing)
         c, s = body_rotation(params, t_end)
         if tip.any():
@@ -306,6 +316,10 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         surf = np.where(tip, TIPPED, surf)
         surf = np.where(crash, CRASHED, surf)
         changed = surf != was
+        touched_and_tipped = touch_ok & tip
+        for i in np.flatnonzero(touched_and_tipped):  # two transitions in one sub-step
+            transitions.append((int(i), FLYING, CONTACT, float(-impact[i])))
+            was[i] = CONTACT
         for i in np.flatnonzero(changed):
             if was[i] == FLYING:
                 speed = -impact[i]
