@@ -181,12 +181,39 @@ class LogWriter:
             self.abandon()
 
 
-@dataclass(frozen=True)
 class TickData:
-    tick: int
-    t_s: float
-    ship_count: int
-    arrays: dict[str, np.ndarray]
+    """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
+    (a verification that finds the bytes identical never decodes them)."""
+
+    def __init__(self, raw: bytes, tick_from_time: int, where: str = ""):
+        self.raw = raw
+        self.tick_from_time = tick_from_time
+        self._where = where
+        self._decoded: tuple[int, float, int, dict[str, np.ndarray]] | None = None
+
+    def _decode(self) -> tuple[int, float, int, dict[str, np.ndarray]]:
+        if self._decoded is None:
+            try:
+                self._decoded = decode_tick(self.raw)
+            except LogError as exc:
+                raise LogError(f"{self._where}: {exc}") from None
+        return self._decoded
+
+    @property
+    def tick(self) -> int:
+        return self._decode()[0]
+
+    @property
+    def t_s(self) -> float:
+        return self._decode()[1]
+
+    @property
+    def ship_count(self) -> int:
+        return self._decode()[2]
+
+    @property
+    def arrays(self) -> dict[str, np.ndarray]:
+        return self._decode()[3]
 
     def vec(self, name: str, width: int) -> np.ndarray:
         return self.arrays[name].reshape(self.ship_count, width)
@@ -257,12 +284,10 @@ class LogReader:
         without reading the rest of the file)."""
         start = None if first is None else self.tick_time_ns(first)
         end = None if last is None else self.tick_time_ns(last)
-        for _topic, data in self._iter({TOPIC_TICKS}, start, end):
-            try:
-                tick, t_s, n, arrays = decode_tick(data)
-            except LogError as exc:
-                raise LogError(f"{self.path}: {exc}") from None
-            yield TickData(tick, t_s, n, arrays)
+        dt_ns = self.tick_time_ns(1)
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
+                                                end, self.status):
+            yield TickData(data, t_ns // dt_ns if dt_ns else 0, str(self.path))
 
     def events(self) -> Iterator[pb.TransitionEvent]:
         for _topic, data in self._iter({TOPIC_EVENTS}):

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from logs import LogError
-from logs.codec import PACKED
-from logs.mcap_log import LogReader, tick_arrays
+from logs.codec import PACKED, encode_tick
+from logs.mcap_log import _EMPTY, KEYFRAME_ONLY, LogReader, tick_arrays
 from sim import __version__ as PROJECT_VERSION
 from sim.run import run
 from sim.scenario import Scenario, ScenarioError, parse
@@ -150,23 +150,37 @@ def verify(path: str, first: int | None = None, last: int | None = None,
                 start = start.take(np.array([index]))
             res.ticks_compared += 1
         sim = run(scn, start=start, last_tick=res.last_tick)
+        interval = reader.keyframe_interval
         ship_slice = None if index is None else index
         for recorded in ticks:
             try:
                 new = next(sim)
             except StopIteration:
                 break
-            if new.tick != recorded.tick:
+            if new.tick != recorded.tick_from_time:
                 raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
-                               f"found {recorded.tick})")
+                               f"found {recorded.tick_from_time})")
             arrays = tick_arrays(new)
-            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n)
             res.ticks_compared += 1
-            res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
-            res.last_tick = recorded.tick
+            res.last_tick = new.tick
+            if ship_slice is None:
+                # the whole batch: the replayed tick, encoded as the writer encodes it, must be
+                # the recorded message byte for byte; only a mismatch is decoded and diagnosed
+                if new.tick % interval:
+                    for name in KEYFRAME_ONLY:
+                        arrays[name] = _EMPTY
+                mine = encode_tick(new.tick, new.tick * sr.dt_s, new.state.n, arrays)
+                res.numbers_compared += sum(np.size(a) for a in arrays.values())
+                if mine == recorded.raw:
+                    continue
+            else:
+                res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
+            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n)
+            if hit is None and ship_slice is None:  # same numbers, different bytes
+                hit = (0, "tick", 0, float(recorded.tick), float(new.tick))
             if hit is not None:
                 ship, name, comp, a, b = hit
-                fld = f"{name}[{comp}]" if WIDTH[name] > 1 else name
+                fld = f"{name}[{comp}]" if WIDTH.get(name, 1) > 1 else name
                 res.divergence = Divergence(recorded.tick, recorded.t_s, ids[ship], fld, a, b)
                 res.recent_events = [
                     f"tick {e.tick}: {e.event} {_label(e.from_state)} -> {_label(e.to_state)}"
