@@ -4,7 +4,7 @@
     touchdown record topple -o /tmp/topple.mcap
     python docs/figure.py /tmp/bounce.mcap /tmp/topple.mcap docs/touchdown.png
 
-Needs matplotlib (``pip install -e '.[charts]'``).
+Needs matplotlib (``pip install -e '.[bench]'``).
 """
 from __future__ import annotations
 

@@ -3,14 +3,14 @@
 The critical tilt is where the centre of mass passes over the rim foot, atan(leg_radius /
 com_height); below it the footprint rights the ship, above it the ship falls onto its side. A fall
 from rest is timed against I_p theta'' = m g L sin(theta - theta_c) with I_p the inertia about the
-pivot (tests/reference.py), and is shown to be far from the seed's inertia-about-the-centre-of-mass
+pivot (bench/reference.py), and is shown to be far from the seed's inertia-about-the-centre-of-mass
 version, which topples about twice too fast.
 """
 import math
 
 import pytest
 
-from reference import critical_angle_rad, topple_time
+from bench.reference import critical_angle_rad, topple_time
 from scenes import events, final_state, records, scene, topics
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.enums import SurfaceState

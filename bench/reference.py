@@ -1,4 +1,5 @@
-"""Independent references for the physics tests. Nothing here imports the simulation.
+"""Independent references for the physics tests and the accuracy benchmark. Nothing here imports
+the simulation.
 
 * The vertical bounce of an upright lander: x = penetration (+ down), v = x' (+ down),
       x'' = g(r) - max(0, w^2 x + 2 zeta w v)   while x > 0,   x'' = g(r) otherwise,
