@@ -1,0 +1,182 @@
+"""The command line's contract (SPEC.md section 2): exit codes, one-line errors naming the file and
+key, nothing half-written, both entry points, the export fields, Ctrl-C."""
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+import scenarios
+from cli import main
+from logs.mcap_log import LogReader
+
+ROOT = Path(__file__).resolve().parents[1]
+GOOD = """
+name = "ok"
+duration = 1.0
+[[ships]]
+id = "a"
+[ships.initial]
+altitude = 1.0
+vertical_speed = -3.0
+"""
+
+
+def invoke(*args):
+    r = CliRunner().invoke(main, [str(a) for a in args])
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    return r
+
+
+def test_scenarios_lists_at_least_twelve_and_each_records(tmp_path):
+    r = invoke("scenarios")
+    assert r.exit_code == 0
+    lines = r.output.strip().splitlines()
+    assert len(lines) >= 12
+    names = [ln.split()[0] for ln in lines]
+    assert names == scenarios.names()
+    assert all(len(ln.split(None, 1)) == 2 for ln in lines)  # name and a description
+    for name in names:
+        out = tmp_path / f"{name}.mcap"
+        r = invoke("record", name, "--set", "duration=1", "-o", out)
+        assert r.exit_code == 0, (name, r.output)
+        assert out.stat().st_size > 0
+
+
+@pytest.mark.parametrize("text,key", [
+    (GOOD + "colour = 1\n", "colour"),
+    (GOOD.replace('[[ships]]', '[contact]\ncrash_sped = 1\n[[ships]]'), "contact.crash_sped"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmas = 3'), "ships[0].mas"),
+    (GOOD.replace("altitude = 1.0", "altitude = 1.0\nspin = 2"), "ships[0].initial.spin"),
+    (GOOD.replace('name = "ok"', ""), "name"),
+    (GOOD.replace("duration = 1.0", ""), "duration"),
+    ('name = "x"\nduration = 1.0\n', "ships"),
+    (GOOD.replace('id = "a"', 'player_id = "p"'), "ships[0].id"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmass = nan'), "ships[0].mass"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmass = inf'), "ships[0].mass"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmass = -5.0'), "ships[0].mass"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmass = "heavy"'), "ships[0].mass"),
+    (GOOD.replace('id = "a"', 'id = "a"\nmass = true'), "ships[0].mass"),
+    (GOOD.replace("[[ships]]", "[contact]\nfriction_kinetic = 0.9\n[[ships]]"),
+     "contact.friction_kinetic"),
+    (GOOD.replace("[[ships]]", "[contact]\nbounce_speed = 60.0\n[[ships]]"), "contact.bounce_speed"),
+    (GOOD.replace("[[ships]]", '[sim]\nintegrator = "magic"\n[[ships]]'), "sim.integrator"),
+    (GOOD.replace("altitude = 1.0\nvertical_speed = -3.0",
+                  'state = "tipped"\ntilt_deg = 40.0'), "ships[0].initial.tilt_deg"),
+    (GOOD + "[oops\n", "(syntax)"),
+])
+def test_bad_scenarios_exit_2_with_one_line_naming_file_and_key(tmp_path, text, key):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    out = tmp_path / "out.mcap"
+    r = invoke("record", path, "-o", out)
+    assert r.exit_code == 2, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.output
+    assert "bad.toml" in lines[0] and key in lines[0], lines[0]
+    assert not out.exists() and not Path(str(out) + ".partial").exists()
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["no-such-scenario"], "no-such-scenario"),
+    (["missing.toml"], "missing.toml"),
+    (["bounce", "--set", "sim.dt=-1"], "sim.dt"),
+    (["bounce", "--set", "nonsense.key=1"], "nonsense"),
+    (["bounce", "--set", "novalue"], "novalue"),
+])
+def test_bad_arguments_exit_2(tmp_path, args, needle):
+    out = tmp_path / "o.mcap"
+    r = invoke("record", *args, "-o", out)
+    assert r.exit_code == 2 and needle in r.output and "Traceback" not in r.output, r.output
+    assert not out.exists()
+
+
+def test_set_overrides_reach_the_run(tmp_path):
+    out = tmp_path / "o.mcap"
+    r = invoke("record", "bounce", "--set", "sim.dt=0.02", "--set", "ships[0].mass=9000",
+               "--set", "duration=1", "-o", out)
+    assert r.exit_code == 0, r.output
+    rows = [json.loads(x) for x in invoke("export", out).output.splitlines()]
+    assert rows[1]["t"] == pytest.approx(0.02)
+    assert rows[0]["mass"] == 9000.0
+    assert len(rows) == 51
+
+
+EXPORT_FIELDS = {"tick", "t", "ship_id", "state", "altitude", "penetration", "tilt_deg", "v_radial",
+                 "v_tangential", "normal_force", "friction_force", "fuel_mass"}
+EVENT_FIELDS = {"event", "tick", "t", "ship_id", "player_id", "body", "from_state", "to_state"}
+
+
+def test_export_gives_spec_fields_per_ship_per_tick_and_per_event(tmp_path):
+    out = tmp_path / "b.mcap"
+    assert invoke("record", "bounce", "-o", out).exit_code == 0
+    rows = [json.loads(x) for x in invoke("export", out).output.splitlines()]
+    assert len(rows) == 601 and all(EXPORT_FIELDS <= set(r) for r in rows)
+    assert {r["state"] for r in rows} <= {"flying", "contact", "landed", "tipped", "crashed"}
+    assert rows[-1]["state"] == "landed" and rows[0]["state"] == "flying"
+    assert [r["tick"] for r in rows] == list(range(601))
+    events = [json.loads(x) for x in invoke("export", out, "--events").output.splitlines()]
+    assert all(EVENT_FIELDS <= set(e) for e in events)
+    assert [e["event"] for e in events] == ["ship.contact", "ship.liftoff", "ship.contact",
+                                           "ship.landed"]
+    assert events[0]["player_id"] == "player-1" and events[0]["body"] == "Luna"
+    file_out = tmp_path / "rows.jsonl"
+    assert invoke("export", out, "-o", file_out).exit_code == 0
+    assert file_out.read_text() == invoke("export", out).output
+
+
+def test_export_of_a_bad_file_is_one_line_exit_2(tmp_path):
+    for name, data in (("missing.mcap", None), ("junk.mcap", b"not an mcap at all" * 50)):
+        path = tmp_path / name
+        if data is not None:
+            path.write_bytes(data)
+        r = invoke("export", path)
+        assert r.exit_code == 2 and name in r.output and "Traceback" not in r.output
+        assert len(r.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("cmd", [[], ["scenarios"], ["record"], ["export"], ["replay"], ["bench"]])
+def test_every_command_has_help(cmd):
+    r = invoke(*cmd, "--help")
+    assert r.exit_code == 0 and "Usage" in r.output
+
+
+def test_both_entry_points_work(tmp_path):
+    script = Path(sys.executable).with_name("touchdown")
+    for argv in ([sys.executable, str(ROOT / "cli.py")], [str(script)]):
+        r = subprocess.run(argv + ["scenarios"], capture_output=True, text=True, cwd=tmp_path,
+                           timeout=60)
+        assert r.returncode == 0 and "bounce" in r.stdout, r.stderr
+        r = subprocess.run(argv + ["record", "nope"], capture_output=True, text=True,
+                           cwd=tmp_path, timeout=60)
+        assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_ctrl_c_leaves_a_finished_log_of_what_was_simulated(tmp_path):
+    out = tmp_path / "long.mcap"
+    proc = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), "record", "bounce", "--set",
+                             "duration=100000", "-o", str(out)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    partial = Path(str(out) + ".partial")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (partial.exists() and partial.stat().st_size > 20_000):
+        time.sleep(0.1)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert out.exists() and not partial.exists()
+    with LogReader(out) as reader:
+        assert reader.status.complete  # a finished MCAP: footer and summary
+        ticks = [td.tick for td in reader.ticks()]
+        summary = reader.read_summary()
+    assert ticks == list(range(len(ticks))) and len(ticks) > 10
+    assert summary.complete is False and summary.reason == "interrupted"
+    assert summary.last_tick == ticks[-1]
+    r = invoke("replay", out, "--verify")
+    assert r.exit_code == 0, r.output
