@@ -92,6 +92,34 @@ def fleet_recording(n_ships: int, n_ticks: int, path: str) -> float:
     return n_ships * (n_ticks + 1) / (time.perf_counter() - t0)
 
 
+STATE_SCENES = {
+    "flying, far above (one step a tick, no contact work)": {"altitude": 5000.0},
+    "flying, near the ground (sub-stepped)": {"altitude": 3.0, "vertical_speed": 0.0},
+    "contact (sliding, sub-stepped)": {"state": "contact", "altitude": -0.016,
+                                       "horizontal_speed": 3.0},
+    "landed (pinned)": {"state": "landed"},
+    "tipped (pinned, pivot dynamics)": {"state": "tipped", "tilt_deg": 90.0},
+}
+
+
+def state_costs(n_ships: int = 1000, n_ticks: int = 40) -> list[tuple[str, float]]:
+    """Microseconds per ship-tick for a batch whose ships all stay in one state."""
+    out = []
+    for label, ini in STATE_SCENES.items():
+        ships = [{"id": f"s{i}", "initial": {**ini, "east": float(i)}} for i in range(n_ships)]
+        # flying near the ground: hover with thrust equal to weight so that it stays there
+        inputs = [{"t": 0.0, "throttle": 10000.0 * 1.625 / 60000.0}] if "near" in label else []
+        for sh in ships:
+            sh["inputs"] = inputs
+        scn = parse({"name": "cost", "duration": n_ticks * 0.05, "ships": ships}, "bench")
+        st, inp = scn.initial, scn.inputs_at(0)
+        t0 = time.perf_counter()
+        for _ in range(n_ticks):
+            st, _, _ = step(scn.params, st, inp)
+        out.append((label, (time.perf_counter() - t0) / (n_ships * n_ticks) * 1e6))
+    return out
+
+
 def main(quick: bool = False) -> None:
     one_ticks = 5_000 if quick else 100_000
     fleet_ticks = 10 if quick else 100
@@ -107,6 +135,9 @@ def main(quick: bool = False) -> None:
         size = os.path.getsize(os.path.join(tmp, "fleet.mcap"))
         print(f"10,000 ships, stepping + full log ({fleet_ticks} ticks): {rate:,.0f} ship-ticks/s "
               f"(log {size / 1e6:.1f} MB)")
+    print("cost per ship-tick by state (batches of 1,000 ships in one state, default method):")
+    for label, us in state_costs(1000, 10 if quick else 40):
+        print(f"  {label:<55} {us:8.2f} us")
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak_mib:,.0f} MiB")
 
