@@ -180,3 +180,29 @@ def test_ctrl_c_leaves_a_finished_log_of_what_was_simulated(tmp_path):
     assert summary.last_tick == ticks[-1]
     r = invoke("replay", out, "--verify")
     assert r.exit_code == 0, r.output
+
+
+def test_progress_bar_on_a_terminal_and_quiet_otherwise(tmp_path):
+    import os
+    import pty
+    out = tmp_path / "p.mcap"
+    argv = [sys.executable, str(ROOT / "cli.py"), "record", "bounce", "--set", "duration=100",
+            "-o", str(out)]
+    pid, fd = pty.fork()
+    if pid == 0:  # the child runs the command on the pseudo-terminal
+        os.chdir(ROOT)
+        os.execv(argv[0], argv)
+    chunks = []
+    while True:
+        try:
+            data = os.read(fd, 4096)
+        except OSError:
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.waitpid(pid, 0)
+    shown = b"".join(chunks).decode(errors="replace")
+    assert "ticks" in shown and "/2000" in shown.replace(" ", ""), shown[-500:]
+    quiet = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert quiet.returncode == 0 and "/2000" not in quiet.stdout.replace(" ", "")
