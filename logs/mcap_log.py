@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
@@ -224,7 +223,7 @@ class TickData:
 
     def state(self) -> State:
         """The full state recorded at this tick (a keyframe)."""
-        n, a = self.ship_count, self.arrays
+        a = self.arrays
         if not self.is_keyframe:
             raise LogError(f"tick {self.tick} is not a keyframe")
         try:

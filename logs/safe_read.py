@@ -14,7 +14,6 @@ Every failure is a :class:`logs.LogError` with one line naming the file.
 from __future__ import annotations
 
 import io
-import struct
 from dataclasses import dataclass
 from typing import IO, Iterator
 
@@ -152,4 +151,3 @@ def _walk(f, name: str, wanted, status: ReadStatus) -> Iterator[tuple[str, int, 
 
 
 __all__ = ["iter_messages", "ReadStatus", "MAX_RECORD_BYTES"]
-_ = struct

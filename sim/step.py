@@ -411,7 +411,7 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
     (d: pivot to centre of mass), resting on the hull at ``tipped_rest_deg``; righted (back to
     contact) when tilt < tipped_angle while turning upright. A hull impact faster than
     ``crash_speed`` (the centre of mass's speed) crashes the ship."""
-    cp, dt, sh = params.contact, params.sim.dt_s, params.ships
+    cp, dt = params.contact, params.sim.dt_s
     n = st.n
     surf = st.surface_state.copy()
     p_bf, q_bf, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m

@@ -1,6 +1,5 @@
 """Friction against the Coulomb law (SEED-NOTES 4): stopping distance v0^2 / (2 mu_k g), stopping
 time v0 / (mu_k g), exact hold at rest, and the seed's velocity-reset law kept reachable."""
-import math
 
 import numpy as np
 import pytest

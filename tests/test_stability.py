@@ -1,13 +1,12 @@
 """Stability of each method on the contact oscillator (SEED-NOTES 8): the theoretical bound, the
 simulation failing just past it and holding just inside it, and the guard that sub-steps or
 refuses an unstable scene."""
-import cmath
 import math
 
 import numpy as np
 import pytest
 
-from scenes import records, scene, series, topics
+from scenes import records, scene, series
 from sim.scenario import ScenarioError
 from sim.stability import largest_stable_wh
 
