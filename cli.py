@@ -2,8 +2,8 @@
 2 bad usage or bad input (one line on stderr naming the file, key or field; no traceback)."""
 from __future__ import annotations
 
-import json
 import re
+import signal
 import sys
 import tomllib
 from pathlib import Path
@@ -123,6 +123,15 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
     n_ticks = scn.params.sim.n_ticks
     prog = _progress(n_ticks, scn.name)
     events = 0
+    # Ctrl-C asks the loop to stop after the tick in hand, so that no library call (compression,
+    # a chunk being written) is cut in half; a second Ctrl-C interrupts at once.
+    stop = {"asked": False}
+
+    def ask_to_stop(signum, frame):
+        stop["asked"] = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    previous = signal.signal(signal.SIGINT, ask_to_stop)
     try:
         with writer:
             for rec in run(scn):
@@ -132,6 +141,8 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
                     publisher.publish(msgs)
                 if prog is not None and rec.tick % 50 == 0:
                     prog.update(prog.task_ids[0], completed=rec.tick)
+                if stop["asked"]:
+                    raise KeyboardInterrupt
     except KeyboardInterrupt:
         if prog is not None:
             prog.stop()
@@ -141,6 +152,7 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
     except LogError as exc:
         raise click.ClickException(str(exc)) from None
     finally:
+        signal.signal(signal.SIGINT, previous)
         if prog is not None:
             prog.stop()
         if publisher is not None:

@@ -167,7 +167,7 @@ def test_ctrl_c_leaves_a_finished_log_of_what_was_simulated(tmp_path):
         time.sleep(0.1)
     time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     assert out.exists() and not partial.exists()
