@@ -51,3 +51,19 @@ def test_default_method_matches_exact_bounce_to_1_percent(v0):
     assert peak == pytest.approx(ref.max_penetration_m, rel=0.005)
     assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.005)
     assert apex == pytest.approx(ref.apex_m, rel=0.005)
+
+
+@pytest.mark.parametrize("v0", [20.0, 45.0])
+def test_default_method_matches_exact_bounce_under_earth_gravity(v0):
+    """A heavy body: g = 9.8 m/s^2 (SEED-NOTES 1: restitution depends on v / (g / w))."""
+    from sim.constants import EARTH_GM_M3PS2, EARTH_RADIUS_M
+    g = EARTH_GM_M3PS2 / EARTH_RADIUS_M ** 2
+    alt0 = 0.3
+    recs = records(scene({"altitude": alt0, "vertical_speed": -v0},
+                         body={"name": "Earth", "radius": EARTH_RADIUS_M, "gm": EARTH_GM_M3PS2},
+                         duration=2 * v0 / g + 1))
+    v_imp, peak, v_sep, apex = first_bounce(recs)
+    ref = bounce_ode(EARTH_GM_M3PS2, EARTH_RADIUS_M, math.sqrt(v0 * v0 + 2 * g * alt0))
+    assert peak == pytest.approx(ref.max_penetration_m, rel=0.005)
+    assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.005)
+    assert apex == pytest.approx(ref.apex_m, rel=0.005)
