@@ -7,9 +7,11 @@ names the file and the key (``bounce.toml: ships[0].initial.tilt_deg: ...``).
 """
 from __future__ import annotations
 
+import bisect
 import math
 import tomllib
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Callable
 
 import numpy as np
@@ -190,13 +192,21 @@ class Scenario:
             n = self.initial.n
             base = Inputs(np.zeros(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8))
             from_tick = -1
+        ticks = self._change_ticks
+        lo = bisect.bisect_right(ticks, from_tick)
+        hi = bisect.bisect_right(ticks, tick)
+        if lo == hi:
+            return base  # nothing changes: the same commands (Inputs is never mutated)
         throttle, rcs, hold = base.throttle.copy(), base.rcs.copy(), base.hold.copy()
-        for ch in self.input_changes:
-            if from_tick < ch.tick <= tick:
-                throttle[ch.ship] = ch.throttle
-                rcs[ch.ship] = ch.rcs
-                hold[ch.ship] = ch.hold
+        for ch in self.input_changes[lo:hi]:
+            throttle[ch.ship] = ch.throttle
+            rcs[ch.ship] = ch.rcs
+            hold[ch.ship] = ch.hold
         return Inputs(throttle, rcs, hold)
+
+    @cached_property
+    def _change_ticks(self) -> list[int]:
+        return [ch.tick for ch in self.input_changes]
 
 
 def parse_text(text: str, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
