@@ -173,14 +173,16 @@ def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarr
     return rotate_z(p, c, -s), vec.quat_mul(quat_z(c, -s, p.shape[0]), q)
 
 
+Transition = tuple[int, int, int, float]  # (ship, from state, to state, v_radial m/s)
+
+
 def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
-                t0_s: float
-                ) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int, int, float]]]:
+                t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[Transition]]:
     """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
 
     Returns the new sub-batch, the last sub-step's friction force (N), the normal force at the
-    end (N), the deepest penetration of any sub-step (m), and transitions as (local ship index, from, to, v_radial) in the order
-    they happened."""
+    end (N), the deepest penetration of any sub-step (m), and the transitions as (local ship
+    index, from, to, v_radial) in the order they happened."""
     cp, dt = params.contact, params.sim.dt_s
     h = dt / n_sub
     fb = _free_bodies(params, st, cmd, touching)
@@ -195,7 +197,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     pivot_rate = st.pivot_rate_radps.copy()
     friction_n = np.zeros(n)
     active = np.ones(n, dtype=bool)
-    transitions: list[tuple[int, int, int, float]] = []
+    transitions: list[Transition] = []
     peak = np.zeros(n)
     ground = fb.ground_at(t0_s)
     ce = contact_at(fb, ground, p, v, q, w, absorbing)
@@ -401,7 +403,7 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
-           ) -> tuple[State, list[tuple[int, int, int, float]]]:
+           ) -> tuple[State, list[Transition]]:
     """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
     frame at the tick's end; liftoff when the engine's push along local up beats the weight; tipped
     ships turn about their pivot foot:
@@ -420,7 +422,7 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
     ez = vec.quat_axis_z(q_bf)
     m = st.mass_kg
     g = params.body.gm_m3ps2 / vec.dot(p_bf, p_bf)
-    transitions: list[tuple[int, int, int, float]] = []
+    transitions: list[Transition] = []
 
     tipped = surf == TIPPED
     if tipped.any():
