@@ -37,10 +37,10 @@ class Ground:
     sin_theta: float
 
     def surface_radius_m(self, point: np.ndarray) -> np.ndarray:
-        """Body radius plus terrain height under inertial points (..., 3)."""
+        """Body radius plus terrain height under inertial points (N,3)."""
         # body-fixed coordinates: rotate by -theta about z; east = y_bf, north = z_bf
-        east = -self.sin_theta * point[..., 0] + self.cos_theta * point[..., 1]
-        north = point[..., 2]
+        east = -self.sin_theta * point[:, 0] + self.cos_theta * point[:, 1]
+        north = point[:, 2]
         return self.radius_m + self.terrain.height_m(east, north)
 
 
@@ -66,30 +66,27 @@ def body_axes(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def foot_offsets_w(q: np.ndarray, leg_radius_m: np.ndarray, com_height_m: np.ndarray
-                   ) -> np.ndarray:
-    """Each foot's position relative to the centre of mass, inertial: (N, 4, 3)."""
+                   ) -> list[np.ndarray]:
+    """Each foot's position relative to the centre of mass, inertial, four arrays (N,3)."""
     ex, ey, ez = body_axes(q)
     down = vec.scale(ez, -com_height_m)
-    out = np.empty((q.shape[0], len(LEG_DIRECTIONS_BODY), 3))
-    for i, (dx, dy) in enumerate(LEG_DIRECTIONS_BODY):
+    out = []
+    for dx, dy in LEG_DIRECTIONS_BODY:
         lateral = ex if dx else ey
         sign = dx if dx else dy
-        out[:, i] = down + vec.scale(lateral, sign * leg_radius_m)
+        out.append(down + vec.scale(lateral, sign * leg_radius_m))
     return out
-
-
-def _sum_feet(x: np.ndarray) -> np.ndarray:
-    """Sum over the feet axis in a fixed order (no reduction whose order could vary)."""
-    return x[:, 0] + x[:, 1] + x[:, 2] + x[:, 3]
 
 
 def lowest_foot_penetration(pos_m: np.ndarray, quat: np.ndarray, leg_radius_m: np.ndarray,
                             com_height_m: np.ndarray, ground: Ground) -> np.ndarray:
     """Penetration of the deepest foot (negative: height of the lowest foot above its ground);
     the same numbers as :func:`evaluate`'s ``max_penetration_m``, without the forces."""
-    foot = pos_m[:, None, :] + foot_offsets_w(quat, leg_radius_m, com_height_m)
-    pen = ground.surface_radius_m(foot) - vec.norm(foot)
-    return np.maximum(np.maximum(pen[:, 0], pen[:, 1]), np.maximum(pen[:, 2], pen[:, 3]))
+    deepest = np.full(pos_m.shape[0], -np.inf)
+    for offset in foot_offsets_w(quat, leg_radius_m, com_height_m):
+        foot = pos_m + offset
+        deepest = np.maximum(deepest, ground.surface_radius_m(foot) - vec.norm(foot))
+    return deepest
 
 
 def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: np.ndarray,
@@ -97,36 +94,43 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
              c_nspm: np.ndarray, c_absorb_nspm: np.ndarray, absorbing: np.ndarray,
              ground: Ground, engage_m: np.ndarray | float = 0.0) -> ContactEval:
     """Normal force, its moment, and penetration for every ship (see the module docstring).
-    The four feet are one axis of the arrays, (N, 4, ...); their sums run in a fixed order.
 
     ``engage_m``: a foot counts as touching from ``pen > -engage_m``; a step that starts exactly
     at the surface crossing passes a micrometre so that rounding cannot leave out the damper's
     jump at its first stage."""
     n = pos_m.shape[0]
-    offset = foot_offsets_w(quat, leg_radius_m, com_height_m)
-    foot = pos_m[:, None, :] + offset
-    r_foot = vec.norm(foot)
-    n_hat = foot / r_foot[..., None]
-    pen = ground.surface_radius_m(foot) - r_foot
-    v_foot = vel_mps[:, None, :] + vec.cross(omega_w[:, None, :], offset)
-    pen_rate = -vec.dot(v_foot, n_hat)
-    k_leg = (0.25 * k_npm)[:, None]
-    c_leg = np.where(absorbing, 0.25 * c_absorb_nspm, 0.25 * c_nspm)[:, None]
-    f = k_leg * pen + c_leg * pen_rate
-    f = np.where(absorbing[:, None], f, np.maximum(f, 0.0))
-    engage = engage_m[:, None] if np.ndim(engage_m) else engage_m
-    f = np.where(pen > -engage, f, 0.0)
-    f_vec = vec.scale(n_hat, f)
-    a = np.abs(f)
-    weight = _sum_feet(a)
-    deepest = np.argmax(pen, axis=1)  # the first of equals, as a strict > scan would keep
-    rows = np.arange(n)
-    lowest = foot[rows, deepest]
+    force = np.zeros((n, 3))
+    torque = np.zeros((n, 3))
+    normal = np.zeros(n)
+    weight = np.zeros(n)
+    cop = np.zeros((n, 3))
+    max_pen = np.full(n, -np.inf)
+    lowest = np.zeros((n, 3))
+    k_leg = 0.25 * k_npm
+    c_leg = np.where(absorbing, 0.25 * c_absorb_nspm, 0.25 * c_nspm)
+    for offset in foot_offsets_w(quat, leg_radius_m, com_height_m):
+        foot = pos_m + offset
+        r_foot = vec.norm(foot)
+        n_hat = foot / r_foot[:, None]
+        pen = ground.surface_radius_m(foot) - r_foot
+        v_foot = vel_mps + vec.cross(omega_w, offset)
+        pen_rate = -vec.dot(v_foot, n_hat)
+        f = k_leg * pen + c_leg * pen_rate
+        f = np.where(absorbing, f, np.maximum(f, 0.0))
+        f = np.where(pen > -engage_m, f, 0.0)
+        f_vec = vec.scale(n_hat, f)
+        force += f_vec
+        torque += vec.cross(offset, f_vec)
+        normal += f
+        a = np.abs(f)
+        weight += a
+        cop += vec.scale(foot, a)
+        deeper = pen > max_pen
+        lowest = np.where(deeper[:, None], foot, lowest)
+        max_pen = np.where(deeper, pen, max_pen)
     pressed = weight > 0.0
-    cop = _sum_feet(vec.scale(foot, a))
     cop = np.where(pressed[:, None], cop / np.where(pressed, weight, 1.0)[:, None], lowest)
-    return ContactEval(_sum_feet(f_vec), _sum_feet(vec.cross(offset, f_vec)), _sum_feet(f),
-                       pen[rows, deepest], cop, lowest)
+    return ContactEval(force, torque, normal, max_pen, cop, lowest)
 
 
 def no_contact(n: int, pos_m: np.ndarray) -> ContactEval:

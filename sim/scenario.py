@@ -478,8 +478,13 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
     spin_w[:, 2] = om
     omega = np.array([s["initial"]["angular_velocity"] for s in ships]) + vec.quat_rotate_inv(quat, spin_w)
     offsets = foot_offsets_w(quat, params.ships.leg_radius_m, params.ships.com_height_m)
-    radial = vec.dot(offsets, vec.unit(pos)[:, None, :])  # (N, 4): each foot's height
-    lowest = pos + offsets[np.arange(n), np.argmin(radial, axis=1)]
+    radial = [vec.dot(o, vec.unit(pos)) for o in offsets]
+    lowest = np.zeros((n, 3))
+    best = np.full(n, np.inf)
+    for o, rd in zip(offsets, radial):
+        lower = rd < best
+        lowest = np.where(lower[:, None], pos + o, lowest)
+        best = np.where(lower, rd, best)
     return State(
         tick=0, surface_state=surf, pos_m=pos, vel_mps=vel, quat=quat, omega_body_radps=omega,
         mass_kg=params.ships.mass0_kg.copy(), fuel_kg=params.ships.fuel0_kg.copy(),

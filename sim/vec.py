@@ -16,16 +16,16 @@ Array = np.ndarray
 
 
 def dot(a: Array, b: Array) -> Array:
-    """a . b over the last axis: (..., 3) arrays -> (...)."""
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+    """a . b for (N,3) arrays -> (N,)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def cross(a: Array, b: Array) -> Array:
-    """a x b over the last axis: (..., 3) arrays -> (..., 3)."""
+    """a x b for (N,3) arrays -> (N,3)."""
     out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     return out
 
 
@@ -35,8 +35,8 @@ def norm(a: Array) -> Array:
 
 
 def scale(a: Array, s: Array) -> Array:
-    """a * s for (..., 3) and (...) -> (..., 3)."""
-    return a * s[..., None]
+    """a * s for (N,3) and (N,) -> (N,3)."""
+    return a * s[:, None]
 
 
 def unit(a: Array) -> Array:
