@@ -54,6 +54,12 @@ class ContactEval:
     max_penetration_m: np.ndarray  # (N,) deepest foot (negative: lowest foot's height above ground)
     cop_w: np.ndarray  # (N, 3) centre of pressure; the lowest foot where nothing presses
     lowest_foot_w: np.ndarray  # (N, 3) the deepest (or lowest) foot
+    # The pressing feet (those whose force is not clamped away) as one linear spring-damper, for
+    # the exact method (sim.integrators.exponential): sums over them of k_i, c_i, k_i x_i, k_i x_i'.
+    stiffness_npm: np.ndarray  # (N,)
+    damping_nspm: np.ndarray  # (N,)
+    spring_load_n: np.ndarray  # (N,)
+    spring_load_rate_nps: np.ndarray  # (N,)
 
 
 def body_axes(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,6 +112,7 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
     cop = np.zeros((n, 3))
     max_pen = np.full(n, -np.inf)
     lowest = np.zeros((n, 3))
+    stiff, damp, load, load_rate = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     k_leg = 0.25 * k_npm
     c_leg = np.where(absorbing, 0.25 * c_absorb_nspm, 0.25 * c_nspm)
     for offset in foot_offsets_w(quat, leg_radius_m, com_height_m):
@@ -116,8 +123,13 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
         v_foot = vel_mps + vec.cross(omega_w, offset)
         pen_rate = -vec.dot(v_foot, n_hat)
         f = k_leg * pen + c_leg * pen_rate
+        pressing = (pen > -engage_m) & (absorbing | (f > 0.0))
         f = np.where(absorbing, f, np.maximum(f, 0.0))
         f = np.where(pen > -engage_m, f, 0.0)
+        stiff += np.where(pressing, k_leg, 0.0)
+        damp += np.where(pressing, c_leg, 0.0)
+        load += np.where(pressing, k_leg * pen, 0.0)
+        load_rate += np.where(pressing, k_leg * pen_rate, 0.0)
         f_vec = vec.scale(n_hat, f)
         force += f_vec
         torque += vec.cross(offset, f_vec)
@@ -130,10 +142,10 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
         max_pen = np.where(deeper, pen, max_pen)
     pressed = weight > 0.0
     cop = np.where(pressed[:, None], cop / np.where(pressed, weight, 1.0)[:, None], lowest)
-    return ContactEval(force, torque, normal, max_pen, cop, lowest)
+    return ContactEval(force, torque, normal, max_pen, cop, lowest, stiff, damp, load, load_rate)
 
 
 def no_contact(n: int, pos_m: np.ndarray) -> ContactEval:
     """The evaluation of ships known to be clear of the ground for the whole step."""
-    z3 = np.zeros((n, 3))
-    return ContactEval(z3, z3, np.zeros(n), np.full(n, -np.inf), pos_m, pos_m)
+    z3, z1 = np.zeros((n, 3)), np.zeros(n)
+    return ContactEval(z3, z3, z1, np.full(n, -np.inf), pos_m, pos_m, z1, z1, z1, z1)

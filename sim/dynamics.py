@@ -42,6 +42,9 @@ class FreeBodies:
     body_omega_radps: float
     params: Params
     touching: bool  # False: these ships cannot reach the ground this tick; skip the contact work
+    #: a foot presses from penetration > -engage_m (per ship or one number); negative while a
+    #: ship is stepped up to the instant its feet reach the ground (sim.step.free_flight)
+    engage_m: np.ndarray | float = 0.0
 
     def ground_at(self, t_s: float) -> Ground:
         theta = self.body_omega_radps * t_s
@@ -50,14 +53,16 @@ class FreeBodies:
 
 
 def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
-               engage_m: np.ndarray | float = 0.0) -> ContactEval:
+               engage_m: np.ndarray | float | None = None) -> ContactEval:
     """The ground's action at one state. ``ground`` fixes the body's rotation angle: it is taken
-    at the start of each sub-step and held over it (Omega h < 1e-6 rad for any real body)."""
+    at the start of each sub-step and held over it (Omega h < 1e-6 rad for any real body).
+    ``engage_m`` overrides ``fb.engage_m``."""
     if not fb.touching:
         return no_contact(p.shape[0], p)
     omega_w = vec.quat_rotate(q, w_b)
     return evaluate(p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm,
-                    fb.c_absorb_nspm, absorbing, ground, engage_m)
+                    fb.c_absorb_nspm, absorbing, ground,
+                    fb.engage_m if engage_m is None else engage_m)
 
 
 def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):

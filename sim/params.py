@@ -27,6 +27,9 @@ class SimParams:
     integrator: str = "rk4"
     max_substep_s: float = 0.025
     duration_s: float = 30.0
+    #: with a method exact on the spring, purely vertical ships take one step per tick
+    #: (sim.step.purely_vertical); False sub-steps them like every other ship near the ground
+    vertical_one_step: bool = True
 
     @cached_property
     def n_ticks(self) -> int:

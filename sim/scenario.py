@@ -62,7 +62,8 @@ TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0
 SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
        "integrator": ("str", "rk4", _choice(METHODS)),
        "max_substep": ("float", 0.025, _range(0.0, 1.0)),
-       "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"}))}
+       "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
+       "vertical_one_step": ("bool", True, None)}
 CONTACT = {
     "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
     "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
@@ -329,14 +330,31 @@ def contact_omega_max(con: dict, ships: list[dict]) -> float:
     return math.sqrt(w2)
 
 
+def rocking_omega_max(con: dict, ships: list[dict]) -> float:
+    """The fastest rocking mode of the scene, rad/s: the ship turning about a transverse axis on
+    the feet's springs alone (its centre of mass held), w^2 = (k/2) a^2 / I_transverse (the two
+    feet off that axis, each k/4 at lever arm leg_radius). The load's destabilising moment
+    (m g com_height) only slows it, so this bounds it from above."""
+    kpm = con["stiffness_per_kg"]
+    w2 = 0.0
+    for sh in ships:
+        i_t = min(sh["inertia"][0], sh["inertia"][1])
+        w2 = max(w2, 0.5 * kpm * sh["mass"] * sh["leg_radius"] ** 2 / i_t)
+    return math.sqrt(w2)
+
+
 def _check_stability(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> None:
     """SEED-NOTES 8: refuse, or sub-step further, a method and sub-step that would be unstable on
-    the scene's stiffest contact mode (sim.stability explains the bound); ``allow`` runs it anyway."""
-    from sim.stability import largest_stable_wh
+    the scene's stiffest contact mode (sim.stability explains the bound); ``allow`` runs it anyway.
+    A method that solves the spring exactly is limited by its kicks on the rocking modes only."""
+    from sim.stability import KICKS, largest_stable_wh
     n_sub = 1 if sim["max_substep"] <= 0.0 else max(1, math.ceil(sim["dt"] / sim["max_substep"] - 1e-9))
     h = sim["dt"] / n_sub
-    w = contact_omega_max(con, ships)
-    bound = min(largest_stable_wh(sim["integrator"], z)
+    if sim["integrator"] in KICKS:
+        w, limiting = rocking_omega_max(con, ships), KICKS[sim["integrator"]]
+    else:
+        w, limiting = contact_omega_max(con, ships), sim["integrator"]
+    bound = min(largest_stable_wh(limiting, z)
                 for z in (con["damping_ratio"], con["absorb_damping_ratio"]))
     if w * h < bound * STABILITY_MARGIN or sim["on_unstable"] == "allow":
         return
@@ -412,7 +430,7 @@ def _build(res: dict) -> Scenario:
         friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
         stiffness_per_kg=con["stiffness_per_kg"])
     spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
-                     duration_s=res["duration"])
+                     duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"])
 
     def col(key, dtype=float):
         return np.array([s[key] for s in ships], dtype=dtype)

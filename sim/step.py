@@ -29,6 +29,7 @@ from sim.dynamics import FreeBodies, contact_at
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from sim.integrators import method
 from sim.params import Params
+from sim.stability import KICKS
 from sim.state import Event, Inputs, Outputs, State
 
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
@@ -139,6 +140,41 @@ def near_ground(params: Params, st: State, cmd: Commands) -> np.ndarray:
     return clearance < reach
 
 
+#: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
+#: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
+#: on Earth), which leaves an upright bounce turning at ~1e-10 rad/s: 1e-8 is rounding's level, and
+#: one exact step and many sub-steps of such a ship agree to ~1e-12 of its motion.
+VERTICAL_TOL2 = 1e-16
+
+
+def purely_vertical(params: Params, st: State, cmd: Commands) -> np.ndarray:
+    """Ships whose motion this tick is along the local vertical only: upright, not turning, not
+    slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
+    For them every kick of the exponential method is zero, so its one step per tick is already
+    exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
+    n = st.n
+    if params.body.omega_radps != 0.0:
+        return np.zeros(n, dtype=bool)
+    r_hat = vec.unit(st.pos_m)
+    tilt = vec.cross(vec.quat_axis_z(st.quat), r_hat)
+    v_rad = vec.dot(st.vel_mps, r_hat)
+    slip = st.vel_mps - vec.scale(r_hat, v_rad)
+    w = st.omega_body_radps
+    ok = ((vec.dot(tilt, tilt) < VERTICAL_TOL2) & (vec.dot(w, w) < VERTICAL_TOL2)
+          & (vec.dot(slip, slip) < VERTICAL_TOL2)
+          & (cmd.rcs_torque_body_nm[:, 0] == 0.0) & (cmd.rcs_torque_body_nm[:, 1] == 0.0)
+          & (cmd.rcs_torque_body_nm[:, 2] == 0.0))
+    ter = params.body.terrain
+    # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
+    reach = params.ships.leg_radius_m
+    for e0, n0, rad in zip(ter.bump_east_m, ter.bump_north_m, ter.bump_radius_m):
+        de = st.pos_m[:, 1] - e0
+        dn = st.pos_m[:, 2] - n0
+        clear = rad + reach + 1.0
+        ok &= de * de + dn * dn > clear * clear
+    return ok
+
+
 def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool) -> FreeBodies:
     cp = params.contact
     m = st.mass_kg
@@ -175,6 +211,11 @@ def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarr
 
 Transition = tuple[int, int, int, float]  # (ship, from state, to state, v_radial m/s)
 
+#: A step that ends (or starts) exactly where the feet reach the ground leaves them within rounding
+#: of it (ulp(|p|) ~ 2e-10 m on the Moon): the feet count as clear before that instant and as
+#: pressing from it, within this margin, so that all of an upright ship's feet engage together.
+ONSET_MARGIN_M = 1e-6
+
 
 def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
                 t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[Transition]]:
@@ -203,16 +244,18 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     ce = contact_at(fb, ground, p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
 
-    def substep(h_step, y, ce_start, sliding_start):
-        """One integrator step plus the friction impulse; returns (y, sliding, friction N)."""
-        y1, normal_mean = advance(fb, ground, h_step, y, ce_start, absorbing)
+    def substep(h_step, y, ce_start, sliding_start, bodies=fb):
+        """One integrator step plus the friction impulse; returns (y, sliding, friction N, the
+        method's own peak penetration inside the step or None)."""
+        res = advance(bodies, ground, h_step, y, ce_start, absorbing)
+        y1, normal_mean = res.y, res.normal_mean_n
         if not touching:
-            return y1, sliding_start, np.zeros(n)
+            return y1, sliding_start, np.zeros(n), res.peak_penetration_m
         v1, w1, sl, fr = friction.apply(
             cp.friction_model, cp.friction_static, cp.friction_kinetic, h_step,
             params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, y1[0], y1[1], y1[2], y1[3],
             normal_mean, ce_start.cop_w, sliding_start)
-        return (y1[0], v1, y1[2], w1), sl, fr
+        return (y1[0], v1, y1[2], w1), sl, fr, res.peak_penetration_m
 
     for j in range(n_sub):
         t_end = t0_s + (j + 1) * h
@@ -234,14 +277,20 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             crossing = (active & (surf == FLYING) & (z > 0.0) & (v_down > 0.0) & (disc >= 0.0)
                         & (denom > 0.0) & (tau < h))
             h_first = np.where(crossing, tau, h)
-        y1, sliding1, fr = substep(h_first, (p, v, q, w), ce, sliding)
+        # Up to the crossing the motion is ballistic by construction. Its last stage ends with
+        # the feet at the surface to within rounding, where some feet would press (with the
+        # damper's full jump c v) and others not: a spurious torque. They must not press there.
+        first = replace(fb, engage_m=np.where(crossing, -ONSET_MARGIN_M, 0.0)) if crossing.any() else fb
+        y1, sliding1, fr, inner_peak = substep(h_first, (p, v, q, w), ce, sliding, first)
         if crossing.any():
-            ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, 1e-6, 0.0))
-            y2, sliding2, fr2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
+            ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
+            y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
             c3 = crossing[:, None]
             y1 = tuple(np.where(c3, b, a) for a, b in zip(y1, y2))
             sliding1 = np.where(crossing, sliding2, sliding1)
             fr = np.where(crossing, fr2, fr)
+            if inner_peak is not None:
+                inner_peak = np.where(crossing, np.maximum(inner_peak, peak2), inner_peak)
         sliding = np.where(active, sliding1, sliding)
         keep = active[:, None]
         p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in zip(y1, (p, v, q, w)))
@@ -256,8 +305,11 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         cos_tilt = vec.dot(ez, r_hat)
         pen = ce.max_penetration_m
         if touching:
-            peak = np.where(active, np.maximum(peak, _hermite_peak(
-                pen_before, -v_rad_before, pen, -v_rad, h)), peak)
+            if inner_peak is None:  # interpolate between the sub-step's ends
+                step_peak = _hermite_peak(pen_before, -v_rad_before, pen, -v_rad, h)
+            else:  # the method located it
+                step_peak = np.maximum(np.maximum(pen_before, pen), inner_peak)
+            peak = np.where(active, np.maximum(peak, step_peak), peak)
         was = surf.copy()
         touch = active & (was == FLYING) & (pen > 0.0) & (v_rad < 0.0)
         # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
@@ -533,12 +585,16 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     surf0 = state.surface_state
     free = (surf0 == FLYING) | (surf0 == CONTACT)
     fine = free & ((surf0 == CONTACT) | near_ground(params, state, cmd))
+    one_step = np.zeros(n, dtype=bool)
+    if params.sim.vertical_one_step and params.sim.integrator in KICKS and fine.any():
+        one_step = fine & purely_vertical(params, state, cmd)
     friction_n = np.zeros(n)
     normal_n = np.zeros(n)
     peak_pen = np.zeros(n)
     found: list[tuple[int, int, int, int, float]] = []  # (ship, order, from, to, v_radial)
     parts: list[tuple[np.ndarray, State]] = []
-    groups = ((np.flatnonzero(fine), params.sim.n_fine_substeps, True),
+    groups = ((np.flatnonzero(fine & ~one_step), params.sim.n_fine_substeps, True),
+              (np.flatnonzero(one_step), 1, True),
               (np.flatnonzero(free & ~fine), 1, False))
     for idx, n_sub, touching in groups:
         if idx.size == 0:
