@@ -8,9 +8,15 @@ the simulation.
   x(t) = x_eq + e^{-zeta w t}(A cos w_d t + B sin w_d t) until the force reaches zero, found by
   brentq, then ballistic again) and ``bounce_ode`` (scipy solve_ivp, DOP853 at rtol 1e-11, with
   events at x = 0 and at the clamp, and point-mass gravity GM / r^2).
+  Gravity acts at the centre of mass, ``com_height`` above the feet: g = GM / (R + h - x)^2.
+* The settling of a vertical touchdown (``settle_time``): impacts at or above ``bounce_speed`` on
+  the clamped zeta = 0.3 spring, slower ones on the bilateral absorber (zeta = 1), ballistic
+  flights between, and the landed rule in continuous time: the first t at which |v| < v_settle has
+  held for all of [t - settle_time, t] (Touchdown's reading of the seed, SEED-NOTES 1 and 3).
 * The pivot topple of a rigid lander on its rim foot:
       I_p theta'' = m g L sin(theta - theta_c),  L = sqrt(h^2 + a^2), theta_c = atan(a / h),
-  I_p = I_transverse + m L^2 (parallel axis), solved by solve_ivp with an event at the tipped angle.
+  I_p = I_transverse + m L^2 (parallel axis), solved by solve_ivp with an event at the tipped angle;
+  with an RCS torque tau against it, the righting of a tipped lander (``righting_time``).
 """
 from __future__ import annotations
 
@@ -69,11 +75,12 @@ def bounce_closed_form(g: float, v_impact: float, zeta: float = 0.3, w: float = 
 
 
 def bounce_ode(gm: float, radius_m: float, v_impact: float, zeta: float = 0.3,
-               w: float = OMEGA, x0: float = 0.0) -> Bounce:
-    """First bounce with point-mass gravity; x = radius - r (feet), from x0 with v_impact down."""
+               w: float = OMEGA, x0: float = 0.0, com_height_m: float = 0.0) -> Bounce:
+    """First bounce with point-mass gravity at the centre of mass, com_height_m above the feet;
+    x = radius - r (feet), from x0 with v_impact down."""
 
     def g(x):
-        r = radius_m - x
+        r = radius_m + com_height_m - x
         return gm / (r * r)
 
     def force(y):
@@ -128,6 +135,82 @@ def topple_time(g: float, mass_kg: float, i_transverse_kgm2: float, com_height_m
 
     reach = lambda t, y: y[0] - theta_end_rad
     reach.terminal, reach.direction = True, 1
+    sol = solve_ivp(rhs, (0.0, 1e4), [theta0_rad, 0.0], events=[reach], method="DOP853",
+                    rtol=1e-11, atol=1e-12)
+    return float(sol.t_events[0][0])
+
+
+def settle_time(gm: float, radius_m: float, v_impact: float, com_height_m: float = 0.0,
+                zeta: float = 0.3, zeta_absorb: float = 1.0, bounce_speed: float = 10.0,
+                settle_speed: float = 0.5, settle_time_s: float = 0.5, w: float = OMEGA,
+                max_contacts: int = 20) -> tuple[float, int]:
+    """(time from the first impact until landed, number of contacts) for an upright lander
+    arriving at v_impact (down) on level ground. x = penetration of the feet (+ down), v = x'."""
+
+    def g(x):
+        r = radius_m + com_height_m - x
+        return gm / (r * r)
+
+    opts = dict(method="DOP853", rtol=1e-11, atol=1e-12)
+
+    def until(rhs, t0, y0, event, direction, span):
+        event.terminal, event.direction = True, direction
+        sol = solve_ivp(rhs, (t0, t0 + span), y0, events=[event], **opts)
+        return float(sol.t[-1]), sol.y[:, -1]
+
+    def free(t_, y):
+        return [y[1], g(y[0])]
+
+    t, v_in = 0.0, v_impact
+    for contact in range(1, max_contacts + 1):
+        if v_in >= bounce_speed:
+            # the clamped spring until its force reaches zero, then ballistic: the feet rise out
+            # of the ground (x falls to 0), fly, and come back down to x = 0
+            def spring(t_, y):
+                return [y[1], g(y[0]) - (w * w * y[0] + 2.0 * zeta * w * y[1])]
+
+            t, y = until(spring, t, [0.0, v_in],
+                         lambda t_, y: w * w * y[0] + 2.0 * zeta * w * y[1], -1, 10.0)
+            t, y = until(free, t, y, lambda t_, y: y[0], -1, 10.0)
+            t, y = until(free, t, [-1e-12, y[1]], lambda t_, y: y[0], 1, 1e4)
+            v_in = float(y[1])
+            continue
+
+        # the absorber: bilateral and critically damped; on level ground it never lets go
+        def absorber(t_, y):
+            return [y[1], g(y[0]) - w * w * y[0] - 2.0 * zeta_absorb * w * y[1]]
+
+        crossings = []
+        for sign in (1.0, -1.0):
+            ev = (lambda s_: (lambda t_, y: y[1] - s_ * settle_speed))(sign)
+            crossings.append(ev)
+        sol = solve_ivp(absorber, (t, t + 60.0), [0.0, v_in], events=crossings,
+                        dense_output=True, **opts)
+        # |v| < settle_speed between consecutive crossings; the first such interval that lasts
+        # settle_time (the last one is open-ended) is where the ship lands
+        edges = [t] + sorted(float(x) for ev_t in sol.t_events for x in ev_t) + [t + 60.0]
+        for a, b in zip(edges, edges[1:]):
+            if abs(float(sol.sol(0.5 * (a + b))[1])) < settle_speed and b - a >= settle_time_s:
+                return a + settle_time_s, contact
+        break
+    raise RuntimeError("did not settle")
+
+
+def righting_time(g: float, mass_kg: float, i_transverse_kgm2: float, com_height_m: float,
+                  leg_radius_m: float, torque_nm: float, theta0_rad: float,
+                  theta_end_rad: float) -> float:
+    """Time for a tipped lander at rest at theta0 to be turned back to theta_end by an RCS torque
+    about its pivot foot: I_p theta'' = m g L sin(theta - theta_c) - tau."""
+    h, a = com_height_m, leg_radius_m
+    big_l = math.hypot(h, a)
+    tc = critical_angle_rad(h, a)
+    i_p = i_transverse_kgm2 + mass_kg * big_l * big_l
+
+    def rhs(t, y):
+        return [y[1], (mass_kg * g * big_l * math.sin(y[0] - tc) - torque_nm) / i_p]
+
+    reach = lambda t, y: y[0] - theta_end_rad  # noqa: E731
+    reach.terminal, reach.direction = True, -1
     sol = solve_ivp(rhs, (0.0, 1e4), [theta0_rad, 0.0], events=[reach], method="DOP853",
                     rtol=1e-11, atol=1e-12)
     return float(sol.t_events[0][0])

@@ -244,10 +244,11 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     ce = contact_at(fb, ground, p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
 
-    def substep(h_step, y, ce_start, sliding_start, bodies=fb):
+    def substep(h_step, y, ce_start, sliding_start, bodies=fb, absorbing_now=None):
         """One integrator step plus the friction impulse; returns (y, sliding, friction N, the
         method's own peak penetration inside the step or None)."""
-        res = advance(bodies, ground, h_step, y, ce_start, absorbing)
+        res = advance(bodies, ground, h_step, y, ce_start,
+                      absorbing if absorbing_now is None else absorbing_now)
         y1, normal_mean = res.y, res.normal_mean_n
         if not touching:
             return y1, sliding_start, np.zeros(n), res.peak_penetration_m
@@ -263,6 +264,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         pen_before, v_rad_before = ce.max_penetration_m, v_rad
         h_first: float | np.ndarray = h
         crossing = np.zeros(n, dtype=bool)
+        v_cross = np.zeros(n)
         if touching:
             # Contact onset inside the sub-step: the damper's force jumps to c v at the surface,
             # so step exactly to the crossing (ballistic time of flight of the lowest foot,
@@ -277,12 +279,18 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             crossing = (active & (surf == FLYING) & (z > 0.0) & (v_down > 0.0) & (disc >= 0.0)
                         & (denom > 0.0) & (tau < h))
             h_first = np.where(crossing, tau, h)
+            v_cross = np.sqrt(np.maximum(disc, 0.0))  # speed of the lowest foot at the surface
         # Up to the crossing the motion is ballistic by construction. Its last stage ends with
         # the feet at the surface to within rounding, where some feet would press (with the
         # damper's full jump c v) and others not: a spurious torque. They must not press there.
         first = replace(fb, engage_m=np.where(crossing, -ONSET_MARGIN_M, 0.0)) if crossing.any() else fb
         y1, sliding1, fr, inner_peak = substep(h_first, (p, v, q, w), ce, sliding, first)
         if crossing.any():
+            # At the crossing itself: an impact slower than bounce_speed is taken by the
+            # absorbers from its first instant, and the seed's touchdown alignment happens here
+            absorbing = np.where(crossing, v_cross < cp.bounce_speed_mps, absorbing)
+            if cp.align_on_touchdown:
+                y1 = _align_at_touchdown(params, fb, ground, y1, crossing)
             ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
             y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
             c3 = crossing[:, None]
@@ -311,7 +319,8 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                 step_peak = np.maximum(np.maximum(pen_before, pen), inner_peak)
             peak = np.where(active, np.maximum(peak, step_peak), peak)
         was = surf.copy()
-        touch = active & (was == FLYING) & (pen > 0.0) & (v_rad < 0.0)
+        # a located crossing is a touchdown even if the ship is already rebounding at the end
+        touch = active & (was == FLYING) & (((pen > 0.0) & (v_rad < 0.0)) | crossing)
         # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
         # damper acts from the first millimetre, so the sub-step's end speed is already lower):
         # v_cross^2 = v^2 + 2 a_down height, a_down = g - T cos(tilt) / m.
@@ -319,6 +328,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         above_before = np.maximum(-pen_before, 0.0)
         impact = np.where(v_rad_before < 0.0, np.sqrt(np.maximum(
             v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0)), -v_rad)
+        impact = np.where(crossing, v_cross, impact)
         separation = np.sqrt(np.maximum(v_rad * v_rad + 2.0 * a_down * np.maximum(-pen, 0.0), 0.0))
         # in contact: descending faster than crash_speed at either end of the sub-step (the
         # damper may already have slowed it by the end)
@@ -342,15 +352,9 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             absorbing = np.where(touch_ok, impact < cp.bounce_speed_mps, absorbing)
             sliding = np.where(touch_ok, False, sliding)
             settle = np.where(touch_ok, 0, settle)
-            if cp.align_on_touchdown:
-                # snap the attitude to local up (seed), then move the ship out along it so that
-                # its deepest foot is as deep as before the snap: turning must not bury the feet
-                snap = touch_ok & ~tip
-                q = np.where(snap[:, None], align_to_surface(q, r_hat), q)
-                w = np.where(snap[:, None], body_spin_in_body_frame(params, q), w)
-                ce = contact_at(fb, ground, p, v, q, w, absorbing)
-                lift_m = np.where(snap, np.maximum(ce.max_penetration_m - pen, 0.0), 0.0)
-                p = p + vec.scale(r_hat, lift_m)
+            snap = touch_ok & ~tip & ~crossing  # a located crossing was aligned there
+            if cp.align_on_touchdown and snap.any():
+                p, v, q, w = _align_at_touchdown(params, fb, ground, (p, v, q, w), snap)
                 ce = contact_at(fb, ground, p, v, q, w, absorbing)
         c, s = body_rotation(params, t_end)
         if tip.any():
@@ -391,6 +395,22 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                   pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
                   pin_pivot_bf_m=pin_pivot)
     return out, friction_n, np.abs(ce.normal_n), peak, transitions
+
+
+def _align_at_touchdown(params: Params, fb: FreeBodies, ground, y, mask: np.ndarray):
+    """The seed's Flying -> Contact rule for the ships in ``mask``: attitude snapped to local up
+    and rotation stopped (relative to the surface); then the ship moves out along local up so
+    that its deepest foot is no deeper than before the snap: turning must not bury the feet
+    (MODEL-NOTES 11)."""
+    p, v, q, w = y
+    r_hat = vec.unit(p)
+    sh = params.ships
+    pen0 = contact.lowest_foot_penetration(p, q, sh.leg_radius_m, sh.com_height_m, ground)
+    q = np.where(mask[:, None], align_to_surface(q, r_hat), q)
+    w = np.where(mask[:, None], body_spin_in_body_frame(params, q), w)
+    pen1 = contact.lowest_foot_penetration(p, q, sh.leg_radius_m, sh.com_height_m, ground)
+    p = p + vec.scale(r_hat, np.where(mask, np.maximum(pen1 - pen0, 0.0), 0.0))
+    return p, v, q, w
 
 
 def _hermite_peak(x0, xd0, x1, xd1, h: float) -> np.ndarray:
@@ -436,8 +456,10 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
           & (vec.dot(omega_rel, omega_rel) < cp.settle_angular_vel_radps ** 2)
           & (vec.dot(ez, r_hat) > cp.cos_settle_tilt))
     ticks = np.where(ok, st.settle_ticks + 1, 0)
-    need = max(1, int(math.ceil(cp.settle_time_s / params.sim.dt_s - 1e-9)))
-    landed = ok & (ticks >= need)
+    # samples at n consecutive tick ends span (n - 1) dt: landing needs them to span settle_time
+    # (settle_time = 0, the seed's instantaneous rule: the first tick the thresholds hold)
+    need = int(math.ceil(cp.settle_time_s / params.sim.dt_s - 1e-9))
+    landed = ok & (ticks > need)
     if not landed.any():
         return replace(st, settle_ticks=ticks), landed
     c, s = body_rotation(params, t_end_s)

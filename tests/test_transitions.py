@@ -100,6 +100,11 @@ def _settles(params, st, ticks=1):
     return bool(out[0])
 
 
+def _spanning_samples(params):
+    """Tick-end samples that span settle_time: n samples span (n - 1) dt."""
+    return math.ceil(params.contact.settle_time_s / params.sim.dt_s) + 1
+
+
 def _with_velocity(st, radial=0.0, tangential=0.0):
     r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
     t_hat = np.cross([0.0, 0.0, 1.0], r_hat)
@@ -111,30 +116,35 @@ def _with_velocity(st, radial=0.0, tangential=0.0):
 @pytest.mark.parametrize("axis", ["radial", "tangential"])
 def test_settle_linear_speed(axis, value, lands):
     params, st = _contact_state()
-    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
-    assert _settles(params, _with_velocity(st, **{axis: value}), need) == lands
+    assert _settles(params, _with_velocity(st, **{axis: value}), _spanning_samples(params)) == lands
 
 
 @pytest.mark.parametrize("value,lands", [(0.0099, True), (0.0101, False)])
 def test_settle_angular_speed(value, lands):
     params, st = _contact_state()
     st = replace(st, omega_body_radps=np.array([[value, 0.0, 0.0]]))
-    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
-    assert _settles(params, st, need) == lands
+    assert _settles(params, st, _spanning_samples(params)) == lands
 
 
 @pytest.mark.parametrize("tilt,lands", [(4.9, True), (5.1, False)])
 def test_settle_tilt(tilt, lands):
     scn = scene({"state": "contact", "altitude": 0.0, "tilt_deg": tilt}, duration=1.0)
-    need = math.ceil(scn.params.contact.settle_time_s / scn.params.sim.dt_s)
-    assert _settles(scn.params, scn.initial, need) == lands
+    assert _settles(scn.params, scn.initial, _spanning_samples(scn.params)) == lands
 
 
 def test_settle_time_must_pass_in_full():
+    """Landed once the thresholds have held at tick ends spanning settle_time (0.5 s at a 0.05 s
+    tick: 11 samples), not one tick sooner."""
     params, st = _contact_state()
-    need = math.ceil(params.contact.settle_time_s / params.sim.dt_s)
-    assert not _settles(params, st, need - 1)
-    assert _settles(params, st, need)
+    assert _spanning_samples(params) == 11
+    assert not _settles(params, st, 10)
+    assert _settles(params, st, 11)
+
+
+def test_settle_time_zero_is_the_seeds_instantaneous_rule():
+    params, st = _contact_state()
+    params = replace(params, contact=replace(params.contact, settle_time_s=0.0))
+    assert _settles(params, st, 1)
 
 
 def test_never_lands_at_the_bottom_of_a_bounce():
