@@ -9,7 +9,11 @@ With N the mean normal force over the step of length h:
     sticking: J = J_stop if J_stop <= mu_s N h         (holds exactly, whatever pushes sideways)
               J = mu_k N h otherwise                   (breaks away)
 
-A slide on level ground therefore decelerates at mu_k g and stops at v0^2 / (2 mu_k g).
+A slide on level ground therefore decelerates at mu_k g and stops at v0^2 / (2 mu_k g). The
+impulse stands for a force that acted throughout the step, so the step's drift is corrected for it
+(:func:`spread_over_step`): without that, the drift uses the speed from before the impulse, a
+slide overshoots by mu_k g h T / 2 (first order in the step h) and a ship held on a slope creeps
+by a h^2 / 2 a step.
 
 The seed's law (``"seed"``): kinetic above 0.01 m/s with no stopping test, else reset the centre of
 mass's tangential velocity, falling back to kinetic friction beyond mu_s N; it acts at the centre
@@ -21,6 +25,18 @@ import numpy as np
 
 from sim import vec
 from sim.constants import STICK_SPEED_MPS
+
+
+def spread_over_step(pos_m: np.ndarray, quat: np.ndarray, vel_before: np.ndarray,
+                     vel_after: np.ndarray, omega_before: np.ndarray, omega_after: np.ndarray,
+                     h: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Position and attitude as if the friction impulse had acted evenly over the step of length
+    h: a velocity change dv spread over the step shortens its drift by -h dv / 2 (dv opposes the
+    slip, so this moves the ship back), and likewise for the turn. Exact for a constant friction
+    force; a ship held at rest by static friction then stays exactly where it is."""
+    h_col = h if np.ndim(h) == 0 else np.asarray(h)[:, None]
+    pos = pos_m + 0.5 * h_col * (vel_after - vel_before)
+    return pos, vec.quat_integrate(quat, omega_after - omega_before, 0.5 * np.asarray(h))
 
 
 def apply(model: str, mu_s: float, mu_k: float, h: float, body_omega_radps: float,

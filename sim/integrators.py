@@ -182,7 +182,11 @@ def exponential(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, 
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = v_pre + times(0.5 * h, a1 - vec.scale(n_hat, acc_h))
     w1 = w_half + times(0.5 * h, al1)
-    return Stepped((p1, v1, q1, w1), m * impulse_per_kg / h_arr, peak)
+    # the normal impulse friction may use: the flow's, plus the residual kick's share of it (a
+    # foot that lifted or pressed during the step makes the model's alone wrong)
+    model_end_n = np.where(pressing & ~sep, m * (acc_h - a_free), 0.0)
+    impulse_n = m * impulse_per_kg + 0.5 * h_arr * (ce1.normal_n - model_end_n)
+    return Stepped((p1, v1, q1, w1), impulse_n / h_arr, peak)
 
 
 #: Every method by name; an unknown name is rejected when a scenario is loaded.

@@ -24,7 +24,7 @@ class SimParams:
     """
 
     dt_s: float = 0.05
-    integrator: str = "rk4"
+    integrator: str = "exponential"
     max_substep_s: float = 0.025
     duration_s: float = 30.0
     #: with a method exact on the spring, purely vertical ships take one step per tick

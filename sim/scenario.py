@@ -60,7 +60,7 @@ NONNEG = _range(0.0)
 TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0.0, 1e7, lo_open=True)),
        "description": ("str", "", None)}
 SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
-       "integrator": ("str", "rk4", _choice(METHODS)),
+       "integrator": ("str", SimParams.integrator, _choice(METHODS)),
        "max_substep": ("float", 0.025, _range(0.0, 1.0)),
        "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
        "vertical_one_step": ("bool", True, None)}

@@ -256,7 +256,10 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             cp.friction_model, cp.friction_static, cp.friction_kinetic, h_step,
             params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, y1[0], y1[1], y1[2], y1[3],
             normal_mean, ce_start.cop_w, sliding_start)
-        return (y1[0], v1, y1[2], w1), sl, fr, res.peak_penetration_m
+        p1, q1 = y1[0], y1[2]
+        if cp.friction_model == "coulomb":
+            p1, q1 = friction.spread_over_step(p1, q1, y1[1], v1, y1[3], w1, h_step)
+        return (p1, v1, q1, w1), sl, fr, res.peak_penetration_m
 
     for j in range(n_sub):
         t_end = t0_s + (j + 1) * h

@@ -127,7 +127,7 @@ def test_the_recorded_scenario_reparses_to_the_same_scenario(fleet_log):
     original = parse_text(scenarios.text("fleet"), "fleet", {"duration": 5})
     again = parse(json.loads(rec.resolved_json), "log")
     assert again.resolved == original.resolved
-    assert rec.project_version and rec.integrator == "rk4" and rec.dt_s == 0.05
+    assert rec.project_version and rec.integrator == "exponential" and rec.dt_s == 0.05
     assert list(rec.ship_ids) == list(original.params.ships.ship_id)
 
 

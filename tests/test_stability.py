@@ -1,16 +1,17 @@
-"""Stability of each method on the contact oscillator (SEED-NOTES 8): the theoretical bound, the
-simulation failing just past it and holding just inside it, and the guard that sub-steps or
-refuses an unstable scene."""
+"""Stability of each method on the contact (SEED-NOTES 8): the theoretical bound, the simulation
+failing just past it and holding just inside it (with the growth per step it shows equal to the
+theory's spectral radius), the exact method holding the bounce at any step, and the guard that
+sub-steps or refuses an unstable scene. Scenes: bench/stability.py."""
 import math
 
 import numpy as np
 import pytest
 
+from bench.stability import (NUDGE_MPS, OMEGA, SAG_M, ZETA, bounce_ringing, grows,
+                             identified_map, rocking, rocking_mode, theory)
 from scenes import records, scene, series
 from sim.scenario import ScenarioError
-from sim.stability import largest_stable_wh
-
-ZETA, OMEGA = 0.3, 10.0
+from sim.stability import amplification, largest_stable_wh, spectral_radius
 
 
 def eigen(zeta):
@@ -29,6 +30,14 @@ def test_bounds_agree_with_closed_forms():
     assert largest_stable_wh("velocity_verlet", 0.0) == pytest.approx(2.0, rel=1e-9)
     assert largest_stable_wh("rk4", 0.0) == pytest.approx(2 * math.sqrt(2), rel=1e-9)
     assert largest_stable_wh("explicit_euler", 0.0) < 1e-5  # unstable at any practical step
+    assert largest_stable_wh("exponential", ZETA) == math.inf
+
+
+@pytest.mark.parametrize("wh", [0.5, 3.0, 10.0, 50.0])
+def test_the_exact_flow_amplifies_by_exp_minus_zeta_w_h(wh):
+    """exp(A h) has eigenvalues e^{(-zeta +- i sqrt(1 - zeta^2)) w h}: modulus e^{-zeta w h}."""
+    assert spectral_radius(amplification("exponential", wh, ZETA)) == pytest.approx(
+        math.exp(-ZETA * wh), rel=1e-9)
 
 
 def test_rk4_bound_against_its_stability_polynomial():
@@ -38,31 +47,52 @@ def test_rk4_bound_against_its_stability_polynomial():
     assert abs(r(b * 0.99 * lam)) < 1.0 < abs(r(b * 1.01 * lam))
 
 
-def ringing(method, wh, duration=20.0):
-    """A ship resting in an absorbed (bilateral) contact with zeta = 0.3, nudged at 5 cm/s so that
-    it rings within its static sag (g / w^2 = 16 mm): the linear oscillator exactly, stepped once
-    per tick of w h. Landing is switched off so that the ringing can be watched."""
-    return records(scene({"state": "contact", "altitude": -0.0162, "vertical_speed": -0.05},
-                         contact={"damping_ratio": ZETA, "absorb_damping_ratio": ZETA,
-                                  "settle_linear_vel": 1e-12},
-                         sim={"integrator": method, "dt": wh / OMEGA, "max_substep": 0.0,
-                              "on_unstable": "allow"},
-                         duration=duration))
+CASES = [("explicit_euler", "bounce"), ("semi_implicit_euler", "bounce"),
+         ("velocity_verlet", "bounce"), ("rk4", "bounce"), ("exponential", "rocking")]
 
 
-@pytest.mark.parametrize("method", ["explicit_euler", "semi_implicit_euler", "velocity_verlet",
-                                    "rk4"])
-def test_each_method_holds_inside_its_bound_and_fails_past_it(method):
-    bound = largest_stable_wh(method, ZETA)
-    nudge = 0.05
-    inside = np.abs(series(ringing(method, 0.95 * bound), "v_radial_mps"))
-    assert np.isfinite(inside).all()
-    assert inside.max() <= 1.2 * nudge, "never grows inside the bound"
-    assert inside[-20:].max() < 0.5 * nudge, "and decays"
-    # past it the ringing grows until the ship is thrown off the ground (then it bounces: the
-    # clamp bounds it, but the energy came from nowhere)
-    outside = np.abs(series(ringing(method, 1.05 * bound), "v_radial_mps"))
-    assert outside.max() > 3.0 * nudge, "grows past the bound"
+@pytest.mark.parametrize("method,mode", CASES)
+@pytest.mark.parametrize("factor", [0.95, 1.05])
+def test_each_method_holds_inside_its_bound_and_fails_past_it(method, mode, factor):
+    """The one-step map the simulation applies to the mode, identified from its output, is the
+    theory's amplification matrix (trace and determinant to 1e-3): inside the bound it decays,
+    just past it, it grows. The exponential method's limit is its kicks' on the rocking mode."""
+    wh = factor * theory(method, mode)
+    recs = bounce_ringing(method, wh, 200) if mode == "bounce" else rocking(method, wh, 200)
+    tr, det = identified_map(recs, mode)
+    limiting = {"exponential": "velocity_verlet"}.get(method, method)
+    zeta = ZETA if mode == "bounce" else rocking_mode()[1]
+    m = amplification(limiting, wh, zeta)
+    assert tr == pytest.approx(m[0, 0] + m[1, 1], abs=1e-3)
+    assert det == pytest.approx(m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0], abs=1e-3)
+    assert grows(method, wh, mode) == (factor > 1.0)
+
+
+@pytest.mark.parametrize("wh", [3.0, 10.0])
+def test_the_exponential_method_holds_the_bounce_at_any_step_and_is_exact_there(wh):
+    """Far past every explicit method's bound, the exact flow rings down as the damped oscillator
+    does, y'(t) = e^{-zeta w t} (y0' cos w_d t - (w^2 y0 + zeta w y0') / w_d sin w_d t), tick by
+    tick from the recorded start (y: penetration's offset from the static sag)."""
+    recs = bounce_ringing("exponential", wh, steps=12)
+    v = series(recs, "v_radial_mps")
+    pen = series(recs, "penetration_m")
+    dt = wh / OMEGA
+    # the closed form in x = penetration (+ down), x' = -v_radial; equilibrium x_eq at the sag
+    r0 = float(np.linalg.norm(recs[0].state.pos_m[0]))
+    g = 4.9048695e12 / (r0 * r0)
+    x_eq = g / OMEGA ** 2
+    y0, yd0 = pen[0] - x_eq, -v[0]
+    wd = OMEGA * math.sqrt(1 - ZETA * ZETA)
+    t = np.arange(len(recs)) * dt
+    decay = np.exp(-ZETA * OMEGA * t)
+    yd = decay * (yd0 * np.cos(wd * t) - (OMEGA ** 2 * y0 + ZETA * OMEGA * yd0) / wd
+                  * np.sin(wd * t))
+    assert abs(v[0]) == pytest.approx(NUDGE_MPS, rel=0.1)
+    # positions a Moon's radius out are held to ulp(|p|) = 2.3e-10 m, which the spring turns into
+    # w^2 ulp h / 2 ~ 2e-9 m/s: the floor of any method here
+    assert np.max(np.abs(-v - yd)) < 1e-8
+    assert abs(pen[0] - SAG_M) < 1e-4
+    assert not grows("exponential", wh, "bounce")
 
 
 def test_an_unstable_scene_is_refused_when_asked():
@@ -84,3 +114,20 @@ def test_an_unstable_scene_is_sub_stepped_by_default():
     # cancels most of the physical damping, so this bounce comes back nearly as high as it fell)
     g = scn.params.body.surface_gravity_mps2
     assert series(recs, "altitude_m").max() <= (20.0 ** 2 + 2 * g * 0.5) / (2 * g)
+
+
+def test_the_exponential_method_is_sub_stepped_for_its_rocking_mode_only():
+    """At a 0.1 s tick the bounce (w h = 1) needs nothing and the rocking mode (w_r h = 0.77 for
+    the default ship, within half of velocity Verlet's 1.82) needs nothing either; at 0.5 s the
+    rocking mode needs sub-steps, and `error` refuses instead."""
+    plain = scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.1,
+                                          "max_substep": 0.0, "on_unstable": "error"})
+    assert plain.params.sim.n_fine_substeps == 1
+    big = scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.5, "max_substep": 0.0})
+    h = big.params.sim.dt_s / big.params.sim.n_fine_substeps
+    w_rock_bound = math.sqrt(100.0 * 2.26 ** 2 / 2 / ((3 * 2.26 ** 2 + 36.0) / 12.0))
+    assert 1 < big.params.sim.n_fine_substeps
+    assert w_rock_bound * h < 0.5 * largest_stable_wh("velocity_verlet", ZETA)
+    with pytest.raises(ScenarioError):
+        scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.5, "max_substep": 0.0,
+                                      "on_unstable": "error"})
