@@ -10,7 +10,8 @@ of ``bench/reference.py`` (closed forms and tight-tolerance ``solve_ivp`` soluti
     contact_20                    how long the 20 m/s impact's feet stay on the ground
     settle_20                     time from the start until a 20 m/s arrival lands (bounce, flight,
                                   absorbed re-contact, and the settle rule)
-    slide                         resting position: where a 5 m/s slide stops (v^2 / 2 mu_k g)
+    slide                         resting position: where a 5 m/s slide stops (Coulomb on the
+                                  sphere, ~ v^2 / 2 mu_k g; the ship's rotation frozen)
     topple                        time to tip over from 5 deg past the critical angle (pivot ODE)
     righting                      time for the RCS to right a lander lying at 90 deg (pivot ODE)
 
@@ -19,10 +20,10 @@ Errors are relative. The apex and the contact's ends are read from the recorded 
 that an exact method shows as exact; event times (settle, topple, righting) are tick times, as a
 user sees them.
 
-Cost is the marginal CPU time of one more ship, per simulated second: each scene runs alone and as
-a batch of ``batch`` identical ships, and the difference is divided by the extra ships. That is the
-per-ship work a method does (what the live service pays per ship), without numpy's per-call
-overhead, which a batch shares and which dominates a lone ship.
+Cost is the marginal CPU time of one more ship, per simulated second (:func:`marginal_cost`): steps
+from a sample of the run's recorded states are timed alone and cloned into a batch of ``batch``
+ships. That is the per-ship work a method does (what the live service pays per ship), without
+numpy's per-call overhead, which a batch shares and which dominates a lone ship.
 Writes ``work_precision.png`` (one panel per measure, one curve per configuration),
 ``work_precision.csv`` and ``work_precision.md`` into ``--out``. Methods are run plain (one step
 per tick, the stability guard off) so that each curve is the method itself; the configurations
@@ -35,7 +36,7 @@ import csv
 import math
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -47,6 +48,8 @@ from sim.enums import EventKind
 from sim.params import ContactParams, SimParams
 from sim.run import run
 from sim.scenario import parse
+from sim.state import STATE_ARRAY_FIELDS, Inputs
+from sim.step import step
 
 PLAIN = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "exponential"]
 SEED = "semi_implicit_euler"
@@ -82,47 +85,61 @@ def _doc(initial: dict, sim: dict, duration: float, batch: int, body: Body = MOO
             "body": body.doc(), "ships": ships}
 
 
-#: each timing is repeated until it has used this much CPU (at most MAX_REPEATS times), and the
-#: fastest repeat is kept: a short scene timed once is mostly noise
-MIN_TIMED_CPU_S = 1.0
-MAX_REPEATS = 30
+#: ticks of a run sampled for timing, and how often each sampled step is timed (alone and in the
+#: batch, alternately; the fastest of each is kept: a step timed once is mostly noise). Wall-clock
+#: time on an otherwise idle machine: the process CPU clock is too coarse here for one step.
+TIMED_TICKS = 32
+TIMED_REPEATS = 7
 
 
-def _cpu_s(scn, last_tick: int) -> float:
-    """Fastest of repeated runs of ``scn`` up to ``last_tick``: CPU seconds."""
-    best, spent = math.inf, 0.0
-    for _ in range(MAX_REPEATS):
-        t0 = time.process_time()
-        for _rec in run(scn, last_tick=last_tick):
-            pass
-        took = time.process_time() - t0
-        best, spent = min(best, took), spent + took
-        if spent >= MIN_TIMED_CPU_S:
-            break
-    return best
+def _fastest_steps_s(one, many) -> tuple[float, float]:
+    """Fastest time of step(*one) and of step(*many), timed alternately."""
+    best_one = best_many = math.inf
+    for _ in range(TIMED_REPEATS):
+        t0 = time.perf_counter()
+        step(*one)
+        t1 = time.perf_counter()
+        step(*many)
+        t2 = time.perf_counter()
+        best_one, best_many = min(best_one, t1 - t0), min(best_many, t2 - t1)
+    return best_one, best_many
+
+
+def marginal_cost(doc: dict, recs: list) -> float:
+    """CPU seconds that one more ship costs per simulated second of this run.
+
+    Steps from up to TIMED_TICKS of the run's recorded states, evenly spread, are timed alone and
+    with the state cloned into a batch of ``len(doc["ships"])`` ships; the difference over the
+    extra ships is the per-ship work of a step (numpy's per-call overhead, which a batch shares
+    and which dominates a lone ship, cancels). The step is pure and elementwise, so a cloned
+    batch does exactly the lone ship's work, once per ship."""
+    batch = len(doc["ships"])
+    one = parse({**doc, "ships": doc["ships"][:1]}, "accuracy")
+    many = parse(doc, "accuracy")
+    n_steps = len(recs) - 1
+    picks = sorted({int(round(x)) for x in np.linspace(0, n_steps - 1, min(TIMED_TICKS, n_steps))})
+    extra = 0.0
+    for k in picks:
+        st, inp = recs[k].state, recs[k + 1].inputs
+        st_b = replace(st, **{f: np.repeat(getattr(st, f), batch, axis=0) for f in STATE_ARRAY_FIELDS})
+        inp_b = Inputs(*(np.repeat(getattr(inp, f), batch, axis=0)
+                         for f in ("throttle", "rcs", "hold")))
+        t_one, t_many = _fastest_steps_s((one.params, st, inp), (many.params, st_b, inp_b))
+        extra += max(t_many - t_one, 0.0)
+    per_ship_step = extra / len(picks) / (batch - 1)
+    return per_ship_step / one.params.sim.dt_s
 
 
 def _timed(doc: dict, stop=None):
-    """Run ``doc`` with one ship; returns (scenario, its records, marginal CPU s per ship per
-    simulated s). The marginal cost is (t_{1+K} - t_1) / K from timing the lone ship and 1 + K
-    copies over the same ticks: it leaves out numpy's per-call overhead, which a batch shares, and
-    is what one more ship costs the live service. ``stop(records)`` ends the run once it has what
-    it needs. (Every ship of the batch is bit-identical to the lone one: the step is elementwise.)"""
-    ships = doc["ships"]
-    extra = len(ships) - 1
-    scn = parse({**doc, "ships": ships[:1]}, "accuracy")
+    """Run ``doc``'s first ship alone; returns (scenario, its records, the marginal CPU s per ship
+    per simulated s). ``stop(records)`` ends the run once it has what it needs."""
+    scn = parse({**doc, "ships": doc["ships"][:1]}, "accuracy")
     recs = []
     for rec in run(scn):
         recs.append(rec)
         if stop is not None and stop(recs):
             break
-    last = recs[-1].tick
-    sim_s = max(last, 1) * scn.params.sim.dt_s
-    cpu_one = _cpu_s(scn, last)
-    if extra <= 0:
-        return scn, recs, cpu_one / sim_s
-    cpu_all = _cpu_s(parse(doc, "accuracy"), last)
-    return scn, recs, max(cpu_all - cpu_one, 0.0) / (extra * sim_s)
+    return scn, recs, marginal_cost(doc, recs)
 
 
 def _events(recs) -> list[tuple[int, EventKind, float]]:
@@ -203,13 +220,22 @@ def settle(sim: dict, v0: float, batch: int) -> tuple[float, float]:
 
 
 def slide(sim: dict, batch: int) -> tuple[float, float]:
+    """Where a 5 m/s slide comes to rest. The ship's rotation is frozen (a huge inertia): a real
+    lander pitches forward as it brakes (friction acts at its feet, 3 m below its centre of
+    mass), which moves its normal force about and its stopping point by ~1e-3 in a way that no
+    closed form follows. Frozen, it is Coulomb's slide on the sphere: the normal force is
+    m (g - v^2 / r), so the distance is -(r / 2 mu_k) ln(1 - v0^2 / (g r)) (-> v0^2 / 2 mu_k g)."""
     v0, mu_k = 5.0, ContactParams().friction_kinetic
     doc = _doc({"state": "contact", "altitude": -MOON.g / 100.0, "horizontal_speed": v0}, sim,
-               v0 / (mu_k * MOON.g) + 2.0, batch, contact={"settle_linear_vel": 1e-3})
+               v0 / (mu_k * MOON.g) + 2.0, batch, contact={"settle_linear_vel": 1e-3},
+               ship={"inertia": [1e15, 1e15, 1e15]})
     scn, recs, cost = _timed(doc)
     p0 = recs[0].state.pos_m[0]
-    d = max(float(np.linalg.norm(r.state.pos_m[0] - p0)) for r in recs)
-    return cost, abs(d / (v0 * v0 / (2 * mu_k * MOON.g)) - 1)
+    r = float(np.linalg.norm(p0))
+    g = MOON.gm / (r * r)
+    arc = max(float(np.linalg.norm(rec.state.pos_m[0] - p0)) for rec in recs)
+    ref = -(r / (2.0 * mu_k)) * math.log1p(-v0 * v0 / (g * r))
+    return cost, abs(arc / ref - 1)
 
 
 def _i_transverse() -> float:
@@ -336,7 +362,8 @@ def write(rows: list[dict], out_dir: str, batch: int) -> list[str]:
     summary = ten_hz_summary(rows)
     with open(os.path.join(out_dir, "work_precision.md"), "w") as f:
         f.write(f"Relative error against the references (`bench/reference.py`); cost: the marginal "
-                f"CPU time of one more ship (batches of {batch} against one), in microseconds per "
+                f"CPU time of one more ship (sampled steps in batches of {batch} against one), in "
+                f"microseconds per "
                 f"ship-tick and in CPU seconds per ship per simulated second. "
                 f"Machine: {machine()}.\n\n")
         f.write("Default (" + DEFAULT + f", dt {default_dt:g} s): "
@@ -393,7 +420,7 @@ def write(rows: list[dict], out_dir: str, batch: int) -> list[str]:
 
 
 def main(quick: bool = False, out_dir: str = "docs", batch: int | None = None) -> None:
-    batch = batch or (65 if quick else 257)
+    batch = batch or (257 if quick else 1025)
     print(f"machine: {machine()}; batches of {batch} ships")
     rows = sweep(quick, batch)
     for line in write(rows, out_dir, batch):

@@ -92,32 +92,59 @@ def fleet_recording(n_ships: int, n_ticks: int, path: str) -> float:
     return n_ships * (n_ticks + 1) / (time.perf_counter() - t0)
 
 
-STATE_SCENES = {
-    "flying, far above (one step a tick, no contact work)": {"altitude": 5000.0},
-    "flying, near the ground (sub-stepped)": {"altitude": 3.0, "vertical_speed": 0.0},
-    "contact (sliding, sub-stepped)": {"state": "contact", "altitude": -0.016,
-                                       "horizontal_speed": 3.0},
-    "landed (pinned)": {"state": "landed"},
-    "tipped (pinned, pivot dynamics)": {"state": "tipped", "tilt_deg": 90.0},
-}
+HOVER_THROTTLE = 10000.0 * 1.625 / 60000.0  # the default ship's weight on the Moon / max thrust
+
+#: (state, the model that state gets, initial conditions, commands): batches of ships that stay in
+#: that state (and model) for the whole measurement.
+STATE_SCENES = [
+    ("flying, far above", "coarse: one step a tick, no contact work", {"altitude": 5000.0}, []),
+    ("flying, near the ground (hovering)", "full model, sub-stepped",
+     {"altitude": 3.0, "vertical_speed": 0.0}, [{"t": 0.0, "throttle": HOVER_THROTTLE}]),
+    ("bouncing upright (20-49 m/s)", "vertical: one exact step a tick",
+     {"altitude": 0.3, "vertical_speed": "bounce"}, []),
+    ("contact, upright at rest", "vertical: one exact step a tick",
+     {"state": "contact", "altitude": -0.01625}, []),
+    ("contact, sliding at 3 m/s", "full model, sub-stepped",
+     {"state": "contact", "altitude": -0.01625, "horizontal_speed": 3.0}, []),
+    ("contact, tilted 20 deg, rocking", "full model, sub-stepped",
+     {"state": "contact", "altitude": -0.01625, "tilt_deg": 20.0}, []),
+    ("landed", "pinned to the body", {"state": "landed"}, []),
+    ("tipped", "pinned; pivot about the low foot", {"state": "tipped", "tilt_deg": 90.0}, []),
+]
+
+#: The configurations compared, each a [sim] table.
+COST_CONFIGS = [
+    ("default", {}),
+    ("default, vertical sub-stepped", {"vertical_one_step": False}),
+    ("seed's method", {"integrator": "semi_implicit_euler", "max_substep": 0.0,
+                       "on_unstable": "allow"}),
+    ("rk4 + sub-steps", {"integrator": "rk4"}),
+]
 
 
-def state_costs(n_ships: int = 1000, n_ticks: int = 40) -> list[tuple[str, float]]:
-    """Microseconds per ship-tick for a batch whose ships all stay in one state."""
-    out = []
-    for label, ini in STATE_SCENES.items():
-        ships = [{"id": f"s{i}", "initial": {**ini, "east": float(i)}} for i in range(n_ships)]
-        # flying near the ground: hover with thrust equal to weight so that it stays there
-        inputs = [{"t": 0.0, "throttle": 10000.0 * 1.625 / 60000.0}] if "near" in label else []
-        for sh in ships:
-            sh["inputs"] = inputs
-        scn = parse({"name": "cost", "duration": n_ticks * 0.05, "ships": ships}, "bench")
-        st, inp = scn.initial, scn.inputs_at(0)
-        t0 = time.perf_counter()
-        for _ in range(n_ticks):
-            st, _, _ = step(scn.params, st, inp)
-        out.append((label, (time.perf_counter() - t0) / (n_ships * n_ticks) * 1e6))
-    return out
+def state_costs(n_ships: int = 1000, n_ticks: int = 40, dt: float = 0.05
+                ) -> list[tuple[str, str, list[float]]]:
+    """Microseconds per ship-tick for batches whose ships all stay in one state, one column per
+    configuration of :data:`COST_CONFIGS`."""
+    rows = []
+    for label, model, ini, inputs in STATE_SCENES:
+        ships = []
+        for i in range(n_ships):
+            init = {**ini, "east": float(i)}
+            if init.get("vertical_speed") == "bounce":
+                init["vertical_speed"] = -(20.0 + 29.0 * i / max(n_ships - 1, 1))
+            ships.append({"id": f"s{i}", "initial": init, "inputs": inputs})
+        costs = []
+        for _, sim in COST_CONFIGS:
+            scn = parse({"name": "cost", "duration": n_ticks * dt, "ships": ships,
+                         "sim": {"dt": dt, **sim}}, "bench")
+            st, inp = scn.initial, scn.inputs_at(0)
+            t0 = time.perf_counter()
+            for _ in range(n_ticks):
+                st, _, _ = step(scn.params, st, inp)
+            costs.append((time.perf_counter() - t0) / (n_ships * n_ticks) * 1e6)
+        rows.append((label, model, costs))
+    return rows
 
 
 def main(quick: bool = False) -> None:
@@ -135,9 +162,13 @@ def main(quick: bool = False) -> None:
         size = os.path.getsize(os.path.join(tmp, "fleet.mcap"))
         print(f"10,000 ships, stepping + full log ({fleet_ticks} ticks): {rate:,.0f} ship-ticks/s "
               f"(log {size / 1e6:.1f} MB)")
-    print("cost per ship-tick by state (batches of 1,000 ships in one state, default method):")
-    for label, us in state_costs(1000, 10 if quick else 40):
-        print(f"  {label:<55} {us:8.2f} us")
+    for dt in (0.05, 0.1):
+        print(f"cost per ship-tick by state and model, us (tick {dt:g} s; batches of 1,000 ships "
+              "that stay in one state):")
+        print(f"  {'state':<36}{'model (default)':<42}"
+              + "".join(f"{name:>32}" for name, _ in COST_CONFIGS))
+        for label, model, costs in state_costs(1000, 10 if quick else 40, dt):
+            print(f"  {label:<36}{model:<42}" + "".join(f"{c:>32.2f}" for c in costs))
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak_mib:,.0f} MiB")
 

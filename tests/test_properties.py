@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scenes import records, scene
 from sim.enums import EventKind, TRANSITION_EVENTS, SurfaceState
 
-METHODS = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4"]
+METHODS = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "exponential"]
 RADIUS = 1737400.0
 
 

@@ -1,0 +1,133 @@
+"""No more model than a scene needs: each cheaper model a ship may be given, checked against the
+full model or an independent reference.
+
+* vertical: an upright ship moving only along local up takes one exact step a tick instead of
+  sub-steps (sim.step.purely_vertical); it must match the sub-stepped full model.
+* coarse flight: a ship far above the ground takes one step a tick with no contact work; its fall
+  must match point-mass gravity, and it must never be caught below the ground.
+* pivot: a tipped ship turns about its low foot (sim.step.pinned); it must match the full model
+  of the same fall, feet, friction and all.
+"""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from scenes import events, records, scene, series, tilt_deg, topics
+from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from sim.step import commands, near_ground, purely_vertical, step
+
+G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
+
+
+# -- vertical ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("initial,inputs", [
+    ({"altitude": 0.3, "vertical_speed": -20.0}, []),
+    ({"altitude": 0.3, "vertical_speed": -45.0}, []),
+    ({"altitude": 2.0, "vertical_speed": -3.0}, []),  # absorbed
+    ({"altitude": 1.0, "vertical_speed": -15.0}, [{"t": 0.5, "throttle": 1.0}]),  # thrusts off
+])
+def test_one_vertical_step_a_tick_matches_the_sub_stepped_full_model(initial, inputs):
+    """At the live service's 10 Hz tick: one exact step a tick against four 25 ms sub-steps of
+    the full model; the same transitions on the same ticks, positions and speeds to 1e-7 of the
+    motion's own scale (each holds gravity at its step's start value where it locates the
+    touchdown, and g changes by 2 dr / R ~ 1e-6 over a metre's fall, at second order)."""
+    runs = {}
+    for one_step in (True, False):
+        runs[one_step] = records(scene(initial, inputs=inputs, duration=6.0,
+                                       sim={"dt": 0.1, "vertical_one_step": one_step}))
+    fast, full = runs[True], runs[False]
+    ev_fast, ev_full = events(fast), events(full)
+    assert [(t, name) for t, name, _ in ev_fast] == [(t, name) for t, name, _ in ev_full]
+    assert [v for _, _, v in ev_fast] == pytest.approx([v for _, _, v in ev_full], rel=1e-7)
+    assert len(ev_fast) >= 2
+    alt_fast, alt_full = series(fast, "altitude_m"), series(full, "altitude_m")
+    scale = np.abs(alt_full).max()
+    assert np.max(np.abs(alt_fast - alt_full)) <= 1e-7 * scale
+    v_fast, v_full = series(fast, "v_radial_mps"), series(full, "v_radial_mps")
+    assert np.max(np.abs(v_fast - v_full)) <= 1e-7 * np.abs(v_full).max()
+
+
+def test_the_vertical_model_is_used_only_where_nothing_else_moves():
+    """Bouncing upright ships qualify; a ship that is tilted, turning, slipping or torqued by a
+    millionth, that stands by a bump, or sits on a spinning body does not."""
+    def qualifies(initial=None, body=None, inputs=None):
+        scn = scene(initial or {"altitude": 0.5, "vertical_speed": -20.0}, body=body,
+                    inputs=inputs or [])
+        inp = scn.inputs_at(0)
+        return bool(purely_vertical(scn.params, scn.initial,
+                                    commands(scn.params, scn.initial, inp))[0])
+
+    assert qualifies()
+    assert qualifies({"state": "contact", "altitude": -0.016})
+    assert not qualifies({"altitude": 0.5, "vertical_speed": -20.0, "tilt_deg": 1e-4})
+    assert not qualifies({"altitude": 0.5, "angular_velocity": [0.0, 1e-6, 0.0]})
+    assert not qualifies({"altitude": 0.5, "horizontal_speed": 1e-6})
+    assert not qualifies(inputs=[{"t": 0.0, "rcs": [0.0, 1e-6, 0.0]}])
+    bump = {"terrain": {"bumps": [{"east": 5.0, "north": 0.0, "radius": 4.0, "height": 0.5}]}}
+    assert not qualifies(body=bump)
+    far_bump = {"terrain": {"bumps": [{"east": 50.0, "north": 0.0, "radius": 4.0, "height": 0.5}]}}
+    assert qualifies(body=far_bump)
+    assert not qualifies(body={"rotation_period": 27.3 * 86400.0})
+
+
+# -- coarse flight ------------------------------------------------------------------------------------
+def test_a_long_fall_in_coarse_flight_matches_point_mass_gravity():
+    """From 500 m at rest (coarse flight nearly all the way, ~25 s), the feet reach the ground
+    when and as fast as the radial two-body solution says (solve_ivp, rtol 1e-12)."""
+    h0, com = 500.0, 3.0
+    recs = records(scene({"altitude": h0, "vertical_speed": 0.0}, duration=30.0))
+    (tick, name, v_imp), = [e for e in events(recs) if e[1] == "ship.contact"]
+    r_touch = math.sqrt(MOON_RADIUS_M ** 2 - 2.26 ** 2) + com  # centre of mass as the feet touch
+    r0 = float(np.linalg.norm(recs[0].state.pos_m[0]))
+    ground = lambda t, y: y[0] - r_touch  # noqa: E731
+    ground.terminal, ground.direction = True, -1
+    sol = solve_ivp(lambda t, y: [y[1], -MOON_GM_M3PS2 / y[0] ** 2], (0.0, 200.0), [r0, 0.0],
+                    events=[ground], method="DOP853", rtol=1e-12, atol=1e-9)
+    t_ref, v_ref = float(sol.t_events[0][0]), float(sol.y_events[0][0][1])
+    dt = 0.05
+    assert (tick - 1) * dt < t_ref <= tick * dt  # the contact is reported in the right tick
+    assert -v_imp == pytest.approx(-v_ref, rel=1e-9)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None,
+          phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
+@given(altitude=st.floats(0.0, 300.0), vertical=st.floats(-150.0, 30.0),
+       horizontal=st.floats(0.0, 80.0), tilt=st.floats(0.0, 179.0),
+       throttle=st.floats(0.0, 1.0), dt=st.sampled_from([0.02, 0.05, 0.1, 0.5, 1.0]))
+def test_coarse_flight_is_never_caught_below_the_ground(altitude, vertical, horizontal, tilt,
+                                                        throttle, dt):
+    """A ship the step judges far from the ground (one step, no contact work) never ends the tick
+    with a foot below it: the near-ground test is conservative for any speed, attitude, thrust
+    and tick."""
+    scn = scene({"altitude": altitude, "vertical_speed": vertical, "horizontal_speed": horizontal,
+                 "tilt_deg": tilt}, inputs=[{"t": 0.0, "throttle": throttle}],
+                sim={"dt": dt, "on_unstable": "allow"}, contact={"align_on_touchdown": False},
+                duration=dt)
+    inp = scn.inputs_at(0)
+    far = ~near_ground(scn.params, scn.initial, commands(scn.params, scn.initial, inp))
+    _, out, _ = step(scn.params, scn.initial, inp)
+    if far[0]:
+        assert out.altitude_m[0] > 0.0
+
+
+# -- pivot ----------------------------------------------------------------------------------------------
+def test_the_pivot_model_of_a_tipped_ship_matches_the_full_model():
+    """A lander toppling from 5 deg past its critical angle: the default hands it to the pivot
+    model at tipped_angle (80 deg); a second run keeps the full model (feet, springs, friction) to
+    89 deg. Both reach 85 and 88 deg within two ticks of each other."""
+    crit = math.degrees(math.atan2(2.26, 3.0))
+    start = {"state": "contact", "altitude": -G / 100.0, "tilt_deg": crit + 5.0}
+    pivot = records(scene(start, duration=6.0))
+    full = records(scene(start, duration=6.0, contact={"tipped_angle_deg": 89.0,
+                                                        "tipped_rest_deg": 90.0}))
+    assert "ship.tipped" in topics(pivot)
+    dt = 0.05
+    for angle in (85.0, 88.0):
+        t_pivot = int(np.argmax(tilt_deg(pivot) >= angle)) * dt
+        t_full = int(np.argmax(tilt_deg(full) >= angle)) * dt
+        assert t_pivot > 0 and t_full > 0
+        assert abs(t_pivot - t_full) <= 2 * dt + 1e-9, (angle, t_pivot, t_full)
