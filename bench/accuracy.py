@@ -132,14 +132,16 @@ def marginal_cost(doc: dict, recs: list) -> float:
 
 def _timed(doc: dict, stop=None):
     """Run ``doc``'s first ship alone; returns (scenario, its records, the marginal CPU s per ship
-    per simulated s). ``stop(records)`` ends the run once it has what it needs."""
+    per simulated s, or nan for a batch of one). ``stop(records)`` ends the run once it has what
+    it needs."""
     scn = parse({**doc, "ships": doc["ships"][:1]}, "accuracy")
     recs = []
     for rec in run(scn):
         recs.append(rec)
         if stop is not None and stop(recs):
             break
-    return scn, recs, marginal_cost(doc, recs)
+    cost = marginal_cost(doc, recs) if len(doc["ships"]) > 1 else float("nan")
+    return scn, recs, cost
 
 
 def _events(recs) -> list[tuple[int, EventKind, float]]:

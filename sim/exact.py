@@ -150,17 +150,71 @@ class Functional:
         return Functional(pick(self.cx), pick(self.cv), pick(self.ca), pick(self.c0), pick(self.ct))
 
 
-def bracketed_root(flow: Flow, g: Functional, t_hi: Array, g_lo: Array, g_hi: Array) -> Array:
-    """The root of g in (0, t_hi) for ships whose g changes sign there (g_lo = g(0), g_hi =
+#: most sub-intervals a step is scanned in for the first sign change of an event function
+MAX_SCAN_POINTS = 16
+
+
+def scan(flow: Flow, t_end: Array) -> tuple[Array, Array]:
+    """(points, horizon): scan (0, horizon] in ``points`` equal sub-intervals for an event's first
+    sign change. The first zero of a damped oscillation plus a constant comes within one period
+    of the motion (2 pi / b underdamped; 2 pi / (w / 2) otherwise, the slowest an extremum can
+    come), so the horizon is the step or that period, whichever is shorter, and each sub-interval
+    a quarter period at most: 1 to MAX_SCAN_POINTS points. Ballistic ships (w2 = 0): one. A
+    ship's scan depends on its own step and stiffness alone."""
+    s = 0.5 * flow.c1
+    w_scale2 = np.maximum(flow.w2 - s * s, 0.25 * flow.w2)
+    oscillates = w_scale2 > 0.0
+    period = 2.0 * np.pi / np.sqrt(np.where(oscillates, w_scale2, 1.0))
+    horizon = np.where(oscillates & (period < t_end), period, t_end)
+    n = np.where(oscillates, np.clip(np.ceil(4.0 * horizon / period), 1, MAX_SCAN_POINTS), 1)
+    return n.astype(np.int64), horizon
+
+
+def first_crossing(flow: Flow, g: Functional, t_end: Array, g_start: Array, g_end: Array
+                   ) -> tuple[Array, Array, Array, Array, Array]:
+    """The first scanned sub-interval (:func:`scan`) over which g changes sign:
+    (crossed, t_lo, t_hi, g_lo, g_hi). ``g_start`` and ``g_end`` are g at 0 and at t_end; the scan
+    evaluates only the points in between (none when one interval covers the step)."""
+    points, horizon = scan(flow, t_end)
+    n = g_start.shape[0]
+    crossed = np.zeros(n, dtype=bool)
+    t_lo, g_lo = np.zeros(n), g_start.copy()
+    t_hi, g_hi = t_end.copy(), g_end.copy()
+    prev_t, prev_g = np.zeros(n), g_start.copy()
+    for j in range(1, int(points.max()) + 1 if n else 1):
+        live = ~crossed & (j <= points)
+        if not live.any():
+            break
+        idx = np.flatnonzero(live)
+        at_end = (j == points[idx]) & (horizon[idx] == t_end[idx])
+        t_j = np.where(at_end, t_end[idx], horizon[idx] * (j / points[idx]))
+        g_j = np.where(at_end, g_end[idx], 0.0)
+        inner = np.flatnonzero(~at_end)
+        if inner.size:
+            sub = idx[inner]
+            g_j[inner], _ = g.take(sub).value_and_rate(flow.take(sub), t_j[inner])
+        change = ((prev_g[idx] > 0.0) & (g_j < 0.0)) | ((prev_g[idx] < 0.0) & (g_j > 0.0))
+        hit = idx[change]
+        t_lo[hit], g_lo[hit] = prev_t[hit], prev_g[hit]
+        t_hi[hit], g_hi[hit] = t_j[change], g_j[change]
+        crossed[hit] = True
+        prev_t[idx], prev_g[idx] = t_j, g_j
+    return crossed, t_lo, t_hi, g_lo, g_hi
+
+
+def bracketed_root(flow: Flow, g: Functional, t_lo: Array, t_hi: Array, g_lo: Array,
+                   g_hi: Array) -> Array:
+    """The root of g in (t_lo, t_hi) for ships whose g changes sign there (g_lo = g(t_lo), g_hi =
     g(t_hi) of opposite signs). Safeguarded Newton: a Newton step that leaves the bracket is
     replaced by bisection, the bracket shrinks every iteration, and a ship whose step has fallen
     to a few ulps is frozen, so its answer never depends on how long its neighbours take."""
-    lo = np.zeros_like(t_hi)
+    lo = t_lo.copy()
     hi = t_hi.copy()
     rising = g_hi > g_lo
-    t = t_hi * (g_lo / (g_lo - g_hi))  # regula falsi start
+    t = t_lo + (t_hi - t_lo) * (g_lo / (g_lo - g_hi))  # regula falsi start
     t = np.where((t > lo) & (t < hi), t, 0.5 * (lo + hi))
     done = np.zeros(t.shape, dtype=bool)
+    eps = np.finfo(float).eps
     for _ in range(MAX_ROOT_ITERATIONS):
         val, rate = g.value_and_rate(flow, t)
         below = np.where(rising, val < 0.0, val > 0.0)  # the root lies after t
@@ -170,10 +224,10 @@ def bracketed_root(flow: Flow, g: Functional, t_hi: Array, g_lo: Array, g_hi: Ar
         newton = t - val / safe_rate
         inside = (rate != 0.0) & (newton > lo) & (newton < hi)
         t_new = np.where(inside, newton, 0.5 * (lo + hi))
-        step_small = np.abs(t_new - t) <= 4.0 * np.finfo(float).eps * hi
+        step_small = np.abs(t_new - t) <= 4.0 * eps * hi
         exact = val == 0.0
         t = np.where(done | exact, t, t_new)
-        done = done | exact | step_small | (hi - lo <= 4.0 * np.finfo(float).eps * hi)
+        done = done | exact | step_small | (hi - lo <= 4.0 * eps * hi)
         if done.all():
             break
     return t

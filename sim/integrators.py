@@ -150,26 +150,37 @@ def exponential(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, 
         ct=np.where(absorbing, -k_u / safe_k, 0.0))
     g0, _ = let_go.value_and_rate(flow, np.zeros_like(m), flow.start())
     g_h, _ = let_go.value_and_rate(flow, h_arr, (x_h, v_h, acc_h))
-    sep = pressing & (g0 > 0.0) & (g_h < 0.0)
     t_act = h_arr.copy()  # how long the spring acts
     v_act = v_h.copy()  # x' when it stops
-    if sep.any():
-        i = np.flatnonzero(sep)
-        t_act[i] = exact.bracketed_root(flow.take(i), let_go.take(i), h_arr[i], g0[i], g_h[i])
-        x_s, v_act[i], _ = flow.take(i).at(t_act[i])
-        tail = h_arr[i] - t_act[i]
-        x_h[i] = x_s + tail * (v_act[i] + 0.5 * a_free[i] * tail)
-        v_h[i] = v_act[i] + a_free[i] * tail
-        acc_h[i] = a_free[i]
-    # deepest penetration inside the step: where x' turns from down to up while pressing
+    candidates = np.flatnonzero(pressing & (g0 > 0.0))
+    if candidates.size:
+        c = candidates
+        crossed, lo, hi, g_lo, g_hi = exact.first_crossing(
+            flow.take(c), let_go.take(c), h_arr[c], g0[c], g_h[c])
+        i, k = c[crossed], np.flatnonzero(crossed)
+        if i.size:
+            t_act[i] = exact.bracketed_root(flow.take(i), let_go.take(i), lo[k], hi[k], g_lo[k],
+                                            g_hi[k])
+            x_s, v_act[i], _ = flow.take(i).at(t_act[i])
+            tail = h_arr[i] - t_act[i]
+            x_h[i] = x_s + tail * (v_act[i] + 0.5 * a_free[i] * tail)
+            v_h[i] = v_act[i] + a_free[i] * tail
+            acc_h[i] = a_free[i]
+    sep = t_act < h_arr
+    # deepest penetration inside the step: where x' first turns from down to up while pressing
     peak = np.full(m.shape, -np.inf)
-    turn = pressing & (v_n0 < 0.0) & (v_act > 0.0)
-    if turn.any():
-        i = np.flatnonzero(turn)
-        fl = flow.take(i)
-        t_pk = exact.bracketed_root(fl, exact.Functional(cv=1.0), t_act[i], v_n0[i], v_act[i])
-        x_pk, _, _ = fl.at(t_pk)
-        peak[i] = ce.max_penetration_m[i] - x_pk - (k_u[i] / stiff[i]) * t_pk
+    descending = np.flatnonzero(pressing & (v_n0 < 0.0))
+    if descending.size:
+        d = descending
+        speed = exact.Functional(cv=1.0)
+        turned, lo, hi, g_lo, g_hi = exact.first_crossing(flow.take(d), speed, t_act[d], v_n0[d],
+                                                          v_act[d])
+        i, k = d[turned], np.flatnonzero(turned)
+        if i.size:
+            fl = flow.take(i)
+            t_pk = exact.bracketed_root(fl, speed, lo[k], hi[k], g_lo[k], g_hi[k])
+            x_pk, _, _ = fl.at(t_pk)
+            peak[i] = ce.max_penetration_m[i] - x_pk - (k_u[i] / stiff[i]) * t_pk
     impulse_per_kg = np.where(pressing, v_act - v_n0 - a_free * t_act, 0.0)
 
     # drift: along n by the flow, across n with the half-kicked velocity; turn the attitude

@@ -1,19 +1,20 @@
 """The vertical bounce against the exact piecewise damped-oscillator solution (bench/reference.py).
 
-Claim (README): with the default method (rk4) and tick (0.05 s, 25 ms contact sub-steps), the
-first bounce of a 20-49 m/s impact matches the exact solution to 1% (the issue's bar; held here
-to 0.5%, measured <= 0.15%) in maximum penetration,
-separation speed and apex.
+The issue's aim: at the live service's 10 Hz tick, the first bounce of a 20-49 m/s impact within
+0.1% of the reference. The default method (exponential) solves the pressing feet's spring exactly,
+so it is held here to 1e-6 (measured: a few 1e-9, the references' own precision), on the Moon and
+under Earth's gravity, in apex, separation speed, deepest penetration and contact duration; and a
+tick of up to a whole second neither tunnels nor starts the contact from a deep penetration (the
+instant the feet reach the ground is found inside the step). The measurements are the accuracy
+benchmark's own (bench/accuracy.py: apex from the state's energy, contact ends extrapolated
+ballistically), so the tests and the chart read the simulation the same way.
 """
-import math
-
 import pytest
 
+from bench.accuracy import EARTH, MOON, bounce
 from bench.reference import bounce_closed_form, bounce_ode
-from scenes import events, records, scene, series
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 
-G_MOON = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
+G_MOON = MOON.g
 
 
 @pytest.mark.parametrize("v", [20.0, 35.0, 49.0])
@@ -21,7 +22,7 @@ def test_the_two_references_agree(v):
     """The closed form (uniform g) and the ODE solve (GM/r^2) agree to 0.05%: the reference is
     itself checked before anything is checked against it."""
     a = bounce_closed_form(G_MOON, v)
-    b = bounce_ode(MOON_GM_M3PS2, MOON_RADIUS_M, v)
+    b = bounce_ode(MOON.gm, MOON.radius, v)
     assert a.max_penetration_m == pytest.approx(b.max_penetration_m, rel=5e-4)
     assert a.separation_speed_mps == pytest.approx(b.separation_speed_mps, rel=5e-4)
     assert a.apex_m == pytest.approx(b.apex_m, rel=5e-4)
@@ -30,40 +31,25 @@ def test_the_two_references_agree(v):
     assert 0.40 < a.separation_speed_mps / v < 0.47
 
 
-def first_bounce(recs):
-    evs = events(recs)
-    (t_c, name_c, v_imp), (t_l, name_l, v_sep) = evs[0], evs[1]
-    assert (name_c, name_l) == ("ship.contact", "ship.liftoff"), evs
-    t_next = evs[2][0] if len(evs) > 2 else len(recs)
-    peak = series(recs, "peak_penetration_m")[t_c:t_l + 1].max()
-    apex = series(recs, "altitude_m")[t_l:t_next].max()
-    return -v_imp, peak, v_sep, apex
-
-
+@pytest.mark.parametrize("body", [MOON, EARTH], ids=["moon", "earth"])
 @pytest.mark.parametrize("v0", [20.0, 27.0, 35.0, 42.0, 49.0])
-def test_default_method_matches_exact_bounce_to_1_percent(v0):
-    alt0 = 0.3
-    recs = records(scene({"altitude": alt0, "vertical_speed": -v0}, duration=2 * v0 / G_MOON + 2))
-    v_imp, peak, v_sep, apex = first_bounce(recs)
-    expected_impact = math.sqrt(v0 * v0 + 2 * G_MOON * alt0)
-    assert v_imp == pytest.approx(expected_impact, rel=1e-4)
-    ref = bounce_ode(MOON_GM_M3PS2, MOON_RADIUS_M, expected_impact)
-    assert peak == pytest.approx(ref.max_penetration_m, rel=0.005)
-    assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.005)
-    assert apex == pytest.approx(ref.apex_m, rel=0.005)
+def test_the_first_bounce_at_10_hz_is_exact(v0, body):
+    _, err = bounce({"dt": 0.1}, v0, body, batch=1)
+    assert set(err) == {"apex", "separation", "penetration", "contact"}
+    assert max(err.values()) < 1e-6, err
 
 
-@pytest.mark.parametrize("v0", [20.0, 45.0])
-def test_default_method_matches_exact_bounce_under_earth_gravity(v0):
-    """A heavy body: g = 9.8 m/s^2 (SEED-NOTES 1: restitution depends on v / (g / w))."""
-    from sim.constants import EARTH_GM_M3PS2, EARTH_RADIUS_M
-    g = EARTH_GM_M3PS2 / EARTH_RADIUS_M ** 2
-    alt0 = 0.3
-    recs = records(scene({"altitude": alt0, "vertical_speed": -v0},
-                         body={"name": "Earth", "radius": EARTH_RADIUS_M, "gm": EARTH_GM_M3PS2},
-                         duration=2 * v0 / g + 1))
-    v_imp, peak, v_sep, apex = first_bounce(recs)
-    ref = bounce_ode(EARTH_GM_M3PS2, EARTH_RADIUS_M, math.sqrt(v0 * v0 + 2 * g * alt0))
-    assert peak == pytest.approx(ref.max_penetration_m, rel=0.005)
-    assert v_sep == pytest.approx(ref.separation_speed_mps, rel=0.005)
-    assert apex == pytest.approx(ref.apex_m, rel=0.005)
+@pytest.mark.parametrize("dt,tolerance", [(0.05, 1e-6), (0.5, 1e-5), (1.0, 1e-4)])
+def test_no_tick_lets_a_49_mps_impact_tunnel(dt, tolerance):
+    """At a 1 s tick the whole bounce (a third of a second) and 14 m of the climb after it fit in
+    one step; gravity held over such a step (it changes by 2 dr / R ~ 2e-5) is what is left."""
+    _, err = bounce({"dt": dt}, 49.0, MOON, batch=1)
+    assert max(err.values()) < tolerance, err
+
+
+def test_the_seeds_method_at_10_hz_is_far_off():
+    """SEED-NOTES 8: the seed's plain semi-implicit Euler step at 10 Hz misses the first bounce's
+    apex by tens of percent (the chart shows it across ticks)."""
+    _, err = bounce({"integrator": "semi_implicit_euler", "dt": 0.1, "max_substep": 0.0,
+                     "on_unstable": "allow"}, 20.0, MOON, batch=1)
+    assert err["apex"] > 0.3
