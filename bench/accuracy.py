@@ -202,23 +202,27 @@ def bounce(sim: dict, v0: float, body: Body, batch: int) -> tuple[float, dict[st
                   "contact": abs((t_out - t_in) / ref.contact_duration_s - 1)}
 
 
+def _event_time(doc: dict, kind: EventKind) -> tuple[float, float, list]:
+    """Run ``doc`` until its first ship's first ``kind`` event: (cost, the event's tick time or
+    nan, the records)."""
+    def reached(recs):
+        return any(k == kind for _, k, _ in _events(recs[-1:]))
+
+    scn, recs, cost = _timed(doc, reached)
+    ticks = [t for t, k, _ in _events(recs) if k == kind]
+    return cost, ticks[0] * scn.params.sim.dt_s if ticks else float("nan"), recs
+
+
 def settle(sim: dict, v0: float, batch: int) -> tuple[float, float]:
     alt0 = 0.3
     r_touch = _touch_radius(MOON)
     doc = _doc({"altitude": alt0, "vertical_speed": -v0}, sim, 2.5 * v0 / MOON.g + 3.0, batch)
-
-    def landed(recs):
-        return any(k == EventKind.LANDED for _, k, _ in _events(recs[-1:]))
-
-    scn, recs, cost = _timed(doc, landed)
+    cost, t_landed, recs = _event_time(doc, EventKind.LANDED)
     r0, u0 = _radial(recs[0])
     v_imp = math.sqrt(u0 * u0 + 2.0 * MOON.gm * (1.0 / r_touch - 1.0 / r0))
     ref, _ = settle_time(MOON.gm, MOON.radius, v_imp, com_height_m=H_COM)
     ref += _fall_time(MOON, r0 - r_touch, u0)
-    ticks = [t for t, k, _ in _events(recs) if k == EventKind.LANDED]
-    if not ticks:
-        return cost, float("nan")
-    return cost, abs(ticks[0] * scn.params.sim.dt_s / ref - 1)
+    return cost, abs(t_landed / ref - 1)
 
 
 def slide(sim: dict, batch: int) -> tuple[float, float]:
@@ -249,16 +253,9 @@ def topple(sim: dict, batch: int) -> tuple[float, float]:
     th0 = critical_angle_rad(H_COM, A_LEG) + math.radians(5.0)
     doc = _doc({"state": "contact", "altitude": -MOON.g / 100.0, "tilt_deg": math.degrees(th0)},
                sim, 8.0, batch)
-
-    def tipped(recs):
-        return any(k == EventKind.TIPPED for _, k, _ in _events(recs[-1:]))
-
-    scn, recs, cost = _timed(doc, tipped)
-    ticks = [t for t, k, _ in _events(recs) if k == EventKind.TIPPED]
-    if not ticks:
-        return cost, float("nan")
+    cost, t_tipped, _ = _event_time(doc, EventKind.TIPPED)
     ref = topple_time(MOON.g, MASS, _i_transverse(), H_COM, A_LEG, th0, math.radians(80.0))
-    return cost, abs(ticks[0] * scn.params.sim.dt_s / ref - 1)
+    return cost, abs(t_tipped / ref - 1)
 
 
 def righting(sim: dict, batch: int) -> tuple[float, float]:
@@ -267,17 +264,10 @@ def righting(sim: dict, batch: int) -> tuple[float, float]:
     doc = _doc({"state": "tipped", "tilt_deg": 90.0}, sim, 8.0, batch,
                ship={"max_rcs_torque": tau, "rcs_isp": 1e12},
                inputs=[{"t": 0.0, "rcs": [0.0, -1.0, 0.0]}])
-
-    def righted(recs):
-        return any(k == EventKind.RIGHTED for _, k, _ in _events(recs[-1:]))
-
-    scn, recs, cost = _timed(doc, righted)
-    ticks = [t for t, k, _ in _events(recs) if k == EventKind.RIGHTED]
-    if not ticks:
-        return cost, float("nan")
+    cost, t_righted, _ = _event_time(doc, EventKind.RIGHTED)
     ref = righting_time(MOON.g, MASS, _i_transverse(), H_COM, A_LEG, tau, math.radians(90.0),
                         math.radians(80.0))
-    return cost, abs(ticks[0] * scn.params.sim.dt_s / ref - 1)
+    return cost, abs(t_righted / ref - 1)
 
 
 def configs(quick: bool) -> list[tuple[str, float, dict]]:

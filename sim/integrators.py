@@ -133,54 +133,12 @@ def exponential(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, 
     v_half = v + times(0.5 * h, a0 - vec.scale(n_hat, a0_n))  # across n only
     w_half = w + times(0.5 * h, al0)
 
-    # the pressing feet as one spring-damper along n
-    stiff, damp = ce.stiffness_npm, ce.damping_nspm
-    pressing = stiff > 0.0
-    a_free = a0_n - ce.normal_n / m
-    k_u = -(ce.spring_load_rate_nps + stiff * v_n0)  # sum k_i u_i: rotation's own loading rate
-    flow = exact.Flow(w2=stiff / m, c1=damp / m, b0=a_free + (ce.normal_n + damp * v_n0) / m,
-                      b1=-k_u / m, x0=np.zeros_like(m), v0=v_n0)
-    x_h, v_h, acc_h = flow.at(h_arr)
-    # where the spring lets go: the normal force per unit mass (x'' - a_free) reaching zero, or,
-    # for an absorbed (bilateral) contact, the pressing feet's mean penetration reaching zero
-    safe_k = np.where(pressing, stiff, 1.0)
-    let_go = exact.Functional(
-        cx=np.where(absorbing, -1.0, 0.0), ca=np.where(absorbing, 0.0, 1.0),
-        c0=np.where(absorbing, ce.spring_load_n / safe_k, -a_free),
-        ct=np.where(absorbing, -k_u / safe_k, 0.0))
-    g0, _ = let_go.value_and_rate(flow, np.zeros_like(m), flow.start())
-    g_h, _ = let_go.value_and_rate(flow, h_arr, (x_h, v_h, acc_h))
-    t_act = h_arr.copy()  # how long the spring acts
-    v_act = v_h.copy()  # x' when it stops
-    candidates = np.flatnonzero(pressing & (g0 > 0.0))
-    if candidates.size:
-        c = candidates
-        crossed, lo, hi, g_lo, g_hi = exact.first_crossing(
-            flow.take(c), let_go.take(c), h_arr[c], g0[c], g_h[c])
-        i, k = c[crossed], np.flatnonzero(crossed)
-        if i.size:
-            t_act[i] = exact.bracketed_root(flow.take(i), let_go.take(i), lo[k], hi[k], g_lo[k],
-                                            g_hi[k])
-            x_s, v_act[i], _ = flow.take(i).at(t_act[i])
-            tail = h_arr[i] - t_act[i]
-            x_h[i] = x_s + tail * (v_act[i] + 0.5 * a_free[i] * tail)
-            v_h[i] = v_act[i] + a_free[i] * tail
-            acc_h[i] = a_free[i]
+    a_free = a0_n - ce.normal_n / m  # gravity and thrust along n
+    flow, k_u = _spring_flow(ce, m, a_free, v_n0)
+    pressing = flow.w2 > 0.0
+    x_h, v_h, acc_h, t_act, v_act = _until_released(flow, ce, absorbing, a_free, k_u, h_arr)
     sep = t_act < h_arr
-    # deepest penetration inside the step: where x' first turns from down to up while pressing
-    peak = np.full(m.shape, -np.inf)
-    descending = np.flatnonzero(pressing & (v_n0 < 0.0))
-    if descending.size:
-        d = descending
-        speed = exact.Functional(cv=1.0)
-        turned, lo, hi, g_lo, g_hi = exact.first_crossing(flow.take(d), speed, t_act[d], v_n0[d],
-                                                          v_act[d])
-        i, k = d[turned], np.flatnonzero(turned)
-        if i.size:
-            fl = flow.take(i)
-            t_pk = exact.bracketed_root(fl, speed, lo[k], hi[k], g_lo[k], g_hi[k])
-            x_pk, _, _ = fl.at(t_pk)
-            peak[i] = ce.max_penetration_m[i] - x_pk - (k_u[i] / stiff[i]) * t_pk
+    peak = _deepest(flow, ce, k_u, v_n0, t_act, v_act)
     impulse_per_kg = np.where(pressing, v_act - v_n0 - a_free * t_act, 0.0)
 
     # drift: along n by the flow, across n with the half-kicked velocity; turn the attitude
@@ -198,6 +156,69 @@ def exponential(fb: FreeBodies, ground: Ground, h: Step, y: Y, ce: ContactEval, 
     model_end_n = np.where(pressing & ~sep, m * (acc_h - a_free), 0.0)
     impulse_n = m * impulse_per_kg + 0.5 * h_arr * (ce1.normal_n - model_end_n)
     return Stepped((p1, v1, q1, w1), impulse_n / h_arr, peak)
+
+
+def _spring_flow(ce: ContactEval, m: np.ndarray, a_free: np.ndarray, v_n0: np.ndarray
+                 ) -> tuple[exact.Flow, np.ndarray]:
+    """The pressing feet as one spring-damper along n, fitted at the step's start, and K U (the
+    rate at which rotation alone loads the springs: sum k_i u_i). x is the height gained."""
+    stiff, damp = ce.stiffness_npm, ce.damping_nspm
+    k_u = -(ce.spring_load_rate_nps + stiff * v_n0)
+    flow = exact.Flow(w2=stiff / m, c1=damp / m, b0=a_free + (ce.normal_n + damp * v_n0) / m,
+                      b1=-k_u / m, x0=np.zeros_like(m), v0=v_n0)
+    return flow, k_u
+
+
+def _until_released(flow: exact.Flow, ce: ContactEval, absorbing: np.ndarray,
+                    a_free: np.ndarray, k_u: np.ndarray, h: np.ndarray):
+    """The flow over the step, until the spring lets go and ballistic after: the normal force per
+    unit mass (x'' - a_free) reaching zero, or, for an absorbed (bilateral) contact, the pressing
+    feet's mean penetration reaching zero. Returns (x, x', x'') at the step's end, how long the
+    spring acted, and x' when it let go."""
+    x_h, v_h, acc_h = flow.at(h)
+    pressing = flow.w2 > 0.0
+    safe_k = np.where(pressing, ce.stiffness_npm, 1.0)
+    let_go = exact.Functional(
+        cx=np.where(absorbing, -1.0, 0.0), ca=np.where(absorbing, 0.0, 1.0),
+        c0=np.where(absorbing, ce.spring_load_n / safe_k, -a_free),
+        ct=np.where(absorbing, -k_u / safe_k, 0.0))
+    g0, _ = let_go.value_and_rate(flow, np.zeros_like(h), flow.start())
+    g_h, _ = let_go.value_and_rate(flow, h, (x_h, v_h, acc_h))
+    t_act = h.copy()
+    v_act = v_h.copy()
+    c = np.flatnonzero(pressing & (g0 > 0.0))
+    if c.size:
+        crossed, lo, hi, g_lo, g_hi = exact.first_crossing(
+            flow.take(c), let_go.take(c), h[c], g0[c], g_h[c])
+        i, k = c[crossed], np.flatnonzero(crossed)
+        if i.size:
+            t_act[i] = exact.bracketed_root(flow.take(i), let_go.take(i), lo[k], hi[k], g_lo[k],
+                                            g_hi[k])
+            x_s, v_act[i], _ = flow.take(i).at(t_act[i])
+            tail = h[i] - t_act[i]
+            x_h[i] = x_s + tail * (v_act[i] + 0.5 * a_free[i] * tail)
+            v_h[i] = v_act[i] + a_free[i] * tail
+            acc_h[i] = a_free[i]
+    return x_h, v_h, acc_h, t_act, v_act
+
+
+def _deepest(flow: exact.Flow, ce: ContactEval, k_u: np.ndarray, v_n0: np.ndarray,
+             t_act: np.ndarray, v_act: np.ndarray) -> np.ndarray:
+    """The deepest penetration inside the step, where x' first turns from down to up while the
+    spring acts (-inf where it lies at an end of the step)."""
+    peak = np.full(v_n0.shape, -np.inf)
+    d = np.flatnonzero((flow.w2 > 0.0) & (v_n0 < 0.0))
+    if d.size:
+        speed = exact.Functional(cv=1.0)
+        turned, lo, hi, g_lo, g_hi = exact.first_crossing(flow.take(d), speed, t_act[d], v_n0[d],
+                                                          v_act[d])
+        i, k = d[turned], np.flatnonzero(turned)
+        if i.size:
+            fl = flow.take(i)
+            t_pk = exact.bracketed_root(fl, speed, lo[k], hi[k], g_lo[k], g_hi[k])
+            x_pk, _, _ = fl.at(t_pk)
+            peak[i] = ce.max_penetration_m[i] - x_pk - (k_u[i] / ce.stiffness_npm[i]) * t_pk
+    return peak
 
 
 #: Every method by name; an unknown name is rejected when a scenario is loaded.
