@@ -55,7 +55,8 @@ class ContactEval:
     cop_w: np.ndarray  # (N, 3) centre of pressure; the lowest foot where nothing presses
     lowest_foot_w: np.ndarray  # (N, 3) the deepest (or lowest) foot
     # The pressing feet (those whose force is not clamped away) as one linear spring-damper, for
-    # the exact method (sim.integrators.exponential): sums over them of k_i, c_i, k_i x_i, k_i x_i'.
+    # the exact method (sim.integrators.exponential): sums over them of k_i, c_i, k_i x_i, k_i x_i'
+    # (zeros unless asked for: evaluate's linear_model).
     stiffness_npm: np.ndarray  # (N,)
     damping_nspm: np.ndarray  # (N,)
     spring_load_n: np.ndarray  # (N,)
@@ -98,12 +99,14 @@ def lowest_foot_penetration(pos_m: np.ndarray, quat: np.ndarray, leg_radius_m: n
 def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: np.ndarray,
              leg_radius_m: np.ndarray, com_height_m: np.ndarray, k_npm: np.ndarray,
              c_nspm: np.ndarray, c_absorb_nspm: np.ndarray, absorbing: np.ndarray,
-             ground: Ground, engage_m: np.ndarray | float = 0.0) -> ContactEval:
+             ground: Ground, engage_m: np.ndarray | float = 0.0,
+             linear_model: bool = False) -> ContactEval:
     """Normal force, its moment, and penetration for every ship (see the module docstring).
 
     ``engage_m``: a foot counts as touching from ``pen > -engage_m``; a step that starts exactly
     at the surface crossing passes a micrometre so that rounding cannot leave out the damper's
-    jump at its first stage."""
+    jump at its first stage. ``linear_model``: also sum the pressing feet's stiffness, damping,
+    load and load rate (zeros otherwise)."""
     n = pos_m.shape[0]
     force = np.zeros((n, 3))
     torque = np.zeros((n, 3))
@@ -123,13 +126,14 @@ def evaluate(pos_m: np.ndarray, vel_mps: np.ndarray, quat: np.ndarray, omega_w: 
         v_foot = vel_mps + vec.cross(omega_w, offset)
         pen_rate = -vec.dot(v_foot, n_hat)
         f = k_leg * pen + c_leg * pen_rate
-        pressing = (pen > -engage_m) & (absorbing | (f > 0.0))
+        if linear_model:
+            pressing = (pen > -engage_m) & (absorbing | (f > 0.0))
+            stiff += np.where(pressing, k_leg, 0.0)
+            damp += np.where(pressing, c_leg, 0.0)
+            load += np.where(pressing, k_leg * pen, 0.0)
+            load_rate += np.where(pressing, k_leg * pen_rate, 0.0)
         f = np.where(absorbing, f, np.maximum(f, 0.0))
         f = np.where(pen > -engage_m, f, 0.0)
-        stiff += np.where(pressing, k_leg, 0.0)
-        damp += np.where(pressing, c_leg, 0.0)
-        load += np.where(pressing, k_leg * pen, 0.0)
-        load_rate += np.where(pressing, k_leg * pen_rate, 0.0)
         f_vec = vec.scale(n_hat, f)
         force += f_vec
         torque += vec.cross(offset, f_vec)

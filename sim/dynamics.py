@@ -45,6 +45,9 @@ class FreeBodies:
     #: a foot presses from penetration > -engage_m (per ship or one number); negative while a
     #: ship is stepped up to the instant its feet reach the ground (sim.step.free_flight)
     engage_m: np.ndarray | float = 0.0
+    #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums); others
+    #: skip that work
+    linear_model: bool = False
 
     def ground_at(self, t_s: float) -> Ground:
         theta = self.body_omega_radps * t_s
@@ -62,7 +65,7 @@ def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
     omega_w = vec.quat_rotate(q, w_b)
     return evaluate(p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm,
                     fb.c_absorb_nspm, absorbing, ground,
-                    fb.engage_m if engage_m is None else engage_m)
+                    fb.engage_m if engage_m is None else engage_m, fb.linear_model)
 
 
 def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):

@@ -56,7 +56,9 @@ def decay_cos_sinc(s: Array, b2: Array, t: Array) -> tuple[Array, Array, Array]:
     """(e^{-s t}, Cb(t), Sb(t)) for s >= 0, any real b^2 = w2 - s^2 and t >= 0, elementwise.
 
     t is halved k times (k the fewest that bring s t and |b^2| t^2 within 1/2, at most
-    MAX_HALVINGS), the series are summed there, and the results doubled k times."""
+    MAX_HALVINGS), the series are summed there, and the results doubled k times. (sim.vec's
+    cos_sinc, for attitudes, takes a real angle only; here b^2 may be negative, an overdamped
+    contact, and the decay e^{-s t} comes with it.)"""
     t = np.asarray(t, dtype=float)
     y = s * t
     z = -b2 * t * t

@@ -31,9 +31,10 @@ def spread_over_step(pos_m: np.ndarray, quat: np.ndarray, vel_before: np.ndarray
                      vel_after: np.ndarray, omega_before: np.ndarray, omega_after: np.ndarray,
                      h: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Position and attitude as if the friction impulse had acted evenly over the step of length
-    h: a velocity change dv spread over the step shortens its drift by -h dv / 2 (dv opposes the
-    slip, so this moves the ship back), and likewise for the turn. Exact for a constant friction
-    force; a ship held at rest by static friction then stays exactly where it is."""
+    h: a velocity change dv spread over the step changes its drift by h dv / 2 (dv opposes the
+    slip, so the ship ends short of where its speed before the impulse took it), and likewise
+    for the turn. Exact for a constant friction force; a ship held at rest by static friction
+    then stays exactly where it is."""
     h_col = h if np.ndim(h) == 0 else np.asarray(h)[:, None]
     pos = pos_m + 0.5 * h_col * (vel_after - vel_before)
     return pos, vec.quat_integrate(quat, omega_after - omega_before, 0.5 * np.asarray(h))

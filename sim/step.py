@@ -143,7 +143,8 @@ def near_ground(params: Params, st: State, cmd: Commands) -> np.ndarray:
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
 #: on Earth), which leaves an upright bounce turning at ~1e-10 rad/s: 1e-8 is rounding's level, and
-#: one exact step and many sub-steps of such a ship agree to ~1e-12 of its motion.
+#: what a tilt, spin or slip that small would do over a tick is far below the 1e-7 to which one
+#: exact step and sub-steps of the full model agree (tests/test_models.py).
 VERTICAL_TOL2 = 1e-16
 
 
@@ -186,7 +187,7 @@ def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool) -> Fr
         com_height_m=params.ships.com_height_m, k_npm=k, c_nspm=cp.damping_ratio * two_omega_m,
         c_absorb_nspm=cp.absorb_damping_ratio * two_omega_m, gm_m3ps2=params.body.gm_m3ps2,
         body_radius_m=params.body.radius_m, body_omega_radps=params.body.omega_radps,
-        params=params, touching=touching)
+        params=params, touching=touching, linear_model=params.sim.integrator in KICKS)
 
 
 def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
@@ -244,11 +245,10 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     ce = contact_at(fb, ground, p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
 
-    def substep(h_step, y, ce_start, sliding_start, bodies=fb, absorbing_now=None):
+    def substep(h_step, y, ce_start, sliding_start, bodies=fb):
         """One integrator step plus the friction impulse; returns (y, sliding, friction N, the
         method's own peak penetration inside the step or None)."""
-        res = advance(bodies, ground, h_step, y, ce_start,
-                      absorbing if absorbing_now is None else absorbing_now)
+        res = advance(bodies, ground, h_step, y, ce_start, absorbing)
         y1, normal_mean = res.y, res.normal_mean_n
         if not touching:
             return y1, sliding_start, np.zeros(n), res.peak_penetration_m
@@ -293,7 +293,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             # absorbers from its first instant, and the seed's touchdown alignment happens here
             absorbing = np.where(crossing, v_cross < cp.bounce_speed_mps, absorbing)
             if cp.align_on_touchdown:
-                y1 = _align_at_touchdown(params, fb, ground, y1, crossing)
+                y1 = _align_at_touchdown(params, ground, y1, crossing)
             ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
             y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
             c3 = crossing[:, None]
@@ -357,7 +357,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             settle = np.where(touch_ok, 0, settle)
             snap = touch_ok & ~tip & ~crossing  # a located crossing was aligned there
             if cp.align_on_touchdown and snap.any():
-                p, v, q, w = _align_at_touchdown(params, fb, ground, (p, v, q, w), snap)
+                p, v, q, w = _align_at_touchdown(params, ground, (p, v, q, w), snap)
                 ce = contact_at(fb, ground, p, v, q, w, absorbing)
         c, s = body_rotation(params, t_end)
         if tip.any():
@@ -400,7 +400,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     return out, friction_n, np.abs(ce.normal_n), peak, transitions
 
 
-def _align_at_touchdown(params: Params, fb: FreeBodies, ground, y, mask: np.ndarray):
+def _align_at_touchdown(params: Params, ground: contact.Ground, y, mask: np.ndarray):
     """The seed's Flying -> Contact rule for the ships in ``mask``: attitude snapped to local up
     and rotation stopped (relative to the surface); then the ship moves out along local up so
     that its deepest foot is no deeper than before the snap: turning must not bury the feet
