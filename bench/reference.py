@@ -214,3 +214,54 @@ def righting_time(g: float, mass_kg: float, i_transverse_kgm2: float, com_height
     sol = solve_ivp(rhs, (0.0, 1e4), [theta0_rad, 0.0], events=[reach], method="DOP853",
                     rtol=1e-11, atol=1e-12)
     return float(sol.t_events[0][0])
+
+
+def planar_touchdown(v_side_mps: float, v_down_mps: float, g: float, mass_kg: float = 1e4,
+                     i_transverse_kgm2: float = 42768.15, com_height_m: float = 3.0,
+                     leg_radius_m: float = 2.26, omega: float = OMEGA, zeta: float = 0.3,
+                     zeta_absorb: float = 1.0, bounce_speed: float = 10.0, mu: float = 0.5,
+                     slip_scale_mps: float = 1e-4, t_end_s: float = 10.0,
+                     tipped_deg: float = 80.0):
+    """An upright lander touching down with a sideways speed along one of its feet, in the plane of
+    that motion (exactly planar: the two side feet project onto the centre line), as a rigid body
+    on level ground: x horizontal, z up, theta its tilt toward the motion (+ = forward).
+
+    Four feet, k/4 and c/4 each (k = m w^2, c = 2 zeta w m; the absorber's zeta, bilateral while a
+    foot is compressed, for an impact slower than bounce_speed), feet at (+-a, -h) and two at
+    (0, -h); Coulomb friction mu N at each pressing foot against its slip, regularised as
+    mu N tanh(slip / slip_scale) (no separate static coefficient: compare with mu_s = mu_k).
+    Uniform gravity g. Time from the touchdown. Radau at rtol 1e-9, an event at ``tipped_deg``.
+    Returns (time the tilt reaches tipped_deg or None, the largest tilt in degrees, the feet's
+    centre's travel in m)."""
+    k = mass_kg * omega * omega
+    absorbing = v_down_mps < bounce_speed
+    c = 2.0 * (zeta_absorb if absorbing else zeta) * omega * mass_kg
+    feet = ((leg_radius_m, 0.25), (0.0, 0.5), (-leg_radius_m, 0.25))
+    h = com_height_m
+
+    def rhs(t, y):
+        _, z, th, vx, vz, om = y
+        s, co = math.sin(th), math.cos(th)
+        fx = fz = tq = 0.0
+        for bx, share in feet:
+            rx, rz = bx * co - h * s, -bx * s - h * co
+            pen = -(z + rz)
+            if pen <= 0.0:
+                continue
+            ux, uz = vx + om * rz, vz - om * rx
+            f = share * (k * pen - c * uz)
+            if not absorbing:
+                f = max(f, 0.0)
+            ff = -mu * max(f, 0.0) * math.tanh(ux / slip_scale_mps)
+            fx, fz = fx + ff, fz + f
+            tq += rz * ff - rx * f
+        return [vx, vz, om, fx / mass_kg, fz / mass_kg - g, tq / i_transverse_kgm2]
+
+    tipped = lambda t, y: y[2] - math.radians(tipped_deg)  # noqa: E731
+    tipped.terminal, tipped.direction = True, 1
+    with np.errstate(over="ignore"):  # Radau's finite-difference Jacobian probes far steps
+        sol = solve_ivp(rhs, (0.0, t_end_s), [0.0, h, 0.0, v_side_mps, -v_down_mps, 0.0],
+                        method="Radau", rtol=1e-9, atol=1e-11, events=[tipped], max_step=0.01)
+    t_tip = float(sol.t_events[0][0]) if sol.t_events[0].size else None
+    feet_x = sol.y[0] - h * np.sin(sol.y[2])
+    return t_tip, math.degrees(float(np.max(sol.y[2]))), float(feet_x[-1] - feet_x[0])

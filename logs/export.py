@@ -1,24 +1,55 @@
-"""JSON Lines export of a log (SPEC.md section 4): one object per ship per tick, or per event."""
+"""JSON Lines export of a log (SPEC.md section 4): one object per ship per tick, or per event.
+
+Positions, velocities, angular velocities and energy come from the logged state through the same
+``sim`` functions the step uses (sim.frames.site_frame, sim.energy), with the parameters of the
+log's own recorded scenario. A field the log does not hold on a tick (a format-1 log's velocities
+between keyframes) is null.
+"""
 from __future__ import annotations
 
 import json
 import math
 from typing import IO, Iterator
 
-from logs.mcap_log import LogReader
+import numpy as np
+
+from logs.mcap_log import LogReader, TickData, scenario_of
 from proto import touchdown_pb2 as pb
+from sim import energy
 from sim.enums import SurfaceState
+from sim.frames import ground_at, site_frame
 
 _STATE = {int(s): s.label for s in SurfaceState}
 
 
+def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
+    """Site-frame position and velocity, body rates and energy of every ship at one tick."""
+    a = td.arrays
+    if "vel_mps" not in a or "omega_body_radps" not in a:
+        return None
+    n = td.ship_count
+    p, v = td.vec("pos_m", 3), td.vec("vel_mps", 3)
+    q, w = td.vec("quat", 4), td.vec("omega_body_radps", 3)
+    m = a["mass_kg"]
+    t = td.tick * params.sim.dt_s
+    pos, vel = site_frame(params, p, v, t)
+    sh = params.ships
+    inertia = sh.inertia0_kgm2[:n] * (m / sh.mass0_kg[:n])[:, None]
+    e = energy.mechanical(params.body.gm_m3ps2, params.body.radius_m, params.body.omega_radps,
+                          params.contact.stiffness_per_kg, sh.leg_radius_m[:n], sh.com_height_m[:n],
+                          m, inertia, p, v, q, w, ground_at(params, t))
+    return {"pos": pos, "vel": vel, "omega": w, "energy": e.total_j}
+
+
 def tick_rows(reader: LogReader) -> Iterator[dict]:
     ids = list(reader.scenario.ship_ids)
+    params = scenario_of(reader)[0].params
     for td in reader.ticks():
         a = td.arrays
+        d = _derived(params, td)
         for i, ship_id in enumerate(ids):
             c = max(-1.0, min(1.0, float(a["cos_tilt"][i])))
-            yield {
+            row = {
                 "tick": td.tick, "t": td.t_s, "ship_id": ship_id,
                 "state": _STATE[int(a["surface_state"][i])],
                 "altitude": float(a["altitude_m"][i]), "penetration": float(a["penetration_m"][i]),
@@ -31,6 +62,13 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
                 "fuel_mass": float(a["fuel_kg"][i]), "mass": float(a["mass_kg"][i]),
                 "throttle": float(a["throttle"][i]),
             }
+            for key, arr, k in (("east", "pos", 0), ("north", "pos", 1), ("up", "pos", 2),
+                                ("v_east", "vel", 0), ("v_north", "vel", 1), ("v_up", "vel", 2),
+                                ("omega_x", "omega", 0), ("omega_y", "omega", 1),
+                                ("omega_z", "omega", 2)):
+                row[key] = None if d is None else float(d[arr][i, k])
+            row["energy_j"] = None if d is None else float(d["energy"][i])
+            yield row
 
 
 def event_rows(reader: LogReader) -> Iterator[dict]:

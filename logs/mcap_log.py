@@ -27,19 +27,25 @@ from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
 from sim.run import TickRecord
-from sim.scenario import Scenario
+from sim.scenario import Scenario, ScenarioError, parse
 from sim.state import STATE_ARRAY_FIELDS, Inputs, State
 
-LOG_FORMAT_VERSION = 1
+#: 2 (touchdown 0.3): per-foot ``sliding`` (4 per ship); velocities and angular velocities on every
+#: tick. A format-1 log still reads (``sliding`` per ship is given to all four feet).
+LOG_FORMAT_VERSION = 2
 _EMPTY = np.zeros(0)
 TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
 TOPIC_EVENTS = "/touchdown/events"
 TOPIC_SUMMARY = "/touchdown/summary"
-#: state fields written only on keyframe ticks; the rest (positions, attitudes, masses, states,
-#: telemetry, commands) are on every tick
-KEYFRAME_ONLY = ("vel_mps", "omega_body_radps", "absorbing", "sliding", "settle_ticks",
-                 "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m")
+#: state fields written only on keyframe ticks; the rest (positions, velocities, attitudes, angular
+#: velocities, masses, states, telemetry, commands) are on every tick
+KEYFRAME_ONLY = ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m",
+                 "pin_quat_bf", "pin_pivot_bf_m")
+#: numbers per ship of each TickBatch array (1 where not listed)
+WIDTH = {"pos_m": 3, "vel_mps": 3, "quat": 4, "omega_body_radps": 3, "sliding": 4,
+         "pin_pos_bf_m": 3, "pin_quat_bf": 4, "pin_pivot_bf_m": 3, "rcs_torque_body_nm": 3,
+         "input_rcs": 3}
 OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
                  "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm")
 
@@ -232,11 +238,17 @@ class TickData:
                 pos_m=self.vec("pos_m", 3), vel_mps=self.vec("vel_mps", 3), quat=self.vec("quat", 4),
                 omega_body_radps=self.vec("omega_body_radps", 3), mass_kg=a["mass_kg"],
                 fuel_kg=a["fuel_kg"], absorbing=a["absorbing"].astype(bool),
-                sliding=a["sliding"].astype(bool), settle_ticks=a["settle_ticks"].astype(np.int64),
+                sliding=self._sliding(), settle_ticks=a["settle_ticks"].astype(np.int64),
                 pivot_rate_radps=a["pivot_rate_radps"], pin_pos_bf_m=self.vec("pin_pos_bf_m", 3),
                 pin_quat_bf=self.vec("pin_quat_bf", 4), pin_pivot_bf_m=self.vec("pin_pivot_bf_m", 3))
         except (KeyError, ValueError) as exc:
             raise LogError(f"tick {self.tick}: incomplete state record ({exc})") from None
+
+    def _sliding(self) -> np.ndarray:
+        a = self.arrays["sliding"].astype(bool)
+        if a.size == self.ship_count:  # a format-1 log: one regime per ship
+            return np.repeat(a[:, None], 4, axis=1)
+        return a.reshape(self.ship_count, 4)
 
     def inputs(self) -> Inputs:
         """The commands applied during the step into this tick."""
@@ -313,4 +325,26 @@ class LogReader:
         self.close()
 
 
-__all__ = ["LogWriter", "LogReader", "TickData", "STATE_ARRAY_FIELDS", "tick_arrays"]
+def scenario_of(reader: LogReader, ship_id: str | None = None,
+                overrides: dict | None = None) -> tuple[Scenario, int | None]:
+    """The log's scenario (optionally one ship of it); returns it and that ship's index."""
+    rec = reader.scenario
+    try:
+        doc = json.loads(rec.resolved_json)
+    except json.JSONDecodeError as exc:
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON ({exc})") from None
+    index = None
+    if ship_id is not None:
+        ids = [s.get("id") for s in doc.get("ships", [])]
+        if ship_id not in ids:
+            raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
+                           f"{', '.join(map(str, ids))})")
+        index = ids.index(ship_id)
+        doc["ships"] = [doc["ships"][index]]
+    try:
+        return parse(doc, str(reader.path), overrides), index
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+
+
+__all__ = ["LogWriter", "LogReader", "TickData", "STATE_ARRAY_FIELDS", "tick_arrays", "scenario_of"]

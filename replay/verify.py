@@ -7,22 +7,18 @@ starts from the state recorded at ``first`` instead of tick 0.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from logs import LogError
 from logs.codec import PACKED, encode_tick
-from logs.mcap_log import _EMPTY, KEYFRAME_ONLY, LogReader, tick_arrays
+from logs.mcap_log import _EMPTY, KEYFRAME_ONLY, WIDTH as _WIDTH, LogReader, scenario_of, tick_arrays
 from sim import __version__ as PROJECT_VERSION
 from sim.run import run
-from sim.scenario import Scenario, ScenarioError, parse
 
-#: per-ship width of each packed field (vectors 3, quaternions 4)
-WIDTH = {name: (4 if "quat" in name else 3 if name in (
-    "pos_m", "vel_mps", "omega_body_radps", "pin_pos_bf_m", "pin_pivot_bf_m",
-    "rcs_torque_body_nm", "input_rcs") else 1) for _, name, _ in PACKED}
+#: per-ship width of each packed field
+WIDTH = {name: _WIDTH.get(name, 1) for _, name, _ in PACKED}
 
 
 @dataclass
@@ -77,28 +73,6 @@ class VerifyResult:
         else:
             lines.append("  no transition of that ship before it")
         return "\n".join(lines)
-
-
-def scenario_of(reader: LogReader, ship_id: str | None = None,
-                overrides: dict | None = None) -> tuple[Scenario, int | None]:
-    """The log's scenario (optionally one ship of it); returns it and that ship's index."""
-    rec = reader.scenario
-    try:
-        doc = json.loads(rec.resolved_json)
-    except json.JSONDecodeError as exc:
-        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON ({exc})") from None
-    index = None
-    if ship_id is not None:
-        ids = [s.get("id") for s in doc.get("ships", [])]
-        if ship_id not in ids:
-            raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
-                           f"{', '.join(map(str, ids))})")
-        index = ids.index(ship_id)
-        doc["ships"] = [doc["ships"][index]]
-    try:
-        return parse(doc, str(reader.path), overrides), index
-    except ScenarioError as exc:
-        raise LogError(str(exc)) from None
 
 
 def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int):

@@ -8,8 +8,7 @@ from itertools import zip_longest
 
 import numpy as np
 
-from logs.mcap_log import LogReader, LogWriter
-from replay.verify import scenario_of
+from logs.mcap_log import LogReader, LogWriter, scenario_of
 from sim.enums import EventKind, SurfaceState
 from sim.run import run
 

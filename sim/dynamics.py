@@ -3,8 +3,8 @@ main-engine thrust, RCS torque and the ground's contact forces.
 
     p' = v
     v' = -GM p / |p|^3 + (F_contact + T e_z) / m
-    q' = 1/2 q (x) (0, omega_b)
-    omega_b' = I^-1 (tau_b - omega_b x I omega_b)          (Euler's equations, principal axes)
+    q' = 1/2 q (x) (0, omega)
+    L' = L x omega + tau_b,   L = I omega          (Euler's equations, principal body axes)
 
 The seed takes gravity's torque about the contact point and divides by the inertia about the centre
 of mass. Newton-Euler about the centre of mass with the contact force applied at the feet is the same
@@ -14,52 +14,67 @@ Gravity-gradient torque (order GM I / r^3, ~1e-6 of the contact torques) is negl
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from sim import vec
 from sim.contact import ContactEval, Ground, evaluate, no_contact
+from sim.frames import body_rotation
 from sim.params import Params
+
+Array = np.ndarray
 
 
 @dataclass(frozen=True)
 class FreeBodies:
     """Everything constant over one tick for a subset of free ships (arrays (M,...))."""
 
-    mass_kg: np.ndarray
-    inertia_kgm2: np.ndarray  # (M, 3)
-    thrust_n: np.ndarray
-    rcs_torque_body_nm: np.ndarray  # (M, 3)
-    leg_radius_m: np.ndarray
-    com_height_m: np.ndarray
-    k_npm: np.ndarray
-    c_nspm: np.ndarray
-    c_absorb_nspm: np.ndarray
+    mass_kg: Array
+    inertia_kgm2: Array  # (M, 3)
+    thrust_n: Array
+    rcs_torque_body_nm: Array  # (M, 3)
+    leg_radius_m: Array
+    com_height_m: Array
+    k_npm: Array
+    c_nspm: Array
+    c_absorb_nspm: Array
     gm_m3ps2: float
     body_radius_m: float
     body_omega_radps: float
     params: Params
     touching: bool  # False: these ships cannot reach the ground this tick; skip the contact work
+    t_tick_s: float = 0.0  # the tick's start; instants within it are given as offsets from it
     #: a foot presses from penetration > -engage_m (per ship or one number); negative while a
     #: ship is stepped up to the instant its feet reach the ground (sim.step.free_flight)
-    engage_m: np.ndarray | float = 0.0
+    engage_m: Array | float = 0.0
     #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums); others
     #: skip that work
     linear_model: bool = False
 
-    def ground_at(self, t_s: float) -> Ground:
-        theta = self.body_omega_radps * t_s
-        c, s = (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
-        return Ground(self.body_radius_m, self.params.body.terrain, c, s)
+    def ground_at(self, offset_s: float | Array) -> Ground:
+        """The ground at ``t_tick + offset`` (offset a number or one per ship). The tick's angle
+        Omega t comes from one scalar libm call shared by every ship; the offset's small angle is
+        added with cos_sinc's +,*,/ series, so a ship's ground depends on its own offset alone."""
+        body = self.params.body
+        om = self.body_omega_radps
+        radial = self.params.contact.surface_normal == "radial"
+        if om == 0.0:
+            return Ground(self.body_radius_m, body.terrain, 1.0, 0.0, 0.0, radial)
+        c0, s0 = body_rotation(self.params, self.t_tick_s)
+        if body.terrain.flat:  # the sphere looks the same at every angle
+            return Ground(self.body_radius_m, body.terrain, c0, s0, om, radial)
+        d = np.broadcast_to(np.asarray(om * np.asarray(offset_s, dtype=float)),
+                            self.mass_kg.shape)
+        cd, sinc_d = vec.cos_sinc(d)
+        sd = d * sinc_d
+        return Ground(self.body_radius_m, body.terrain, c0 * cd - s0 * sd, s0 * cd + c0 * sd, om,
+                      radial)
 
 
 def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
-               engage_m: np.ndarray | float | None = None) -> ContactEval:
-    """The ground's action at one state. ``ground`` fixes the body's rotation angle: it is taken
-    at the start of each sub-step and held over it (Omega h < 1e-6 rad for any real body).
-    ``engage_m`` overrides ``fb.engage_m``."""
+               engage_m: Array | float | None = None) -> ContactEval:
+    """The ground's action at one state. ``engage_m`` overrides ``fb.engage_m``."""
     if not fb.touching:
         return no_contact(p.shape[0], p)
     omega_w = vec.quat_rotate(q, w_b)
@@ -68,15 +83,22 @@ def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
                     fb.engage_m if engage_m is None else engage_m, fb.linear_model)
 
 
-def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):
-    """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
+def acceleration(fb: FreeBodies, ce: ContactEval, p, q) -> Array:
+    """v': point-mass gravity, thrust along the long axis, and the ground's force."""
     r2 = vec.dot(p, p)
     r = np.sqrt(r2)
     a = vec.scale(p, -fb.gm_m3ps2 / (r2 * r))
-    ez = vec.quat_axis_z(q)
-    force = ce.force_w + vec.scale(ez, fb.thrust_n)
-    a = a + force / fb.mass_kg[:, None]
-    tau_b = vec.quat_rotate_inv(q, ce.torque_w) + fb.rcs_torque_body_nm
+    force = ce.force_w + vec.scale(vec.quat_axis_z(q), fb.thrust_n)
+    return a + force / fb.mass_kg[:, None]
+
+
+def torque_body(fb: FreeBodies, ce: ContactEval, q) -> Array:
+    """External torque in the body frame: the ground's, and the RCS's."""
+    return vec.quat_rotate_inv(q, ce.torque_w) + fb.rcs_torque_body_nm
+
+
+def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):
+    """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
     i_w = fb.inertia_kgm2 * w_b
-    alpha_b = (tau_b - vec.cross(w_b, i_w)) / fb.inertia_kgm2
-    return v, a, vec.quat_derivative(q, w_b), alpha_b
+    alpha_b = (torque_body(fb, ce, q) - vec.cross(w_b, i_w)) / fb.inertia_kgm2
+    return v, acceleration(fb, ce, p, q), vec.quat_derivative(q, w_b), alpha_b

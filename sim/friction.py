@@ -1,17 +1,34 @@
-"""Coulomb friction at the centre of pressure, applied as an impulse after each (sub)step.
+"""Coulomb friction at the feet that press, applied as impulses after each (sub)step.
 
-Touchdown's law (``friction_model = "coulomb"``, SEED-NOTES 4): let s be the slip speed of the
-contact point relative to the surface and J_stop = s / (1/m + (r x t)^T I^-1 (r x t)) the impulse
-that brings it exactly to rest (t: slip direction, r: contact point from the centre of mass).
-With N the mean normal force over the step of length h:
+Touchdown's law (``friction_model = "coulomb"``, SEED-NOTES 4, MODEL-NOTES 23). Each foot that
+pressed during the step has its own Coulomb cone: with J_i its normal impulse over the step (what
+the integrator applied), its friction impulse lies in the ground's tangent plane there, bounded by
+mu J_i. The feet are coupled through the rigid ship, and they are solved together as the
+footprint's three tangential freedoms (its slip at the centre of pressure, and its spin about the
+ground's normal; the contact patch of Howe & Cutkosky, Int. J. Robotics Research 15, 1996):
 
-    sliding:  J = min(J_stop, mu_k N h)               (decelerates, never overshoots zero)
-    sticking: J = J_stop if J_stop <= mu_s N h         (holds exactly, whatever pushes sideways)
-              J = mu_k N h otherwise                   (breaks away)
+* stick: the impulse that stops the footprint (translation and spin) exactly, through the ship's
+  3 x 3 effective-mass matrix there, if its share at every foot (the force in proportion to the
+  foot's load, the moment in proportion to load times lever) fits that foot's disk mu_s J_i;
+* slide: otherwise each foot carries mu_k J_i against its own slip: a slide decelerates at
+  mu_k g, four feet damp a spin about the long axis at mu_k m g a / I_z, and a sliding, spinning
+  footprint couples the two as four feet do;
+* a sliding footprint whose stop impulse fits the mu_k disks stops (never overshooting zero);
+  a sticking one that needs more than mu_s J breaks away.
 
-A slide on level ground therefore decelerates at mu_k g and stops at v0^2 / (2 mu_k g). The
-impulse stands for a force that acted throughout the step, so the step's drift is corrected for it
-(:func:`spread_over_step`): without that, the drift uses the speed from before the impulse, a
+Why not four rigid feet each held to zero slip: on a tilted ship that is eight conditions on six
+velocities, two of them all but redundant (the fore and aft feet differ in height by a sin(tilt),
+so only a pitch rate can make their slips differ: eigenvalues 1e-7 of the others, measured), and
+stopping that differential slip takes internal impulses of 1e5 N s. The footprint's freedoms are
+what friction can hold; the rest is compliance the rigid model does not have.
+
+Everything is evaluated at the step's end state: the feet where they are, their slip relative to
+the surface under them (Omega z x foot on a rotating body), in the tangent plane of the terrain
+there (its slope on the ship's local vertical: the sphere's curvature across the footprint, a / R,
+is left out of the friction planes). A ship held on a slope does not creep.
+
+The impulse stands for a force that acted throughout the step, so the step's drift is corrected for
+it (:func:`spread_over_step`): without that, the drift uses the speed from before the impulse, a
 slide overshoots by mu_k g h T / 2 (first order in the step h) and a ship held on a slope creeps
 by a h^2 / 2 a step.
 
@@ -25,11 +42,18 @@ import numpy as np
 
 from sim import vec
 from sim.constants import STICK_SPEED_MPS
+from sim.contact import Feet, Four, Ground
+
+Array = np.ndarray
+
+#: A footprint with less than this much of its load's lever (sum of J_i |rho_i|^2 over sum J_i, m^2)
+#: is a point: it has no torsional friction (leg_radius = 0, or one foot pressing).
+POINT_CONTACT_M2 = 1e-12
 
 
-def spread_over_step(pos_m: np.ndarray, quat: np.ndarray, vel_before: np.ndarray,
-                     vel_after: np.ndarray, omega_before: np.ndarray, omega_after: np.ndarray,
-                     h: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def spread_over_step(pos_m: Array, quat: Array, vel_before: Array, vel_after: Array,
+                     omega_before: Array, omega_after: Array,
+                     h: float | Array) -> tuple[Array, Array]:
     """Position and attitude as if the friction impulse had acted evenly over the step of length
     h: a velocity change dv spread over the step changes its drift by h dv / 2 (dv opposes the
     slip, so the ship ends short of where its speed before the impulse took it), and likewise
@@ -40,41 +64,122 @@ def spread_over_step(pos_m: np.ndarray, quat: np.ndarray, vel_before: np.ndarray
     return pos, vec.quat_integrate(quat, omega_after - omega_before, 0.5 * np.asarray(h))
 
 
-def apply(model: str, mu_s: float, mu_k: float, h: float, body_omega_radps: float,
-          mass_kg: np.ndarray, inertia_kgm2: np.ndarray, pos_m: np.ndarray, vel_mps: np.ndarray,
-          quat: np.ndarray, omega_b: np.ndarray, normal_n: np.ndarray, cop_w: np.ndarray,
-          sliding: np.ndarray):
-    """Returns (vel, omega_b, sliding, friction force magnitude N)."""
-    seed = model == "seed"
-    point = pos_m if seed else cop_w
-    n_hat = vec.unit(point)
-    r = point - pos_m
+def _tangent_basis(n_hat: Array) -> tuple[Array, Array]:
+    """Two unit vectors spanning the plane normal to n_hat (any orientation; chosen per ship from
+    its own n_hat alone)."""
+    ref = np.zeros_like(n_hat)
+    use_z = np.abs(n_hat[:, 2]) < 0.9
+    ref[:, 2] = np.where(use_z, 1.0, 0.0)
+    ref[:, 0] = np.where(use_z, 0.0, 1.0)
+    t1 = vec.unit(vec.cross(ref, n_hat))
+    return t1, vec.cross(n_hat, t1)
+
+
+def coulomb(mu_s: float, mu_k: float, mass_kg: Array, inertia_kgm2: Array, pos_m: Array,
+            vel_mps: Array, quat: Array, omega_b: Array, ft: Feet, foot_impulse_ns: Four,
+            sliding: Array, ground: Ground) -> tuple[Array, Array, Array, Array]:
+    """Coulomb friction at the pressing feet (module docstring). ``ft``: the feet at the step's
+    end state; ``sliding`` (N, 4): the feet's regime at the start. Returns (vel, omega_b,
+    sliding (N, 4), the sum of the feet's friction impulse magnitudes, N s)."""
+    up = vec.unit(pos_m)
+    j_n = [np.maximum(j, 0.0) for j in foot_impulse_ns]
+    j_sum = ((j_n[0] + j_n[1]) + j_n[2]) + j_n[3]
+    pressed = j_sum > 0.0
+    safe_sum = np.where(pressed, j_sum, 1.0)
+    # each foot's plane: the terrain's slope under it on the ship's local vertical (the sphere's
+    # curvature across the footprint, 1e-6 rad, would make a straight descent slip every foot)
+    normals = [vec.unit(ft.push_w[i] - vec.unit(ft.pos_w[i]) + up) for i in range(4)]
+    n_bar = vec.unit(sum((vec.scale(normals[i], j_n[i]) for i in range(1, 4)),
+                         vec.scale(normals[0], j_n[0])))
+    n_bar = np.where(pressed[:, None], n_bar, up)
+    centre = sum((vec.scale(ft.pos_w[i], j_n[i]) for i in range(1, 4)),
+                 vec.scale(ft.pos_w[0], j_n[0])) / safe_sum[:, None]
+    centre = np.where(pressed[:, None], centre, pos_m)
+    t1, t2 = _tangent_basis(n_bar)
+    r = centre - pos_m
+    lever = [ft.pos_w[i] - centre for i in range(4)]
+    lever_t = [x - vec.scale(n_bar, vec.dot(x, n_bar)) for x in lever]
+    s2 = sum((j_n[i] * vec.dot(lever_t[i], lever_t[i]) for i in range(1, 4)),
+             j_n[0] * vec.dot(lever_t[0], lever_t[0]))
+    twists = s2 > POINT_CONTACT_M2 * safe_sum
+
+    # the footprint's slip (at its centre, and its spin about n_bar) and effective mass
     omega_w = vec.quat_rotate(quat, omega_b)
-    v_point = vel_mps if seed else vel_mps + vec.cross(omega_w, r)
-    # velocity of the surface under the point: Omega z x point
-    v_surf = np.zeros_like(point)
-    v_surf[:, 0] = -body_omega_radps * point[:, 1]
-    v_surf[:, 1] = body_omega_radps * point[:, 0]
-    v_rel = v_point - v_surf
+    spin_w = np.zeros_like(omega_w)
+    spin_w[:, 2] = ground.spin_radps
+    slip_c = vel_mps + vec.cross(omega_w, r) - ground.surface_velocity(centre)
+    sigma = (vec.dot(slip_c, t1), vec.dot(slip_c, t2), vec.dot(omega_w - spin_w, n_bar))
+    a1 = vec.quat_rotate_inv(quat, vec.cross(r, t1))  # the body-frame turn per unit impulse, x I
+    a2 = vec.quat_rotate_inv(quat, vec.cross(r, t2))
+    a3 = vec.quat_rotate_inv(quat, n_bar)
+    inv_m = 1.0 / mass_kg
+    k11 = inv_m + vec.dot(a1, a1 / inertia_kgm2)
+    k22 = inv_m + vec.dot(a2, a2 / inertia_kgm2)
+    k12 = vec.dot(a1, a2 / inertia_kgm2)
+    k13 = np.where(twists, vec.dot(a1, a3 / inertia_kgm2), 0.0)
+    k23 = np.where(twists, vec.dot(a2, a3 / inertia_kgm2), 0.0)
+    k33 = np.where(twists, vec.dot(a3, a3 / inertia_kgm2), 1.0)
+    s3 = np.where(twists, sigma[2], 0.0)
+    # stop impulse (P1, P2, L) = -K^-1 sigma, by cofactors
+    c11, c22, c33 = k22 * k33 - k23 * k23, k11 * k33 - k13 * k13, k11 * k22 - k12 * k12
+    c12, c13, c23 = k13 * k23 - k12 * k33, k12 * k23 - k13 * k22, k12 * k13 - k11 * k23
+    det = k11 * c11 + k12 * c12 + k13 * c13
+    p1 = -(c11 * sigma[0] + c12 * sigma[1] + c13 * s3) / det
+    p2 = -(c12 * sigma[0] + c22 * sigma[1] + c23 * s3) / det
+    torque = -(c13 * sigma[0] + c23 * sigma[1] + c33 * s3) / det
+    force_stop = vec.scale(t1, p1) + vec.scale(t2, p2)
+
+    # does the stop impulse's share fit every pressing foot's disk?
+    was_sliding = (sliding & np.stack([j > 0.0 for j in j_n], axis=1)).any(axis=1)
+    mu = np.where(was_sliding, mu_k, mu_s)
+    twist_per_s2 = torque / np.where(twists, s2, 1.0)
+    fits = pressed.copy()
+    for i in range(4):
+        share = force_stop / safe_sum[:, None] + vec.scale(vec.cross(n_bar, lever_t[i]),
+                                                           np.where(twists, twist_per_s2, 0.0))
+        fits &= (j_n[i] <= 0.0) | (vec.dot(share, share) <= mu * mu)
+
+    # apply: the stop impulse at the centre, or each foot's kinetic impulse at the foot
+    d_vel = np.zeros_like(vel_mps)
+    d_ang = np.zeros_like(vel_mps)  # angular impulse about the centre of mass, inertial
+    stop_ang = vec.cross(r, force_stop) + vec.scale(n_bar, np.where(twists, torque, 0.0))
+    d_vel = np.where(fits[:, None], force_stop, d_vel)
+    d_ang = np.where(fits[:, None], stop_ang, d_ang)
+    total = np.zeros_like(j_sum)
+    kinetic = pressed & ~fits
+    for i in range(4):
+        slip_i = (vel_mps + vec.cross(omega_w, ft.offset_w[i]) - ground.surface_velocity(ft.pos_w[i]))
+        slip_i = slip_i - vec.scale(normals[i], vec.dot(slip_i, normals[i]))
+        speed = vec.norm(slip_i)
+        lam = vec.scale(slip_i, -mu_k * j_n[i] / np.where(speed > 0.0, speed, 1.0))
+        lam = np.where((kinetic & (speed > 0.0))[:, None], lam, 0.0)
+        d_vel = d_vel + lam
+        d_ang = d_ang + vec.cross(ft.offset_w[i], lam)
+        share = force_stop / safe_sum[:, None] + vec.scale(vec.cross(n_bar, lever_t[i]),
+                                                           np.where(twists, twist_per_s2, 0.0))
+        total = total + np.where(fits, j_n[i] * vec.norm(share), vec.norm(lam))
+    vel = vel_mps + d_vel / mass_kg[:, None]
+    omega = omega_b + vec.quat_rotate_inv(quat, d_ang) / inertia_kgm2
+    now_sliding = np.stack([kinetic & (j > 0.0) for j in j_n], axis=1)
+    return vel, omega, now_sliding, total
+
+
+def seed(mu_s: float, mu_k: float, mass_kg: Array, pos_m: Array, vel_mps: Array,
+         normal_impulse_ns: Array, sliding: Array, ground: Ground
+         ) -> tuple[Array, Array, Array]:
+    """The seed's law at the centre of mass (module docstring). Returns (vel, sliding (N, 4),
+    friction impulse N s)."""
+    n_hat = vec.unit(pos_m)
+    v_rel = vel_mps - ground.surface_velocity(pos_m)
     v_t = v_rel - vec.scale(n_hat, vec.dot(v_rel, n_hat))
     s = vec.norm(v_t)
     moving = s > 0.0
     t_hat = v_t / np.where(moving, s, 1.0)[:, None]
-    n_pos = np.maximum(normal_n, 0.0)
-    lim_s = mu_s * n_pos * h
-    lim_k = mu_k * n_pos * h
-    if seed:
-        j_stop = mass_kg * s
-        j = np.where(s > STICK_SPEED_MPS, lim_k, np.where(j_stop <= lim_s, j_stop, lim_k))
-        u_b_over_i = np.zeros_like(omega_b)
-    else:
-        u_b = vec.quat_rotate_inv(quat, vec.cross(r, t_hat))
-        u_b_over_i = u_b / inertia_kgm2
-        inv_m_eff = 1.0 / mass_kg + vec.dot(u_b, u_b_over_i)
-        j_stop = s / inv_m_eff
-        j = np.where(sliding, np.minimum(j_stop, lim_k), np.where(j_stop <= lim_s, j_stop, lim_k))
-    j = np.where(moving & (n_pos > 0.0), j, 0.0)
+    j_n = np.maximum(normal_impulse_ns, 0.0)
+    lim_s, lim_k = mu_s * j_n, mu_k * j_n
+    j_stop = mass_kg * s
+    j = np.where(s > STICK_SPEED_MPS, lim_k, np.where(j_stop <= lim_s, j_stop, lim_k))
+    j = np.where(moving & (j_n > 0.0), j, 0.0)
     vel = vel_mps - vec.scale(t_hat, j / mass_kg)
-    omega = omega_b - vec.scale(u_b_over_i, j)
-    still_sliding = j < j_stop if not seed else s - j / mass_kg > STICK_SPEED_MPS
-    return vel, omega, still_sliding & moving, j / h
+    still = (s - j / mass_kg > STICK_SPEED_MPS) & moving
+    return vel, np.repeat(still[:, None], 4, axis=1), j

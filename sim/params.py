@@ -67,6 +67,9 @@ class ContactParams:
     #: Tilt at which a tipped ship lies on its side, degrees.
     tipped_rest_deg: float = 90.0
     stiffness_per_kg: float = CONTACT_STIFFNESS_PER_KG
+    #: "terrain": each foot is pushed along the terrain's normal under it, friction in the tangent
+    #: plane there; "radial": the seed's (surface normal = local radial, whatever the slope)
+    surface_normal: str = "terrain"
 
     @cached_property
     def cos_settle_tilt(self) -> float:
@@ -103,15 +106,32 @@ class Terrain:
     bump_height_m: tuple[float, ...] = ()
 
     def height_m(self, east_m: np.ndarray, north_m: np.ndarray) -> np.ndarray:
-        h = np.full(east_m.shape, self.base_height_m)
+        return self.height_and_slope(east_m, north_m)[0]
+
+    def height_and_slope(self, east_m: np.ndarray, north_m: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h, dh/de, dh/dn): the height and its gradient, analytically,
+        dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
+        h = np.full(np.shape(east_m), self.base_height_m)
+        dh_de = np.zeros(np.shape(east_m))
+        dh_dn = np.zeros(np.shape(east_m))
         for e0, n0, rad, hgt in zip(self.bump_east_m, self.bump_north_m, self.bump_radius_m,
                                     self.bump_height_m):
             de = east_m - e0
             dn = north_m - n0
-            s = (de * de + dn * dn) / (rad * rad)
+            inv_r2 = 1.0 / (rad * rad)
+            s = (de * de + dn * dn) * inv_r2
             w = 1.0 - s
-            h = h + np.where(s < 1.0, hgt * w * w, 0.0)
-        return h
+            inside = s < 1.0
+            h = h + np.where(inside, hgt * w * w, 0.0)
+            slope = np.where(inside, -4.0 * hgt * w * inv_r2, 0.0)
+            dh_de = dh_de + slope * de
+            dh_dn = dh_dn + slope * dn
+        return h, dh_de, dh_dn
+
+    @property
+    def flat(self) -> bool:
+        return not self.bump_height_m
 
 
 @dataclass(frozen=True)

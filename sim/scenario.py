@@ -17,7 +17,8 @@ from typing import Any, Callable
 import numpy as np
 
 from sim import constants as C
-from sim.contact import foot_offsets_w
+from sim import vec
+from sim.contact import Ground, feet, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
@@ -76,7 +77,8 @@ CONTACT = {
     "absorb_damping_ratio": ("float", 1.0, _range(0.0, 100.0)),
     "friction_model": ("str", "coulomb", _choice({"coulomb", "seed"})),
     "tipped_rest_deg": ("float", 90.0, _range(0.0, 180.0, lo_open=True)),
-    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, POS)}
+    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, POS),
+    "surface_normal": ("str", "terrain", _choice({"terrain", "radial"}))}
 BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, POS),
         "gm": ("float", None, POS), "surface_gravity": ("float", None, POS),
         "rotation_period": ("float", 0.0, None), "terrain": ("table", None, None)}
@@ -371,21 +373,46 @@ def _check_stability(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> No
 
 
 def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
+    """A start must be a state physics can be in (MODEL-NOTES 27): a flying ship's feet are clear
+    of the ground; a ship in contact touches it, pressed in no deeper than an impact at
+    crash_speed could press it (its springs then hold at most the energy of such an impact, so
+    nothing comes out of the ground faster); landed and tipped ships are pinned, at rest."""
     ini = sh["initial"]
-    crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"]))
-    if ini["state"] in ("landed", "tipped"):
+    state, alt = ini["state"], ini["altitude"]
+    deepest = con["crash_speed"] / math.sqrt(con["stiffness_per_kg"])
+    if state == "flying" and alt < 0.0:
+        rd.fail(pre + "altitude", f"a flying ship's feet are above the ground (altitude >= 0, got "
+                                  f"{alt:g}); a ship in the ground is in contact: "
+                                  f"state = \"contact\"")
+    if state in ("contact", "landed"):
+        if alt > 0.0:
+            rd.fail(pre + "altitude", f"a {state} ship touches the ground (altitude <= 0, got "
+                                      f"{alt:g}); a ship above it is flying")
+        if alt < -deepest:
+            rd.fail(pre + "altitude", f"{alt:g} m presses the feet deeper than an impact at "
+                                      f"contact.crash_speed can ({-deepest:.4g} m = crash_speed / "
+                                      f"sqrt(stiffness_per_kg)); the springs would throw the ship "
+                                      f"out faster than that")
+    if state in ("landed", "tipped"):
         for key in ("vertical_speed", "horizontal_speed"):
             if ini[key] != 0.0:
-                rd.fail(pre + key, f"must be 0 for a {ini['state']} ship (it is pinned)")
-        if ini["altitude"] != 0.0 and ini["state"] == "tipped":
+                rd.fail(pre + key, f"must be 0 for a {state} ship (it is pinned)")
+        if any(x != 0.0 for x in ini["angular_velocity"]):
+            rd.fail(pre + "angular_velocity", f"must be 0 for a {state} ship (it is pinned)")
+        if alt != 0.0 and state == "tipped":
             rd.fail(pre + "altitude", "must be 0 for a tipped ship (it is pinned)")
-    if ini["state"] == "landed" and ini["tilt_deg"] >= crit:
-        rd.fail(pre + "tilt_deg", f"a landed ship must stand: tilt below the critical {crit:.2f} deg")
-    if ini["state"] == "tipped" and not (con["tipped_angle_deg"] < ini["tilt_deg"]
-                                         <= con["tipped_rest_deg"]):
+    # toward a foot (the tilt's direction is the body x axis), the footprint holds the centre of
+    # mass while h sin(tilt) < a cos(tilt)
+    th = math.radians(ini["tilt_deg"])
+    if state == "landed" and not sh["com_height"] * math.sin(th) < sh["leg_radius"] * math.cos(th):
+        crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"]))
+        rd.fail(pre + "tilt_deg", f"a landed ship must stand: its centre of mass over its "
+                                  f"footprint, tilt below {crit:.2f} deg")
+    if state == "tipped" and not (con["tipped_angle_deg"] < ini["tilt_deg"]
+                                  <= con["tipped_rest_deg"]):
         rd.fail(pre + "tilt_deg", "a tipped ship needs contact.tipped_angle_deg < tilt_deg <= "
                                   "contact.tipped_rest_deg")
-    if ini["state"] == "contact" and ini["tilt_deg"] >= con["tipped_angle_deg"]:
+    if state == "contact" and ini["tilt_deg"] >= con["tipped_angle_deg"]:
         rd.fail(pre + "tilt_deg", "a ship in contact must be tilted less than contact.tipped_angle_deg")
 
 
@@ -428,7 +455,7 @@ def _build(res: dict) -> Scenario:
         friction_kinetic=con["friction_kinetic"], align_on_touchdown=con["align_on_touchdown"],
         settle_time_s=con["settle_time"], absorb_damping_ratio=con["absorb_damping_ratio"],
         friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
-        stiffness_per_kg=con["stiffness_per_kg"])
+        stiffness_per_kg=con["stiffness_per_kg"], surface_normal=con["surface_normal"])
     spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
                      duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"])
 
@@ -453,6 +480,27 @@ def _build(res: dict) -> Scenario:
     return Scenario(res["name"], res["description"], res, params, initial, tuple(changes))
 
 
+#: Iterations placing a ship by its lowest foot (each moves it by the remaining error; the feet's
+#: site coordinates shift by a fraction of the move, so a few reach rounding on any slope).
+MAX_PLACEMENT_ITERATIONS = 50
+
+
+def _place(params: Params, ground: Ground, r_hat: np.ndarray, quat: np.ndarray, i: int,
+           altitude_m: float) -> np.ndarray:
+    """The centre of mass on the ray r_hat such that the lowest foot is ``altitude_m`` above the
+    terrain under it (SPEC.md section 3), whatever the tilt and the slope."""
+    sh = params.ships
+    a, h = sh.leg_radius_m[i:i + 1], sh.com_height_m[i:i + 1]
+    rho = params.body.radius_m + altitude_m + float(h[0])
+    for _ in range(MAX_PLACEMENT_ITERATIONS):
+        alt = -float(lowest_foot_penetration(r_hat * rho, quat, a, h, ground)[0])
+        move = altitude_m - alt
+        rho = rho + move
+        if abs(move) <= 4.0 * np.finfo(float).eps * rho:
+            break
+    return r_hat * rho
+
+
 def _initial_state(params: Params, ships: list[dict]) -> State:
     n = len(ships)
     body, terrain = params.body, params.body.terrain
@@ -460,7 +508,8 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
     pos, vel, quat, omega = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 4)), np.zeros((n, 3))
     surf = np.zeros(n, dtype=np.int8)
     absorbing = np.zeros(n, dtype=bool)
-    from sim import vec
+    ground0 = Ground(body.radius_m, terrain, 1.0, 0.0, om,
+                     params.contact.surface_normal == "radial")
 
     def v3(x) -> np.ndarray:
         return np.asarray(x, dtype=float).reshape(1, 3)
@@ -479,12 +528,7 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
         ex = math.cos(th) * fwd - math.sin(th) * r_hat
         ey = vec.cross(ez, ex)
         quat[i] = _quat_from_axes(ex[0], ey[0], ez[0])
-        h, a = s["com_height"], s["leg_radius"]
-        drop = h * math.cos(th) + a * abs(math.sin(th))
-        ground = body.radius_m + float(terrain.height_m(np.array([ini["east"]]),
-                                                        np.array([ini["north"]]))[0])
-        altitude = ini["altitude"]
-        pos[i] = (r_hat * (ground + altitude + drop))[0]
+        pos[i] = _place(params, ground0, r_hat, quat[i:i + 1], i, ini["altitude"])[0]
         surf_v = om * np.array([-pos[i, 1], pos[i, 0], 0.0])
         vel[i] = surf_v + ini["vertical_speed"] * r_hat[0] + ini["horizontal_speed"] * fwd[0]
         state = SurfaceState.from_label(ini["state"])
@@ -495,17 +539,16 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
     spin_w = np.zeros((n, 3))
     spin_w[:, 2] = om
     omega = np.array([s["initial"]["angular_velocity"] for s in ships]) + vec.quat_rotate_inv(quat, spin_w)
-    offsets = foot_offsets_w(quat, params.ships.leg_radius_m, params.ships.com_height_m)
-    radial = [vec.dot(o, vec.unit(pos)) for o in offsets]
-    lowest = np.zeros((n, 3))
-    best = np.full(n, np.inf)
-    for o, rd in zip(offsets, radial):
-        lower = rd < best
-        lowest = np.where(lower[:, None], pos + o, lowest)
-        best = np.where(lower, rd, best)
+    ft = feet(pos, quat, params.ships.leg_radius_m, params.ships.com_height_m, ground0)
+    lowest = ft.pos_w[0].copy()
+    deepest = ft.pen_m[0].copy()
+    for foot, x in zip(ft.pos_w[1:], ft.pen_m[1:]):
+        lowest = np.where((x > deepest)[:, None], foot, lowest)
+        deepest = np.maximum(deepest, x)
     return State(
         tick=0, surface_state=surf, pos_m=pos, vel_mps=vel, quat=quat, omega_body_radps=omega,
         mass_kg=params.ships.mass0_kg.copy(), fuel_kg=params.ships.fuel0_kg.copy(),
-        absorbing=absorbing, sliding=np.zeros(n, dtype=bool), settle_ticks=np.zeros(n, dtype=np.int64),
+        absorbing=absorbing, sliding=np.zeros((n, 4), dtype=bool),
+        settle_ticks=np.zeros(n, dtype=np.int64),
         pivot_rate_radps=np.zeros(n), pin_pos_bf_m=pos.copy(), pin_quat_bf=quat.copy(),
         pin_pivot_bf_m=lowest)

@@ -23,9 +23,9 @@ class State:
     mass_kg: np.ndarray  # (N,) wet mass
     fuel_kg: np.ndarray  # (N,)
     absorbing: np.ndarray  # (N,) bool: this contact began slower than bounce_speed (SEED-NOTES 1)
-    sliding: np.ndarray  # (N,) bool: kinetic friction regime at the end of the last sub-step
+    sliding: np.ndarray  # (N, 4) bool: each foot's friction regime (kinetic) at the last sub-step's end
     settle_ticks: np.ndarray  # (N,) int64: consecutive ticks the settle thresholds have held
-    pivot_rate_radps: np.ndarray  # (N,) tipped only: rate of tilt about the pivot (+ = toppling)
+    pivot_rate_radps: np.ndarray  # (N,) tipped only: rate of turn about the pivot (+ = toppling)
     pin_pos_bf_m: np.ndarray  # (N, 3) pinned ships: centre of mass, body-fixed frame
     pin_quat_bf: np.ndarray  # (N, 4) pinned ships: attitude relative to the body-fixed frame
     pin_pivot_bf_m: np.ndarray  # (N, 3) tipped only: the pivot (lowest foot), body-fixed frame

@@ -23,9 +23,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from sim import contact, friction, vec
+from sim import contact, energy, friction, vec
 from sim.constants import G0_MPS2
 from sim.dynamics import FreeBodies, contact_at
+from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, ground_at,
+                        inertia, pin_pose, quat_z, rotate_z, surface_spin_w, surface_velocity)
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from sim.integrators import method
 from sim.params import Params
@@ -44,55 +46,6 @@ class Commands:
 
     def take(self, idx: np.ndarray) -> "Commands":
         return Commands(self.throttle[idx], self.thrust_n[idx], self.rcs_torque_body_nm[idx])
-
-
-def body_rotation(params: Params, t_s: float) -> tuple[float, float]:
-    """(cos, sin) of the body's rotation angle Omega t. One scalar libm call per instant, shared by
-    every ship, so it cannot make ships differ."""
-    theta = params.body.omega_radps * t_s
-    return (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
-
-
-def rotate_z(v: np.ndarray, c: float, s: float) -> np.ndarray:
-    """Rotate inertial vectors (N,3) by angle (c = cos, s = sin) about +z."""
-    out = v.copy()
-    out[:, 0] = c * v[:, 0] - s * v[:, 1]
-    out[:, 1] = s * v[:, 0] + c * v[:, 1]
-    return out
-
-
-def quat_z(c: float, s: float, n: int) -> np.ndarray:
-    """Quaternions (n,4) of the rotation about +z whose angle has cosine c and sine s (half-angle
-    formulas: sqrt only)."""
-    ch = math.sqrt(max(0.0, 0.5 * (1.0 + c)))
-    sh = math.copysign(math.sqrt(max(0.0, 0.5 * (1.0 - c))), s)
-    q = np.zeros((n, 4))
-    q[:, 0] = ch
-    q[:, 3] = sh
-    return q
-
-
-def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
-    """Omega z x p: velocity of the body's surface (or a pinned ship) at p."""
-    om = params.body.omega_radps
-    out = np.zeros_like(p)
-    if om == 0.0:
-        return out
-    out[:, 0] = -om * p[:, 1]
-    out[:, 1] = om * p[:, 0]
-    return out
-
-
-def body_spin_in_body_frame(params: Params, q: np.ndarray) -> np.ndarray:
-    """The body's spin (0, 0, Omega) expressed in each ship's body frame."""
-    if params.body.omega_radps == 0.0:
-        return np.zeros((q.shape[0], 3))
-    return vec.quat_rotate_inv(q, np.broadcast_to(_Z * params.body.omega_radps, (q.shape[0], 3)))
-
-
-def inertia(params: Params, st: State) -> np.ndarray:
-    """Principal inertia (N,3), scaled with the wet mass (fuel spread like the structure)."""
-    return params.ships.inertia0_kgm2 * (st.mass_kg / params.ships.mass0_kg)[:, None]
 
 
 # -- 1. commands ---------------------------------------------------------------------------------
@@ -176,7 +129,8 @@ def purely_vertical(params: Params, st: State, cmd: Commands) -> np.ndarray:
     return ok
 
 
-def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool) -> FreeBodies:
+def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool, t_tick_s: float
+                 ) -> FreeBodies:
     cp = params.contact
     m = st.mass_kg
     k = cp.stiffness_per_kg * m
@@ -187,7 +141,8 @@ def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool) -> Fr
         com_height_m=params.ships.com_height_m, k_npm=k, c_nspm=cp.damping_ratio * two_omega_m,
         c_absorb_nspm=cp.absorb_damping_ratio * two_omega_m, gm_m3ps2=params.body.gm_m3ps2,
         body_radius_m=params.body.radius_m, body_omega_radps=params.body.omega_radps,
-        params=params, touching=touching, linear_model=params.sim.integrator in KICKS)
+        params=params, touching=touching, t_tick_s=t_tick_s,
+        linear_model=params.sim.integrator in KICKS)
 
 
 def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
@@ -203,13 +158,6 @@ def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
     return vec.quat_normalize(vec.quat_mul(vec.quat_normalize(rot), q))
 
 
-def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Inertial pose -> body-fixed pose at body angle (c, s)."""
-    if c == 1.0 and s == 0.0:
-        return p.copy(), q.copy()
-    return rotate_z(p, c, -s), vec.quat_mul(quat_z(c, -s, p.shape[0]), q)
-
-
 Transition = tuple[int, int, int, float]  # (ship, from state, to state, v_radial m/s)
 
 #: A step that ends (or starts) exactly where the feet reach the ground leaves them within rounding
@@ -222,12 +170,12 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                 t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[Transition]]:
     """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
 
-    Returns the new sub-batch, the last sub-step's friction force (N), the normal force at the
-    end (N), the deepest penetration of any sub-step (m), and the transitions as (local ship
-    index, from, to, v_radial) in the order they happened."""
-    cp, dt = params.contact, params.sim.dt_s
+    Returns the new sub-batch, the last sub-step's friction force (N: the sum of the feet's), the
+    normal force at the end (N), the deepest penetration of any sub-step (m), and the transitions
+    as (local ship index, from, to, v_radial) in the order they happened."""
+    cp, dt, sh = params.contact, params.sim.dt_s, params.ships
     h = dt / n_sub
-    fb = _free_bodies(params, st, cmd, touching)
+    fb = _free_bodies(params, st, cmd, touching, t0_s)
     advance = method(params.sim.integrator)
     n = st.n
     p, v, q, w = st.pos_m, st.vel_mps, st.quat, st.omega_body_radps
@@ -241,33 +189,36 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     active = np.ones(n, dtype=bool)
     transitions: list[Transition] = []
     peak = np.zeros(n)
-    ground = fb.ground_at(t0_s)
-    ce = contact_at(fb, ground, p, v, q, w, absorbing)
+    ce = contact_at(fb, fb.ground_at(0.0), p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
 
-    def substep(h_step, y, ce_start, sliding_start, bodies=fb):
-        """One integrator step plus the friction impulse; returns (y, sliding, friction N, the
+    def substep(h_step, y, ce_start, sliding_start, t_start, bodies=fb):
+        """One integrator step plus the friction impulses; returns (y, sliding, friction N, the
         method's own peak penetration inside the step or None)."""
-        res = advance(bodies, ground, h_step, y, ce_start, absorbing)
-        y1, normal_mean = res.y, res.normal_mean_n
+        res = advance(bodies, h_step, y, ce_start, absorbing, t_start)
         if not touching:
-            return y1, sliding_start, np.zeros(n), res.peak_penetration_m
-        v1, w1, sl, fr = friction.apply(
-            cp.friction_model, cp.friction_static, cp.friction_kinetic, h_step,
-            params.body.omega_radps, fb.mass_kg, fb.inertia_kgm2, y1[0], y1[1], y1[2], y1[3],
-            normal_mean, ce_start.cop_w, sliding_start)
-        p1, q1 = y1[0], y1[2]
-        if cp.friction_model == "coulomb":
-            p1, q1 = friction.spread_over_step(p1, q1, y1[1], v1, y1[3], w1, h_step)
-        return (p1, v1, q1, w1), sl, fr, res.peak_penetration_m
+            return res.y, sliding_start, np.zeros(n), res.peak_penetration_m
+        p1, v1, q1, w1 = res.y
+        ground_end = fb.ground_at(t_start + h_step)
+        if cp.friction_model == "seed":
+            j_n = sum(res.foot_impulse_ns[1:], res.foot_impulse_ns[0])
+            v2, sl, j_f = friction.seed(cp.friction_static, cp.friction_kinetic, fb.mass_kg, p1,
+                                        v1, j_n, sliding_start, ground_end)
+            return (p1, v2, q1, w1), sl, j_f / h_step, res.peak_penetration_m
+        ft = contact.feet(p1, q1, sh.leg_radius_m, sh.com_height_m, ground_end)
+        v2, w2, sl, j_f = friction.coulomb(cp.friction_static, cp.friction_kinetic, fb.mass_kg,
+                                           fb.inertia_kgm2, p1, v1, q1, w1, ft,
+                                           res.foot_impulse_ns, sliding_start, ground_end)
+        p2, q2 = friction.spread_over_step(p1, q1, v1, v2, w1, w2, h_step)
+        return (p2, v2, q2, w2), sl, j_f / h_step, res.peak_penetration_m
 
     for j in range(n_sub):
-        t_end = t0_s + (j + 1) * h
-        ground = fb.ground_at(t0_s + j * h)
+        t_off = j * h  # this sub-step's start, from the tick's start
         pen_before, v_rad_before = ce.max_penetration_m, v_rad
         h_first: float | np.ndarray = h
         crossing = np.zeros(n, dtype=bool)
         v_cross = np.zeros(n)
+        tau = np.zeros(n)
         if touching:
             # Contact onset inside the sub-step: the damper's force jumps to c v at the surface,
             # so step exactly to the crossing (ballistic time of flight of the lowest foot,
@@ -287,33 +238,36 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         # the feet at the surface to within rounding, where some feet would press (with the
         # damper's full jump c v) and others not: a spurious torque. They must not press there.
         first = replace(fb, engage_m=np.where(crossing, -ONSET_MARGIN_M, 0.0)) if crossing.any() else fb
-        y1, sliding1, fr, inner_peak = substep(h_first, (p, v, q, w), ce, sliding, first)
+        y1, sliding1, fr, inner_peak = substep(h_first, (p, v, q, w), ce, sliding, t_off, first)
+        aligned = np.zeros(n, dtype=bool)
         if crossing.any():
             # At the crossing itself: an impact slower than bounce_speed is taken by the
             # absorbers from its first instant, and the seed's touchdown alignment happens here
             absorbing = np.where(crossing, v_cross < cp.bounce_speed_mps, absorbing)
+            t_cross = t_off + np.where(crossing, tau, h)
+            ground_x = fb.ground_at(t_cross)
             if cp.align_on_touchdown:
-                y1 = _align_at_touchdown(params, ground, y1, crossing)
-            ce_mid = contact_at(fb, ground, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
-            y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1)
+                y1, aligned = _align_at_touchdown(params, fb, ground_x, y1, crossing)
+            ce_mid = contact_at(fb, ground_x, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
+            y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1,
+                                               t_cross)
             c3 = crossing[:, None]
             y1 = tuple(np.where(c3, b, a) for a, b in zip(y1, y2))
-            sliding1 = np.where(crossing, sliding2, sliding1)
+            sliding1 = np.where(c3, sliding2, sliding1)
             fr = np.where(crossing, fr2, fr)
             if inner_peak is not None:
                 inner_peak = np.where(crossing, np.maximum(inner_peak, peak2), inner_peak)
-        sliding = np.where(active, sliding1, sliding)
+        sliding = np.where(active[:, None], sliding1, sliding)
         keep = active[:, None]
         p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in zip(y1, (p, v, q, w)))
         friction_n = np.where(active, fr, friction_n)
-        ground = fb.ground_at(t_end)
+        t_end_off = (j + 1) * h
+        ground = fb.ground_at(t_end_off)
         ce = contact_at(fb, ground, p, v, q, w, absorbing)
 
         # in-flight transitions, decided on this sub-step's end state
         r_hat = vec.unit(p)
         v_rad = vec.dot(v, r_hat)
-        ez = vec.quat_axis_z(q)
-        cos_tilt = vec.dot(ez, r_hat)
         pen = ce.max_penetration_m
         if touching:
             if inner_peak is None:  # interpolate between the sub-step's ends
@@ -327,7 +281,8 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
         # damper acts from the first millimetre, so the sub-step's end speed is already lower):
         # v_cross^2 = v^2 + 2 a_down height, a_down = g - T cos(tilt) / m.
-        a_down = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * cos_tilt / fb.mass_kg
+        a_down = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * vec.dot(
+            vec.quat_axis_z(q), r_hat) / fb.mass_kg
         above_before = np.maximum(-pen_before, 0.0)
         impact = np.where(v_rad_before < 0.0, np.sqrt(np.maximum(
             v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0)), -v_rad)
@@ -338,12 +293,22 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         crash = (touch & (impact > cp.crash_speed_mps)) | (
             active & (was == CONTACT) & (np.minimum(v_rad, v_rad_before) < -cp.crash_speed_mps))
         touch_ok = touch & ~crash
+        if touch_ok.any():
+            absorbing = np.where(touch_ok, impact < cp.bounce_speed_mps, absorbing)
+            sliding = np.where(touch_ok[:, None], False, sliding)
+            settle = np.where(touch_ok, 0, settle)
+            snap = touch_ok & ~crossing  # a located crossing was aligned there
+            if cp.align_on_touchdown and snap.any():
+                (p, v, q, w), snapped = _align_at_touchdown(params, fb, ground, (p, v, q, w), snap)
+                aligned |= snapped
+                ce = contact_at(fb, ground, p, v, q, w, absorbing)
+        cos_tilt = vec.dot(vec.quat_axis_z(q), r_hat)
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)
-        lift = active & (was == CONTACT) & ~crash & (pen < 0.0) & (v_rad > 0.0)
-        # past tipped_angle in contact; a touchdown already past it lies down at once (its hull,
-        # which the model does not have, would be what touches)
-        lying_down = touch & (not cp.align_on_touchdown)
+        lift = active & (was == CONTACT) & ~crash & (ce.max_penetration_m < 0.0) & (v_rad > 0.0)
+        # past tipped_angle in contact; a touchdown already past it that was not stood up by the
+        # alignment lies down at once (its hull, which the model does not have, is what touches)
+        lying_down = touch & ~aligned
         tip = (active & (((was == CONTACT) & ~lift) | lying_down) & ~crash
                & (cos_tilt < cp.cos_tipped))
         v_rel = v - surface_velocity(params, p)
@@ -351,23 +316,15 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         crash = crash | tip_crash
         tip = tip & ~tip_crash
 
-        if touch_ok.any():
-            absorbing = np.where(touch_ok, impact < cp.bounce_speed_mps, absorbing)
-            sliding = np.where(touch_ok, False, sliding)
-            settle = np.where(touch_ok, 0, settle)
-            snap = touch_ok & ~tip & ~crossing  # a located crossing was aligned there
-            if cp.align_on_touchdown and snap.any():
-                p, v, q, w = _align_at_touchdown(params, ground, (p, v, q, w), snap)
-                ce = contact_at(fb, ground, p, v, q, w, absorbing)
-        c, s = body_rotation(params, t_end)
+        c, s = body_rotation(params, t0_s + t_end_off)
         if tip.any():
             pp, pq = pin_pose(p, q, c, s)
             pin_p = np.where(tip[:, None], pp, pin_p)
             pin_q = np.where(tip[:, None], pq, pin_q)
             pin_pivot = np.where(tip[:, None], rotate_z(ce.lowest_foot_w, c, -s), pin_pivot)
-            axis = vec.unit(vec.cross(r_hat, ez))
-            omega_rel_w = vec.quat_rotate(q, w) - surface_spin_w(params, n)
-            pivot_rate = np.where(tip, vec.dot(omega_rel_w, axis), pivot_rate)
+            rate = pivot_rate_from_momentum(params, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
+                                            ce.lowest_foot_w)
+            pivot_rate = np.where(tip, rate, pivot_rate)
         if crash.any():
             pp, pq = pin_pose(p, q, c, s)
             pin_p = np.where(crash[:, None], pp, pin_p)
@@ -390,9 +347,18 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                 speed = v_rad[i]
             transitions.append((int(i), int(was[i]), int(surf[i]), float(speed)))
         active = active & ~tip & ~crash
-    pinned = (surf == TIPPED) | (surf == CRASHED)
-    v = np.where(pinned[:, None], surface_velocity(params, p), v)
-    w = np.where(pinned[:, None], body_spin_in_body_frame(params, q), w)
+    crashed = surf == CRASHED
+    tipped = surf == TIPPED
+    if crashed.any() or tipped.any():
+        # pinned during the tick: carried with the body to the tick's end, moving as pinned
+        c, s = body_rotation(params, t0_s + dt)
+        held = (crashed | tipped)[:, None]
+        p = np.where(held, rotate_z(pin_p, c, s), p)
+        q = np.where(held, vec.quat_mul(quat_z(c, s, n), pin_q), q)
+        v_pin, w_pin = pinned_motion(params, p, q, rotate_z(pin_pivot, c, s),
+                                     np.where(tipped, pivot_rate, 0.0))
+        v = np.where(held, v_pin, v)
+        w = np.where(held, w_pin, w)
     out = replace(st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q,
                   omega_body_radps=w, absorbing=absorbing, sliding=sliding, settle_ticks=settle,
                   pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
@@ -400,20 +366,80 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     return out, friction_n, np.abs(ce.normal_n), peak, transitions
 
 
-def _align_at_touchdown(params: Params, ground: contact.Ground, y, mask: np.ndarray):
+def pivot_axis(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The axis a tipped ship turns about: horizontal, normal to the plane of its tilt,
+    unit(up x e_z), so that a positive rate tilts it further."""
+    return vec.unit(vec.cross(vec.unit(p), vec.quat_axis_z(q)))
+
+
+def pivot_rate_from_momentum(params: Params, m: np.ndarray, inertia_b: np.ndarray, p, v, q, w_b,
+                             pivot: np.ndarray) -> np.ndarray:
+    """The rate about the pivot foot when a ship in contact is handed to the pivot model: the foot
+    is held at once (an inelastic impact at the foot), which conserves the angular momentum
+    about it, relative to the surface, and keeps of the motion its component about the pivot's
+    axis a:
+
+        theta' = a . (I_w omega_rel + m d x v_rel) / I_p,   I_p = a . I_w a + m |a x d|^2,
+
+    d the centre of mass from the pivot. It is the projection of the motion onto rotation about
+    a in the kinetic-energy metric, so the kinetic energy after is never more than before."""
+    axis = pivot_axis(p, q)
+    spin_w = surface_spin_w(params, p.shape[0])
+    v_rel = v - surface_velocity(params, p)
+    w_rel_w = vec.quat_rotate(q, w_b) - spin_w
+    d = p - pivot
+    axis_b = vec.quat_rotate_inv(q, axis)
+    l_rel = vec.quat_rotate(q, inertia_b * vec.quat_rotate_inv(q, w_rel_w)) + vec.scale(
+        vec.cross(d, v_rel), m)
+    arm = vec.cross(axis, d)
+    i_p = vec.dot(axis_b, inertia_b * axis_b) + m * vec.dot(arm, arm)
+    return vec.dot(axis, l_rel) / i_p
+
+
+def pinned_motion(params: Params, p: np.ndarray, q: np.ndarray, pivot: np.ndarray,
+                  rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inertial velocity and body-frame angular velocity of pinned ships: the body's rotation,
+    plus a tipped ship's turn at ``rate`` about its pivot (zero rate: landed, crashed, resting)."""
+    spin = vec.scale(pivot_axis(p, q), rate)
+    v = surface_velocity(params, p) + vec.cross(spin, p - pivot)
+    w = body_spin_in_body_frame(params, q) + vec.quat_rotate_inv(q, spin)
+    return v, w
+
+
+def _align_at_touchdown(params: Params, fb: FreeBodies, ground: contact.Ground, y,
+                        mask: np.ndarray):
     """The seed's Flying -> Contact rule for the ships in ``mask``: attitude snapped to local up
     and rotation stopped (relative to the surface); then the ship moves out along local up so
     that its deepest foot is no deeper than before the snap: turning must not bury the feet
-    (MODEL-NOTES 11)."""
+    (MODEL-NOTES 11). The snap must not make energy either (MODEL-NOTES 24): a ship that it would
+    raise (tilted past 2 atan(a / h), 74 degrees for the default lander) pays for the lift out of
+    its descent speed; a ship too slow to pay is not stood up and touches down as it is.
+    Returns the new state and the ships actually aligned."""
     p, v, q, w = y
+    sh, cp = params.ships, params.contact
     r_hat = vec.unit(p)
-    sh = params.ships
+    q1 = np.where(mask[:, None], align_to_surface(q, r_hat), q)
+    w1 = np.where(mask[:, None], body_spin_in_body_frame(params, q1), w)
     pen0 = contact.lowest_foot_penetration(p, q, sh.leg_radius_m, sh.com_height_m, ground)
-    q = np.where(mask[:, None], align_to_surface(q, r_hat), q)
-    w = np.where(mask[:, None], body_spin_in_body_frame(params, q), w)
-    pen1 = contact.lowest_foot_penetration(p, q, sh.leg_radius_m, sh.com_height_m, ground)
-    p = p + vec.scale(r_hat, np.where(mask, np.maximum(pen1 - pen0, 0.0), 0.0))
-    return p, v, q, w
+    pen1 = contact.lowest_foot_penetration(p, q1, sh.leg_radius_m, sh.com_height_m, ground)
+    p1 = p + vec.scale(r_hat, np.where(mask, np.maximum(pen1 - pen0, 0.0), 0.0))
+
+    def energy_of(pp, qq, ww):
+        return energy.mechanical(
+            fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, cp.stiffness_per_kg,
+            sh.leg_radius_m, sh.com_height_m, fb.mass_kg, fb.inertia_kgm2, pp, v, qq, ww,
+            ground).total_j
+
+    cost = energy_of(p1, q1, w1) - energy_of(p, q, w)
+    v_rad = vec.dot(v - ground.surface_velocity(p), r_hat)
+    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
+    pays = (cost > 0.0) & (v_rad < 0.0) & (spare >= 0.0)
+    aligned = mask & ((cost <= 0.0) | pays)
+    v1 = v + vec.scale(r_hat, np.where(aligned & pays, -np.sqrt(np.maximum(spare, 0.0)) - v_rad,
+                                       0.0))
+    a3 = aligned[:, None]
+    return (np.where(a3, p1, p), np.where(a3, v1, v), np.where(a3, q1, q),
+            np.where(a3, w1, w)), aligned
 
 
 def _hermite_peak(x0, xd0, x1, xd1, h: float) -> np.ndarray:
@@ -437,14 +463,26 @@ def _hermite_peak(x0, xd0, x1, xd1, h: float) -> np.ndarray:
     return best
 
 
-def surface_spin_w(params: Params, n: int) -> np.ndarray:
-    return np.broadcast_to(_Z * params.body.omega_radps, (n, 3))
+def over_footprint(params: Params, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The centre of mass is over the footprint: the line through it along the effective gravity
+    meets the feet's plane inside the square the four feet span. With u the effective "up" in the
+    body frame, the line meets the plane at -h (u_x, u_y) / u_z, inside |x| + |y| < a when
+
+        h (|u_x| + |u_y|) < a u_z,
+
+    an exact comparison (toward a foot: tilt < atan(a / h), 37 degrees for the default lander;
+    toward the edge between two: atan(a / (sqrt(2) h)), 28 degrees). With leg_radius = 0 nothing is
+    over the footprint: the seed's inverted pendulum, which no tilt makes stable."""
+    u = vec.quat_rotate_inv(q, -effective_gravity(params, p))
+    sh = params.ships
+    return sh.com_height_m * (np.abs(u[:, 0]) + np.abs(u[:, 1])) < sh.leg_radius_m * u[:, 2]
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
 def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray]:
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
-    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands).
+    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
+    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26).
     Returns the new state and the mask of ships that landed."""
     cp = params.contact
     in_contact = st.surface_state == CONTACT
@@ -458,6 +496,7 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
     ok = (in_contact & (v_rad * v_rad < lin2) & (vec.dot(v_tan, v_tan) < lin2)
           & (vec.dot(omega_rel, omega_rel) < cp.settle_angular_vel_radps ** 2)
           & (vec.dot(ez, r_hat) > cp.cos_settle_tilt))
+    ok &= over_footprint(params, st.pos_m, st.quat)
     ticks = np.where(ok, st.settle_ticks + 1, 0)
     # samples at n consecutive tick ends span (n - 1) dt: landing needs them to span settle_time
     # (settle_time = 0, the seed's instantaneous rule: the first tick the thresholds hold)
@@ -479,59 +518,140 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
+#: Fixed-point iterations of the pivot's discrete-gradient step: each gains a factor of about
+#: h^2 m g L / (2 I_p) (5e-4 for the default lander at 0.05 s), so four or five reach rounding.
+MAX_PIVOT_ITERATIONS = 40
+
+
+@dataclass(frozen=True)
+class PivotStep:
+    """One tick of the tipped ships' pivot model (body-fixed frame)."""
+
+    pos_bf_m: np.ndarray
+    quat_bf: np.ndarray
+    rate_radps: np.ndarray  # + = toppling, at the tick's end
+    hull_crash: np.ndarray  # the hull met the ground faster than crash_speed
+    righted: np.ndarray  # back under tipped_angle while turning upright
+
+
+def pivot_step(params: Params, st: State, cmd: Commands) -> PivotStep:
+    """Tipped ships turn about their pivot foot, a one-degree-of-freedom rotation by theta about
+    the horizontal axis a through it:
+
+        I_p theta'' = -dU/dtheta + tau_rcs . a,    I_p = a . I a + m |a x d|^2,
+
+    U the effective potential of the frame turning with the body (point-mass gravity and the
+    centrifugal potential, sim.energy). It is stepped with the discrete gradient of U (Gonzalez,
+    J. Nonlinear Sci. 6, 1996; McLachlan, Quispel & Robidoux, Phil. Trans. R. Soc. A 357, 1999):
+
+        I_p (theta'_1 - theta'_0) = h (tau - (U(theta_1) - U(theta_0)) / (theta_1 - theta_0)),
+        theta_1 - theta_0 = h (theta'_0 + theta'_1) / 2,
+
+    second order and exactly energy-conserving: I_p theta'^2 / 2 + U changes by tau times the
+    angle turned and nothing else, through a fall, a slow-down and a turning point alike. The
+    difference quotient is formed without cancellation (the pose's change divided by the angle,
+    sin and 1 - cos as +,*,/ series), and the implicit step solved by fixed-point iteration
+    (MAX_PIVOT_ITERATIONS). The ship rests on its hull at ``tipped_rest_deg``: a turn that would
+    pass it stops there (an inelastic impact; crash above crash_speed at the centre of mass)."""
+    cp, dt = params.contact, params.sim.dt_s
+    gm, om = params.body.gm_m3ps2, params.body.omega_radps
+    p0, q0, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
+    m = st.mass_kg
+    i_b = inertia(params, st)
+    rate0 = st.pivot_rate_radps
+    up = vec.unit(p0)
+    ez = vec.quat_axis_z(q0)
+    axis = pivot_axis(p0, q0)
+    d0 = p0 - pivot
+    ad = vec.cross(axis, d0)
+    aad = vec.cross(axis, ad)
+    axis_b = vec.quat_rotate_inv(q0, axis)
+    i_p = vec.dot(axis_b, i_b * axis_b) + m * vec.dot(ad, ad)
+    tau = vec.dot(vec.quat_rotate(q0, cmd.rcs_torque_body_nm), axis)
+    r0 = vec.norm(p0)
+    spin = np.broadcast_to(np.array([0.0, 0.0, om]), p0.shape)
+    a_spin = vec.cross(axis, spin)
+    aa_spin = vec.cross(axis, a_spin)
+    spin_b0 = vec.quat_rotate_inv(q0, spin)
+
+    def slope(delta):
+        """(U(theta_0 + delta) - U(theta_0)) / delta, and the pose's displacement per radian."""
+        _, sinc = vec.cos_sinc(delta)
+        _, sinc_half = vec.cos_sinc(0.5 * delta)
+        one_minus_cos = 0.5 * delta * sinc_half * sinc_half  # (1 - cos delta) / delta
+        dp = vec.scale(ad, sinc) + vec.scale(aad, one_minus_cos)  # (p_1 - p_0) / delta
+        p1 = p0 + vec.scale(dp, delta)
+        r1 = vec.norm(p1)
+        both = p1 + p0
+        g = m * gm * vec.dot(dp, both) / (r0 * r1 * (r0 + r1))
+        if om != 0.0:
+            g = g - 0.5 * m * om * om * (dp[:, 0] * both[:, 0] + dp[:, 1] * both[:, 1])
+            # the spin seen from the ship turns the other way: R_a(-delta) e - e over delta
+            de = vec.scale(a_spin, -sinc) + vec.scale(aa_spin, one_minus_cos)
+            d_spin_b = vec.quat_rotate_inv(q0, de)
+            g = g - 0.5 * vec.dot(d_spin_b, i_b * (2.0 * spin_b0 + vec.scale(d_spin_b, delta)))
+        return g, dp
+
+    half_h2 = 0.5 * dt * dt
+    delta = dt * rate0 + half_h2 * (tau - slope(np.zeros_like(m))[0]) / i_p
+    done = np.zeros(m.shape, dtype=bool)
+    for _ in range(MAX_PIVOT_ITERATIONS):
+        nxt = dt * rate0 + half_h2 * (tau - slope(delta)[0]) / i_p
+        settled = np.abs(nxt - delta) <= 4.0 * np.finfo(float).eps * np.abs(nxt)
+        delta = np.where(done, delta, nxt)
+        done = done | settled
+        if done.all():
+            break
+    rate1 = 2.0 * delta / dt - rate0
+    # the hull: the turn stops at tipped_rest_deg (an angle found once, with +,*,/ and sqrt)
+    tilt0 = vec.angle(vec.norm(vec.cross(ez, up)), vec.dot(ez, up))
+    to_rest = np.maximum(math.radians(cp.tipped_rest_deg) - tilt0, 0.0)
+    hull = delta > to_rest
+    g_rest, _ = slope(to_rest)
+    kinetic = 0.5 * i_p * rate0 * rate0 + to_rest * (tau - g_rest)
+    speed_at_hull = np.sqrt(np.maximum(2.0 * kinetic / i_p, 0.0)) * vec.norm(ad)
+    hull_crash = hull & (speed_at_hull > cp.crash_speed_mps)
+    delta = np.where(hull, to_rest, delta)
+    rate1 = np.where(hull, 0.0, rate1)
+    _, dp = slope(delta)
+    p1 = p0 + vec.scale(dp, delta)
+    q1 = vec.quat_normalize(vec.quat_mul(vec.quat_from_rotvec(vec.scale(axis, delta)), q0))
+    righted = (~hull_crash & (vec.dot(vec.quat_axis_z(q1), vec.unit(p1)) > cp.cos_tipped)
+               & (rate1 < 0.0))
+    return PivotStep(p1, q1, rate1, hull_crash, righted)
+
+
 def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
            ) -> tuple[State, list[Transition]]:
     """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
-    frame at the tick's end; liftoff when the engine's push along local up beats the weight; tipped
-    ships turn about their pivot foot:
-
-        I_p theta'' = m g (h sin theta - a cos theta) + tau_rcs . axis,   I_p = I_axis + m |d|^2
-
-    (d: pivot to centre of mass), resting on the hull at ``tipped_rest_deg``; righted (back to
-    contact) when tilt < tipped_angle while turning upright. A hull impact faster than
-    ``crash_speed`` (the centre of mass's speed) crashes the ship."""
-    cp, dt = params.contact, params.sim.dt_s
+    frame at the tick's end; liftoff when the engine's push along local up beats the weight in
+    the effective gravity (MODEL-NOTES 25); tipped ships turn about their pivot foot
+    (:func:`pivot_step`), righted (back to contact) when tilt < tipped_angle while turning
+    upright. Velocities are those of the pinned motion (a tipped ship's turn included)."""
     n = st.n
     surf = st.surface_state.copy()
     p_bf, q_bf, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
     rate = st.pivot_rate_radps.copy()
-    up = vec.unit(p_bf)
-    ez = vec.quat_axis_z(q_bf)
     m = st.mass_kg
-    g = params.body.gm_m3ps2 / vec.dot(p_bf, p_bf)
     transitions: list[Transition] = []
 
     tipped = surf == TIPPED
+    righted = np.zeros(n, dtype=bool)
     if tipped.any():
-        axis = vec.unit(vec.cross(up, ez))
-        d = p_bf - pivot
-        tau_g = vec.dot(vec.cross(d, vec.scale(up, -m * g)), axis)
-        tau_rcs = vec.dot(vec.quat_rotate(q_bf, cmd.rcs_torque_body_nm), axis)
-        axis_b = vec.quat_rotate_inv(q_bf, axis)
-        d_ax = vec.dot(d, axis)
-        i_p = vec.dot(axis_b, inertia(params, st) * axis_b) + m * (vec.dot(d, d) - d_ax * d_ax)
-        rate1 = rate + (tau_g + tau_rcs) / i_p * dt
-        resting = vec.dot(ez, up) <= cp.cos_tipped_rest
-        hull_hit = tipped & resting & (rate1 > 0.0)
-        hull_crash = hull_hit & (rate1 * vec.norm(d) > cp.crash_speed_mps)
-        rate1 = np.where(hull_hit, 0.0, rate1)
-        rot = vec.quat_from_rotvec(vec.scale(axis, rate1 * dt))
-        q_new = vec.quat_normalize(vec.quat_mul(rot, q_bf))
-        p_new = pivot + vec.quat_rotate(rot, d)
-        q_bf = np.where(tipped[:, None], q_new, q_bf)
-        p_bf = np.where(tipped[:, None], p_new, p_bf)
-        rate = np.where(tipped, rate1, rate)
-        up = vec.unit(p_bf)
-        ez = vec.quat_axis_z(q_bf)
-        righted = tipped & ~hull_crash & (vec.dot(ez, up) > cp.cos_tipped) & (rate < 0.0)
-        surf = np.where(hull_crash, CRASHED, surf)
+        ps = pivot_step(params, st, cmd)
+        t3 = tipped[:, None]
+        p_bf = np.where(t3, ps.pos_bf_m, p_bf)
+        q_bf = np.where(t3, ps.quat_bf, q_bf)
+        rate = np.where(tipped, ps.rate_radps, rate)
+        righted = tipped & ps.righted
+        surf = np.where(tipped & ps.hull_crash, CRASHED, surf)
         surf = np.where(righted, CONTACT, surf)
-    else:
-        righted = np.zeros(n, dtype=bool)
-        axis = np.zeros((n, 3))
 
+    up = vec.unit(p_bf)
+    ez = vec.quat_axis_z(q_bf)
+    weight = -m * vec.dot(effective_gravity(params, p_bf), up)
     liftable = (surf == LANDED) | (surf == TIPPED)
-    lift = liftable & (cmd.thrust_n * vec.dot(ez, up) > m * g)
+    lift = liftable & (cmd.thrust_n * vec.dot(ez, up) > weight)
     surf = np.where(lift, FLYING, surf)
 
     if params.body.omega_radps == 0.0:  # the body-fixed frame is the inertial one
@@ -541,22 +661,17 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
         c, s = body_rotation(params, t_end_s)
         p = rotate_z(p_bf, c, s)
         q = vec.quat_mul(quat_z(c, s, n), q_bf)
-    v = surface_velocity(params, p)
-    w = body_spin_in_body_frame(params, q)
-    if righted.any():
-        axis_w = rotate_z(axis, c, s)
-        d_w = p - rotate_z(pivot, c, s)
-        spin = vec.scale(axis_w, rate)
-        v = np.where(righted[:, None], v + vec.cross(spin, d_w), v)
-        w = np.where(righted[:, None], w + vec.quat_rotate_inv(q, spin), w)
+    turning = (surf == TIPPED) | righted
+    v, w = pinned_motion(params, p, q, rotate_z(pivot, c, s), np.where(turning, rate, 0.0))
     v_rad = vec.dot(v - surface_velocity(params, p), vec.unit(p))
     for i in np.flatnonzero(surf != st.surface_state):
         transitions.append((int(i), int(st.surface_state[i]), int(surf[i]), float(v_rad[i])))
     freed = righted | lift
     out = replace(
         st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q, omega_body_radps=w,
-        pivot_rate_radps=np.where(freed, 0.0, rate), pin_pos_bf_m=p_bf, pin_quat_bf=q_bf,
-        absorbing=np.where(freed, True, st.absorbing), sliding=np.where(freed, False, st.sliding),
+        pivot_rate_radps=np.where(freed | (surf == CRASHED), 0.0, rate), pin_pos_bf_m=p_bf,
+        pin_quat_bf=q_bf, absorbing=np.where(freed, True, st.absorbing),
+        sliding=np.where(freed[:, None], False, st.sliding),
         settle_ticks=np.where(freed, 0, st.settle_ticks))
     return out, transitions
 
@@ -577,18 +692,16 @@ def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
             normal_n: np.ndarray, peak_pen_m: np.ndarray, t_s: float) -> Outputs:
     """Telemetry at the end of the tick. Forces come from the free-flight phase (free ships) or
     are the weight (landed, tipped); only the feet's geometry is computed here."""
-    c, s = body_rotation(params, t_s)
-    ground = contact.Ground(params.body.radius_m, params.body.terrain, c, s)
     pen = contact.lowest_foot_penetration(st.pos_m, st.quat, params.ships.leg_radius_m,
-                                          params.ships.com_height_m, ground)
+                                          params.ships.com_height_m, ground_at(params, t_s))
     r_hat = vec.unit(st.pos_m)
     v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
     v_rad = vec.dot(v_rel, r_hat)
     v_tan = vec.norm(v_rel - vec.scale(r_hat, v_rad))
     surf = st.surface_state
-    g = params.body.gm_m3ps2 / vec.dot(st.pos_m, st.pos_m)
+    weight = -st.mass_kg * vec.dot(effective_gravity(params, st.pos_m), r_hat)
     held = (surf == LANDED) | (surf == TIPPED)
-    normal = np.where(held, st.mass_kg * g, np.where(surf == CRASHED, 0.0, normal_n))
+    normal = np.where(held, weight, np.where(surf == CRASHED, 0.0, normal_n))
     return Outputs(
         altitude_m=-pen, penetration_m=np.maximum(pen, 0.0),
         peak_penetration_m=np.maximum(peak_pen_m, pen).clip(0.0),

@@ -1,45 +1,81 @@
 """Friction against the Coulomb law (SEED-NOTES 4): stopping distance v0^2 / (2 mu_k g), stopping
-time v0 / (mu_k g), exact hold at rest, and the seed's velocity-reset law kept reachable."""
+time v0 / (mu_k g), exact hold at rest, each foot its own cone (a spin is stopped as four feet stop
+it), and the seed's velocity-reset law kept reachable."""
+
+import math
 
 import numpy as np
 import pytest
 
-from scenes import final_state, records, scene, series
-from sim import friction
+from bench.reference import planar_touchdown
+from scenes import events, final_state, records, scene, series, tilt_deg, topics
+from sim import friction, vec
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from sim.contact import Ground, feet
 from sim.enums import SurfaceState
+from sim.params import Terrain
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 MU_K, MU_S = 0.5, 0.8
 
 
-def slide(v0, **sim):
+def slide(v0, com_height=3.0, **sim):
     """A ship in contact, at rest vertically (at the static sag g/100 of the k = 100 m spring),
     sliding at v0. The landing threshold is lowered so that landing (which pins the ship once
     it is slower than settle_linear_vel) does not cut the last centimetres of the slide."""
     sag = G / 100.0
     scn = scene({"state": "contact", "altitude": -sag, "horizontal_speed": v0, "heading_deg": 90.0},
-                contact={"settle_linear_vel": 1e-3}, sim=sim, duration=v0 / (MU_K * G) + 3.0)
+                ship={"com_height": com_height}, contact={"settle_linear_vel": 1e-3}, sim=sim,
+                duration=v0 / (MU_K * G) + 3.0)
     return scn, records(scn)
+
+
+def _feet_travel(recs, com_height):
+    def centre(r):
+        return r.state.pos_m[0] - com_height * vec.quat_axis_z(r.state.quat)[0]
+    return float(np.linalg.norm(centre(recs[-1]) - centre(recs[0])))
 
 
 @pytest.mark.parametrize("v0", [2.0, 6.0])
 def test_slide_stops_where_coulomb_friction_says(v0):
-    scn, recs = slide(v0)
-    # the feet stop slipping when friction drops below kinetic (the rigid ship then rocks back on
-    # its springs, so its centre of mass does not stop dead at the same instant)
-    fr = series(recs, "friction_force_n")
-    kinetic = MU_K * 10000.0 * G
-    stopped = int(np.argmax((fr < 0.9 * kinetic) & (np.arange(len(fr)) > 2)))
+    """A squat ship (centre of mass 0.5 m above its feet: friction's moment hardly rocks it) slides
+    v0^2 / (2 mu_k g) and stops after v0 / (mu_k g)."""
+    scn, recs = slide(v0, com_height=0.5)
+    slipping = np.array([r.state.sliding[0].any() for r in recs])
+    assert slipping[1:5].all()
+    stopped = int(np.argmax(~slipping & (np.arange(len(recs)) > 2)))
     assert stopped > 0, "never stopped"
     dt = scn.params.sim.dt_s
-    t_stop = v0 / (MU_K * G)
+    g = MOON_GM_M3PS2 / float(np.linalg.norm(recs[0].state.pos_m[0])) ** 2
+    t_stop = v0 / (MU_K * g)
     assert abs(stopped * dt - t_stop) <= dt + 0.01 * t_stop
-    # the centre of mass's furthest point: braking pitches the ship forward by ~1 deg (friction
-    # acts at the feet, 3 m below), and it rocks back upright on its springs once the feet stop
-    p0 = recs[0].state.pos_m[0]
-    distance = max(float(np.linalg.norm(r.state.pos_m[0] - p0)) for r in recs)
-    assert distance == pytest.approx(v0 * v0 / (2 * MU_K * G), rel=0.01)
+    assert _feet_travel(recs, 0.5) == pytest.approx(v0 * v0 / (2 * MU_K * g), rel=2e-3)
+
+
+@pytest.mark.parametrize("v_side,tips", [(3.0, False), (6.0, True)])
+def test_a_sideways_touchdown_stands_or_trips_as_the_planar_reference_says(v_side, tips):
+    """A 2 m/s touchdown with v_side sideways along a foot (the built-in 'trip'): friction at the
+    feet, 3 m below the centre of mass, pitches the lander forward; at 3 m/s it rocks to ~22
+    degrees and stands, at 6 m/s friction at the leading foot drives it on over that foot (past
+    10 deg, mu (a sin t + h cos t) > a cos t - h sin t). Against bench.reference.planar_touchdown
+    (an independent solve_ivp of the rigid lander on its four feet), at 2.5 ms sub-steps and
+    with mu_s = mu_k as the reference has: the largest tilt within 2%, the fall within 1%."""
+    v_down = math.sqrt(2.0 ** 2 + 2.0 * 1.6248 * 0.2)  # at the touchdown, from 0.2 m at 2 m/s
+    t_fall = (v_down - 2.0) / 1.6248
+    g = MOON_GM_M3PS2 / (MOON_RADIUS_M + 3.0) ** 2
+    t_tip, max_tilt, _ = planar_touchdown(v_side, v_down, g, t_end_s=8.0)
+    assert (t_tip is not None) == tips
+    scn = scene({"altitude": 0.2, "vertical_speed": -2.0, "horizontal_speed": v_side,
+                 "heading_deg": 90.0}, contact={"friction_static": MU_K},
+                sim={"dt": 0.05, "max_substep": 0.0025}, duration=8.0)
+    recs = records(scn)
+    tilt = tilt_deg(recs)
+    if tips:
+        (tick,) = [t for t, name, _ in events(recs) if name == "ship.tipped"]
+        assert abs(tick * 0.05 - (t_tip + t_fall)) <= 0.05 + 0.01 * t_tip
+    else:
+        assert "ship.tipped" not in topics(recs)
+        assert tilt.max() == pytest.approx(max_tilt, rel=0.02)
 
 
 def test_no_two_cycle_even_with_a_coarse_step():
@@ -62,23 +98,25 @@ def test_no_two_cycle_even_with_a_coarse_step():
     assert final_state(recs) is SurfaceState.CONTACT  # never settles
 
 
-def _one_ship_at_rest(side_force_n, normal_n=10000.0 * G, h=0.0025, steps=400, model="coulomb"):
-    """Apply a steady sideways force for ``steps`` sub-steps through the friction law alone, to a
-    ship whose centre of pressure is under its centre of mass along the force-free axis (r = 0:
-    the slip of the contact point is the ship's own velocity)."""
+def _one_ship_at_rest(side_force_n, normal_n=10000.0 * G, h=0.0025, steps=400):
+    """Apply a steady sideways force for ``steps`` sub-steps through the friction law alone, to an
+    upright ship on level ground whose four feet share the normal force (their friction has no
+    moment about the centre of mass here: the feet are put at it, so only translation is free)."""
     m = np.array([10000.0])
     inertia = np.array([[40000.0, 40000.0, 20000.0]])
     pos = np.array([[MOON_RADIUS_M + 3.0, 0.0, 0.0]])
     quat = np.array([[0.7071067811865476, 0.0, 0.7071067811865476, 0.0]])  # body z along +x (up)
-    cop = pos.copy()
+    ground = Ground(MOON_RADIUS_M, Terrain(), 1.0, 0.0)
+    ft = feet(pos, quat, np.zeros(1), np.zeros(1), ground)
     vel = np.zeros((1, 3))
     omega = np.zeros((1, 3))
-    sliding = np.array([False])
+    sliding = np.zeros((1, 4), dtype=bool)
     x = 0.0
     for _ in range(steps):
         vel = vel + np.array([[0.0, side_force_n * h / m[0], 0.0]])
-        vel, omega, sliding, _f = friction.apply(model, MU_S, MU_K, h, 0.0, m, inertia, pos, vel,
-                                                 quat, omega, np.array([normal_n]), cop, sliding)
+        impulses = tuple(np.array([0.25 * normal_n * h]) for _ in range(4))
+        vel, omega, sliding, _j = friction.coulomb(MU_S, MU_K, m, inertia, pos, vel, quat, omega,
+                                                   ft, impulses, sliding, ground)
         x += vel[0, 1] * h
     return x, vel[0, 1]
 
@@ -86,7 +124,7 @@ def _one_ship_at_rest(side_force_n, normal_n=10000.0 * G, h=0.0025, steps=400, m
 def test_static_friction_holds_exactly_below_mu_s_n():
     weight = 10000.0 * G
     x, v = _one_ship_at_rest(0.99 * MU_S * weight)
-    assert x == 0.0 and v == 0.0
+    assert abs(x) < 1e-15 and abs(v) < 1e-15
 
 
 def test_static_friction_breaks_away_above_mu_s_n_and_slides_at_mu_k():
