@@ -72,6 +72,17 @@ class FreeBodies:
                       radial)
 
 
+    def ground_turn(self, dt_s: float | Array) -> tuple[float | Array, float | Array]:
+        """(cos, sin) of the angle the body turns through in dt_s (a number or one per ship),
+        with cos_sinc's series (per ship, so no ship depends on its neighbours)."""
+        if self.body_omega_radps == 0.0:
+            return 1.0, 0.0
+        d = np.broadcast_to(np.asarray(self.body_omega_radps * np.asarray(dt_s, dtype=float)),
+                            self.mass_kg.shape)
+        c, sinc = vec.cos_sinc(d)
+        return c, d * sinc
+
+
 def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
                engage_m: Array | float | None = None) -> ContactEval:
     """The ground's action at one state. ``engage_m`` overrides ``fb.engage_m``."""

@@ -75,26 +75,54 @@ def _tangent_basis(n_hat: Array) -> tuple[Array, Array]:
     return t1, vec.cross(n_hat, t1)
 
 
+def _patch(pos_m: Array, ft: Feet, j_n: list[Array]) -> tuple[list[Array], Array, Array]:
+    """Each foot's friction plane normal, and the footprint's: the load-weighted normal and the
+    centre of pressure (weights: the feet's normal impulses). A foot's plane is the terrain's
+    slope under it on the ship's local vertical: the sphere's own curvature across the footprint
+    (a / R, 1e-6 rad) would make a straight descent slip every foot inwards."""
+    up = vec.unit(pos_m)
+    j_sum = ((j_n[0] + j_n[1]) + j_n[2]) + j_n[3]
+    pressed = j_sum > 0.0
+    normals = [vec.unit(ft.push_w[i] - vec.unit(ft.pos_w[i]) + up) for i in range(4)]
+    n_bar = vec.unit(sum((vec.scale(normals[i], j_n[i]) for i in range(1, 4)),
+                         vec.scale(normals[0], j_n[0])))
+    n_bar = np.where(pressed[:, None], n_bar, up)
+    centre = sum((vec.scale(ft.pos_w[i], j_n[i]) for i in range(1, 4)),
+                 vec.scale(ft.pos_w[0], j_n[0])) / np.where(pressed, j_sum, 1.0)[:, None]
+    return normals, n_bar, np.where(pressed[:, None], centre, pos_m)
+
+
+def hold_footprint(pos_m: Array, ft_start: Feet, ft_end: Feet, foot_impulse_ns: Four,
+                   held: Array, cos_turn: float | Array, sin_turn: float | Array) -> Array:
+    """The ship moved so that a footprint held by static friction through the whole step (``held``)
+    ends exactly where the ground has carried the point it stood on (the ground turning by the
+    angle of (cos_turn, sin_turn) about z over the step): the position-level half of sticking.
+    The velocity-level half (the stop impulse) and the spread of its drift over the step leave a
+    residue when a held foot's slip does not grow evenly within the step (a held ship on a
+    rotating body, whose ground curves away under its straight inertial step, crept 0.5 m an hour
+    at 25 ms sub-steps without this); only the drift along the ground is undone."""
+    j_n = [np.maximum(j, 0.0) for j in foot_impulse_ns]
+    _, _, start = _patch(pos_m, ft_start, j_n)
+    _, n_bar, end = _patch(pos_m, ft_end, j_n)
+    carried = start.copy()
+    carried[:, 0] = cos_turn * start[:, 0] - sin_turn * start[:, 1]
+    carried[:, 1] = sin_turn * start[:, 0] + cos_turn * start[:, 1]
+    drift = end - carried
+    drift = drift - vec.scale(n_bar, vec.dot(drift, n_bar))
+    return pos_m - np.where(held[:, None], drift, 0.0)
+
+
 def coulomb(mu_s: float, mu_k: float, mass_kg: Array, inertia_kgm2: Array, pos_m: Array,
             vel_mps: Array, quat: Array, omega_b: Array, ft: Feet, foot_impulse_ns: Four,
             sliding: Array, ground: Ground) -> tuple[Array, Array, Array, Array]:
     """Coulomb friction at the pressing feet (module docstring). ``ft``: the feet at the step's
     end state; ``sliding`` (N, 4): the feet's regime at the start. Returns (vel, omega_b,
     sliding (N, 4), the sum of the feet's friction impulse magnitudes, N s)."""
-    up = vec.unit(pos_m)
     j_n = [np.maximum(j, 0.0) for j in foot_impulse_ns]
     j_sum = ((j_n[0] + j_n[1]) + j_n[2]) + j_n[3]
     pressed = j_sum > 0.0
     safe_sum = np.where(pressed, j_sum, 1.0)
-    # each foot's plane: the terrain's slope under it on the ship's local vertical (the sphere's
-    # curvature across the footprint, 1e-6 rad, would make a straight descent slip every foot)
-    normals = [vec.unit(ft.push_w[i] - vec.unit(ft.pos_w[i]) + up) for i in range(4)]
-    n_bar = vec.unit(sum((vec.scale(normals[i], j_n[i]) for i in range(1, 4)),
-                         vec.scale(normals[0], j_n[0])))
-    n_bar = np.where(pressed[:, None], n_bar, up)
-    centre = sum((vec.scale(ft.pos_w[i], j_n[i]) for i in range(1, 4)),
-                 vec.scale(ft.pos_w[0], j_n[0])) / safe_sum[:, None]
-    centre = np.where(pressed[:, None], centre, pos_m)
+    normals, n_bar, centre = _patch(pos_m, ft, j_n)
     t1, t2 = _tangent_basis(n_bar)
     r = centre - pos_m
     lever = [ft.pos_w[i] - centre for i in range(4)]

@@ -210,6 +210,12 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                                            fb.inertia_kgm2, p1, v1, q1, w1, ft,
                                            res.foot_impulse_ns, sliding_start, ground_end)
         p2, q2 = friction.spread_over_step(p1, q1, v1, v2, w1, w2, h_step)
+        held = ~(sliding_start.any(axis=1) | sl.any(axis=1)) & (j_f > 0.0)
+        if held.any():
+            c_turn, s_turn = fb.ground_turn(h_step)
+            ft2 = contact.feet(p2, q2, sh.leg_radius_m, sh.com_height_m, ground_end)
+            p2 = friction.hold_footprint(p2, ce_start.feet, ft2, res.foot_impulse_ns, held,
+                                         c_turn, s_turn)
         return (p2, v2, q2, w2), sl, j_f / h_step, res.peak_penetration_m
 
     for j in range(n_sub):
