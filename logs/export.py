@@ -17,7 +17,7 @@ from logs.mcap_log import LogReader, TickData, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import energy
 from sim.enums import SurfaceState
-from sim.frames import ground_at, site_frame
+from sim.frames import site_frame
 
 _STATE = {int(s): s.label for s in SurfaceState}
 
@@ -27,17 +27,11 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
         return None
-    n = td.ship_count
     p, v = td.vec("pos_m", 3), td.vec("vel_mps", 3)
     q, w = td.vec("quat", 4), td.vec("omega_body_radps", 3)
-    m = a["mass_kg"]
     t = td.tick * params.sim.dt_s
     pos, vel = site_frame(params, p, v, t)
-    sh = params.ships
-    inertia = sh.inertia0_kgm2[:n] * (m / sh.mass0_kg[:n])[:, None]
-    e = energy.mechanical(params.body.gm_m3ps2, params.body.radius_m, params.body.omega_radps,
-                          params.contact.stiffness_per_kg, sh.leg_radius_m[:n], sh.com_height_m[:n],
-                          m, inertia, p, v, q, w, ground_at(params, t))
+    e = energy.at(params, t, p, v, q, w, a["mass_kg"])
     return {"pos": pos, "vel": vel, "omega": w, "energy": e.total_j}
 
 
@@ -68,6 +62,8 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
                                 ("omega_z", "omega", 2)):
                 row[key] = None if d is None else float(d[arr][i, k])
             row["energy_j"] = None if d is None else float(d["energy"][i])
+            row["energy_guard_j"] = (float(a["energy_guard_j"][i]) if "energy_guard_j" in a
+                                     else None)
             yield row
 
 

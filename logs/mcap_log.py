@@ -46,8 +46,9 @@ KEYFRAME_ONLY = ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pi
 WIDTH = {"pos_m": 3, "vel_mps": 3, "quat": 4, "omega_body_radps": 3, "sliding": 4,
          "pin_pos_bf_m": 3, "pin_quat_bf": 4, "pin_pivot_bf_m": 3, "rcs_torque_body_nm": 3,
          "input_rcs": 3}
-OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps",
-                 "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm")
+OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
+                 "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
+                 "rcs_torque_body_nm", "energy_guard_j")
 
 
 def tick_arrays(rec: TickRecord) -> dict[str, np.ndarray]:

@@ -42,13 +42,23 @@ class Energy:
     translational_j: Array
     rotational_j: Array
     gravity_j: Array
-    centrifugal_j: Array
+    centrifugal_j: Array  # the centre of mass's: -m Omega^2 (rho^2 - R^2) / 2
+    centrifugal_spin_j: Array  # the rotation's: -Omega_b . I Omega_b / 2
     spring_j: Array
 
     @property
     def total_j(self) -> Array:
-        return (((self.translational_j + self.rotational_j) + self.gravity_j)
-                + self.centrifugal_j) + self.spring_j
+        return self.translation_j + self.rotation_j + self.spring_j
+
+    @property
+    def translation_j(self) -> Array:
+        """The centre of mass's part; in free flight it is conserved on its own."""
+        return (self.translational_j + self.gravity_j) + self.centrifugal_j
+
+    @property
+    def rotation_j(self) -> Array:
+        """The rotation's part (E_rot - Omega . L_rot); in free flight conserved on its own."""
+        return self.rotational_j + self.centrifugal_spin_j
 
 
 def mechanical(gm_m3ps2: float, radius_m: float, spin_radps: float, stiffness_per_kg: float,
@@ -64,13 +74,25 @@ def mechanical(gm_m3ps2: float, radius_m: float, spin_radps: float, stiffness_pe
     grav = mass_kg * gm_m3ps2 * ((r - radius_m) / (radius_m * r))
     if spin_radps != 0.0:
         rho2_minus_r2 = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] - radius_m * radius_m
-        cent = (-0.5 * mass_kg * spin_radps * spin_radps * rho2_minus_r2
-                - 0.5 * vec.dot(spin_b, inertia_kgm2 * spin_b))
+        cent = -0.5 * mass_kg * spin_radps * spin_radps * rho2_minus_r2
+        cent_spin = -0.5 * vec.dot(spin_b, inertia_kgm2 * spin_b)
     else:
-        cent = np.zeros_like(r)
+        cent = cent_spin = np.zeros_like(r)
     ft = feet(p, q, leg_radius_m, com_height_m, ground)
     k_leg = 0.25 * stiffness_per_kg * mass_kg
     spring = np.zeros_like(r)
     for x in ft.pen_m:
         spring = spring + np.where(x > 0.0, 0.5 * k_leg * x * x, 0.0)
-    return Energy(trans, rot, grav, cent, spring)
+    return Energy(trans, rot, grav, cent, cent_spin, spring)
+
+
+def at(params, t_s: float, p: Array, v: Array, q: Array, w_b: Array, mass_kg: Array) -> Energy:
+    """E of ships of ``params`` (all of them, in order) in a recorded state at time t_s: what
+    ``export`` reports as energy_j, and what the property tests hold to."""
+    from sim.frames import ground_at
+
+    sh, body = params.ships, params.body
+    inertia = sh.inertia0_kgm2 * (mass_kg / sh.mass0_kg)[:, None]
+    return mechanical(body.gm_m3ps2, body.radius_m, body.omega_radps,
+                      params.contact.stiffness_per_kg, sh.leg_radius_m, sh.com_height_m, mass_kg,
+                      inertia, p, v, q, w_b, ground_at(params, t_s))

@@ -30,6 +30,8 @@ class SimParams:
     #: with a method exact on the spring, purely vertical ships take one step per tick
     #: (sim.step.purely_vertical); False sub-steps them like every other ship near the ground
     vertical_one_step: bool = True
+    #: a passive ship's energy never rises over a sub-step (sim.step.passivity_guard)
+    energy_guard: bool = True
 
     @cached_property
     def n_ticks(self) -> int:

@@ -64,7 +64,7 @@ SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
        "integrator": ("str", SimParams.integrator, _choice(METHODS)),
        "max_substep": ("float", 0.025, _range(0.0, 1.0)),
        "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
-       "vertical_one_step": ("bool", True, None)}
+       "vertical_one_step": ("bool", True, None), "energy_guard": ("bool", True, None)}
 CONTACT = {
     "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
     "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
@@ -98,6 +98,7 @@ INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "t
            "vertical_speed": ("float", 0.0, _range(-1e4, 1e4)),
            "horizontal_speed": ("float", 0.0, _range(-1e4, 1e4)),
            "heading_deg": ("float", 0.0, _range(-360.0, 360.0)),
+           "yaw_deg": ("float", 0.0, _range(-360.0, 360.0)),
            "tilt_deg": ("float", 0.0, _range(0.0, 180.0)),
            "angular_velocity": ("vec3", [0.0, 0.0, 0.0], _range(-100.0, 100.0)),
            "east": ("float", 0.0, _range(-1e5, 1e5)), "north": ("float", 0.0, _range(-1e5, 1e5))}
@@ -278,6 +279,14 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
         body["gm"] = body["surface_gravity"] * body["radius"] ** 2
     body["surface_gravity"] = None
     del body["surface_gravity"]
+    if body["rotation_period"] != 0.0:
+        spin = 2.0 * math.pi / body["rotation_period"]
+        fling, pull = spin * spin * body["radius"], body["gm"] / body["radius"] ** 2
+        if fling >= pull:
+            rd.fail("body.rotation_period", f"{body['rotation_period']:g} s spins the body so "
+                                            f"fast that its equator flings ships off "
+                                            f"(centrifugal {fling:.4g} m/s^2 >= gravity "
+                                            f"{pull:.4g} m/s^2)")
     terrain = rd.table(body["terrain"] or {}, TERRAIN, "body.terrain.")
     terrain["bumps"] = [rd.table(b, BUMP, f"body.terrain.bumps[{i}].")
                         for i, b in enumerate(terrain["bumps"])]
@@ -401,13 +410,15 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
             rd.fail(pre + "angular_velocity", f"must be 0 for a {state} ship (it is pinned)")
         if alt != 0.0 and state == "tipped":
             rd.fail(pre + "altitude", "must be 0 for a tipped ship (it is pinned)")
-    # toward a foot (the tilt's direction is the body x axis), the footprint holds the centre of
-    # mass while h sin(tilt) < a cos(tilt)
-    th = math.radians(ini["tilt_deg"])
-    if state == "landed" and not sh["com_height"] * math.sin(th) < sh["leg_radius"] * math.cos(th):
-        crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"]))
+    # the footprint holds the centre of mass while h sin(tilt) (|cos yaw| + |sin yaw|) < a cos(tilt)
+    # (sim.step.over_footprint: toward a foot atan(a / h), toward an edge atan(a / (sqrt 2 h)))
+    th, yaw = math.radians(ini["tilt_deg"]), math.radians(ini["yaw_deg"])
+    reach = abs(math.cos(yaw)) + abs(math.sin(yaw))
+    if state == "landed" and not (sh["com_height"] * math.sin(th) * reach
+                                  < sh["leg_radius"] * math.cos(th)):
+        crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"] * reach))
         rd.fail(pre + "tilt_deg", f"a landed ship must stand: its centre of mass over its "
-                                  f"footprint, tilt below {crit:.2f} deg")
+                                  f"footprint, tilt below {crit:.2f} deg at this yaw")
     if state == "tipped" and not (con["tipped_angle_deg"] < ini["tilt_deg"]
                                   <= con["tipped_rest_deg"]):
         rd.fail(pre + "tilt_deg", "a tipped ship needs contact.tipped_angle_deg < tilt_deg <= "
@@ -457,7 +468,8 @@ def _build(res: dict) -> Scenario:
         friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
         stiffness_per_kg=con["stiffness_per_kg"], surface_normal=con["surface_normal"])
     spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
-                     duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"])
+                     duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"],
+                     energy_guard=sim["energy_guard"])
 
     def col(key, dtype=float):
         return np.array([s[key] for s in ships], dtype=dtype)
@@ -527,6 +539,8 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
         ez = math.cos(th) * r_hat + math.sin(th) * fwd
         ex = math.cos(th) * fwd - math.sin(th) * r_hat
         ey = vec.cross(ez, ex)
+        yaw = math.radians(ini["yaw_deg"])  # about the long axis: foot 0 (body +x) off the heading
+        ex, ey = math.cos(yaw) * ex + math.sin(yaw) * ey, math.cos(yaw) * ey - math.sin(yaw) * ex
         quat[i] = _quat_from_axes(ex[0], ey[0], ez[0])
         pos[i] = _place(params, ground0, r_hat, quat[i:i + 1], i, ini["altitude"])[0]
         surf_v = om * np.array([-pos[i, 1], pos[i, 0], 0.0])

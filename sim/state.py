@@ -86,6 +86,7 @@ class Outputs:
     friction_force_n: np.ndarray  # (N,)
     throttle: np.ndarray  # (N,) applied (0 without fuel)
     rcs_torque_body_nm: np.ndarray  # (N, 3) applied
+    energy_guard_j: np.ndarray  # (N,) energy the passivity guard removed this tick (sim.step)
 
 
 @dataclass(frozen=True)

@@ -166,13 +166,81 @@ Transition = tuple[int, int, int, float]  # (ship, from state, to state, v_radia
 ONSET_MARGIN_M = 1e-6
 
 
+def ship_energy(fb: FreeBodies, ground: contact.Ground, p, v, q, w) -> energy.Energy:
+    """sim.energy of free ships at one instant."""
+    par = fb.params
+    return energy.mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                             par.contact.stiffness_per_kg, par.ships.leg_radius_m,
+                             par.ships.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
+                             ground)
+
+
+@dataclass(frozen=True)
+class EnergyRef:
+    """A passive ship's energy at the end of its last sub-step: the total, and its translational
+    and rotational parts (conserved each on its own while nothing touches the ship)."""
+
+    total_j: np.ndarray
+    translation_j: np.ndarray
+    rotation_j: np.ndarray
+
+    @staticmethod
+    def of(e: energy.Energy) -> "EnergyRef":
+        return EnergyRef(e.total_j, e.translation_j, e.rotation_j)
+
+
+def passivity_guard(params: Params, fb: FreeBodies, ground: contact.Ground, y, ref: EnergyRef,
+                    passive: np.ndarray, airborne: np.ndarray):
+    """With no thrust and no RCS nothing can add energy (sim.energy: the dampers, friction and
+    every inelastic transition only take it). A step's integration error can (the explicit
+    kicks on a rocking ship, measured up to 2.5e-4 of its energy in a tick; free flight's
+    Verlet error, 1e-12): where a passive ship's energy rose over the step, its velocities
+    relative to the surface are scaled back by sqrt(1 - excess / kinetic) so that it did not,
+    a projection onto the sublevel set of the energy (Hairer, Lubich & Wanner, Geometric
+    Numerical Integration, IV.4). A ship that touched nothing during the step keeps its
+    translational and rotational energies each on its own, so each is guarded on its own (the
+    rotation's step is exact for an axisymmetric ship and must not pay for the translation's
+    error). The correction is the size of the local error, so the method's order is kept; what
+    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``). Returns the state, the
+    new reference, and what was removed (J)."""
+    p, v, q, w = y
+    e = ship_energy(fb, ground, p, v, q, w)
+    whole = passive & ~airborne
+    split = passive & airborne
+    ex_all = np.where(whole, e.total_j - ref.total_j, 0.0)
+    ex_tr = np.where(split, e.translation_j - ref.translation_j, 0.0)
+    ex_rot = np.where(split, e.rotation_j - ref.rotation_j, 0.0)
+    if not ((ex_all > 0.0).any() or (ex_tr > 0.0).any() or (ex_rot > 0.0).any()):
+        return y, EnergyRef.of(e), np.zeros(p.shape[0])
+
+    def factor(excess, kinetic):
+        f = np.sqrt(np.maximum(1.0 - excess / np.where(kinetic > 0.0, kinetic, 1.0), 0.0))
+        return np.where(excess > 0.0, np.where(kinetic > 0.0, f, 0.0), 1.0)
+
+    kin = e.translational_j + e.rotational_j
+    f_all = factor(ex_all, kin)
+    f_v = f_all * factor(ex_tr, e.translational_j)
+    f_w = f_all * factor(ex_rot, e.rotational_j)
+    v_surf = ground.surface_velocity(p)
+    spin_b = body_spin_in_body_frame(params, q)
+    v = v_surf + (v - v_surf) * f_v[:, None]
+    w = spin_b + (w - spin_b) * f_w[:, None]
+    taken_tr = e.translational_j * (1.0 - f_v * f_v)
+    taken_rot = e.rotational_j * (1.0 - f_w * f_w)
+    removed = taken_tr + taken_rot
+    new = EnergyRef(e.total_j - removed, e.translation_j - taken_tr, e.rotation_j - taken_rot)
+    return (p, v, q, w), new, removed
+
+
 def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
-                t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, list[Transition]]:
+                t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                      list[Transition]]:
     """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
 
     Returns the new sub-batch, the last sub-step's friction force (N: the sum of the feet's), the
-    normal force at the end (N), the deepest penetration of any sub-step (m), and the transitions
-    as (local ship index, from, to, v_radial) in the order they happened."""
+    normal force at the end (N), the deepest penetration of any sub-step (m), the energy the
+    passivity guard removed (J), and the transitions as (local ship index, from, to, v_radial)
+    in the order they happened."""
     cp, dt, sh = params.contact, params.sim.dt_s, params.ships
     h = dt / n_sub
     fb = _free_bodies(params, st, cmd, touching, t0_s)
@@ -191,20 +259,28 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     peak = np.zeros(n)
     ce = contact_at(fb, fb.ground_at(0.0), p, v, q, w, absorbing)
     v_rad = vec.dot(v, vec.unit(p))
+    guard = params.sim.energy_guard
+    passive = ((cmd.thrust_n == 0.0) & (cmd.rcs_torque_body_nm[:, 0] == 0.0)
+               & (cmd.rcs_torque_body_nm[:, 1] == 0.0) & (cmd.rcs_torque_body_nm[:, 2] == 0.0))
+    guard_j = np.zeros(n)
+    if guard:
+        e_ref = EnergyRef.of(ship_energy(fb, fb.ground_at(0.0), p, v, q, w))
 
     def substep(h_step, y, ce_start, sliding_start, t_start, bodies=fb):
         """One integrator step plus the friction impulses; returns (y, sliding, friction N, the
         method's own peak penetration inside the step or None)."""
         res = advance(bodies, h_step, y, ce_start, absorbing, t_start)
+        pressed = (((res.foot_impulse_ns[0] != 0.0) | (res.foot_impulse_ns[1] != 0.0))
+                   | (res.foot_impulse_ns[2] != 0.0)) | (res.foot_impulse_ns[3] != 0.0)
         if not touching:
-            return res.y, sliding_start, np.zeros(n), res.peak_penetration_m
+            return res.y, sliding_start, np.zeros(n), res.peak_penetration_m, pressed
         p1, v1, q1, w1 = res.y
         ground_end = fb.ground_at(t_start + h_step)
         if cp.friction_model == "seed":
             j_n = sum(res.foot_impulse_ns[1:], res.foot_impulse_ns[0])
             v2, sl, j_f = friction.seed(cp.friction_static, cp.friction_kinetic, fb.mass_kg, p1,
                                         v1, j_n, sliding_start, ground_end)
-            return (p1, v2, q1, w1), sl, j_f / h_step, res.peak_penetration_m
+            return (p1, v2, q1, w1), sl, j_f / h_step, res.peak_penetration_m, pressed
         ft = contact.feet(p1, q1, sh.leg_radius_m, sh.com_height_m, ground_end)
         v2, w2, sl, j_f = friction.coulomb(cp.friction_static, cp.friction_kinetic, fb.mass_kg,
                                            fb.inertia_kgm2, p1, v1, q1, w1, ft,
@@ -216,7 +292,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             ft2 = contact.feet(p2, q2, sh.leg_radius_m, sh.com_height_m, ground_end)
             p2 = friction.hold_footprint(p2, ce_start.feet, ft2, res.foot_impulse_ns, held,
                                          c_turn, s_turn)
-        return (p2, v2, q2, w2), sl, j_f / h_step, res.peak_penetration_m
+        return (p2, v2, q2, w2), sl, j_f / h_step, res.peak_penetration_m, pressed
 
     for j in range(n_sub):
         t_off = j * h  # this sub-step's start, from the tick's start
@@ -244,7 +320,8 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         # the feet at the surface to within rounding, where some feet would press (with the
         # damper's full jump c v) and others not: a spurious torque. They must not press there.
         first = replace(fb, engage_m=np.where(crossing, -ONSET_MARGIN_M, 0.0)) if crossing.any() else fb
-        y1, sliding1, fr, inner_peak = substep(h_first, (p, v, q, w), ce, sliding, t_off, first)
+        y1, sliding1, fr, inner_peak, touched = substep(h_first, (p, v, q, w), ce, sliding, t_off,
+                                                        first)
         aligned = np.zeros(n, dtype=bool)
         if crossing.any():
             # At the crossing itself: an impact slower than bounce_speed is taken by the
@@ -255,8 +332,9 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
             if cp.align_on_touchdown:
                 y1, aligned = _align_at_touchdown(params, fb, ground_x, y1, crossing)
             ce_mid = contact_at(fb, ground_x, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
-            y2, sliding2, fr2, peak2 = substep(np.where(crossing, h - tau, h), y1, ce_mid, sliding1,
-                                               t_cross)
+            y2, sliding2, fr2, peak2, touched2 = substep(np.where(crossing, h - tau, h), y1,
+                                                         ce_mid, sliding1, t_cross)
+            touched = touched | (crossing & touched2)
             c3 = crossing[:, None]
             y1 = tuple(np.where(c3, b, a) for a, b in zip(y1, y2))
             sliding1 = np.where(c3, sliding2, sliding1)
@@ -269,6 +347,10 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         friction_n = np.where(active, fr, friction_n)
         t_end_off = (j + 1) * h
         ground = fb.ground_at(t_end_off)
+        if guard:
+            (p, v, q, w), e_ref, took = passivity_guard(params, fb, ground, (p, v, q, w), e_ref,
+                                                        passive & active, ~touched)
+            guard_j = guard_j + took
         ce = contact_at(fb, ground, p, v, q, w, absorbing)
 
         # in-flight transitions, decided on this sub-step's end state
@@ -308,6 +390,11 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                 (p, v, q, w), snapped = _align_at_touchdown(params, fb, ground, (p, v, q, w), snap)
                 aligned |= snapped
                 ce = contact_at(fb, ground, p, v, q, w, absorbing)
+                if guard:  # the snap never adds energy; measure from where it left the ship
+                    now = EnergyRef.of(ship_energy(fb, ground, p, v, q, w))
+                    e_ref = EnergyRef(*(np.where(snapped, a_, b_) for a_, b_ in zip(
+                        (now.total_j, now.translation_j, now.rotation_j),
+                        (e_ref.total_j, e_ref.translation_j, e_ref.rotation_j))))
         cos_tilt = vec.dot(vec.quat_axis_z(q), r_hat)
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)
@@ -369,7 +456,7 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
                   omega_body_radps=w, absorbing=absorbing, sliding=sliding, settle_ticks=settle,
                   pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
                   pin_pivot_bf_m=pin_pivot)
-    return out, friction_n, np.abs(ce.normal_n), peak, transitions
+    return out, friction_n, np.abs(ce.normal_n), peak, guard_j, transitions
 
 
 def pivot_axis(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -695,7 +782,8 @@ def burn(params: Params, st: State, cmd: Commands) -> State:
 
 # -- 6. observe ----------------------------------------------------------------------------------
 def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
-            normal_n: np.ndarray, peak_pen_m: np.ndarray, t_s: float) -> Outputs:
+            normal_n: np.ndarray, peak_pen_m: np.ndarray, t_s: float,
+            energy_guard_j: np.ndarray | None = None) -> Outputs:
     """Telemetry at the end of the tick. Forces come from the free-flight phase (free ships) or
     are the weight (landed, tipped); only the feet's geometry is computed here."""
     pen = contact.lowest_foot_penetration(st.pos_m, st.quat, params.ships.leg_radius_m,
@@ -714,7 +802,8 @@ def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
         cos_tilt=vec.dot(vec.quat_axis_z(st.quat), r_hat), v_radial_mps=v_rad,
         v_tangential_mps=v_tan, normal_force_n=normal,
         friction_force_n=np.where(held, 0.0, friction_n),
-        throttle=cmd.throttle, rcs_torque_body_nm=cmd.rcs_torque_body_nm)
+        throttle=cmd.throttle, rcs_torque_body_nm=cmd.rcs_torque_body_nm,
+        energy_guard_j=np.zeros(st.n) if energy_guard_j is None else energy_guard_j)
 
 
 # -- the step ------------------------------------------------------------------------------------
@@ -735,6 +824,7 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     friction_n = np.zeros(n)
     normal_n = np.zeros(n)
     peak_pen = np.zeros(n)
+    guard_j = np.zeros(n)
     found: list[tuple[int, int, int, int, float]] = []  # (ship, order, from, to, v_radial)
     parts: list[tuple[np.ndarray, State]] = []
     groups = ((np.flatnonzero(fine & ~one_step), params.sim.n_fine_substeps, True),
@@ -744,8 +834,8 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
         if idx.size == 0:
             continue
         sub_params = params.take(idx)
-        part, fr, nf, peak, trans = free_flight(sub_params, state.take(idx), cmd.take(idx),
-                                                n_sub, touching, t0)
+        part, fr, nf, peak, took, trans = free_flight(sub_params, state.take(idx), cmd.take(idx),
+                                                      n_sub, touching, t0)
         if touching:
             part, landed = settle(sub_params, part, t1)
             trans = trans + [(int(i), CONTACT, LANDED, 0.0) for i in np.flatnonzero(landed)]
@@ -753,6 +843,7 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
         friction_n[idx] = fr
         normal_n[idx] = nf
         peak_pen[idx] = peak
+        guard_j[idx] = took
         found += [(int(idx[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
     held = np.flatnonzero(~free)
     if held.size:
@@ -762,7 +853,7 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     st = state.put(parts)
     st = burn(params, st, cmd)
     st = replace(st, tick=state.tick + 1)
-    out = observe(params, st, cmd, friction_n, normal_n, peak_pen, t1)
+    out = observe(params, st, cmd, friction_n, normal_n, peak_pen, t1, guard_j)
     found.sort(key=lambda e: (e[0], e[1]))
     events = [Event(st.tick, ship, int(TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]), a, b,
                     vr) for ship, _, a, b, vr in found]
