@@ -223,8 +223,10 @@ def passivity_guard(params: Params, fb: FreeBodies, ground: contact.Ground, y, r
     f_w = f_all * factor(ex_rot, e.rotational_j)
     v_surf = ground.surface_velocity(p)
     spin_b = body_spin_in_body_frame(params, q)
-    v = v_surf + (v - v_surf) * f_v[:, None]
-    w = spin_b + (w - spin_b) * f_w[:, None]
+    # only where a correction is due: (v - v_surf) + v_surf is not v in floating point, and a
+    # ship's bits must not depend on whether a neighbour needed the guard
+    v = np.where((f_v != 1.0)[:, None], v_surf + (v - v_surf) * f_v[:, None], v)
+    w = np.where((f_w != 1.0)[:, None], spin_b + (w - spin_b) * f_w[:, None], w)
     taken_tr = e.translational_j * (1.0 - f_v * f_v)
     taken_rot = e.rotational_j * (1.0 - f_w * f_w)
     removed = taken_tr + taken_rot
