@@ -265,3 +265,33 @@ def planar_touchdown(v_side_mps: float, v_down_mps: float, g: float, mass_kg: fl
     t_tip = float(sol.t_events[0][0]) if sol.t_events[0].size else None
     feet_x = sol.y[0] - h * np.sin(sol.y[2])
     return t_tip, math.degrees(float(np.max(sol.y[2]))), float(feet_x[-1] - feet_x[0])
+
+
+def rotating_slide(gm: float, radius_m: float, spin_radps: float, pos_bf_m, vel_bf_mps,
+                   mu: float, t_end_s: float = 600.0):
+    """Where a point sliding on a turning sphere of radius ``radius_m`` (the body-fixed frame,
+    spin about +z) comes to rest under Coulomb friction mu N, in that frame:
+
+        r'' = -GM r / |r|^3 + Omega^2 (x, y, 0) - 2 Omega z x r' + N r_hat - mu N r'_hat,
+
+    N the normal acceleration that keeps it on the sphere (r . r' = 0: N = -|r'|^2 / r -
+    r_hat . (gravity + centrifugal + Coriolis)). DOP853 at rtol 1e-11 until the speed falls to
+    1e-9 m/s. Returns the body-fixed position there, and the time."""
+    om = np.array([0.0, 0.0, spin_radps])
+
+    def rhs(t, y):
+        r, v = y[:3], y[3:]
+        rn = np.linalg.norm(r)
+        r_hat = r / rn
+        free = -gm * r / rn ** 3 + spin_radps ** 2 * np.array([r[0], r[1], 0.0]) \
+            - 2.0 * np.cross(om, v)
+        normal = -(v @ v) / rn - r_hat @ free
+        speed = np.linalg.norm(v)
+        fric = -mu * max(normal, 0.0) * v / speed if speed > 0.0 else 0.0
+        return np.concatenate([v, free + normal * r_hat + fric])
+
+    stop = lambda t, y: np.linalg.norm(y[3:]) - 1e-9  # noqa: E731
+    stop.terminal, stop.direction = True, -1
+    sol = solve_ivp(rhs, (0.0, t_end_s), np.concatenate([pos_bf_m, vel_bf_mps]), method="DOP853",
+                    rtol=1e-11, atol=1e-12, events=[stop])
+    return sol.y[:3, -1], float(sol.t[-1])
