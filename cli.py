@@ -222,7 +222,7 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
 
 
 @main.command()
-@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability"]))
+@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -230,13 +230,18 @@ def bench(what: str, quick: bool, out_dir: str) -> None:
     """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates, and
     the cost per ship-tick by state and model; `replay`: verify against record speed, seeking in a
     long log, what keyframes cost; `accuracy`: the work-precision chart and tables (needs the
-    `bench` extra); `stability`: each method's largest stable step, measured against theory."""
+    `bench` extra); `stability`: each method's largest stable step, measured against theory;
+    `physics`: scenes off the well-walked paths (turning bodies, tumbles, falls onto the side,
+    spins, hills, slopes, impossible starts), each figure beside what physics says."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
     elif what == "stability":
         from bench import stability
         stability.main(quick=quick)
+    elif what == "physics":
+        from bench import physics
+        physics.main(quick=quick)
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)

@@ -13,7 +13,8 @@ import numpy as np
 
 from logs import LogError
 from logs.codec import PACKED, encode_tick
-from logs.mcap_log import _EMPTY, KEYFRAME_ONLY, WIDTH as _WIDTH, LogReader, scenario_of, tick_arrays
+from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, WIDTH as _WIDTH, LogReader,
+                           scenario_of, tick_arrays)
 from sim import __version__ as PROJECT_VERSION
 from sim.run import run
 
@@ -52,9 +53,12 @@ class VerifyResult:
     def report(self) -> str:
         head = (f"log: touchdown {self.log_version}, method {self.log_method}, dt {self.log_dt_s:g} s;"
                 f" today: touchdown {PROJECT_VERSION}")
-        if self.log_version != PROJECT_VERSION:
-            head += "  (the log was written by another version)"
         lines = [head]
+        if self.log_version != PROJECT_VERSION:
+            lines.append(f"note: this log was written by touchdown {self.log_version}, whose physics "
+                         f"differs from {PROJECT_VERSION}'s (docs/MODEL-NOTES.md), so a divergence is "
+                         f"expected; `touchdown replay LOG -o NEW.mcap` re-runs its scenario and "
+                         f"inputs under today's physics")
         if self.recovered_note:
             lines.append(self.recovered_note)
         if self.divergence is None:
@@ -75,8 +79,11 @@ class VerifyResult:
         return "\n".join(lines)
 
 
-def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int):
-    """(ship, field, component, recorded, replayed) of the first differing number, or None."""
+def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int,
+                      older_format: bool = False):
+    """(ship, field, component, recorded, replayed) of the first differing number, or None. In a
+    log of an older format a field whose layout has changed since (``sliding``: one per ship in
+    format 1, one per foot now) cannot be compared and is skipped."""
     best = None
     for _, name, _ in PACKED:
         w = WIDTH[name]
@@ -88,6 +95,8 @@ def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int
             recorded = recorded.reshape(-1, w)[ship_slice].ravel() if recorded.size else recorded
         replayed = replayed.reshape(n_new * w)
         if recorded.shape != replayed.shape:
+            if older_format:
+                continue
             return (0, name, 0, float("nan"), float("nan"))
         if replayed.dtype.kind == "f":
             diff = recorded.astype(np.float64).view(np.uint64) != replayed.view(np.uint64)
@@ -149,7 +158,8 @@ def verify(path: str, first: int | None = None, last: int | None = None,
                     continue
             else:
                 res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
-            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n)
+            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n,
+                                    sr.log_format_version < LOG_FORMAT_VERSION)
             if hit is None and ship_slice is None:  # same numbers, different bytes
                 hit = (0, "tick", 0, float(recorded.tick), float(new.tick))
             if hit is not None:

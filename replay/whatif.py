@@ -9,6 +9,7 @@ from itertools import zip_longest
 import numpy as np
 
 from logs.mcap_log import LogReader, LogWriter, scenario_of
+from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
 from sim.run import run
 
@@ -21,9 +22,15 @@ class WhatIf:
     max_attitude_at: tuple[str, float] = ("", 0.0)
     samples: int = 0
     timelines: dict[str, tuple[list[str], list[str]]] = field(default_factory=dict)
+    log_version: str = PROJECT_VERSION
 
     def report(self) -> str:
-        lines = [f"compared at {self.samples} common instants",
+        lines = []
+        if self.log_version != PROJECT_VERSION:
+            lines.append(f"note: this log was written by touchdown {self.log_version}; the replay runs "
+                         f"its scenario and inputs under {PROJECT_VERSION}'s physics "
+                         f"(docs/MODEL-NOTES.md)")
+        lines += [f"compared at {self.samples} common instants",
                  f"largest position difference: {self.max_position_diff_m:.6g} m "
                  f"(ship {self.max_position_at[0]}, t = {self.max_position_at[1]:.3f} s)",
                  f"largest attitude difference: {self.max_attitude_diff_deg:.6g} deg "
@@ -44,6 +51,7 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
             ship_id: str | None = None) -> WhatIf:
     res = WhatIf()
     with LogReader(path) as reader:
+        res.log_version = reader.scenario.project_version
         scn, index = scenario_of(reader, ship_id, overrides)
         ids = list(scn.params.ships.ship_id)
         old_dt = reader.scenario.dt_s

@@ -107,7 +107,9 @@ def test_set_overrides_reach_the_run(tmp_path):
 
 
 EXPORT_FIELDS = {"tick", "t", "ship_id", "state", "altitude", "penetration", "tilt_deg", "v_radial",
-                 "v_tangential", "normal_force", "friction_force", "fuel_mass"}
+                 "v_tangential", "normal_force", "friction_force", "fuel_mass",
+                 "east", "north", "up", "v_east", "v_north", "v_up", "omega_x", "omega_y",
+                 "omega_z", "energy_j"}
 EVENT_FIELDS = {"event", "tick", "t", "ship_id", "player_id", "body", "from_state", "to_state"}
 
 
@@ -127,6 +129,27 @@ def test_export_gives_spec_fields_per_ship_per_tick_and_per_event(tmp_path):
     file_out = tmp_path / "rows.jsonl"
     assert invoke("export", out, "-o", file_out).exit_code == 0
     assert file_out.read_text() == invoke("export", out).output
+
+
+def test_export_places_the_ship_in_the_landing_site_frame_with_its_energy(tmp_path):
+    """The bounce starts 5 m up (its feet), falling at 20 m/s, upright, over the site: east =
+    north = 0, up = 5 m + com_height above the reference sphere (less 1.5 um: the feet, 2.26 m
+    out, stand that much higher on the curved body), v_up = -20 m/s, no spin; energy_j = m v^2 / 2
+    + m GM (1/R - 1/r). Speeds in the site frame match the positions' differences."""
+    out = tmp_path / "b.mcap"
+    assert invoke("record", "bounce", "--set", "duration=2", "-o", out).exit_code == 0
+    rows = [json.loads(x) for x in invoke("export", out).output.splitlines()]
+    first = rows[0]
+    assert first["east"] == 0.0 and first["north"] == 0.0
+    assert first["up"] == pytest.approx(8.0, abs=2e-6)
+    assert (first["v_east"], first["v_north"], first["v_up"]) == (0.0, 0.0, -20.0)
+    assert (first["omega_x"], first["omega_y"], first["omega_z"]) == (0.0, 0.0, 0.0)
+    gm, radius = 4.9048695e12, 1737400.0
+    r = radius + first["up"]
+    assert first["energy_j"] == pytest.approx(0.5 * 1e4 * 400.0 + 1e4 * gm * (1 / radius - 1 / r),
+                                              rel=1e-12)
+    for a, b in zip(rows[0:3], rows[1:4]):  # falling freely (it lands at 0.24 s): mean speed
+        assert (b["up"] - a["up"]) / 0.05 == pytest.approx(0.5 * (a["v_up"] + b["v_up"]), rel=1e-6)
 
 
 def test_export_of_a_bad_file_is_one_line_exit_2(tmp_path):

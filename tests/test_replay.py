@@ -1,5 +1,6 @@
 """Replay: bit-for-bit verification, the first divergence, keyframe windows, one ship alone,
 other SIMD paths, and what-if runs."""
+import json
 import os
 import subprocess
 import sys
@@ -166,3 +167,27 @@ def test_sparse_keyframes_seek_from_the_nearest_one(tmp_path):
     bad = tmp_path / "edited.mcap"
     rewrite(path, bad, 77, "altitude_m", 0)  # a non-keyframe tick: telemetry is still checked
     assert verify(str(bad)).divergence.tick == 77
+
+
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def test_a_log_of_the_previous_version_replays_with_a_version_notice(tmp_path):
+    """tests/data holds logs written by touchdown 0.2.0 (log format 1: one friction regime per
+    ship; velocities on keyframes only). verify re-runs them under today's physics, says that a
+    divergence is expected and why, and names it; export and what-if replay read them."""
+    r = CliRunner().invoke(main, ["replay", str(DATA / "bounce-0.2.0.mcap"), "--verify"])
+    assert r.exit_code == 1
+    assert "written by touchdown 0.2.0" in r.output and "divergence is expected" in r.output
+    assert "DIVERGED at tick" in r.output and "nan" not in r.output
+    out = tmp_path / "again.mcap"
+    r = CliRunner().invoke(main, ["replay", str(DATA / "fleet-0.2.0-kf5.mcap"), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "written by touchdown 0.2.0" in r.output
+    assert CliRunner().invoke(main, ["replay", str(out), "--verify"]).exit_code == 0
+    r = CliRunner().invoke(main, ["export", str(DATA / "fleet-0.2.0-kf5.mcap")])
+    assert r.exit_code == 0
+    rows = [json.loads(line) for line in r.output.splitlines()]
+    assert len(rows) == 21 * 6
+    keyframe, between = rows[0], rows[6]  # tick 0 is a keyframe; tick 1 holds no velocities
+    assert keyframe["energy_j"] is not None and between["energy_j"] is None
