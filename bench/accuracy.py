@@ -13,6 +13,9 @@ of ``bench/reference.py`` (closed forms and tight-tolerance ``solve_ivp`` soluti
     slide                         resting position: where a 5 m/s slide stops (Coulomb on the
                                   sphere, ~ v^2 / 2 mu_k g; the ship's rotation frozen)
     topple                        time to tip over from 5 deg past the critical angle (pivot ODE)
+    trip                          time for a 2 m/s touchdown with 6 m/s sideways to trip over its
+                                  leading feet (the planar rigid lander on four feet, Radau;
+                                  mu_s = mu_k, as the reference has)
     righting                      time for the RCS to right a lander lying at 90 deg (pivot ODE)
 
 Errors are relative. The apex and the contact's ends are read from the recorded state exactly
@@ -40,8 +43,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from bench.reference import (bounce_ode, critical_angle_rad, righting_time, settle_time,
-                             topple_time)
+from bench.reference import (bounce_ode, critical_angle_rad, planar_touchdown, righting_time,
+                             settle_time, topple_time)
 from bench.speed import machine
 from sim.constants import EARTH_GM_M3PS2, EARTH_RADIUS_M, MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.enums import EventKind
@@ -57,7 +60,7 @@ DEFAULT_SIM = SimParams()
 DEFAULT = f"{DEFAULT_SIM.integrator} + sub-steps (default)"
 H_COM, A_LEG, MASS = 3.0, 2.26, 10000.0  # the default ship
 MEASURES = ["apex_12", "apex_20", "apex_45", "apex_20_earth", "separation_45", "penetration_45",
-            "contact_20", "settle_20", "slide", "topple", "righting"]
+            "contact_20", "settle_20", "slide", "topple", "trip", "righting"]
 
 
 @dataclass(frozen=True)
@@ -258,6 +261,20 @@ def topple(sim: dict, batch: int) -> tuple[float, float]:
     return cost, abs(t_tipped / ref - 1)
 
 
+def trip(sim: dict, batch: int) -> tuple[float, float]:
+    """Friction at the feet pitches a fast sideways touchdown over its leading feet; the rotation
+    it causes meets the feet's restoring moment half a sub-step late (MODEL-NOTES 32), so this is
+    where the sub-step shows."""
+    v_side, mu = 6.0, ContactParams().friction_kinetic
+    v_down = math.sqrt(2.0 ** 2 + 2.0 * MOON.g * 0.2)
+    doc = _doc({"altitude": 0.2, "vertical_speed": -2.0, "horizontal_speed": v_side,
+                "heading_deg": 90.0}, sim, 6.0, batch, contact={"friction_static": mu})
+    cost, t_tipped, _ = _event_time(doc, EventKind.TIPPED)
+    g = MOON.gm / (MOON.radius + H_COM) ** 2
+    t_tip, _, _ = planar_touchdown(v_side, v_down, g, t_end_s=6.0)
+    return cost, abs(t_tipped / (t_tip + (v_down - 2.0) / MOON.g) - 1)
+
+
 def righting(sim: dict, batch: int) -> tuple[float, float]:
     tau = 80000.0
     # rcs_isp so high that the RCS burns no measurable fuel: the reference holds the mass fixed
@@ -298,7 +315,8 @@ def sweep(quick: bool, batch: int) -> list[dict]:
                     found["contact_20"] = (err.get("contact", nan), cost)
             cost, err = settle(sim, 20.0, batch)
             found["settle_20"] = (err, cost)
-            for name, fn in (("slide", slide), ("topple", topple), ("righting", righting)):
+            for name, fn in (("slide", slide), ("topple", topple), ("trip", trip),
+                             ("righting", righting)):
                 cost, err = fn(sim, batch)
                 found[name] = (err, cost)
         for measure in MEASURES:

@@ -126,17 +126,33 @@ def tilt(rec) -> float:
 # -- the scenes ------------------------------------------------------------------------------
 def rotating_slides(rows, quick):
     for label, body, heading, span in (
-            ("Moon turning (27.3 d), slide north", {"rotation_period": MOON_ROTATION_S}, 0.0, 60.0),
-            ("Moon turning (27.3 d), slide east", {"rotation_period": MOON_ROTATION_S}, 90.0, 60.0),
-            ("Earth turning, slide north", {**EARTH, "rotation_period": EARTH_ROTATION_S}, 0.0, 30.0)):
+            ("Moon still, 6 m/s sideways touchdown", {}, 0.0, 60.0),
+            ("Moon turning (27.3 d), the same heading north", {"rotation_period": MOON_ROTATION_S},
+             0.0, 60.0),
+            ("Moon turning (27.3 d), the same heading east", {"rotation_period": MOON_ROTATION_S},
+             90.0, 60.0),
+            ("Earth turning, the same heading north", {**EARTH, "rotation_period": EARTH_ROTATION_S},
+             0.0, 30.0)):
         scn = scene({"altitude": 0.2, "vertical_speed": -2.0, "horizontal_speed": 6.0,
                      "heading_deg": heading}, body=body, duration=span)
         recs = list(run(scn))
-        spin = max(math.sqrt(sum(x * x for x in _rel_rates(scn, r))) for r in recs)
+        upright = [r for r in recs if int(r.state.surface_state[0]) != int(SurfaceState.TIPPED)]
+        spin = max(math.sqrt(sum(x * x for x in _rel_rates(scn, r))) for r in upright)
         speed = float(recs[-1].outputs.v_tangential_mps[0])
-        rows.append((label, f"6 m/s, touchdown at 2 m/s: landed {first(recs, 0.05, 'ship.landed')}; "
-                            f"largest spin {spin:.3g} rad/s; speed at {span:g} s {speed:.3g} m/s",
-                     "stops in ~2 s (mu_k g_eff), no spin-up"))
+        rows.append((label, f"2 m/s down: events {[(round(t * 0.05, 2), n) for t, n in topics(recs)]}; "
+                            f"largest spin before any tip {spin:.3g} rad/s; speed at {span:g} s "
+                            f"{speed:.3g} m/s", "the same on a still and a turning body"))
+    for label, body in (("Moon turning, slide on the feet north at 4 m/s",
+                         {"rotation_period": MOON_ROTATION_S}),
+                        ("Earth turning, slide on the feet north at 4 m/s",
+                         {**EARTH, "rotation_period": EARTH_ROTATION_S})):
+        g = 1.6248 if "name" not in body else 9.80
+        scn = scene({"state": "contact", "altitude": -g / 100.0, "horizontal_speed": 4.0},
+                    body=body, duration=20.0)
+        recs = list(run(scn))
+        spin = max(math.sqrt(sum(x * x for x in _rel_rates(scn, r))) for r in recs)
+        rows.append((label, f"landed {first(recs, 0.05, 'ship.landed')}; largest spin {spin:.3g} rad/s",
+                     f"stops after v / (mu_k g) = {4.0 / (0.5 * g):.2f} s, no spin-up"))
 
 
 def _rel_rates(scn, rec):
