@@ -116,7 +116,8 @@ def bounce_ode(gm: float, radius_m: float, v_impact: float, zeta: float = 0.3,
 
 
 def critical_angle_rad(com_height_m: float, leg_radius_m: float) -> float:
-    """Tilt at which the centre of mass is over the rim foot: atan(a / h) (seed, Topple Dynamics)."""
+    """Tilt toward a foot at which the centre of mass is over it: atan(a / h) (seed, Topple
+    Dynamics). Toward the edge between two of the four feet it is atan(a / (sqrt(2) h))."""
     return math.atan2(leg_radius_m, com_height_m)
 
 

@@ -3,12 +3,14 @@
 Phases, in order (each a function below):
 
 1. ``commands``     throttle and RCS torque actually applied (fuel, hold-mode controller)
-2. ``free_flight``  flying and contact ships: integrate, friction, and the in-flight transitions
-                    (contact, crash, liftoff, tipped) at every sub-step; ships near the ground
-                    take ``n_fine_substeps`` sub-steps, ships far above take one and do no contact work
+2. ``free_flight``  flying and contact ships: integrate, friction at the feet, the passivity
+                    guard, and the in-flight transitions (contact, crash, liftoff, tipped) at
+                    every sub-step; ships near the ground take ``n_fine_substeps`` sub-steps,
+                    ships far above take one and do no contact work
 3. ``settle``       contact -> landed once the settle thresholds have held for ``settle_time``
-4. ``pinned``       landed, tipped and crashed ships turn with the body; liftoff; tipped pivot
-                    dynamics and righting
+                    with the centre of mass over the footprint
+4. ``pinned``       landed, tipped and crashed ships turn with the body; liftoff; tipped ships'
+                    pivot model (sim.pivot) and righting
 5. ``burn``         fuel and mass
 6. ``observe``      the tick's telemetry
 
@@ -27,10 +29,11 @@ from sim import contact, energy, friction, vec
 from sim.constants import G0_MPS2
 from sim.dynamics import FreeBodies, contact_at
 from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, ground_at,
-                        inertia, pin_pose, quat_z, rotate_z, surface_spin_w, surface_velocity)
+                        inertia, pin_pose, quat_z, rotate_z, surface_velocity)
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from sim.integrators import method
 from sim.params import Params
+from sim.pivot import pinned_motion, pivot_rate_from_momentum, pivot_step
 from sim.stability import KICKS
 from sim.state import Event, Inputs, Outputs, State
 
@@ -349,11 +352,16 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         friction_n = np.where(active, fr, friction_n)
         t_end_off = (j + 1) * h
         ground = fb.ground_at(t_end_off)
-        if guard:
-            (p, v, q, w), e_ref, took = passivity_guard(params, fb, ground, (p, v, q, w), e_ref,
-                                                        passive & active, ~touched)
-            guard_j = guard_j + took
         ce = contact_at(fb, ground, p, v, q, w, absorbing)
+        if guard:
+            # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
+            # absorber's pull passes no positive impulse, yet trades translation for rotation)
+            airborne = ~touched & (pen_before < 0.0) & (ce.max_penetration_m < 0.0)
+            (p, v, q, w), e_ref, took = passivity_guard(params, fb, ground, (p, v, q, w), e_ref,
+                                                        passive & active, airborne)
+            guard_j = guard_j + took
+            if (took > 0.0).any():  # the dampers' forces follow the velocities it scaled
+                ce = contact_at(fb, ground, p, v, q, w, absorbing)
 
         # in-flight transitions, decided on this sub-step's end state
         r_hat = vec.unit(p)
@@ -461,46 +469,6 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
     return out, friction_n, np.abs(ce.normal_n), peak, guard_j, transitions
 
 
-def pivot_axis(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """The axis a tipped ship turns about: horizontal, normal to the plane of its tilt,
-    unit(up x e_z), so that a positive rate tilts it further."""
-    return vec.unit(vec.cross(vec.unit(p), vec.quat_axis_z(q)))
-
-
-def pivot_rate_from_momentum(params: Params, m: np.ndarray, inertia_b: np.ndarray, p, v, q, w_b,
-                             pivot: np.ndarray) -> np.ndarray:
-    """The rate about the pivot foot when a ship in contact is handed to the pivot model: the foot
-    is held at once (an inelastic impact at the foot), which conserves the angular momentum
-    about it, relative to the surface, and keeps of the motion its component about the pivot's
-    axis a:
-
-        theta' = a . (I_w omega_rel + m d x v_rel) / I_p,   I_p = a . I_w a + m |a x d|^2,
-
-    d the centre of mass from the pivot. It is the projection of the motion onto rotation about
-    a in the kinetic-energy metric, so the kinetic energy after is never more than before."""
-    axis = pivot_axis(p, q)
-    spin_w = surface_spin_w(params, p.shape[0])
-    v_rel = v - surface_velocity(params, p)
-    w_rel_w = vec.quat_rotate(q, w_b) - spin_w
-    d = p - pivot
-    axis_b = vec.quat_rotate_inv(q, axis)
-    l_rel = vec.quat_rotate(q, inertia_b * vec.quat_rotate_inv(q, w_rel_w)) + vec.scale(
-        vec.cross(d, v_rel), m)
-    arm = vec.cross(axis, d)
-    i_p = vec.dot(axis_b, inertia_b * axis_b) + m * vec.dot(arm, arm)
-    return vec.dot(axis, l_rel) / i_p
-
-
-def pinned_motion(params: Params, p: np.ndarray, q: np.ndarray, pivot: np.ndarray,
-                  rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inertial velocity and body-frame angular velocity of pinned ships: the body's rotation,
-    plus a tipped ship's turn at ``rate`` about its pivot (zero rate: landed, crashed, resting)."""
-    spin = vec.scale(pivot_axis(p, q), rate)
-    v = surface_velocity(params, p) + vec.cross(spin, p - pivot)
-    w = body_spin_in_body_frame(params, q) + vec.quat_rotate_inv(q, spin)
-    return v, w
-
-
 def _align_at_touchdown(params: Params, fb: FreeBodies, ground: contact.Ground, y,
                         mask: np.ndarray):
     """The seed's Flying -> Contact rule for the ships in ``mask``: attitude snapped to local up
@@ -558,6 +526,7 @@ def _hermite_peak(x0, xd0, x1, xd1, h: float) -> np.ndarray:
     return best
 
 
+# -- 3. settle -----------------------------------------------------------------------------------
 def over_footprint(params: Params, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """The centre of mass is over the footprint: the line through it along the effective gravity
     meets the feet's plane inside the square the four feet span. With u the effective "up" in the
@@ -573,7 +542,6 @@ def over_footprint(params: Params, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return sh.com_height_m * (np.abs(u[:, 0]) + np.abs(u[:, 1])) < sh.leg_radius_m * u[:, 2]
 
 
-# -- 3. settle -----------------------------------------------------------------------------------
 def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray]:
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
@@ -613,109 +581,6 @@ def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
-#: Fixed-point iterations of the pivot's discrete-gradient step: each gains a factor of about
-#: h^2 m g L / (2 I_p) (5e-4 for the default lander at 0.05 s), so four or five reach rounding.
-MAX_PIVOT_ITERATIONS = 40
-
-
-@dataclass(frozen=True)
-class PivotStep:
-    """One tick of the tipped ships' pivot model (body-fixed frame)."""
-
-    pos_bf_m: np.ndarray
-    quat_bf: np.ndarray
-    rate_radps: np.ndarray  # + = toppling, at the tick's end
-    hull_crash: np.ndarray  # the hull met the ground faster than crash_speed
-    righted: np.ndarray  # back under tipped_angle while turning upright
-
-
-def pivot_step(params: Params, st: State, cmd: Commands) -> PivotStep:
-    """Tipped ships turn about their pivot foot, a one-degree-of-freedom rotation by theta about
-    the horizontal axis a through it:
-
-        I_p theta'' = -dU/dtheta + tau_rcs . a,    I_p = a . I a + m |a x d|^2,
-
-    U the effective potential of the frame turning with the body (point-mass gravity and the
-    centrifugal potential, sim.energy). It is stepped with the discrete gradient of U (Gonzalez,
-    J. Nonlinear Sci. 6, 1996; McLachlan, Quispel & Robidoux, Phil. Trans. R. Soc. A 357, 1999):
-
-        I_p (theta'_1 - theta'_0) = h (tau - (U(theta_1) - U(theta_0)) / (theta_1 - theta_0)),
-        theta_1 - theta_0 = h (theta'_0 + theta'_1) / 2,
-
-    second order and exactly energy-conserving: I_p theta'^2 / 2 + U changes by tau times the
-    angle turned and nothing else, through a fall, a slow-down and a turning point alike. The
-    difference quotient is formed without cancellation (the pose's change divided by the angle,
-    sin and 1 - cos as +,*,/ series), and the implicit step solved by fixed-point iteration
-    (MAX_PIVOT_ITERATIONS). The ship rests on its hull at ``tipped_rest_deg``: a turn that would
-    pass it stops there (an inelastic impact; crash above crash_speed at the centre of mass)."""
-    cp, dt = params.contact, params.sim.dt_s
-    gm, om = params.body.gm_m3ps2, params.body.omega_radps
-    p0, q0, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
-    m = st.mass_kg
-    i_b = inertia(params, st)
-    rate0 = st.pivot_rate_radps
-    up = vec.unit(p0)
-    ez = vec.quat_axis_z(q0)
-    axis = pivot_axis(p0, q0)
-    d0 = p0 - pivot
-    ad = vec.cross(axis, d0)
-    aad = vec.cross(axis, ad)
-    axis_b = vec.quat_rotate_inv(q0, axis)
-    i_p = vec.dot(axis_b, i_b * axis_b) + m * vec.dot(ad, ad)
-    tau = vec.dot(vec.quat_rotate(q0, cmd.rcs_torque_body_nm), axis)
-    r0 = vec.norm(p0)
-    spin = np.broadcast_to(np.array([0.0, 0.0, om]), p0.shape)
-    a_spin = vec.cross(axis, spin)
-    aa_spin = vec.cross(axis, a_spin)
-    spin_b0 = vec.quat_rotate_inv(q0, spin)
-
-    def slope(delta):
-        """(U(theta_0 + delta) - U(theta_0)) / delta, and the pose's displacement per radian."""
-        _, sinc = vec.cos_sinc(delta)
-        _, sinc_half = vec.cos_sinc(0.5 * delta)
-        one_minus_cos = 0.5 * delta * sinc_half * sinc_half  # (1 - cos delta) / delta
-        dp = vec.scale(ad, sinc) + vec.scale(aad, one_minus_cos)  # (p_1 - p_0) / delta
-        p1 = p0 + vec.scale(dp, delta)
-        r1 = vec.norm(p1)
-        both = p1 + p0
-        g = m * gm * vec.dot(dp, both) / (r0 * r1 * (r0 + r1))
-        if om != 0.0:
-            g = g - 0.5 * m * om * om * (dp[:, 0] * both[:, 0] + dp[:, 1] * both[:, 1])
-            # the spin seen from the ship turns the other way: R_a(-delta) e - e over delta
-            de = vec.scale(a_spin, -sinc) + vec.scale(aa_spin, one_minus_cos)
-            d_spin_b = vec.quat_rotate_inv(q0, de)
-            g = g - 0.5 * vec.dot(d_spin_b, i_b * (2.0 * spin_b0 + vec.scale(d_spin_b, delta)))
-        return g, dp
-
-    half_h2 = 0.5 * dt * dt
-    delta = dt * rate0 + half_h2 * (tau - slope(np.zeros_like(m))[0]) / i_p
-    done = np.zeros(m.shape, dtype=bool)
-    for _ in range(MAX_PIVOT_ITERATIONS):
-        nxt = dt * rate0 + half_h2 * (tau - slope(delta)[0]) / i_p
-        settled = np.abs(nxt - delta) <= 4.0 * np.finfo(float).eps * np.abs(nxt)
-        delta = np.where(done, delta, nxt)
-        done = done | settled
-        if done.all():
-            break
-    rate1 = 2.0 * delta / dt - rate0
-    # the hull: the turn stops at tipped_rest_deg (an angle found once, with +,*,/ and sqrt)
-    tilt0 = vec.angle(vec.norm(vec.cross(ez, up)), vec.dot(ez, up))
-    to_rest = np.maximum(math.radians(cp.tipped_rest_deg) - tilt0, 0.0)
-    hull = delta > to_rest
-    g_rest, _ = slope(to_rest)
-    kinetic = 0.5 * i_p * rate0 * rate0 + to_rest * (tau - g_rest)
-    speed_at_hull = np.sqrt(np.maximum(2.0 * kinetic / i_p, 0.0)) * vec.norm(ad)
-    hull_crash = hull & (speed_at_hull > cp.crash_speed_mps)
-    delta = np.where(hull, to_rest, delta)
-    rate1 = np.where(hull, 0.0, rate1)
-    _, dp = slope(delta)
-    p1 = p0 + vec.scale(dp, delta)
-    q1 = vec.quat_normalize(vec.quat_mul(vec.quat_from_rotvec(vec.scale(axis, delta)), q0))
-    righted = (~hull_crash & (vec.dot(vec.quat_axis_z(q1), vec.unit(p1)) > cp.cos_tipped)
-               & (rate1 < 0.0))
-    return PivotStep(p1, q1, rate1, hull_crash, righted)
-
-
 def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
            ) -> tuple[State, list[Transition]]:
     """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
@@ -733,7 +598,7 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
     tipped = surf == TIPPED
     righted = np.zeros(n, dtype=bool)
     if tipped.any():
-        ps = pivot_step(params, st, cmd)
+        ps = pivot_step(params, st, cmd.rcs_torque_body_nm)
         t3 = tipped[:, None]
         p_bf = np.where(t3, ps.pos_bf_m, p_bf)
         q_bf = np.where(t3, ps.quat_bf, q_bf)

@@ -45,7 +45,7 @@ def roundoff_j(scn) -> np.ndarray:
 @settings(max_examples=36, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(state=st.sampled_from(["flying", "contact"]), height=st.floats(0.0, 3.0),
-       down=st.floats(0.0, 40.0), side=st.floats(0.0, 8.0), heading=st.floats(0.0, 360.0),
+       down=st.floats(0.0, 56.0), side=st.floats(0.0, 8.0), heading=st.floats(0.0, 360.0),
        yaw=st.floats(0.0, 90.0), tilt=st.floats(0.0, 100.0),
        spin=st.tuples(*[st.floats(-1.0, 1.0)] * 3), align=st.booleans(),
        rotation=st.sampled_from([0.0, 2360592.0, 7200.0]),
@@ -165,3 +165,54 @@ def test_export_energy_on_a_spinning_body_includes_its_frame():
     assert landed and np.max(np.abs(e[landed] - e[landed[0]])) <= roundoff_j(scn)[0]
     assert math.isclose(np.linalg.norm(recs[-1].state.vel_mps[0]),
                         2 * math.pi / 3600.0 * np.hypot(*recs[-1].state.pos_m[0][:2]), rel_tol=1e-9)
+
+
+def test_a_wide_ship_rights_itself_without_gaining_energy():
+    """MODEL-NOTES 13: past tipped_angle (80) but short of its own critical tilt (84.3 degrees), a
+    squat, wide ship rights itself with no RCS: contact -> tipped -> contact, energy never rising
+    through either hand-over."""
+    scn = scene({"altitude": 0.01, "vertical_speed": -0.5, "tilt_deg": 81.0},
+                contact={"align_on_touchdown": False}, ship={"com_height": 1.0, "leg_radius": 10.0},
+                duration=20.0)
+    recs = records(scn)
+    names = [e.kind for r in recs for e in r.events]
+    from sim.enums import EventKind
+    assert EventKind.TIPPED in names and EventKind.RIGHTED in names
+    assert np.max(np.diff(energies(scn, recs)[:, 0])) <= roundoff_j(scn)[0]
+
+
+def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest():
+    """sim.pivot.pivot_rate_from_momentum: a motion that is already a turn about the pivot's axis
+    keeps its rate; any other loses exactly its part orthogonal to that turn in the kinetic-energy
+    metric (KE = KE(kept) + KE(lost)), as an inelastic impact at the foot does."""
+    from scipy.spatial.transform import Rotation
+
+    from sim.pivot import pivot_axis, pivot_rate_from_momentum
+    scn = scene({"state": "contact", "altitude": -0.01, "tilt_deg": 60.0, "heading_deg": 20.0})
+    st, par = scn.initial, scn.params
+    m, i_b = st.mass_kg, par.ships.inertia0_kgm2
+    p, q = st.pos_m, st.quat
+    pivot = st.pin_pivot_bf_m
+    a = pivot_axis(p, q)
+    d = p - pivot
+    rot = Rotation.from_quat(np.roll(q[0], -1))
+
+    def kinetic(v, w_w):
+        w_b = rot.inv().apply(w_w)
+        return 0.5 * m[0] * float(v @ v) + 0.5 * float(w_b @ (i_b[0] * w_b))
+
+    w_turn = 0.37 * a[0]
+    v_turn = np.cross(w_turn, d[0])
+    rate = pivot_rate_from_momentum(par, m, i_b, p, v_turn[None], q,
+                                    rot.inv().apply(w_turn)[None], pivot)
+    assert rate[0] == pytest.approx(0.37, rel=1e-12)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        v, w_w = rng.normal(size=3), 0.3 * rng.normal(size=3)
+        rate = float(pivot_rate_from_momentum(par, m, i_b, p, v[None], q,
+                                              rot.inv().apply(w_w)[None], pivot)[0])
+        kept_w = rate * a[0]
+        kept_v = np.cross(kept_w, d[0])
+        before, kept = kinetic(v, w_w), kinetic(kept_v, kept_w)
+        lost = kinetic(v - kept_v, w_w - kept_w)
+        assert kept <= before and kept + lost == pytest.approx(before, rel=1e-12)
