@@ -61,7 +61,11 @@ def spread_over_step(pos_m: Array, quat: Array, vel_before: Array, vel_after: Ar
     then stays exactly where it is."""
     h_col = h if np.ndim(h) == 0 else np.asarray(h)[:, None]
     pos = pos_m + 0.5 * h_col * (vel_after - vel_before)
-    return pos, vec.quat_integrate(quat, omega_after - omega_before, 0.5 * np.asarray(h))
+    d_omega = omega_after - omega_before
+    turned = (d_omega[:, 0] != 0.0) | (d_omega[:, 1] != 0.0) | (d_omega[:, 2] != 0.0)
+    # a ship that friction did not turn keeps its attitude's bits (renormalising would not)
+    quat = np.where(turned[:, None], vec.quat_integrate(quat, d_omega, 0.5 * np.asarray(h)), quat)
+    return pos, quat
 
 
 def _tangent_basis(n_hat: Array) -> tuple[Array, Array]:

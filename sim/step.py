@@ -280,6 +280,8 @@ def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: 
         if not touching:
             return res.y, sliding_start, np.zeros(n), res.peak_penetration_m, pressed
         p1, v1, q1, w1 = res.y
+        if not pressed.any():  # no foot pressed: no friction (nor any foot's regime) to keep
+            return res.y, np.zeros_like(sliding_start), np.zeros(n), res.peak_penetration_m, pressed
         ground_end = fb.ground_at(t_start + h_step)
         if cp.friction_model == "seed":
             j_n = sum(res.foot_impulse_ns[1:], res.foot_impulse_ns[0])
@@ -597,15 +599,13 @@ def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
 
     tipped = surf == TIPPED
     righted = np.zeros(n, dtype=bool)
-    if tipped.any():
-        ps = pivot_step(params, st, cmd.rcs_torque_body_nm)
-        t3 = tipped[:, None]
-        p_bf = np.where(t3, ps.pos_bf_m, p_bf)
-        q_bf = np.where(t3, ps.quat_bf, q_bf)
-        rate = np.where(tipped, ps.rate_radps, rate)
-        righted = tipped & ps.righted
-        surf = np.where(tipped & ps.hull_crash, CRASHED, surf)
-        surf = np.where(righted, CONTACT, surf)
+    if tipped.any():  # the pivot model on the tipped ships alone (an upright one has no axis)
+        idx = np.flatnonzero(tipped)
+        ps = pivot_step(params.take(idx), st.take(idx), cmd.rcs_torque_body_nm[idx])
+        p_bf, q_bf = p_bf.copy(), q_bf.copy()
+        p_bf[idx], q_bf[idx], rate[idx] = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
+        righted[idx] = ps.righted
+        surf[idx] = np.where(ps.hull_crash, CRASHED, np.where(ps.righted, CONTACT, surf[idx]))
 
     up = vec.unit(p_bf)
     ez = vec.quat_axis_z(q_bf)
