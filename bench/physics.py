@@ -191,8 +191,10 @@ def free_rotation(rows, quick):
              for r in recs]
         ell = [float(np.linalg.norm(_rot(r.state.quat[0], i_b * r.state.omega_body_radps[0])))
                for r in recs]
-        rows.append((label, f"over 60 s: rotational energy x{e[-1] / e[0]:.6g}, |L| x{max(ell) / ell[0]:.6g} "
-                            f"(largest)", "x1 and x1 (torque-free)"))
+        rows.append((label, f"over 60 s: rotational energy x{e[-1] / e[0]:.6g} (largest change "
+                            f"{max(abs(x / e[0] - 1.0) for x in e):.2g}), |L| largest change "
+                            f"{max(abs(x / ell[0] - 1.0) for x in ell):.2g}",
+                     "x1 and x1 (torque-free)"))
 
 
 def fall_onto_side(rows, quick):

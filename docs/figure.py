@@ -51,7 +51,7 @@ def main(bounce, topple, out):
     coloured(a2, t, tilt, st)
     crit = math.degrees(math.atan2(2.26, 3.0))
     a2.axhline(crit, color="grey", ls=":", lw=1)
-    a2.text(0.2, crit + 2, f"critical {crit:.1f} deg = atan(leg radius / CoM height)", fontsize=8)
+    a2.text(0.2, crit + 2, f"critical {crit:.1f} deg toward a foot = atan(leg radius / CoM height)", fontsize=8)
     a2.axhline(80, color="grey", ls="--", lw=1)
     a2.text(0.2, 82, "tipped at 80 deg", fontsize=8)
     a2.set_title("topple: touching down tilted 42 deg")
