@@ -223,3 +223,17 @@ def test_the_critical_tilt_toward_an_edge_is_atan_a_over_sqrt2_h(side, falls):
     if not falls:
         assert SurfaceState(int(recs[-1].state.surface_state[0])) is SurfaceState.LANDED
         assert tilt_deg(recs)[-1] < 5.0
+
+
+@pytest.mark.parametrize("ratio,refused", [(0.99, False), (1.01, True)])
+def test_a_body_that_spins_its_ships_off_is_refused(ratio, refused):
+    """Omega^2 R against GM / R^2 at the equator: a body turning just slower than that holds a
+    ship (barely: g_eff is 1% of g), just faster flings it off and is refused naming the key."""
+    radius, g = 200000.0, 1.0
+    period = 2.0 * math.pi / math.sqrt(ratio * g / radius)
+    body = {"radius": radius, "surface_gravity": g, "rotation_period": period}
+    if refused:
+        with pytest.raises(ScenarioError, match="body.rotation_period"):
+            scene({"state": "landed"}, body=body)
+    else:
+        assert scene({"state": "landed"}, body=body).params.body.rotation_period_s == period
