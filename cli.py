@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import signal
 import sys
-import tomllib
 from pathlib import Path
 
 import click
@@ -13,7 +12,7 @@ import click
 import scenarios as builtin
 from logs import LogError
 from sim.integrators import METHODS
-from sim.scenario import ScenarioError, parse_text
+from sim.scenario import ScenarioError, load_toml, parse_text
 
 
 class UserError(click.ClickException):
@@ -25,6 +24,12 @@ class UserError(click.ClickException):
         click.echo(f"touchdown: {self.format_message()}", err=True)
 
 
+class WorkFailed(UserError):
+    """The work could not be done (a full disk): message on one line, exit 1."""
+
+    exit_code = 1
+
+
 def parse_sets(sets: tuple[str, ...]) -> dict:
     """``--set sim.dt=0.02`` -> {"sim.dt": 0.02}. Values are TOML (bare words are strings);
     ``ships[0].mass`` and ``ships.0.mass`` both address the first ship."""
@@ -32,12 +37,14 @@ def parse_sets(sets: tuple[str, ...]) -> dict:
     for item in sets:
         if "=" not in item:
             raise UserError(f"--set {item!r}: expected KEY=VALUE")
-        key, raw = item.split("=", 1)
-        key = re.sub(r"\[(\d+)\]", r".\1", key.strip())
+        given, raw = item.split("=", 1)
+        key = re.sub(r"\[(\d+)\]", r".\1", given.strip())
         try:
-            value = tomllib.loads(f"v = {raw}")["v"]
-        except tomllib.TOMLDecodeError:
-            value = raw
+            value = load_toml(f"v = {raw}", "--set", given.strip())["v"]
+        except ScenarioError as exc:
+            if exc.problem.startswith(("arrays", "Exceeds")):
+                raise UserError(str(exc)) from None
+            value = raw  # not TOML: a bare word, taken as a string
         out[key] = value
     return out
 
@@ -116,47 +123,76 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
             publisher = EventPublisher(redis_url, stream)
         except LogError as exc:
             raise UserError(str(exc)) from None
+    n_ticks = scn.params.sim.n_ticks
+    events = 0
+    # Ctrl-C asks the loop to stop after the tick in hand, so that no library call (compression,
+    # a chunk being written) is cut in half, and the log is finished. A second Ctrl-C before then
+    # stops at once and removes the partial file. While finishing or cleaning up, Ctrl-C is
+    # ignored: a file is either finished under its name or gone, never a footerless .partial.
+    sig = {"count": 0, "busy": False}
+
+    def on_sigint(signum, frame):
+        sig["count"] += 1
+        if sig["count"] > 1 and not sig["busy"]:
+            sig["busy"] = True
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
     try:
         writer = LogWriter(out, scn, source, keyframe_interval=keyframe_every)
     except OSError as exc:
-        raise UserError(f"{out}: cannot write: {exc.strerror}") from None
-    n_ticks = scn.params.sim.n_ticks
-    prog = _progress(n_ticks, scn.name)
-    events = 0
-    # Ctrl-C asks the loop to stop after the tick in hand, so that no library call (compression,
-    # a chunk being written) is cut in half; a second Ctrl-C interrupts at once.
-    stop = {"asked": False}
-
-    def ask_to_stop(signum, frame):
-        stop["asked"] = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-
-    previous = signal.signal(signal.SIGINT, ask_to_stop)
-    try:
-        with writer:
-            for rec in run(scn):
-                msgs = writer.write(rec)
-                events += len(msgs)
-                if publisher is not None:
-                    publisher.publish(msgs)
-                if prog is not None and rec.tick % 50 == 0:
-                    prog.update(prog.task_ids[0], completed=rec.tick)
-                if stop["asked"]:
-                    raise KeyboardInterrupt
-    except KeyboardInterrupt:
-        if prog is not None:
-            prog.stop()
-        click.echo(f"interrupted at tick {writer.last_tick}; the log holds ticks 0..{writer.last_tick}"
-                   f" and is finished: {out}", err=True)
-        sys.exit(130)
-    except LogError as exc:
-        raise click.ClickException(str(exc)) from None
-    finally:
         signal.signal(signal.SIGINT, previous)
+        raise UserError(f"{out}: cannot write: {exc.strerror}") from None
+    except KeyboardInterrupt:  # a second Ctrl-C while the file was being started (and removed)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        click.echo(f"interrupted twice: stopped at once; nothing was kept (no {out})", err=True)
+        sys.exit(130)
+    prog = _progress(n_ticks, scn.name)
+    outcome = "done"
+    try:
+        for rec in run(scn):
+            msgs = writer.write(rec)
+            events += len(msgs)
+            if publisher is not None:
+                publisher.publish(msgs)
+            if prog is not None and rec.tick % 50 == 0:
+                prog.update(prog.task_ids[0], completed=rec.tick)
+            if sig["count"]:
+                break
+        sig["busy"] = True
+        if sig["count"]:
+            outcome = "interrupted"
+            writer.close(complete=False, reason="interrupted")
+        else:
+            writer.close()
+    except KeyboardInterrupt:
+        outcome = "abandoned"
+        writer.abandon()
+    except (LogError, OSError) as exc:
+        sig["busy"] = True
+        writer.abandon()
+        what = f"{out}: cannot write: {exc.strerror}" if isinstance(exc, OSError) else str(exc)
+        raise WorkFailed(f"{what}; nothing was kept (no {out})") from None
+    except BaseException:
+        sig["busy"] = True
+        writer.abandon()
+        raise
+    finally:
         if prog is not None:
             prog.stop()
         if publisher is not None:
             publisher.close()
+        if outcome == "done":
+            signal.signal(signal.SIGINT, previous)
+        else:  # exiting on Ctrl-C: a late one must not turn exit 130 into death by SIGINT
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if outcome == "interrupted":
+        click.echo(f"interrupted at tick {writer.last_tick}; the log holds ticks 0..{writer.last_tick}"
+                   f" and is finished: {out}", err=True)
+        sys.exit(130)
+    if outcome == "abandoned":
+        click.echo(f"interrupted twice: stopped at once; nothing was kept (no {out})", err=True)
+        sys.exit(130)
     click.echo(f"{out}: {n_ticks + 1} ticks, {scn.initial.n} ship(s), {events} event(s)")
 
 
@@ -166,23 +202,39 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to FILE, not stdout")
 def export(log: str, events: bool, output: str | None) -> None:
     """JSON Lines of LOG: one object per ship per tick (or per event with --events)."""
-    from logs.export import event_rows, tick_rows, write_jsonl
+    from logs.export import event_rows, tick_rows, what_was_read, write_jsonl
     from logs.mcap_log import LogReader
 
+    tmp = Path(output + ".partial") if output else None
     try:
         with LogReader(log) as reader:
             rows = event_rows(reader) if events else tick_rows(reader)
-            if output:
-                tmp = Path(output + ".partial")
+            last = {"tick": None}
+
+            def seen(rows):
+                for row in rows:
+                    last["tick"] = row["tick"]
+                    yield row
+            if tmp is not None:
                 with open(tmp, "w", encoding="utf-8") as f:
-                    write_jsonl(rows, f)
+                    write_jsonl(seen(rows), f, log)
                 tmp.replace(output)
             else:
-                write_jsonl(rows, sys.stdout)
+                write_jsonl(seen(rows), sys.stdout, log)
+            note = what_was_read(reader, last["tick"], events)
     except LogError as exc:
         raise UserError(str(exc)) from None
-    except BrokenPipeError:
-        sys.stderr.close()
+    except OSError as exc:
+        if isinstance(exc, BrokenPipeError):
+            sys.stderr.close()
+            return
+        raise WorkFailed(f"{output or 'stdout'}: cannot write: {exc.strerror}; nothing was kept"
+                         + (f" (no {output})" if output else "")) from None
+    finally:
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)  # after a failure; after success it was renamed
+    if note:
+        click.echo(f"touchdown: {note}", err=True)
 
 
 @main.command()
@@ -216,29 +268,49 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
         res = run_verify(log, from_tick, to_tick, ship_id)
     except LogError as exc:
         raise UserError(str(exc)) from None
+    except OSError as exc:  # the what-if log (-o) could not be written; its partial is gone
+        raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
+                         f"(no {output})") from None
     click.echo(res.report())
     if verify and not res.identical:
         sys.exit(1)
 
 
 @main.command()
-@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics"]))
+@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
+                                           "fuzz"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
-def bench(what: str, quick: bool, out_dir: str) -> None:
+@click.option("--files", type=click.IntRange(min=1), default=2000, show_default=True,
+              help="fuzz: how many hostile files to generate and run")
+@click.option("--seconds", type=click.FloatRange(min=0.1), default=20.0, show_default=True,
+              help="fuzz: the time bound per file")
+@click.option("--memory-gib", type=click.FloatRange(min=0.5), default=1.5, show_default=True,
+              help="fuzz: the address-space cap of the whole campaign")
+@click.option("--seed", type=int, default=20261123, show_default=True, help="fuzz: the corpus seed")
+def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memory_gib: float,
+          seed: int) -> None:
     """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates, and
     the cost per ship-tick by state and model; `replay`: verify against record speed, seeking in a
     long log, what keyframes cost; `accuracy`: the work-precision chart and tables (needs the
     `bench` extra); `stability`: each method's largest stable step, measured against theory;
     `physics`: scenes off the well-walked paths (turning bodies, tumbles, falls onto the side,
-    spins, hills, slopes, impossible starts), each figure beside what physics says."""
+    spins, hills, slopes, impossible starts), each figure beside what physics says; `fuzz`: a
+    campaign of generated hostile logs and scenarios against verify, export and record, counted
+    per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result)."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
     elif what == "stability":
         from bench import stability
         stability.main(quick=quick)
+    elif what == "fuzz":
+        from bench import fuzz
+        tally = fuzz.main(files=200 if quick else files, seconds=seconds, memory_gib=memory_gib,
+                          seed=seed)
+        if tally.bad():
+            sys.exit(1)
     elif what == "physics":
         from bench import physics
         physics.main(quick=quick)

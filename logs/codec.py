@@ -84,7 +84,9 @@ def _read_varint(buf: bytes, i: int, end: int) -> tuple[int, int]:
 def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
     """Parse one TickBatch into (tick, t_s, ship_count, arrays); arrays are float64 or int64.
 
-    Strict: unknown wire types, out-of-range lengths and inconsistent array sizes raise LogError."""
+    Strict: unknown wire types, out-of-range lengths, a field twice, unpacked elements and one-byte
+    fields past 127 (none of which the writer produces) raise LogError, so no input makes this
+    loop over a message's bytes in Python."""
     tick, t_s, count = 0, 0.0, 0
     arrays: dict[str, np.ndarray] = {}
     i, end = 0, len(data)
@@ -97,9 +99,8 @@ def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
                 tick = val
             elif num == 3:
                 count = val
-            elif num in _BY_NUMBER:  # an unpacked single element: legal protobuf, never written here
-                name, _ = _BY_NUMBER[num]
-                arrays[name] = np.append(arrays.get(name, np.zeros(0, dtype=np.int64)), val)
+            elif num in _BY_NUMBER:  # unpacked elements: legal protobuf, never written here
+                raise LogError(f"unpacked field {_BY_NUMBER[num][0]} in a tick record")
         elif wt == 1:
             if i + 8 > end:
                 raise LogError("truncated fixed64 in a tick record")
@@ -115,19 +116,16 @@ def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
                 chunk = data[i:i + length]
                 if dt == "u1":
                     raw = np.frombuffer(chunk, dtype=np.uint8)
-                    if (raw & 0x80).any():
-                        vals, j = [], 0
-                        while j < length:
-                            v, j = _read_varint(chunk, j, length)
-                            vals.append(v)
-                        a = np.array(vals, dtype=np.int64)
-                    else:
-                        a = raw.astype(np.int64)
+                    if (raw & 0x80).any():  # a state or flag past 127: never written here
+                        raise LogError(f"packed field {name} holds a value out of range")
+                    a = raw.astype(np.int64)
                 else:
                     if length % 8:
                         raise LogError(f"packed field {name} has a length that is not whole numbers")
                     a = np.frombuffer(chunk, dtype=dt).astype(np.float64 if dt == "<f8" else np.int64)
-                arrays[name] = np.concatenate([arrays[name], a]) if name in arrays else a
+                if name in arrays:
+                    raise LogError(f"packed field {name} appears twice in a tick record")
+                arrays[name] = a
             i += length
         elif wt == 5:
             i += 4

@@ -13,6 +13,7 @@ from typing import IO, Iterator
 
 import numpy as np
 
+from logs import LogError
 from logs.mcap_log import LogReader, TickData, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import energy
@@ -77,13 +78,38 @@ def event_rows(reader: LogReader) -> Iterator[dict]:
         }
 
 
-def write_jsonl(rows: Iterator[dict], out: IO[str]) -> int:
+def write_jsonl(rows: Iterator[dict], out: IO[str], where: str = "") -> int:
+    """One JSON object per line; a number that is not finite (only a damaged log holds one) is a
+    LogError naming the tick, ship and field, never ``NaN`` in the output (not JSON)."""
     n = 0
     for row in rows:
-        out.write(json.dumps(row, separators=(",", ":")))
+        try:
+            line = json.dumps(row, separators=(",", ":"), allow_nan=False)
+        except ValueError:
+            bad = next(k for k, v in row.items() if isinstance(v, float) and not math.isfinite(v))
+            raise LogError(f"{where}: tick {row.get('tick')}, ship {row.get('ship_id')}: {bad} is "
+                           f"{row[bad]} (the log is damaged)") from None
+        out.write(line)
         out.write("\n")
         n += 1
     return n
 
 
-__all__ = ["tick_rows", "event_rows", "write_jsonl", "pb"]
+def what_was_read(reader: LogReader, last_tick: int | None, events: bool = False) -> str:
+    """"" when the export holds the whole run; otherwise one line saying which part it holds
+    (``last_tick``: the last tick exported, of a tick export)."""
+    if not reader.status.complete:
+        held = ("the events recorded before the cut" if events else
+                "no tick" if last_tick is None else
+                f"ticks 0..{last_tick} of {reader.scenario.n_ticks}")
+        damage = f"; {reader.status.damage}" if reader.status.damage else ""
+        return (f"{reader.path}: read only part of the log: it ends without a footer (cut, or its "
+                f"writer was killed{damage}); exported {held}")
+    summary = reader.read_summary()
+    if summary is not None and not summary.complete:
+        return (f"{reader.path}: the run was stopped ({summary.reason or 'no reason given'}): "
+                f"the log holds ticks 0..{summary.last_tick} of {reader.scenario.n_ticks}")
+    return ""
+
+
+__all__ = ["tick_rows", "event_rows", "write_jsonl", "what_was_read", "pb"]

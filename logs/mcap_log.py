@@ -33,6 +33,10 @@ from sim.state import STATE_ARRAY_FIELDS, Inputs, State
 #: 2 (touchdown 0.3): per-foot ``sliding`` (4 per ship); velocities and angular velocities on every
 #: tick. A format-1 log still reads (``sliding`` per ship is given to all four feet).
 LOG_FORMAT_VERSION = 2
+#: the tick, s: what a scenario may set (sim.scenario), and so what a log may hold
+MIN_DT_S, MAX_DT_S = 1e-4, 1.0
+MAX_SHIPS = 10_000_000
+MAX_SCENARIO_CHARS = 64 << 20
 _EMPTY = np.zeros(0)
 TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
@@ -49,6 +53,14 @@ WIDTH = {"pos_m": 3, "vel_mps": 3, "quat": 4, "omega_body_radps": 3, "sliding": 
 OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
                  "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
                  "rcs_torque_body_nm", "energy_guard_j")
+#: fields on every tick of a format-1 log (which lacks energy_guard_j, and wrote velocities on
+#: keyframes only) ...
+EVERY_TICK_V1 = ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitude_m",
+                 "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
+                 "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
+                 "rcs_torque_body_nm", "input_throttle", "input_rcs", "input_hold")
+#: ... and of today's format
+EVERY_TICK = EVERY_TICK_V1 + ("vel_mps", "omega_body_radps", "energy_guard_j")
 
 
 def tick_arrays(rec: TickRecord) -> dict[str, np.ndarray]:
@@ -111,24 +123,28 @@ class LogWriter:
         self._dt_ns = int(round(scn.params.sim.dt_s * 1e9))
         self._flush_every = flush_every_ticks
         self._stream = open(self.partial, "wb")
-        self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
-                            enable_crcs=True)
-        self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
-        self._channels = {}
-        for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
-                           (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary)):
-            schema_id = register_schema(self._mcap, cls)
-            self._channels[topic] = self._mcap.register_channel(topic, "protobuf", schema_id)
-        self._seq = {t: 0 for t in self._channels}
-        self._mcap.add_metadata("touchdown", {
-            "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
-            "scenario": scn.name, "integrator": scn.params.sim.integrator,
-            "dt_s": repr(scn.params.sim.dt_s)})
-        if keyframe_interval < 1:
-            raise ValueError("keyframe_interval must be at least 1")
-        self.keyframe_interval = keyframe_interval
-        self._put(TOPIC_SCENARIO, 0,
-                  scenario_message(scn, source, keyframe_interval).SerializeToString())
+        try:
+            self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
+                                enable_crcs=True)
+            self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
+            self._channels = {}
+            for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
+                               (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary)):
+                schema_id = register_schema(self._mcap, cls)
+                self._channels[topic] = self._mcap.register_channel(topic, "protobuf", schema_id)
+            self._seq = {t: 0 for t in self._channels}
+            self._mcap.add_metadata("touchdown", {
+                "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
+                "scenario": scn.name, "integrator": scn.params.sim.integrator,
+                "dt_s": repr(scn.params.sim.dt_s)})
+            if keyframe_interval < 1:
+                raise ValueError("keyframe_interval must be at least 1")
+            self.keyframe_interval = keyframe_interval
+            self._put(TOPIC_SCENARIO, 0,
+                      scenario_message(scn, source, keyframe_interval).SerializeToString())
+        except BaseException:  # nothing half-written: no .partial without a writer
+            self._discard()
+            raise
         self.last_tick = -1
         self.event_count = 0
         self._closed = False
@@ -157,23 +173,36 @@ class LogWriter:
         return msgs
 
     def close(self, complete: bool = True, reason: str = "") -> None:
-        """Write the summary and the MCAP footer, then move the file to its final name."""
+        """Write the summary and the MCAP footer, then move the file to its final name. If that
+        fails (a full disk), the partial file is removed and the error raised: a file is either
+        finished under its final name or gone."""
         if self._closed:
             return
         self._closed = True
-        summary = pb.LogSummary(last_tick=max(self.last_tick, 0), complete=complete, reason=reason,
-                                event_count=self.event_count)
-        self._put(TOPIC_SUMMARY, max(self.last_tick, 0), summary.SerializeToString())
-        self._mcap.finish()
-        self._stream.close()
-        os.replace(self.partial, self.path)
+        try:
+            summary = pb.LogSummary(last_tick=max(self.last_tick, 0), complete=complete,
+                                    reason=reason, event_count=self.event_count)
+            self._put(TOPIC_SUMMARY, max(self.last_tick, 0), summary.SerializeToString())
+            self._mcap.finish()
+            self._stream.close()
+            os.replace(self.partial, self.path)
+        except BaseException:
+            self._discard()
+            raise
 
     def abandon(self) -> None:
         """Drop the partial file (an error before anything worth keeping)."""
         if not self._closed:
             self._closed = True
+            self._discard()
+
+    def _discard(self) -> None:
+        # closing flushes the buffer, which fails again on a full disk: the file goes regardless
+        try:
             self._stream.close()
-            self.partial.unlink(missing_ok=True)
+        except OSError:
+            pass
+        self.partial.unlink(missing_ok=True)
 
     def __enter__(self) -> "LogWriter":
         return self
@@ -191,19 +220,45 @@ class TickData:
     """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
     (a verification that finds the bytes identical never decodes them)."""
 
-    def __init__(self, raw: bytes, tick_from_time: int, where: str = ""):
+    def __init__(self, raw: bytes, tick_from_time: int, where: str = "", ships: int = 0,
+                 old_format: bool = False):
         self.raw = raw
         self.tick_from_time = tick_from_time
         self._where = where
+        self._ships = ships
+        self._old_format = old_format
         self._decoded: tuple[int, float, int, dict[str, np.ndarray]] | None = None
 
     def _decode(self) -> tuple[int, float, int, dict[str, np.ndarray]]:
         if self._decoded is None:
             try:
-                self._decoded = decode_tick(self.raw)
+                decoded = decode_tick(self.raw)
             except LogError as exc:
-                raise LogError(f"{self._where}: {exc}") from None
+                raise LogError(f"{self._where}: tick {self.tick_from_time}: {exc}") from None
+            self._check(*decoded)
+            self._decoded = decoded
         return self._decoded
+
+    def _check(self, tick: int, t_s: float, count: int, arrays: dict[str, np.ndarray]) -> None:
+        """Every field a tick must hold, each with exactly ship_count x width numbers, the ship
+        count the scenario's, the tick its log time's."""
+        where = f"{self._where}: tick {self.tick_from_time}"
+        if tick != self.tick_from_time:
+            raise LogError(f"{where}: the record says tick {tick}")
+        if self._ships and count != self._ships:
+            raise LogError(f"{where}: {count} ships where the scenario has {self._ships}")
+        for name in (EVERY_TICK_V1 if self._old_format else EVERY_TICK):
+            if name not in arrays:
+                raise LogError(f"{where}: field {name} is missing")
+        keyframe = [name in arrays for name in KEYFRAME_ONLY]
+        if any(keyframe) and not all(keyframe):
+            raise LogError(f"{where}: a keyframe with some of its fields missing")
+        for name, a in arrays.items():
+            width = 1 if (name == "sliding" and self._old_format) else WIDTH.get(name, 1)
+            if a.size != count * width:
+                raise LogError(f"{where}: field {name} holds {a.size} numbers for {count} ships")
+        if (arrays["surface_state"] > 4).any():
+            raise LogError(f"{where}: a surface state out of range")
 
     @property
     def tick(self) -> int:
@@ -277,12 +332,37 @@ class LogReader:
             break
         if self.scenario is None:
             raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
+        self._check_record()
 
-    def _iter(self, topics: set[str], start_ns: int | None = None, end_ns: int | None = None
-              ) -> Iterator[tuple[str, bytes]]:
-        for topic, _t, data in iter_messages(self._file, str(self.path), topics, start_ns, end_ns,
+    def _check_record(self) -> None:
+        """The scenario record's own numbers, before anything is run on them (the resolved
+        scenario itself is checked by scenario_of, by the same rules as a scenario file)."""
+        sr, where = self.scenario, f"{self.path}: the scenario record"
+        if not 1 <= sr.log_format_version <= LOG_FORMAT_VERSION:
+            raise LogError(f"{where}: log format {sr.log_format_version}; this touchdown "
+                           f"({PROJECT_VERSION}) reads formats 1 to {LOG_FORMAT_VERSION}")
+        if not (math.isfinite(sr.dt_s) and MIN_DT_S <= sr.dt_s <= MAX_DT_S):
+            raise LogError(f"{where}: dt_s {sr.dt_s!r} is out of range ({MIN_DT_S:g}..{MAX_DT_S:g} s)")
+        if not 0 < len(sr.ship_ids) <= MAX_SHIPS or len(sr.player_ids) != len(sr.ship_ids):
+            raise LogError(f"{where}: {len(sr.ship_ids)} ships, {len(sr.player_ids)} players")
+        if sr.keyframe_interval > max(1, sr.n_ticks):
+            raise LogError(f"{where}: keyframe_interval {sr.keyframe_interval} exceeds its "
+                           f"{sr.n_ticks} ticks")
+        if len(sr.resolved_json) > MAX_SCENARIO_CHARS:
+            raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
+                           f"(limit {MAX_SCENARIO_CHARS:,})")
+
+    def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
+        for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
                                              self.status):
             yield topic, data
+
+    def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
+            ) -> Iterator[tuple[int, bytes]]:
+        """(log time ns, message bytes) of one topic's messages, in log order."""
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
+                                                end_ns, self.status):
+            yield t_ns, data
 
     @property
     def keyframe_interval(self) -> int:
@@ -297,9 +377,13 @@ class LogReader:
         start = None if first is None else self.tick_time_ns(first)
         end = None if last is None else self.tick_time_ns(last)
         dt_ns = self.tick_time_ns(1)
+        ships = len(self.scenario.ship_ids)
+        old = self.scenario.log_format_version < LOG_FORMAT_VERSION
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
                                                 end, self.status):
-            yield TickData(data, t_ns // dt_ns if dt_ns else 0, str(self.path))
+            if t_ns % dt_ns:
+                raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            yield TickData(data, t_ns // dt_ns, str(self.path), ships, old)
 
     def events(self) -> Iterator[pb.TransitionEvent]:
         for _topic, data in self._iter({TOPIC_EVENTS}):
@@ -328,20 +412,39 @@ class LogReader:
 
 def scenario_of(reader: LogReader, ship_id: str | None = None,
                 overrides: dict | None = None) -> tuple[Scenario, int | None]:
-    """The log's scenario (optionally one ship of it); returns it and that ship's index."""
+    """The log's scenario (optionally one ship of it, or with ``overrides``); returns it and that
+    ship's index. The resolved scenario is checked by the same rules as a scenario file, with the
+    same messages, and must agree with its record (tick, tick count, method, ships)."""
     rec = reader.scenario
     try:
         doc = json.loads(rec.resolved_json)
-    except json.JSONDecodeError as exc:
-        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON ({exc})") from None
+    except RecursionError:
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON (arrays or "
+                       f"objects nested too deeply)") from None
+    except ValueError as exc:  # JSONDecodeError, or an integer past Python's digit limit
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON "
+                       f"({str(exc).split(';')[0][:100]})") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("ships"), list):
+        raise LogError(f"{reader.path}: the recorded scenario is not a scenario")
+    try:
+        whole = parse(doc, str(reader.path))
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+    sim = whole.params.sim
+    if (sim.dt_s, sim.n_ticks, sim.integrator, list(whole.params.ships.ship_id)) != (
+            rec.dt_s, rec.n_ticks, rec.integrator, list(rec.ship_ids)):
+        raise LogError(f"{reader.path}: the scenario record disagrees with its own scenario "
+                       f"(tick, tick count, method or ships)")
     index = None
     if ship_id is not None:
-        ids = [s.get("id") for s in doc.get("ships", [])]
+        ids = [s.get("id") for s in doc["ships"]]
         if ship_id not in ids:
             raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
                            f"{', '.join(map(str, ids))})")
         index = ids.index(ship_id)
         doc["ships"] = [doc["ships"][index]]
+    if index is None and not overrides:
+        return whole, None
     try:
         return parse(doc, str(reader.path), overrides), index
     except ScenarioError as exc:

@@ -1,9 +1,11 @@
-"""``touchdown replay LOG --verify``: re-run a log from its recorded scenario and compare every
-recorded number, bit for bit, with today's code.
+"""``touchdown replay LOG --verify``: re-run a log from its recorded scenario and compare everything
+it can re-derive, bit for bit, with today's code: every tick's numbers, every transition event
+(re-encoded as the writer encodes it) and, when the whole run is checked, the summary.
 
 The log is self-sufficient: its ScenarioRecord holds the resolved scenario (every default filled in),
-so no other file is read. Every TickBatch is a full-state keyframe, so a window ``first..last``
-starts from the state recorded at ``first`` instead of tick 0.
+so no other file is read. A window ``first..last`` starts from the keyframe at or before ``first``.
+The re-run is driven by the recorded ticks, so it does no more ticks than the log holds; a check of
+less than the run (a cut log, a stopped run, a window) says so in its report.
 """
 from __future__ import annotations
 
@@ -13,8 +15,9 @@ import numpy as np
 
 from logs import LogError
 from logs.codec import PACKED, encode_tick
-from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, WIDTH as _WIDTH, LogReader,
-                           scenario_of, tick_arrays)
+from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
+                           WIDTH as _WIDTH, LogReader, event_message, scenario_of, tick_arrays)
+from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim.run import run
 
@@ -27,9 +30,9 @@ class Divergence:
     tick: int
     t_s: float
     ship_id: str
-    field: str  # e.g. "vel_mps[2]"
-    recorded: float
-    replayed: float
+    field: str  # e.g. "vel_mps[2]", "event", "summary.event_count"
+    recorded: float | str
+    replayed: float | str
 
 
 @dataclass
@@ -45,6 +48,11 @@ class VerifyResult:
     divergence: Divergence | None = None
     recent_events: list[str] = field(default_factory=list)
     recovered_note: str = ""
+    n_ticks: int = 0  # the run's last tick, as its scenario says
+    events_compared: int = 0
+    summary_compared: bool = False
+    #: why less than the whole run was checked ("" when all of it was)
+    partial_note: str = ""
 
     @property
     def identical(self) -> bool:
@@ -62,13 +70,22 @@ class VerifyResult:
         if self.recovered_note:
             lines.append(self.recovered_note)
         if self.divergence is None:
+            what = [f"{self.numbers_compared:,} numbers", f"{self.events_compared:,} event(s)"]
+            if self.summary_compared:
+                what.append("the summary")
             lines.append(f"identical: ticks {self.first_tick}..{self.last_tick}, "
-                         f"{len(self.ships)} ship(s), {self.numbers_compared:,} numbers compared "
-                         f"bit for bit")
+                         f"{len(self.ships)} ship(s), {', '.join(what[:-1])} and {what[-1]} "
+                         f"compared bit for bit")
+            if self.partial_note:
+                lines.append(f"only part of the run was checked: {self.partial_note}")
             return "\n".join(lines)
         d = self.divergence
         lines.append(f"DIVERGED at tick {d.tick} (t = {d.t_s:.4f} s), ship {d.ship_id}, "
                      f"field {d.field}")
+        if isinstance(d.recorded, str) or isinstance(d.replayed, str):
+            lines.append(f"  recorded {d.recorded}")
+            lines.append(f"  replayed {d.replayed}")
+            return "\n".join(lines)
         lines.append(f"  recorded {d.recorded!r}")
         lines.append(f"  replayed {d.replayed!r}  (difference {d.replayed - d.recorded:.3e})")
         if self.recent_events:
@@ -113,73 +130,222 @@ def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int
 
 def verify(path: str, first: int | None = None, last: int | None = None,
            ship_id: str | None = None) -> VerifyResult:
+    """Re-run the log (or the window ``first..last``, or one ship) and compare, in order: the
+    ticks, the transition events, the summary. The first difference found is the divergence."""
     with LogReader(path) as reader:
         sr = reader.scenario
         scn, index = scenario_of(reader, ship_id)
-        ids = list(scn.params.ships.ship_id)
         if first:  # start from the nearest keyframe at or before ``first``
             first -= first % reader.keyframe_interval
+        n_ticks = int(sr.n_ticks)
         res = VerifyResult(sr.project_version, sr.integrator, sr.dt_s, first or 0,
-                           last if last is not None else int(sr.n_ticks), ids)
-        ticks = reader.ticks(first, last)
-        start = None
-        if first:
-            try:
-                key = next(ticks)
-            except StopIteration:
-                raise LogError(f"{path}: no tick {first} in this log") from None
-            start = key.state()
-            if index is not None:
-                start = start.take(np.array([index]))
-            res.ticks_compared += 1
-        sim = run(scn, start=start, last_tick=res.last_tick)
-        interval = reader.keyframe_interval
-        ship_slice = None if index is None else index
-        for recorded in ticks:
-            try:
-                new = next(sim)
-            except StopIteration:
-                break
-            if new.tick != recorded.tick_from_time:
-                raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
-                               f"found {recorded.tick_from_time})")
-            arrays = tick_arrays(new)
-            res.ticks_compared += 1
-            res.last_tick = new.tick
-            if ship_slice is None:
-                # the whole batch: the replayed tick, encoded as the writer encodes it, must be
-                # the recorded message byte for byte; only a mismatch is decoded and diagnosed
-                if new.tick % interval:
-                    for name in KEYFRAME_ONLY:
-                        arrays[name] = _EMPTY
-                mine = encode_tick(new.tick, new.tick * sr.dt_s, new.state.n, arrays)
-                res.numbers_compared += sum(np.size(a) for a in arrays.values())
-                if mine == recorded.raw:
-                    continue
-            else:
-                res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
-            hit = _first_difference(recorded.arrays, arrays, ship_slice, new.state.n,
-                                    sr.log_format_version < LOG_FORMAT_VERSION)
-            if hit is None and ship_slice is None:  # same numbers, different bytes
-                hit = (0, "tick", 0, float(recorded.tick), float(new.tick))
-            if hit is not None:
-                ship, name, comp, a, b = hit
-                fld = f"{name}[{comp}]" if WIDTH.get(name, 1) > 1 else name
-                res.divergence = Divergence(recorded.tick, recorded.t_s, ids[ship], fld, a, b)
-                res.recent_events = [
-                    f"tick {e.tick}: {e.event} {_label(e.from_state)} -> {_label(e.to_state)}"
-                    for e in reader.events() if e.ship_id == ids[ship] and e.tick <= recorded.tick
-                ][-3:]
-                break
-        if not reader.status.complete:
-            res.recovered_note = (
-                f"the log ends without a footer (its writer was stopped): recovered "
-                f"{res.ticks_compared} tick(s), {res.first_tick}..{res.last_tick}"
-                + (f"; the rest is damaged ({reader.status.damage})" if reader.status.damage
-                   else ""))
+                           min(last, n_ticks) if last is not None else n_ticks,
+                           list(scn.params.ships.ship_id), n_ticks=n_ticks)
+        target = res.last_tick
+        replayed = _compare_ticks(reader, scn, index, res, first)
+        # a cut log may have lost the events of its last tick with the next chunk
+        events_to = res.last_tick if reader.status.complete else res.last_tick - 1
+        if res.divergence is None:
+            _compare_events(reader, res, replayed, first, events_to, index)
+        whole = not first and index is None and last is None and reader.status.complete
+        if res.divergence is None and whole:
+            _compare_summary(reader, res, len(replayed))
+        _say_what_was_checked(reader, res, target, events_to)
         return res
+
+
+def _compare_ticks(reader: LogReader, scn, index: int | None, res: VerifyResult,
+                   first: int | None) -> list[tuple[int, str, bytes]]:
+    """Compare every recorded tick with its re-run; returns the re-run's events, each as
+    (tick, ship id, the TransitionEvent as the writer encodes it)."""
+    path, sr = reader.path, reader.scenario
+    ids = res.ships
+    ticks = reader.ticks(first, res.last_tick)
+    start = None
+    if first:
+        try:
+            key = next(ticks)
+        except StopIteration:
+            raise LogError(f"{path}: no tick {first} in this log") from None
+        start = key.state()
+        if index is not None:
+            start = start.take(np.array([index]))
+        res.ticks_compared += 1
+    sim = run(scn, start=start, last_tick=res.last_tick)
+    interval = reader.keyframe_interval
+    events: list[tuple[int, str, bytes]] = []
+    compared_to = first or 0
+    for recorded in ticks:
+        # driven by the recorded ticks: the re-run does no more ticks than the log holds
+        new = next(sim, None)
+        if new is None:
+            raise LogError(f"{path}: a tick record at tick {recorded.tick_from_time}, after the "
+                           f"run's last tick {res.last_tick}")
+        if new.tick != recorded.tick_from_time:
+            raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
+                           f"found {recorded.tick_from_time})")
+        arrays = tick_arrays(new)
+        res.ticks_compared += 1
+        compared_to = new.tick
+        events += [(new.tick, ids[ev.ship], event_message(scn, new, ev).SerializeToString())
+                   for ev in new.events]
+        if index is None:
+            # the whole batch: the replayed tick, encoded as the writer encodes it, must be
+            # the recorded message byte for byte; only a mismatch is decoded and diagnosed
+            if new.tick % interval:
+                for name in KEYFRAME_ONLY:
+                    arrays[name] = _EMPTY
+            mine = encode_tick(new.tick, new.tick * sr.dt_s, new.state.n, arrays)
+            res.numbers_compared += sum(np.size(a) for a in arrays.values())
+            if mine == recorded.raw:
+                continue
+        else:
+            res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
+        hit = _first_difference(recorded.arrays, arrays, index, new.state.n,
+                                sr.log_format_version < LOG_FORMAT_VERSION)
+        if hit is None and index is None:  # same numbers, different bytes
+            hit = (0, "tick", 0, float(recorded.tick), float(new.tick))
+        if hit is not None:
+            ship, name, comp, a, b = hit
+            fld = f"{name}[{comp}]" if WIDTH.get(name, 1) > 1 else name
+            res.divergence = Divergence(recorded.tick, recorded.t_s, ids[ship], fld, a, b)
+            res.recent_events = [
+                f"tick {e.tick}: {e.event} {_label(e.from_state)} -> {_label(e.to_state)}"
+                for e in reader.events() if e.ship_id == ids[ship] and e.tick <= recorded.tick
+            ][-3:]
+            break
+    res.last_tick = compared_to
+    if res.ticks_compared == 0:
+        why = f": {reader.status.damage}" if reader.status.damage else ""
+        raise LogError(f"{path}: no tick records to compare (the log ends before its first "
+                       f"tick{why})")
+    return events
+
+
+def _compare_events(reader: LogReader, res: VerifyResult, replayed: list[tuple[int, str, bytes]],
+                    first: int | None, to_tick: int, index: int | None) -> None:
+    """The recorded transition events of ticks (first, to_tick] (one ship's, with --ship), in
+    order, must be the re-run's byte for byte: none missing, none added, none altered."""
+    lo = (first or -1) + 1  # a window's keyframe tick is read, not re-stepped
+    if to_tick < lo:
+        return
+    mine = [e for e in replayed if lo <= e[0] <= to_tick]
+    k = 0
+    for t_ns, data in reader.raw(TOPIC_EVENTS, reader.tick_time_ns(lo), reader.tick_time_ns(to_tick)):
+        if index is not None and _event(reader, data).ship_id != res.ships[0]:
+            continue
+        if k >= len(mine) or mine[k][2] != data:
+            _event_divergence(reader, res, data, mine[k][2] if k < len(mine) else None)
+            return
+        k += 1
+    if k < len(mine):
+        _event_divergence(reader, res, None, mine[k][2])
+        return
+    res.events_compared = k
+
+
+def _compare_summary(reader: LogReader, res: VerifyResult, n_events: int) -> None:
+    """The summary of a whole run: its last tick is the last tick recorded, its event count the
+    re-run's, it says ``complete`` only if the run reached its last tick, and otherwise gives
+    the one reason the writer gives (``interrupted``)."""
+    where = lambda f, a, b: Divergence(res.last_tick, res.last_tick * res.log_dt_s, "(log)",  # noqa: E731
+                                       f"summary.{f}" if f else "summary", a, b)
+    found = [data for _t, data in reader.raw(TOPIC_SUMMARY)]
+    if len(found) != 1:
+        res.divergence = where("", f"{len(found)} summary records", "one")
+        return
+    rec = _decode(reader, pb.LogSummary, found[0], "summary")
+    mine = pb.LogSummary(last_tick=res.last_tick, complete=rec.complete,
+                         reason="" if rec.complete else "interrupted", event_count=n_events)
+    if rec.complete and res.last_tick != res.n_ticks:
+        res.divergence = where("complete", "true", f"false (the log ends at tick {res.last_tick} "
+                                                   f"of {res.n_ticks})")
+    elif mine.SerializeToString() != found[0]:
+        name = _first_field(rec, mine) or "bytes"
+        res.divergence = where(name, str(getattr(rec, name, "")), str(getattr(mine, name, "")))
+    else:
+        res.summary_compared = True
+
+
+def _say_what_was_checked(reader: LogReader, res: VerifyResult, target: int, events_to: int) -> None:
+    if not reader.status.complete:
+        res.recovered_note = (
+            f"the log ends without a footer (cut, or its writer was killed): recovered "
+            f"{res.ticks_compared} tick(s), {res.first_tick}..{res.last_tick}"
+            + (f"; the rest is damaged ({reader.status.damage})" if reader.status.damage
+               else ""))
+    if res.divergence is not None:
+        return
+    gaps = []
+    if res.last_tick < target:
+        stopped = reader.status.complete and reader.read_summary() is not None \
+            and not reader.summary.complete
+        why = ("it was cut" if not reader.status.complete else
+               f"its run was stopped: {reader.summary.reason or 'no reason given'}" if stopped
+               else "it holds no more")
+        gaps.append(f"the log ends at tick {res.last_tick} of {target} ({why})")
+    if events_to < res.last_tick:
+        gaps.append(f"the events of tick {res.last_tick} may have been lost with the cut and were "
+                    f"not compared")
+    res.partial_note = "; ".join(gaps)
+
+
+def _decode(reader: LogReader, cls, data: bytes, what: str):
+    try:
+        return cls.FromString(data)
+    except Exception as exc:  # protobuf's DecodeError and friends
+        raise LogError(f"{reader.path}: damaged {what} record ({type(exc).__name__})") from None
+
+
+def _event(reader: LogReader, data: bytes) -> pb.TransitionEvent:
+    return _decode(reader, pb.TransitionEvent, data, "event")
+
+
+def _describe(e: pb.TransitionEvent) -> str:
+    return (f"tick {e.tick}: {e.event} of ship {e.ship_id}, {_label(e.from_state)} -> "
+            f"{_label(e.to_state)}")
+
+
+def _event_divergence(reader: LogReader, res: VerifyResult, recorded: bytes | None,
+                      replayed: bytes | None) -> None:
+    a = None if recorded is None else _event(reader, recorded)
+    b = None if replayed is None else _event(reader, replayed)
+    first = a if a is not None else b
+    name = "event"
+    if a is not None and b is not None:
+        name = "event." + (_first_field(a, b) or "bytes")
+    res.divergence = Divergence(
+        int(first.tick), first.tick * res.log_dt_s, first.ship_id, name,
+        "(no event)" if a is None else _describe(a) + _field_value(a, name),
+        "(no event)" if b is None else _describe(b) + _field_value(b, name))
+
+
+def _field_value(msg, name: str) -> str:
+    """``; ship.tilt_deg = 3.1`` for a difference past what :func:`_describe` shows."""
+    path = name.split(".")[1:]
+    if not path or path[0] in ("tick", "event", "ship_id", "from_state", "to_state", "bytes"):
+        return ""
+    x = msg
+    for part in path:
+        x = getattr(x, part)
+    return f"; {'.'.join(path)} = {x!r}"
+
+
+def _first_field(a, b, prefix: str = "") -> str | None:
+    """The dotted name of the first field (in field-number order) where messages a and b differ."""
+    for fd in a.DESCRIPTOR.fields:
+        x, y = getattr(a, fd.name), getattr(b, fd.name)
+        if x == y:
+            continue
+        if fd.message_type is not None and not fd.is_repeated:
+            return _first_field(x, y, f"{prefix}{fd.name}.") or f"{prefix}{fd.name}"
+        return prefix + fd.name
+    return None
 
 
 def _label(state: int) -> str:
     from sim.enums import SurfaceState
-    return SurfaceState(state).label
+    try:
+        return SurfaceState(state).label
+    except ValueError:
+        return f"state {state}"

@@ -58,17 +58,21 @@ def _choice(options) -> Check:
 POS = _range(0.0, lo_open=True)
 NONNEG = _range(0.0)
 
+# Every number has a physically meaningful range (MODEL-NOTES 27, issue 13): a value outside
+# it cannot describe a ship, a body or a run, and is refused before anything is computed with it.
 TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0.0, 1e7, lo_open=True)),
        "description": ("str", "", None)}
-SIM = {"dt": ("float", 0.05, _range(0.0, 1.0, lo_open=True)),
+SIM = {"dt": ("float", 0.05, _range(1e-4, 1.0)),
        "integrator": ("str", SimParams.integrator, _choice(METHODS)),
        "max_substep": ("float", 0.025, _range(0.0, 1.0)),
        "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
        "vertical_one_step": ("bool", True, None), "energy_guard": ("bool", True, None)}
 CONTACT = {
-    "crash_speed": ("float", 50.0, POS), "bounce_speed": ("float", 10.0, NONNEG),
+    "crash_speed": ("float", 50.0, _range(0.0, 1e4, lo_open=True)),
+    "bounce_speed": ("float", 10.0, _range(0.0, 1e4)),
     "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
-    "settle_angular_vel": ("float", 0.01, POS), "settle_linear_vel": ("float", 0.5, POS),
+    "settle_angular_vel": ("float", 0.01, _range(0.0, 100.0, lo_open=True)),
+    "settle_linear_vel": ("float", 0.5, _range(0.0, 1e3, lo_open=True)),
     "tipped_angle_deg": ("float", 80.0, _range(0.0, 180.0, lo_open=True, hi_open=True)),
     "damping_ratio": ("float", 0.3, _range(0.0, 100.0)),
     "friction_static": ("float", 0.8, _range(0.0, 10.0)),
@@ -77,21 +81,27 @@ CONTACT = {
     "absorb_damping_ratio": ("float", 1.0, _range(0.0, 100.0)),
     "friction_model": ("str", "coulomb", _choice({"coulomb", "seed"})),
     "tipped_rest_deg": ("float", 90.0, _range(0.0, 180.0, lo_open=True)),
-    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, POS),
+    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, _range(1e-2, 1e6)),
     "surface_normal": ("str", "terrain", _choice({"terrain", "radial"}))}
-BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, POS),
-        "gm": ("float", None, POS), "surface_gravity": ("float", None, POS),
-        "rotation_period": ("float", 0.0, None), "terrain": ("table", None, None)}
-TERRAIN = {"base_height": ("float", 0.0, _range(-1e5, 1e5)), "bumps": ("list", [], None)}
-BUMP = {"east": ("float", 0.0, None), "north": ("float", 0.0, None),
-        "radius": ("float", REQUIRED, POS), "height": ("float", REQUIRED, _range(-1e5, 1e5))}
+BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, _range(10.0, 1e9)),
+        "gm": ("float", None, _range(0.0, 1e22, lo_open=True)),
+        "surface_gravity": ("float", None, _range(1e-6, 1e4)),
+        "rotation_period": ("float", 0.0, _range(-1e12, 1e12)), "terrain": ("table", None, None)}
+TERRAIN = {"base_height": ("float", 0.0, _range(-1e4, 1e4)), "bumps": ("list", [], None)}
+BUMP = {"east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6)),
+        "radius": ("float", REQUIRED, _range(0.0, 1e6, lo_open=True)),
+        "height": ("float", REQUIRED, _range(-1e4, 1e4))}
 CONTROLLER = {"bandwidth": ("float", 1.0, _range(0.0, 100.0, lo_open=True))}
 SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),
-        "mass": ("float", 10000.0, POS), "fuel_mass": ("float", 2000.0, NONNEG),
-        "com_height": ("float", 3.0, POS), "leg_radius": ("float", 2.26, NONNEG),
-        "inertia": ("vec3", None, POS), "max_thrust": ("float", 60000.0, NONNEG),
-        "max_rcs_torque": ("float", 20000.0, NONNEG), "isp": ("float", C.DEFAULT_ISP_S, POS),
-        "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, POS), "rcs_arm": ("float", 2.0, POS),
+        "mass": ("float", 10000.0, _range(1.0, 1e9)),
+        "fuel_mass": ("float", 2000.0, _range(0.0, 1e9)),
+        "com_height": ("float", 3.0, _range(1e-2, 1e3)), "leg_radius": ("float", 2.26, _range(0.0, 1e3)),
+        "inertia": ("vec3", None, _range(1e-6, 1e15)),
+        "max_thrust": ("float", 60000.0, _range(0.0, 1e10)),
+        "max_rcs_torque": ("float", 20000.0, _range(0.0, 1e10)),
+        "isp": ("float", C.DEFAULT_ISP_S, _range(1.0, 1e5)),
+        "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, _range(1.0, 1e5)),
+        "rcs_arm": ("float", 2.0, _range(1e-3, 1e3)),
         "initial": ("table", None, None), "inputs": ("list", [], None)}
 INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "tipped"})),
            "altitude": ("float", None, _range(-100.0, 1e7)),  # default: 10 flying, else 0
@@ -101,8 +111,8 @@ INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "t
            "yaw_deg": ("float", 0.0, _range(-360.0, 360.0)),
            "tilt_deg": ("float", 0.0, _range(0.0, 180.0)),
            "angular_velocity": ("vec3", [0.0, 0.0, 0.0], _range(-100.0, 100.0)),
-           "east": ("float", 0.0, _range(-1e5, 1e5)), "north": ("float", 0.0, _range(-1e5, 1e5))}
-INPUT = {"t": ("float", REQUIRED, _range(0.0)), "throttle": ("float", 0.0, _range(0.0, 1.0)),
+           "east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6))}
+INPUT = {"t": ("float", REQUIRED, _range(0.0, 1e7)), "throttle": ("float", 0.0, _range(0.0, 1.0)),
          "rcs": ("vec3", [0.0, 0.0, 0.0], _range(-1.0, 1.0)),
          "hold": ("str", "off", _choice({m.label for m in HoldMode}))}
 
@@ -142,9 +152,14 @@ class _Reader:
         if kind == "float":
             if isinstance(x, bool) or not isinstance(x, (int, float)):
                 self.fail(key, f"must be a number, got {type(x).__name__}")
-            if not math.isfinite(x):
+            try:
+                value = float(x)
+            except OverflowError:  # an integer past any double
+                self.fail(key, "must be a number a double can hold, got an integer of "
+                               f"{x.bit_length()} bits")
+            if not math.isfinite(value):
                 self.fail(key, f"must be finite, got {x}")
-            return float(x)
+            return value
         if kind == "str":
             if not isinstance(x, str):
                 self.fail(key, f"must be a string, got {type(x).__name__}")
@@ -214,11 +229,20 @@ class Scenario:
 
 
 def parse_text(text: str, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
+    return parse(load_toml(text, source), source, overrides)
+
+
+def load_toml(text: str, source: str, key: str = "(syntax)") -> dict:
+    """``tomllib.loads`` with every way it can fail on hostile text as a ScenarioError: bad
+    syntax, an integer past Python's digit limit (ValueError), nesting past the recursion limit."""
     try:
-        doc = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(source, "(syntax)", str(exc)) from None
-    return parse(doc, source, overrides)
+        raise ScenarioError(source, key, str(exc)) from None
+    except RecursionError:
+        raise ScenarioError(source, key, "arrays or tables nested too deeply") from None
+    except ValueError as exc:  # "Exceeds the limit (4300 digits) for integer string conversion"
+        raise ScenarioError(source, key, str(exc).split(";")[0]) from None
 
 
 def apply_overrides(doc: dict, overrides: dict[str, Any], source: str) -> dict:
@@ -250,7 +274,14 @@ def apply_overrides(doc: dict, overrides: dict[str, Any], source: str) -> dict:
 
 
 def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
-    """Check and resolve a scenario document (a dict as ``tomllib`` gives it)."""
+    """Check and resolve a scenario document (a dict as ``tomllib`` or ``json`` gives it)."""
+    try:
+        return _parse(doc, source, overrides)
+    except RecursionError:  # a document nested past Python's limit (copying or walking it)
+        raise ScenarioError(source, "(structure)", "arrays or tables nested too deeply") from None
+
+
+def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario:
     if overrides:
         doc = apply_overrides(doc, overrides, source)
     rd = _Reader(source)
@@ -277,8 +308,20 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
             rd.fail("body.gm", "give exactly one of body.gm and body.surface_gravity")
     if body["gm"] is None:
         body["gm"] = body["surface_gravity"] * body["radius"] ** 2
+    elif not 1e-6 <= body["gm"] / body["radius"] ** 2 <= 1e4:
+        rd.fail("body.gm", f"gives a surface gravity of {body['gm'] / body['radius'] ** 2:.3g} "
+                           f"m/s^2 at body.radius; it must be 1e-06 to 1e+04")
+    if math.ceil(top["duration"] / sim["dt"] - 1e-9) > MAX_TICKS:
+        rd.fail("duration", f"{top['duration']:g} s is more than {MAX_TICKS:,} ticks of "
+                            f"{sim['dt']:g} s")
+    if sim["max_substep"] > 0.0 and sim["dt"] / sim["max_substep"] > MAX_SUBSTEPS_PER_TICK:
+        rd.fail("sim.max_substep", f"{sim['max_substep']:g} s makes more than "
+                                   f"{MAX_SUBSTEPS_PER_TICK} sub-steps a tick of {sim['dt']:g} s")
     body["surface_gravity"] = None
     del body["surface_gravity"]
+    if 0.0 < abs(body["rotation_period"]) < 1.0:
+        rd.fail("body.rotation_period", f"must be 0 (not turning) or at least 1 s either way, "
+                                        f"got {body['rotation_period']:g}")
     if body["rotation_period"] != 0.0:
         spin = 2.0 * math.pi / body["rotation_period"]
         fling, pull = spin * spin * body["radius"], body["gm"] / body["radius"] ** 2
@@ -288,11 +331,15 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
                                             f"(centrifugal {fling:.4g} m/s^2 >= gravity "
                                             f"{pull:.4g} m/s^2)")
     terrain = rd.table(body["terrain"] or {}, TERRAIN, "body.terrain.")
+    if len(terrain["bumps"]) > MAX_BUMPS:
+        rd.fail("body.terrain.bumps", f"{len(terrain['bumps'])} bumps (at most {MAX_BUMPS})")
     terrain["bumps"] = [rd.table(b, BUMP, f"body.terrain.bumps[{i}].")
                         for i, b in enumerate(terrain["bumps"])]
     body["terrain"] = terrain
     if not top["ships"]:
         rd.fail("ships", "at least one ship is required")
+    if len(top["ships"]) > MAX_SHIPS:
+        rd.fail("ships", f"{len(top['ships']):,} ships (at most {MAX_SHIPS:,})")
     ships = []
     seen: set[str] = set()
     for i, raw in enumerate(top["ships"]):
@@ -305,6 +352,11 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
             sh["player_id"] = "player-" + sh["id"]
         if sh["fuel_mass"] >= sh["mass"]:
             rd.fail(pre + "fuel_mass", "must be less than mass")
+        if sh["inertia"] is not None:
+            a_, b_, c_ = sorted(sh["inertia"])
+            if a_ + b_ < c_ * (1.0 - 1e-12):
+                rd.fail(pre + "inertia", "no rigid body has these principal moments: the two "
+                                         "smaller must add up to at least the largest")
         if sh["inertia"] is None:
             # uniform solid cylinder of radius leg_radius and length 2 com_height
             r, length, m = max(sh["leg_radius"], 0.5), 2.0 * sh["com_height"], sh["mass"]
@@ -313,6 +365,8 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
         sh["initial"] = rd.table(sh["initial"] or {}, INITIAL, pre + "initial.")
         if sh["initial"]["altitude"] is None:
             sh["initial"]["altitude"] = 10.0 if sh["initial"]["state"] == "flying" else 0.0
+        if len(sh["inputs"]) > MAX_INPUTS:
+            rd.fail(pre + "inputs", f"{len(sh['inputs'])} entries (at most {MAX_INPUTS:,})")
         sh["inputs"] = [rd.table(x, INPUT, f"{pre}inputs[{j}].") for j, x in enumerate(sh["inputs"])]
         ts = [x["t"] for x in sh["inputs"]]
         if ts != sorted(ts):
@@ -323,6 +377,15 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
     resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
     return _build(resolved)
 
+
+#: Bounds on the work a scenario may ask for: a run does bounded work per tick.
+MAX_SUBSTEPS_PER_TICK = 1000
+MAX_TICKS = 1_000_000_000
+MAX_SHIPS = 1_000_000
+MAX_INPUTS = 1_000_000
+MAX_BUMPS = 1000
+#: a method whose stable w h is below this is unstable at any step a run could take
+PRACTICAL_BOUND_WH = 1e-3
 
 #: the sub-step is kept within this fraction of a method's stability limit when it is chosen for you:
 #: near the limit a stable method still cancels most of the contact's physical damping
@@ -369,10 +432,14 @@ def _check_stability(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> No
                 for z in (con["damping_ratio"], con["absorb_damping_ratio"]))
     if w * h < bound * STABILITY_MARGIN or sim["on_unstable"] == "allow":
         return
-    if bound == 0.0:
+    if bound < PRACTICAL_BOUND_WH:  # explicit Euler undamped: 1.4e-6 is rounding, not a bound
         rd.fail("sim.integrator", f"{sim['integrator']} is unstable on an undamped contact at any "
                                   "step; use another method or damping")
     need = math.ceil(w * sim["dt"] / (bound * STABILITY_MARGIN))
+    if need > MAX_SUBSTEPS_PER_TICK:
+        rd.fail("sim.dt", f"{sim['integrator']} needs {need:,} sub-steps a tick of {sim['dt']:g} s "
+                          f"on this scene's stiffest contact (at most {MAX_SUBSTEPS_PER_TICK}); "
+                          f"use a shorter tick or another method")
     if sim["on_unstable"] == "error":
         rd.fail("sim.dt", f"{sim['integrator']} with a contact sub-step of {h:g} s is unstable for "
                           f"this scene's contact (omega h = {w * h:.3f} >= its limit {bound:.3f}); "

@@ -1,0 +1,410 @@
+"""Hostile input (issue 13): a log or scenario from outside may be damaged, cut or made to hurt the
+tool. Every command answers in bounded time and memory, with one line and exit 2 for bad input,
+exit 1 for a failure of the work, says when it read or checked only part of a log, and never
+leaves a half-written file.
+
+The fuzz campaign (bench/fuzz.py) runs thousands of generated files; the tests after it pin each
+finding of the issue to the behaviour a user sees."""
+import json
+import os
+import resource
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from bench import fuzz
+from cli import main
+from logs.mcap_log import LogReader
+from proto import touchdown_pb2 as pb
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def invoke(*args, **kw):
+    r = CliRunner().invoke(main, [str(a) for a in args], **kw)
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    return r
+
+
+def assert_refused(r, *needles):
+    """Exit 2, one line, no traceback, naming what it must."""
+    assert r.exit_code == 2, r.output
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in r.output, r.output
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def bounce(tmp_path_factory):
+    path = tmp_path_factory.mktemp("hostile") / "bounce.mcap"
+    assert invoke("record", "bounce", "--set", "duration=8", "-o", path).exit_code == 0
+    return path
+
+
+def rewrite(src: Path, dst: Path, edit) -> Path:
+    """``src`` rewritten through the stock mcap writer, each message passed through
+    ``edit(topic, bytes) -> list of (topic, bytes)``."""
+    dst.write_bytes(fuzz._rewrite(src.read_bytes(), edit))
+    return dst
+
+
+def with_record(src: Path, dst: Path, change) -> Path:
+    """``src`` with its ScenarioRecord changed by ``change(record)``."""
+    def edit(topic, data):
+        if topic == "/touchdown/scenario":
+            rec = pb.ScenarioRecord.FromString(data)
+            change(rec)
+            data = rec.SerializeToString()
+        return [(topic, data)]
+    return rewrite(src, dst, edit)
+
+
+# -- the campaign -----------------------------------------------------------------------------
+def test_a_fuzz_campaign_of_2000_files_finds_no_hang_traceback_blowup_or_silent_result():
+    """2,000+ generated files of every class (bench/fuzz.py's docstring lists them), each run
+    through verify, export or record in one process whose address space is capped at 1.5 GiB,
+    each within 10 s. A defect is a hang, an escaped exception, MemoryError, an exit 0 whose
+    content differs from the original's without saying so, or a recorded log that does not
+    verify or export valid JSON."""
+    r = subprocess.run([sys.executable, "-m", "bench.fuzz", "--files", "2000", "--seconds", "10",
+                        "--memory-gib", "1.5", "--json"], cwd=ROOT, capture_output=True,
+                       text=True, timeout=1200)
+    assert r.stdout.strip(), r.stderr[-3000:]
+    result = json.loads(r.stdout.strip().splitlines()[-1])
+    counts = result["counts"]
+    print(f"{sum(map(sum, (c.values() for c in counts.values())))} files in "
+          f"{result['seconds']:.1f} s")
+    assert sum(sum(c.values()) for c in counts.values()) >= 2000
+    assert set(counts) == set(fuzz.LOG_CLASSES + fuzz.SCENARIO_CLASSES)
+    defects = {f"{cls}/{o}": n for cls, c in counts.items() for o, n in c.items()
+               if o in fuzz.BAD and n}
+    assert not defects, (defects, result["examples"])
+    assert r.returncode == 0
+    # the corpus reaches the guards it is for, not only the magic-number check
+    assert counts["bomb"]["refused"] >= 40
+    assert counts["truncate"]["partial"] > 0 and counts["concat"]["partial"] > 0
+    assert counts["events"]["diverged"] > 0 and counts["tick"]["diverged"] > 0
+    assert counts["scenario_file"]["refused"] > 0 and counts["set"]["refused"] > 0
+
+
+# -- bounded reading -----------------------------------------------------------------------------
+@pytest.mark.parametrize("framing", ["indexed", "unindexed"])
+def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, framing):
+    for name, data in fuzz.bombs(bounce.read_bytes()):
+        if not name.endswith(framing) or name.startswith("tick-100MiB"):
+            continue
+        path = tmp_path / f"{name}.mcap"
+        path.write_bytes(data)
+        line = assert_refused(invoke("replay", path, "--verify"), path.name)
+        assert any(w in line for w in ("claims", "declares", "records (TOUCHDOWN_MAX_RECORDS",
+                                       "lz4", "runs past")), line
+
+
+def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_path):
+    data = dict(fuzz.bombs(bounce.read_bytes()))["zstd-claims-1000-walked"]
+    path = tmp_path / "bomb.mcap"
+    path.write_bytes(data)
+    assert_refused(invoke("replay", path, "--verify"), "no tick records", "declares 1,000 bytes")
+    r = invoke("export", path)
+    assert r.exit_code == 0 and r.stdout == ""
+    assert "read only part of the log" in r.stderr and "declares 1,000 bytes" in r.stderr
+
+
+def test_the_read_limits_are_settings(bounce):
+    env = {**os.environ, "TOUCHDOWN_MAX_CHUNK_MIB": "0.001"}
+    r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(bounce), "--verify"],
+                       capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 2 and "TOUCHDOWN_MAX_CHUNK_MIB" in r.stderr, r.stderr
+    env["TOUCHDOWN_MAX_CHUNK_MIB"] = "lots"
+    r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "export", str(bounce)],
+                       capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 2 and r.stderr.strip() == (
+        "touchdown: TOUCHDOWN_MAX_CHUNK_MIB='lots': must be a positive number"), r.stderr
+
+
+def test_a_chunk_index_outside_the_data_and_a_redeclared_channel_are_refused(bounce, tmp_path):
+    data = bytearray(bounce.read_bytes())
+    for off, op, _ in fuzz._records_of(bytes(data)):
+        if op == 0x08:  # ChunkIndex: start, end, chunk_start_offset, chunk_length
+            data[off + 9 + 24:off + 9 + 32] = (1 << 40).to_bytes(8, "little")
+            break
+    bad = tmp_path / "index.mcap"
+    bad.write_bytes(bytes(data))
+    assert_refused(invoke("replay", bad, "--verify"), "outside the data section")
+    import random
+    redeclared = tmp_path / "channel.mcap"
+    redeclared.write_bytes(fuzz._mutate_channel(bounce.read_bytes(), random.Random(0), 2))
+    assert_refused(invoke("replay", redeclared, "--verify"), "is declared as")
+
+
+# -- the scenario inside a log ---------------------------------------------------------------------
+def _with_mass(resolved_json: str, text: str) -> str:
+    """The resolved scenario with the first ship's mass written as ``text`` (any JSON number)."""
+    doc = json.loads(resolved_json)
+    doc["ships"][0]["mass"] = 123456.789
+    out = json.dumps(doc)
+    assert out.count("123456.789") == 1
+    return out.replace("123456.789", text)
+
+
+@pytest.mark.parametrize("change,needle", [
+    (lambda rec: setattr(rec, "resolved_json", "[" * 100_000 + "]" * 100_000), "nested too deeply"),
+    (lambda rec: setattr(rec, "resolved_json", _with_mass(rec.resolved_json, "9" * 5000)),
+     "4300 digits"),
+    (lambda rec: setattr(rec, "dt_s", float("nan")), "dt_s nan"),
+    (lambda rec: setattr(rec, "dt_s", 1e300), "dt_s 1e+300"),
+    (lambda rec: setattr(rec, "keyframe_interval", (1 << 31) - 1), "keyframe_interval"),
+    (lambda rec: setattr(rec, "n_ticks", 10 ** 12), "disagrees with its own scenario"),
+    (lambda rec: setattr(rec, "log_format_version", 99), "log format 99"),
+])
+def test_a_damaged_scenario_record_is_refused(bounce, tmp_path, change, needle):
+    bad = with_record(bounce, tmp_path / "bad.mcap", change)
+    assert_refused(invoke("replay", bad, "--verify"), "bad.mcap", needle)
+    assert_refused(invoke("export", bad), "bad.mcap", needle)
+
+
+@pytest.mark.parametrize("key,value", [("ships[0].mass", 1e308), ("ships[0].com_height", 1e308),
+                                       ("body.radius", 1e308), ("sim.max_substep", 1e-300),
+                                       ("contact.stiffness_per_kg", 1e308)])
+def test_a_log_s_scenario_passes_the_same_rules_with_the_same_message(bounce, tmp_path, key,
+                                                                       value):
+    said_by_record = assert_refused(invoke("record", "bounce", "--set", f"{key}={value!r}", "-o",
+                                           tmp_path / "x.mcap"))
+    assert said_by_record.startswith(f"touchdown: bounce: {key}: ")
+    problem = said_by_record.removeprefix("touchdown: bounce: ")
+
+    def change(rec):
+        doc = json.loads(rec.resolved_json)
+        node, parts = doc, key.replace("[0]", ".0").split(".")
+        for part in parts[:-1]:
+            node = node[int(part)] if part.isdigit() else node[part]
+        node[parts[-1]] = value
+        rec.resolved_json = json.dumps(doc)
+    bad = with_record(bounce, tmp_path / "bad.mcap", change)
+    for cmd in (("replay", bad, "--verify"), ("export", bad), ("replay", bad, "--set",
+                                                               "sim.dt=0.05")):
+        line = assert_refused(invoke(*cmd))
+        assert line == f"touchdown: {bad}: {problem}", line
+
+
+# -- scenarios: every value is checked before anything runs --------------------------------------
+@pytest.mark.parametrize("sets,key", [
+    (["sim.dt=1e-308"], "sim.dt"), (["sim.dt=nan"], "sim.dt"), (["duration=1e300"], "duration"),
+    (["sim.max_substep=1e-300"], "sim.max_substep"),
+    (["sim.integrator=explicit_euler", "contact.damping_ratio=0",
+      "contact.absorb_damping_ratio=0"], "sim.integrator"),
+    (["contact.crash_speed=1e308"], "contact.crash_speed"),
+    (["contact.settle_linear_vel=1e308"], "contact.settle_linear_vel"),
+    (["contact.settle_angular_vel=1e308"], "contact.settle_angular_vel"),
+    (["contact.stiffness_per_kg=1e308"], "contact.stiffness_per_kg"),
+    (["ships[0].leg_radius=1e308"], "ships[0].leg_radius"),
+    (["ships[0].mass=1e308"], "ships[0].mass"), (["ships[0].com_height=1e308"], "ships[0].com_height"),
+    (["ships[0].inputs=[{t = 1e308, throttle = 1.0}]"], "ships[0].inputs[0].t"),
+    (["body.radius=1e-308"], "body.radius"), (["body.radius=1e308"], "body.radius"),
+    (["body.gm=1e308"], "body.gm"), (["body.surface_gravity=1e308", "body.gm=false"], "body."),
+    (["body.rotation_period=1e-308"], "body.rotation_period"),
+    (["ships[0].mass=" + "9" * 400], "ships[0].mass"),
+    (["ships[0].mass=" + "9" * 5000], "ships[0].mass"),
+    (["ships[0].inertia=[1, 1, 100]"], "ships[0].inertia"),
+])
+def test_a_hostile_value_is_refused_naming_its_key(tmp_path, sets, key):
+    out = tmp_path / "x.mcap"
+    args = [a for s in sets for a in ("--set", s)]
+    assert_refused(invoke("record", "bounce", *args, "-o", out), key)
+    assert not out.exists() and not Path(f"{out}.partial").exists()
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("x = " + "[" * 1000 + "]" * 1000, "nested too deeply"),
+    ("x = " + "{a=" * 1000 + "1" + "}" * 1000, "nested too deeply"),
+    ('name = "n"\nduration = 1.0\n[' + "a." * 999 + "a]\nb = 1\n", "a: unknown key"),
+    ('name = "n"\nduration = ' + "9" * 5000 + "\n", "4300 digits"),
+])
+def test_a_hostile_scenario_file_is_one_line(tmp_path, text, needle):
+    path = tmp_path / "hostile.toml"
+    path.write_text(text)
+    assert_refused(invoke("record", path, "-o", tmp_path / "x.mcap"), "hostile.toml", needle)
+    # the same file with a --set (which copies the document before applying it)
+    assert_refused(invoke("record", path, "--set", "sim.dt=0.05", "-o", tmp_path / "x.mcap"),
+                   "hostile.toml")
+
+
+# -- verify compares all it can re-derive, and says what it did not ---------------------------------
+def _events_changed(bounce, tmp_path, change):
+    def edit(topic, data):
+        if topic == "/touchdown/events":
+            ev = pb.TransitionEvent.FromString(data)
+            out = change(ev)
+            return [] if out is None else [(topic, out.SerializeToString())]
+        return [(topic, data)]
+    return rewrite(bounce, tmp_path / "events.mcap", edit)
+
+
+def _set(ev, **kw):
+    for k, v in kw.items():
+        setattr(ev, k, v)
+    return ev
+
+
+@pytest.mark.parametrize("change,field", [
+    (lambda ev: _set(ev, to_state=(ev.to_state + 1) % 5), "event.to_state"),
+    (lambda ev: _set(ev, ship_id="someone-else"), "event.ship_id"),
+    (lambda ev: (ev.ship.position_m.__setattr__("z", ev.ship.position_m.z + 1e-9), ev)[1],
+     "event.ship.position_m.z"),
+    (lambda ev: None, "event"),
+])
+def test_an_altered_or_missing_event_is_a_divergence(bounce, tmp_path, change, field):
+    bad = _events_changed(bounce, tmp_path, change)
+    r = invoke("replay", bad, "--verify")
+    assert r.exit_code == 1, r.output
+    assert f"field {field}\n" in r.output and "DIVERGED at tick" in r.output, r.output
+
+
+@pytest.mark.parametrize("change,field", [
+    (lambda s: _set(s, event_count=s.event_count + 1), "summary.event_count"),
+    (lambda s: _set(s, last_tick=s.last_tick - 1), "summary.last_tick"),
+    (lambda s: _set(s, reason="made up"), "summary.reason"),
+])
+def test_an_altered_summary_is_a_divergence(bounce, tmp_path, change, field):
+    def edit(topic, data):
+        if topic == "/touchdown/summary":
+            data = change(pb.LogSummary.FromString(data)).SerializeToString()
+        return [(topic, data)]
+    r = invoke("replay", rewrite(bounce, tmp_path / "s.mcap", edit), "--verify")
+    assert r.exit_code == 1 and f"field {field}\n" in r.output, r.output
+
+
+def test_a_whole_log_verifies_events_and_summary_too(bounce):
+    r = invoke("replay", bounce, "--verify")
+    assert r.exit_code == 0, r.output
+    assert "2 event(s) and the summary compared bit for bit" in r.output
+    assert "only part" not in r.output
+
+
+def test_a_shortened_run_is_never_reported_as_the_whole(bounce, tmp_path):
+    """The duration and tick count altered together (consistent with each other): the log now
+    claims a longer run than it holds. Its summary says it was complete: a divergence."""
+    def change(rec):
+        doc = json.loads(rec.resolved_json)
+        doc["duration"] *= 2
+        rec.resolved_json = json.dumps(doc)
+        rec.n_ticks *= 2
+    bad = with_record(bounce, tmp_path / "longer.mcap", change)
+    r = invoke("replay", bad, "--verify")
+    assert r.exit_code == 1 and "field summary.complete" in r.output, r.output
+
+
+def test_a_cut_log_says_what_it_checked_and_what_it_exported(tmp_path):
+    log = tmp_path / "fleet.mcap"
+    assert invoke("record", "fleet", "--set", "duration=20", "-o", log).exit_code == 0
+    data = log.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    r = invoke("replay", cut, "--verify")
+    assert r.exit_code == 0, r.output
+    k = int(r.output.split("identical: ticks 0..")[1].split(",")[0])
+    assert 0 < k < 400
+    assert (f"only part of the run was checked: the log ends at tick {k} of 400 (it was cut); "
+            f"the events of tick {k} may have been lost") in r.output
+    r = invoke("export", cut, "-o", tmp_path / "cut.jsonl")
+    assert r.exit_code == 0
+    assert "read only part of the log" in r.stderr and f"exported ticks 0..{k} of 400" in r.stderr
+    rows = (tmp_path / "cut.jsonl").read_text().splitlines()
+    assert json.loads(rows[-1])["tick"] == k and len(rows) == 6 * (k + 1)
+
+
+def test_export_of_a_non_finite_number_is_refused_not_written_as_nan(bounce, tmp_path):
+    from logs.codec import decode_tick, encode_tick
+
+    def edit(topic, data):
+        if topic == "/touchdown/ticks":
+            tick, t_s, n, arrays = decode_tick(data)
+            if tick == 3:
+                arrays["normal_force_n"] = arrays["normal_force_n"].copy()
+                arrays["normal_force_n"][0] = float("nan")
+            data = encode_tick(tick, t_s, n, arrays)
+        return [(topic, data)]
+    bad = rewrite(bounce, tmp_path / "nan.mcap", edit)
+    out = tmp_path / "nan.jsonl"
+    assert_refused(invoke("export", bad, "-o", out), "tick 3", "normal_force is nan")
+    assert not out.exists() and not Path(f"{out}.partial").exists()
+    r = invoke("replay", bad, "--verify")
+    assert r.exit_code == 1 and "field normal_force_n" in r.output
+
+
+# -- nothing half-written ------------------------------------------------------------------------
+def _with_file_size_limit(argv, limit_bytes, cwd):
+    """Run the CLI with the kernel refusing writes past ``limit_bytes`` (RLIMIT_FSIZE: write()
+    fails with EFBIG, as it fails with ENOSPC on a full disk; Python ignores SIGXFSZ)."""
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+    return subprocess.run([sys.executable, str(ROOT / "cli.py"), *map(str, argv)], cwd=cwd,
+                          preexec_fn=limit, capture_output=True, text=True, timeout=300)
+
+
+def test_a_full_disk_leaves_no_file_and_says_so(tmp_path):
+    out = tmp_path / "full.mcap"
+    r = _with_file_size_limit(["record", "fleet", "--set", "duration=60", "-o", out], 150_000,
+                              tmp_path)
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip() == (f"touchdown: {out}: cannot write: File too large; nothing was "
+                                f"kept (no {out})"), r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_export_or_what_if_that_cannot_be_written_leaves_nothing(tmp_path):
+    log = tmp_path / "fleet.mcap"
+    assert invoke("record", "fleet", "--set", "duration=60", "-o", log).exit_code == 0
+    size = log.stat().st_size
+    for argv, out in ((["export", log, "-o", tmp_path / "x.jsonl"], tmp_path / "x.jsonl"),
+                      (["replay", log, "--set", "sim.dt=0.025", "-o", tmp_path / "w.mcap"],
+                       tmp_path / "w.mcap")):
+        r = _with_file_size_limit(argv, size // 2, tmp_path)
+        assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1 and "nothing was kept" in r.stderr
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["fleet.mcap"], r.stderr
+
+
+def _record_then_interrupt(tmp_path, n_signals, gap_s):
+    """A slow-ticking run (3,000 ships) interrupted by n Ctrl-C, gap_s apart."""
+    scn = tmp_path / "many.toml"
+    scn.write_text('name = "many"\nduration = 100000.0\n' + "".join(
+        f'[[ships]]\nid = "s{i}"\n[ships.initial]\naltitude = 5.0\nvertical_speed = -3.0\n'
+        f"east = {30.0 * i}\n" for i in range(3000)))
+    out = tmp_path / "many.mcap"
+    partial = Path(f"{out}.partial")
+    proc = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), "record", str(scn), "-o",
+                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (partial.exists() and partial.stat().st_size > 0):
+        time.sleep(0.05)
+    time.sleep(0.5)
+    for _ in range(n_signals):
+        proc.send_signal(signal.SIGINT)
+        time.sleep(gap_s)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, err, out, partial
+
+
+@pytest.mark.parametrize("n_signals,gap_s", [(2, 0.002), (3, 0.0003)])
+def test_repeated_ctrl_c_gives_exit_130_and_a_finished_log_or_none(tmp_path, n_signals, gap_s):
+    """The first Ctrl-C asks the run to finish after the tick in hand; one more before it has
+    finished stops at once and removes the partial file; any more are ignored while finishing or
+    cleaning up. Which of the two happens depends on where in a tick the second one lands; either
+    way the exit status is 130, no .partial is left, and stderr says which."""
+    code, err, out, partial = _record_then_interrupt(tmp_path, n_signals, gap_s)
+    assert code == 130 and "Traceback" not in err, err
+    assert not partial.exists()
+    if out.exists():
+        assert "and is finished" in err, err
+        with LogReader(out) as reader:
+            assert reader.status.complete and reader.read_summary().reason == "interrupted"
+    else:
+        assert err.strip() == f"interrupted twice: stopped at once; nothing was kept (no {out})"
