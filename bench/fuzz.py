@@ -725,12 +725,13 @@ def main(files: int = 2000, seconds: float = 20.0, memory_gib: float = 1.5,
 
 
 if __name__ == "__main__":
-    # python -m bench.fuzz [--files N] [--seconds S] [--json]: what the suite's fuzz test runs
+    # python -m bench.fuzz [--files N] [--seconds S] [--memory-gib G] [--seed K] [--json]: what the suite's fuzz test runs
     args = sys.argv[1:]
 
     def arg(name, default, kind):
         return kind(args[args.index(name) + 1]) if name in args else default
     t = main(files=arg("--files", 2000, int), seconds=arg("--seconds", 20.0, float),
-             memory_gib=arg("--memory-gib", 1.5, float), as_json="--json" in args)
+             memory_gib=arg("--memory-gib", 1.5, float), as_json="--json" in args,
+             seed=arg("--seed", 20261123, int))
     sys.stdout.flush()
     os._exit(1 if t.bad() else 0)

@@ -31,8 +31,11 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     p, v = td.vec("pos_m", 3), td.vec("vel_mps", 3)
     q, w = td.vec("quat", 4), td.vec("omega_body_radps", 3)
     t = td.tick * params.sim.dt_s
-    pos, vel = site_frame(params, p, v, t)
-    e = energy.at(params, t, p, v, q, w, a["mass_kg"])
+    # a damaged log's numbers may overflow here: write_jsonl names the field that came out
+    # non-finite, in one line, where numpy's warnings would add lines of their own
+    with np.errstate(all="ignore"):
+        pos, vel = site_frame(params, p, v, t)
+        e = energy.at(params, t, p, v, q, w, a["mass_kg"])
     return {"pos": pos, "vel": vel, "omega": w, "energy": e.total_j}
 
 

@@ -89,7 +89,7 @@ BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, _ran
         "rotation_period": ("float", 0.0, _range(-1e12, 1e12)), "terrain": ("table", None, None)}
 TERRAIN = {"base_height": ("float", 0.0, _range(-1e4, 1e4)), "bumps": ("list", [], None)}
 BUMP = {"east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6)),
-        "radius": ("float", REQUIRED, _range(0.0, 1e6, lo_open=True)),
+        "radius": ("float", REQUIRED, _range(1e-2, 1e6)),
         "height": ("float", REQUIRED, _range(-1e4, 1e4))}
 CONTROLLER = {"bandwidth": ("float", 1.0, _range(0.0, 100.0, lo_open=True))}
 SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),

@@ -213,6 +213,7 @@ def test_a_log_s_scenario_passes_the_same_rules_with_the_same_message(bounce, tm
     (["ships[0].mass=" + "9" * 400], "ships[0].mass"),
     (["ships[0].mass=" + "9" * 5000], "ships[0].mass"),
     (["ships[0].inertia=[1, 1, 100]"], "ships[0].inertia"),
+    (["body.terrain.bumps=[{radius = 1e-308, height = 1.0}]"], "body.terrain.bumps[0].radius"),
 ])
 def test_a_hostile_value_is_refused_naming_its_key(tmp_path, sets, key):
     out = tmp_path / "x.mcap"
@@ -337,6 +338,27 @@ def test_export_of_a_non_finite_number_is_refused_not_written_as_nan(bounce, tmp
     assert not out.exists() and not Path(f"{out}.partial").exists()
     r = invoke("replay", bad, "--verify")
     assert r.exit_code == 1 and "field normal_force_n" in r.output
+
+
+def test_numbers_that_overflow_in_export_give_one_line_not_numpy_warnings(bounce, tmp_path):
+    """A position of 1e308 overflows the energy's squares: a fresh process (numpy warns once per
+    process) must still print the one line naming the field, and nothing else."""
+    from logs.codec import decode_tick, encode_tick
+
+    def edit(topic, data):
+        if topic == "/touchdown/ticks":
+            tick, t_s, n, arrays = decode_tick(data)
+            if tick == 2:
+                arrays["pos_m"] = arrays["pos_m"].copy()
+                arrays["pos_m"][1] = 1e308
+            data = encode_tick(tick, t_s, n, arrays)
+        return [(topic, data)]
+    bad = rewrite(bounce, tmp_path / "huge.mcap", edit)
+    r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "export", str(bad), "-o",
+                        str(tmp_path / "huge.jsonl")], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and "tick 2, ship lander-1" in r.stderr and "(the log is damaged)" in r.stderr, r.stderr
 
 
 # -- nothing half-written ------------------------------------------------------------------------
