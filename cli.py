@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import signal
 import sys
+import tempfile
 from pathlib import Path
 
 import click
@@ -109,8 +110,9 @@ def scenarios_cmd() -> None:
 @click.option("--stream", default="galaxy:ships", show_default=True, help="Redis stream name")
 @click.option("--keyframe-every", type=click.IntRange(min=1), default=1, show_default=True,
               help="write the full state every N ticks (replay seeks from keyframes)")
+@click.option("--view", "show", is_flag=True, help="open the Rerun viewer on the log when done")
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
-           stream: str, keyframe_every: int) -> None:
+           stream: str, keyframe_every: int, show: bool) -> None:
     from logs.mcap_log import LogWriter
     from sim.run import run
 
@@ -189,11 +191,15 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
     if outcome == "interrupted":
         click.echo(f"interrupted at tick {writer.last_tick}; the log holds ticks 0..{writer.last_tick}"
                    f" and is finished: {out}", err=True)
+        if show:
+            _show([str(out)])
         sys.exit(130)
     if outcome == "abandoned":
         click.echo(f"interrupted twice: stopped at once; nothing was kept (no {out})", err=True)
         sys.exit(130)
     click.echo(f"{out}: {n_ticks + 1} ticks, {scn.initial.n} ship(s), {events} event(s)")
+    if show:
+        _show([str(out)])
 
 
 @main.command()
@@ -247,8 +253,10 @@ def export(log: str, events: bool, output: str | None) -> None:
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
               help="what-if: change a setting (e.g. sim.integrator=semi_implicit_euler)")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="what-if: write the new log")
+@click.option("--view", "show", is_flag=True,
+              help="open the Rerun viewer: the log, or (what-if) the log beside the new run")
 def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
-           ship_id: str | None, sets: tuple[str, ...], output: str | None) -> None:
+           ship_id: str | None, sets: tuple[str, ...], output: str | None, show: bool) -> None:
     """Re-run LOG from its own recorded scenario and inputs.
 
     With --verify: compare with the recording bit for bit (exit 0 identical, 1 diverged).
@@ -262,8 +270,13 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
         raise UserError(f"--to-tick {to_tick} is before --from-tick {from_tick}")
     try:
         if sets or output:
-            res = what_if(log, parse_sets(sets), output, ship_id)
-            click.echo(res.report())
+            with tempfile.TemporaryDirectory(prefix="touchdown-whatif-") as tmp:
+                new_log = output or (str(Path(tmp) / f"{Path(log).stem}-what-if.mcap")
+                                     if show else None)
+                res = what_if(log, parse_sets(sets), new_log, ship_id)
+                click.echo(res.report())
+                if show:
+                    _show([log, new_log], ship_id)
             return
         res = run_verify(log, from_tick, to_tick, ship_id)
     except LogError as exc:
@@ -272,8 +285,66 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
         raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
                          f"(no {output})") from None
     click.echo(res.report())
+    if show:
+        _show([log], ship_id)
     if verify and not res.identical:
         sys.exit(1)
+
+
+def _show(logs: list[str], ship_id: str | None = None, output: str | None = None,
+          png: str | None = None, at_s: float | None = None) -> None:
+    """Draw logs in Rerun: to an .rrd file, to a PNG (headless), or in the native viewer."""
+    import time
+
+    from view import rerun_view as rv
+
+    t0 = time.perf_counter()
+    try:
+        runs, notes = rv.load_runs(logs, ship_id)
+    except LogError as exc:
+        raise UserError(str(exc)) from None
+    for note in notes:
+        click.echo(f"touchdown: {note}", err=True)
+    try:
+        if output or png:
+            with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
+                rrd = rv.write_rrd(runs, output or Path(tmp) / "view.rrd")
+                took = time.perf_counter() - t0
+                ticks = sum(len(t.tick) for r in runs for t in r.ships)
+                if output:
+                    click.echo(f"{rrd}: {len(runs)} run(s), "
+                               f"{sum(len(r.ships) for r in runs)} ship(s), {ticks:,} ship-ticks "
+                               f"in {took:.1f} s")
+                if png:
+                    rv.screenshot(rrd, Path(png), at_s)
+                    click.echo(f"{png}: screenshot of the view")
+        else:
+            rv.spawn_viewer(runs)
+    except rv.ViewError as exc:
+        raise WorkFailed(str(exc)) from None
+    except OSError as exc:
+        where = output or png or "the viewer"
+        raise WorkFailed(f"{where}: {exc.strerror or exc}; nothing was kept") from None
+
+
+@main.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="write an .rrd file instead of opening the viewer")
+@click.option("--ship", "ship_id", default=None, help="show this ship alone")
+@click.option("--screenshot", "png", type=click.Path(dir_okay=False), default=None,
+              help="render the view to a PNG without a display (Rerun's headless viewer)")
+@click.option("--at", "at_s", type=click.FloatRange(min=0.0), default=None, metavar="SECONDS",
+              help="--screenshot: the moment shown (default: the end of the run)")
+def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: str | None,
+         at_s: float | None) -> None:
+    """Show LOG in Rerun: the 3D scene in the landing-site frame, plots over time, the status
+    and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes."""
+    if len(logs) > 4:
+        raise UserError(f"view takes at most 4 logs, not {len(logs)}")
+    if output and not output.endswith(".rrd"):
+        raise UserError(f"{output}: the output of view is an .rrd file")
+    _show(list(logs), ship_id, output, png, at_s)
 
 
 @main.command()

@@ -1,0 +1,231 @@
+"""What a view draws, read from a log as columns (one array per quantity, over ticks): no Rerun here.
+
+Everything is expressed in the landing-site frame (east, north, up; sim.frames): Rerun stores
+positions as float32, which 1.7e6 m from the body's centre step by about 0.1 m and would hide a
+millimetre's sag; a metre from the site they step by 6e-8 m. Derived quantities come from the
+logged state through the same ``sim`` functions the step and ``export`` use (site frame, energy,
+the feet), with the parameters of the log's own recorded scenario.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from logs import LogError
+from logs.mcap_log import LogReader, scenario_of
+from sim import contact, energy, vec
+from sim.enums import SurfaceState
+from sim.frames import effective_gravity, rotate_z, surface_velocity
+from sim.params import Params
+
+#: the site frame's axes (east, north, up) are the body-fixed (y, z, x): this quaternion (w, x, y,
+#: z) turns body-fixed vectors into site-frame ones (a turn of -120 degrees about (1, 1, 1))
+Q_SITE_FROM_BODY_FIXED = np.array([0.5, -0.5, -0.5, -0.5])
+
+#: energy_j's parts (sim.energy), in the order they add up
+ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
+                "centrifugal_spin_j", "spring_j")
+
+
+@dataclass(frozen=True)
+class ShipTrack:
+    """One ship's run, one entry per recorded tick (T of them)."""
+
+    ship_id: str
+    player_id: str
+    leg_radius_m: float
+    com_height_m: float
+    max_thrust_n: float
+    tick: np.ndarray  # (T,) int64
+    t_s: np.ndarray  # (T,)
+    state: np.ndarray  # (T,) int8, SurfaceState
+    pos_site_m: np.ndarray  # (T,3) centre of mass: east, north, up
+    quat_site_xyzw: np.ndarray  # (T,4) attitude in the site frame (Rerun's order)
+    up_site: np.ndarray  # (T,3) local vertical (radial unit vector) in the site frame
+    feet_site_m: np.ndarray  # (T,4,3) the four feet
+    lowest_foot_site_m: np.ndarray  # (T,3) where the ground pushes (the deepest foot)
+    gravity_site_mps2: np.ndarray  # (T,3) effective gravity (gravity plus centrifugal)
+    thrust_site_n: np.ndarray  # (T,3) the engine's force, along the body's long axis
+    slip_site_mps: np.ndarray  # (T,3) velocity relative to the surface (NaN where not logged)
+    series: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T,)
+
+
+@dataclass(frozen=True)
+class RunEvent:
+    tick: int
+    t_s: float
+    ship_id: str
+    event: str
+    from_state: int
+    to_state: int
+    v_radial_mps: float
+    tilt_deg: float
+
+
+@dataclass(frozen=True)
+class Run:
+    """A log as a view needs it: its ships' tracks, its events, and the thresholds to draw."""
+
+    label: str
+    path: Path
+    params: Params
+    dt_s: float
+    ships: tuple[ShipTrack, ...]
+    events: tuple[RunEvent, ...]
+    partial_note: str  # "" when the whole log was read
+
+    @property
+    def critical_tilt_foot_deg(self) -> np.ndarray:
+        """Topple angle toward a foot, atan(a / h) (MODEL-NOTES 31), per ship."""
+        sh = self.params.ships
+        return np.degrees(np.arctan2(sh.leg_radius_m, sh.com_height_m))
+
+    @property
+    def critical_tilt_edge_deg(self) -> np.ndarray:
+        """... and toward the edge between two feet, atan(a / (sqrt(2) h))."""
+        sh = self.params.ships
+        return np.degrees(np.arctan2(sh.leg_radius_m, math.sqrt(2.0) * sh.com_height_m))
+
+
+def _to_site(params: Params, v: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Inertial vectors (T,3) at body angles (c, s) (T,) into site axes (east, north, up)."""
+    bf = rotate_z(v, c, -s)
+    return np.stack([bf[:, 1], bf[:, 2], bf[:, 0]], axis=1)
+
+
+def _site_quat_xyzw(q: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Attitudes (T,4, w x y z, body -> inertial) as body -> site quaternions in x y z w."""
+    ch = np.sqrt(np.maximum(0.0, 0.5 * (1.0 + c)))
+    sh = np.copysign(np.sqrt(np.maximum(0.0, 0.5 * (1.0 - c))), s)
+    undo_spin = np.zeros_like(q)  # rotation by -theta about z
+    undo_spin[:, 0], undo_spin[:, 3] = ch, -sh
+    perm = np.broadcast_to(Q_SITE_FROM_BODY_FIXED, q.shape)
+    qs = vec.quat_mul(perm, vec.quat_mul(undo_spin, q))
+    return np.concatenate([qs[:, 1:], qs[:, :1]], axis=1)
+
+
+def read_run(path: str | Path, label: str | None = None, ship_id: str | None = None) -> Run:
+    """Read a log into columns. ``ship_id`` keeps one ship (LogError if the log has none such)."""
+    path = Path(path)
+    with LogReader(path) as reader:
+        scn, _ = scenario_of(reader)
+        params = scn.params
+        ids = list(reader.scenario.ship_ids)
+        if ship_id is not None and ship_id not in ids:
+            raise LogError(f"{path}: no ship {ship_id!r} (ships: {', '.join(ids[:10])}"
+                           f"{', ...' if len(ids) > 10 else ''})")
+        keep = [ids.index(ship_id)] if ship_id is not None else list(range(len(ids)))
+        cols: dict[str, list[np.ndarray]] = {}
+        ticks: list[int] = []
+        names = ("surface_state", "pos_m", "quat", "vel_mps", "omega_body_radps", "mass_kg",
+                 "fuel_kg", "altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt",
+                 "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n",
+                 "throttle", "energy_guard_j")
+        n_ships = len(ids)
+        width = {"pos_m": 3, "vel_mps": 3, "omega_body_radps": 3, "quat": 4}
+        for td in reader.ticks():
+            a = td.arrays
+            ticks.append(td.tick)
+            for name in names:
+                arr = a.get(name)
+                if arr is None:  # a format-1 log: velocities on keyframes only, no guard
+                    arr = np.full(n_ships * width.get(name, 1), np.nan)
+                cols.setdefault(name, []).append(arr)
+        if not ticks:
+            raise LogError(f"{path}: the log holds no tick")
+        from logs.export import what_was_read
+        note = what_was_read(reader, ticks[-1])
+        events = tuple(
+            RunEvent(ev.tick, ev.t_s, ev.ship_id, ev.event, ev.from_state, ev.to_state,
+                     ev.v_radial_mps, ev.ship.tilt_deg)
+            for ev in reader.events() if ship_id is None or ev.ship_id == ship_id)
+    # (T, S, w) per field, the kept ships only: one concatenation, not one reshape per tick
+    stacked = {k: np.concatenate(v).reshape(len(ticks), n_ships, -1)[:, keep, :]
+               for k, v in cols.items()}
+    tick = np.asarray(ticks, dtype=np.int64)
+    dt = params.sim.dt_s
+    t_s = tick * dt
+    theta = params.body.omega_radps * t_s
+    c, s = np.cos(theta), np.sin(theta)
+    tracks = []
+    for j, i in enumerate(keep):
+        tracks.append(_track(params, i, stacked, j, tick, t_s, c, s))
+    return Run(label or path.stem, path, params, dt, tuple(tracks), events, note)
+
+
+def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np.ndarray,
+           t_s: np.ndarray, c: np.ndarray, s: np.ndarray) -> ShipTrack:
+    sh, body = params.ships, params.body
+    T = tick.shape[0]
+    col = {k: v[:, j, 0] if v.shape[2] == 1 else v[:, j, :] for k, v in cols.items()}
+    p, q, v, w = col["pos_m"], col["quat"], col["vel_mps"], col["omega_body_radps"]
+    mass = col["mass_kg"]
+    a = float(sh.leg_radius_m[i])
+    h = float(sh.com_height_m[i])
+    bf = rotate_z(p, c, -s)  # body-fixed, at each tick's own angle
+    pos_site = np.stack([bf[:, 1], bf[:, 2], bf[:, 0] - body.radius_m], axis=1)
+    ground = contact.Ground(body.radius_m, body.terrain, c, s, body.omega_radps,
+                            params.contact.surface_normal == "radial")
+    legs = np.full(T, a)
+    heights = np.full(T, h)
+    ft = contact.feet(p, q, legs, heights, ground)
+    feet_site = np.stack([_to_site(params, ft.offset_w[k], c, s) for k in range(4)], axis=1)
+    feet_site = feet_site + pos_site[:, None, :]
+    deepest = np.argmax(np.stack(ft.pen_m, axis=1), axis=1)
+    lowest = feet_site[np.arange(T), deepest]
+    r_hat = vec.unit(p)
+    up_site = _to_site(params, r_hat, c, s)
+    g_site = _to_site(params, effective_gravity(params, p), c, s)
+    ez = vec.quat_axis_z(q)
+    thrust = vec.scale(ez, col["throttle"] * float(sh.max_thrust_n[i]))
+    slip = _to_site(params, v - surface_velocity(params, p), c, s)
+    inertia = sh.inertia0_kgm2[i][None, :] * (mass / sh.mass0_kg[i])[:, None]
+    e = energy.mechanical(body.gm_m3ps2, body.radius_m, body.omega_radps,
+                          params.contact.stiffness_per_kg, legs, heights, mass, inertia, p, v, q,
+                          w, ground)
+    cos_tilt = np.clip(col["cos_tilt"], -1.0, 1.0)
+    series = {
+        "altitude_m": col["altitude_m"], "penetration_m": col["penetration_m"],
+        "peak_penetration_m": col["peak_penetration_m"],
+        # as export computes it (libm's acos, not numpy's: the same digits in both)
+        "tilt_deg": np.array([math.degrees(math.acos(x)) for x in cos_tilt.tolist()]),
+        "v_radial_mps": col["v_radial_mps"], "v_tangential_mps": col["v_tangential_mps"],
+        "normal_force_n": col["normal_force_n"], "friction_force_n": col["friction_force_n"],
+        "fuel_kg": col["fuel_kg"], "mass_kg": mass, "throttle": col["throttle"],
+        "energy_j": e.total_j, "energy_guard_j": col["energy_guard_j"],
+    }
+    for part in ENERGY_PARTS:
+        series[part] = getattr(e, part)
+    return ShipTrack(
+        ship_id=params.ships.ship_id[i], player_id=params.ships.player_id[i], leg_radius_m=a,
+        com_height_m=h, max_thrust_n=float(sh.max_thrust_n[i]), tick=tick, t_s=t_s,
+        state=col["surface_state"].astype(np.int8), pos_site_m=pos_site,
+        quat_site_xyzw=_site_quat_xyzw(q, c, s), up_site=up_site, feet_site_m=feet_site,
+        lowest_foot_site_m=lowest, gravity_site_mps2=g_site,
+        thrust_site_n=_to_site(params, thrust, c, s), slip_site_mps=slip, series=series)
+
+
+def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[float, float],
+                 n: int = 81) -> tuple[np.ndarray, np.ndarray]:
+    """The body's surface over a rectangle of the site frame: vertices (n*n, 3) and triangles.
+    Height: the terrain's above the reference sphere, which falls away from the site as
+    sqrt(R^2 - e^2 - n^2) - R (the site frame is the sphere's tangent plane)."""
+    e = np.linspace(east_m[0], east_m[1], n)
+    nn = np.linspace(north_m[0], north_m[1], n)
+    E, N = np.meshgrid(e, nn, indexing="xy")
+    R = params.body.radius_m
+    rho2 = E * E + N * N
+    sphere = -rho2 / (R + np.sqrt(np.maximum(R * R - rho2, 0.0)))  # sqrt(R^2 - rho^2) - R
+    H = params.body.terrain.height_m(E.ravel(), N.ravel()).reshape(E.shape)
+    up = sphere + H * np.sqrt(np.maximum(R * R - rho2, 0.0)) / R  # along the radial, projected
+    verts = np.stack([E.ravel(), N.ravel(), up.ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c2, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    tris = np.concatenate([np.stack([a, b, c2], 1), np.stack([a, c2, d], 1)])
+    return verts, tris.astype(np.uint32)
+
+
+STATE_NAMES = {int(s): s.label for s in SurfaceState}
