@@ -9,6 +9,8 @@ Figures:
 * 10,000 ships: stepping alone and stepping + logging (ship-ticks/s). The fleet is a mix:
   40% flying high, 40% landed, 10% tipped, 10% arriving at 2-49 m/s (touchdowns, bounces).
 * peak resident memory of the process (ru_maxrss).
+* MuJoCo beside Touchdown on the same landers, as ratios (bench/mujoco_side.py; the ``bench``
+  extra installs mujoco).
 
 Timing uses time.perf_counter around the work only (scenario parsing excluded); no figure here is
 an assertion: benchmarks are measured, never asserted in the test suite.
@@ -171,6 +173,8 @@ def main(quick: bool = False) -> None:
             print(f"  {label:<36}{model:<42}" + "".join(f"{c:>32.2f}" for c in costs))
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak_mib:,.0f} MiB")
+    from bench import mujoco_side
+    mujoco_side.main(quick=quick)  # the anchor: MuJoCo on the same machine, in the same run
 
 
 if __name__ == "__main__":
