@@ -318,9 +318,10 @@ def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]
     return cases
 
 
-def _rewrite(src: bytes, edit) -> bytes:
+def _rewrite(src: bytes, edit, schema=None) -> bytes:
     """A log rewritten through the mcap writer with each message passed through ``edit(topic, data)
-    -> list of (topic, data)``; schemas and channels as they were."""
+    -> list of (topic, data)`` and each schema through ``schema(record) -> (name, encoding,
+    data)`` (default: as it was); channels as they were."""
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
@@ -328,35 +329,24 @@ def _rewrite(src: bytes, edit) -> bytes:
     w = Writer(out, compression=CompressionType.ZSTD, enable_crcs=True)
     w.start()
     schemas, channels = {}, {}
-    for schema, channel, message in make_reader(io.BytesIO(src)).iter_messages():
-        if schema.id not in schemas:
-            schemas[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
+    for sch, channel, message in make_reader(io.BytesIO(src)).iter_messages():
+        if sch.id not in schemas:
+            name, encoding, data = (sch.name, sch.encoding, sch.data) if schema is None else schema(sch)
+            schemas[sch.id] = w.register_schema(name, encoding, data)
         for topic, data in edit(channel.topic, message.data):
             if topic not in channels:
-                channels[topic] = w.register_channel(topic, "protobuf", schemas[schema.id])
+                channels[topic] = w.register_channel(topic, "protobuf", schemas[sch.id])
             w.add_message(channels[topic], message.log_time, data, message.publish_time)
     w.finish()
     return out.getvalue()
 
 
 def _mutate_schema(src: bytes, rng: random.Random) -> bytes:
-    from mcap.reader import make_reader
-    from mcap.writer import CompressionType, Writer
-
-    out = io.BytesIO()
-    w = Writer(out, compression=CompressionType.ZSTD, enable_crcs=True)
-    w.start()
-    ids, chans = {}, {}
-    for schema, channel, message in make_reader(io.BytesIO(src)).iter_messages():
-        if schema.id not in ids:
-            data = rng.choice((b"", bytes(rng.randrange(256) for _ in range(64)), schema.data[:10]))
-            name = rng.choice((schema.name, "touchdown.v1.Nope", "", "x" * 300))
-            ids[schema.id] = w.register_schema(name, rng.choice(("protobuf", "json", "")), data)
-        if channel.topic not in chans:
-            chans[channel.topic] = w.register_channel(channel.topic, "protobuf", ids[schema.id])
-        w.add_message(chans[channel.topic], message.log_time, message.data, message.publish_time)
-    w.finish()
-    return out.getvalue()
+    def schema(sch):
+        data = rng.choice((b"", bytes(rng.randrange(256) for _ in range(64)), sch.data[:10]))
+        name = rng.choice((sch.name, "touchdown.v1.Nope", "", "x" * 300))
+        return name, rng.choice(("protobuf", "json", "")), data
+    return _rewrite(src, lambda topic, data: [(topic, data)], schema)
 
 
 def _mutate_channel(src: bytes, rng: random.Random, k: int) -> bytes:

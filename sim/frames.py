@@ -104,8 +104,11 @@ def site_frame(params: Params, p: np.ndarray, v: np.ndarray, t_s: float
     """(east, north, up) of centres of mass (N,3), m, and their velocity relative to the surface
     in the same axes (v_east, v_north, v_up), m/s, at time t_s."""
     c, s = body_rotation(params, t_s)
-    p_bf = rotate_z(p, c, -s)
-    v_bf = rotate_z(v - surface_velocity(params, p), c, -s)
-    pos = np.stack([p_bf[:, 1], p_bf[:, 2], p_bf[:, 0] - params.body.radius_m], axis=1)
-    vel = np.stack([v_bf[:, 1], v_bf[:, 2], v_bf[:, 0]], axis=1)
-    return pos, vel
+    pos = site_axes(rotate_z(p, c, -s))
+    pos[:, 2] -= params.body.radius_m
+    return pos, site_axes(rotate_z(v - surface_velocity(params, p), c, -s))
+
+
+def site_axes(v_bf: np.ndarray) -> np.ndarray:
+    """Body-fixed vectors (N,3) in the site's axes: (east, north, up) = body-fixed (y, z, x)."""
+    return np.stack([v_bf[:, 1], v_bf[:, 2], v_bf[:, 0]], axis=1)

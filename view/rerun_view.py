@@ -20,7 +20,7 @@ import shutil
 import subprocess
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -36,9 +36,6 @@ STATE_COLORS = {
     SurfaceState.TIPPED: (230, 40, 40),
     SurfaceState.CRASHED: (130, 0, 120),
 }
-STATE_COLOR_NAMES = {SurfaceState.FLYING: "blue", SurfaceState.CONTACT: "yellow",
-                     SurfaceState.LANDED: "green", SurfaceState.TIPPED: "red",
-                     SurfaceState.CRASHED: "purple"}
 FORCE_COLORS = {"normal": (40, 200, 80), "friction": (255, 140, 0), "weight": (150, 110, 255),
                 "thrust": (255, 70, 40)}
 #: one run of one ship: a colour per series
@@ -108,13 +105,6 @@ def _thin(n: int, keep: np.ndarray) -> np.ndarray:
     return np.flatnonzero(mask | keep)
 
 
-def _changes(state: np.ndarray) -> np.ndarray:
-    """Entries where the state differs from the one before (the first included)."""
-    out = np.ones(state.shape[0], dtype=bool)
-    out[1:] = state[1:] != state[:-1]
-    return out
-
-
 def _times(rr, track: ShipTrack, idx: np.ndarray | None = None) -> list:
     tick, t = (track.tick, track.t_s) if idx is None else (track.tick[idx], track.t_s[idx])
     return [rr.TimeColumn("tick", sequence=tick), rr.TimeColumn("sim_time", duration=t)]
@@ -159,7 +149,7 @@ def _ship_geometry(rr, rec, path: str, track: ShipTrack, label: str | None) -> N
         colors=[(200, 200, 205)], fill_mode="solid", labels=[label] if label else None,
         show_labels=bool(label)), static=True)
     feet = [(a, 0.0, -h), (0.0, a, -h), (-a, 0.0, -h), (0.0, -a, -h)]
-    tops = [(0.55 * a * x / a, 0.55 * a * y / a, -0.2 * h) for x, y, _ in feet]
+    tops = [(0.55 * x, 0.55 * y, -0.2 * h) for x, y, _ in feet]
     rec.log(f"{path}/legs", rr.LineStrips3D([[t, f] for t, f in zip(tops, feet)],
                                              radii=0.03 * a, colors=[(180, 180, 180)]),
             static=True)
@@ -168,7 +158,7 @@ def _ship_geometry(rr, rec, path: str, track: ShipTrack, label: str | None) -> N
     rec.log(f"{path}/footpads", rr.Points3D(feet, radii=0.12 * a, colors=[(160, 160, 160)]),
             static=True)
     # the descent stage wears the state's colour: the status is visible in the 3D view too
-    changes = np.flatnonzero(_changes(track.state))
+    changes = np.flatnonzero(track.changes)
     colors = [[*STATE_COLORS[SurfaceState(int(s))], 255] for s in track.state[changes]]
     rec.log(f"{path}/descent_stage", rr.Boxes3D(half_sizes=[box_half], centers=[box_center],
                                                 fill_mode="solid"), static=True)
@@ -179,7 +169,7 @@ def _ship_geometry(rr, rec, path: str, track: ShipTrack, label: str | None) -> N
 
 def _trajectory(rr, rec, path: str, track: ShipTrack) -> None:
     """The centre of mass's path, one strip per stretch in one state, in that state's colour."""
-    ch = _changes(track.state)
+    ch = track.changes
     idx = _thin(track.tick.shape[0], ch)
     strips, colors = [], []
     starts = np.flatnonzero(ch)
@@ -269,12 +259,12 @@ def _status(rr, rec, layout: Layout, run: Run, track: ShipTrack) -> None:
     rec.log(f"status/{base}", rr.StateConfiguration(
         values=labels, labels=labels,
         colors=[[*STATE_COLORS[s], 255] for s in SurfaceState]), static=True)
-    ch = np.flatnonzero(_changes(track.state))
+    ch = np.flatnonzero(track.changes)
     rr.send_columns(f"status/{base}", indexes=_times(rr, track, ch),
                     columns=rr.StateChange.columns(
                         state=[SurfaceState(int(s)).label.upper() for s in track.state[ch]]),
                     recording=rec)
-    keep = _thin(track.tick.shape[0], _changes(track.state))
+    keep = _thin(track.tick.shape[0], track.changes)
     rr.send_columns(f"hud/{base}", indexes=_times(rr, track, keep),
                     columns=rr.TextDocument.columns(
                         text=[_hud_text(track, int(k)) for k in keep],
@@ -370,9 +360,7 @@ def build(runs: list[Run], recording_id: str):
 
     labels = [r.label for r in runs]
     if len(set(labels)) != len(labels):
-        runs = [Run(f"{chr(65 + i)} {r.label}", *(getattr(r, f) for f in
-                    ("path", "params", "dt_s", "ships", "events", "partial_note")))
-                for i, r in enumerate(runs)]
+        runs = [replace(r, label=f"{chr(65 + i)} {r.label}") for i, r in enumerate(runs)]
     layout = Layout(tuple(runs))
     rec = rr.RecordingStream("touchdown", recording_id=recording_id, send_properties=False)
     return rec, layout
@@ -381,7 +369,6 @@ def build(runs: list[Run], recording_id: str):
 def populate(rec, layout: Layout) -> None:
     import rerun as rr
 
-    rec.set_log_time_enabled(False) if hasattr(rec, "set_log_time_enabled") else None
     rec.set_log_tick_enabled(False)
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     _surface(rr, rec, layout)
@@ -421,10 +408,9 @@ def load_runs(paths: list[str | Path], ship_id: str | None) -> tuple[list[Run], 
         if len(run.ships) > MAX_SHIPS:
             notes.append(f"{p}: showing {MAX_SHIPS} of its {len(run.ships)} ships; pick one with "
                          f"--ship ID")
-            run = Run(run.label, run.path, run.params, run.dt_s, run.ships[:MAX_SHIPS],
-                      tuple(e for e in run.events
-                            if e.ship_id in {t.ship_id for t in run.ships[:MAX_SHIPS]}),
-                      run.partial_note)
+            shown = run.ships[:MAX_SHIPS]
+            ids = {t.ship_id for t in shown}
+            run = replace(run, ships=shown, events=tuple(e for e in run.events if e.ship_id in ids))
         runs.append(run)
     return runs, notes
 

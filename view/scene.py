@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +18,7 @@ import numpy as np
 from logs import LogError
 from logs.mcap_log import LogReader, scenario_of
 from sim import contact, energy, vec
-from sim.enums import SurfaceState
-from sim.frames import effective_gravity, rotate_z, surface_velocity
+from sim.frames import effective_gravity, rotate_z, site_axes, surface_velocity
 from sim.params import Params
 
 #: the site frame's axes (east, north, up) are the body-fixed (y, z, x): this quaternion (w, x, y,
@@ -51,6 +51,13 @@ class ShipTrack:
     thrust_site_n: np.ndarray  # (T,3) the engine's force, along the body's long axis
     slip_site_mps: np.ndarray  # (T,3) velocity relative to the surface (NaN where not logged)
     series: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (T,)
+
+    @cached_property
+    def changes(self) -> np.ndarray:
+        """(T,) bool: entries whose state differs from the one before (the first included)."""
+        out = np.ones(self.state.shape[0], dtype=bool)
+        out[1:] = self.state[1:] != self.state[:-1]
+        return out
 
 
 @dataclass(frozen=True)
@@ -90,10 +97,9 @@ class Run:
         return np.degrees(np.arctan2(sh.leg_radius_m, math.sqrt(2.0) * sh.com_height_m))
 
 
-def _to_site(params: Params, v: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+def _to_site(v: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
     """Inertial vectors (T,3) at body angles (c, s) (T,) into site axes (east, north, up)."""
-    bf = rotate_z(v, c, -s)
-    return np.stack([bf[:, 1], bf[:, 2], bf[:, 0]], axis=1)
+    return site_axes(rotate_z(v, c, -s))
 
 
 def _site_quat_xyzw(q: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -165,23 +171,23 @@ def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np
     mass = col["mass_kg"]
     a = float(sh.leg_radius_m[i])
     h = float(sh.com_height_m[i])
-    bf = rotate_z(p, c, -s)  # body-fixed, at each tick's own angle
-    pos_site = np.stack([bf[:, 1], bf[:, 2], bf[:, 0] - body.radius_m], axis=1)
+    pos_site = _to_site(p, c, s)  # each tick at its own body angle
+    pos_site[:, 2] -= body.radius_m
     ground = contact.Ground(body.radius_m, body.terrain, c, s, body.omega_radps,
                             params.contact.surface_normal == "radial")
     legs = np.full(T, a)
     heights = np.full(T, h)
     ft = contact.feet(p, q, legs, heights, ground)
-    feet_site = np.stack([_to_site(params, ft.offset_w[k], c, s) for k in range(4)], axis=1)
+    feet_site = np.stack([_to_site(ft.offset_w[k], c, s) for k in range(4)], axis=1)
     feet_site = feet_site + pos_site[:, None, :]
     deepest = np.argmax(np.stack(ft.pen_m, axis=1), axis=1)
     lowest = feet_site[np.arange(T), deepest]
     r_hat = vec.unit(p)
-    up_site = _to_site(params, r_hat, c, s)
-    g_site = _to_site(params, effective_gravity(params, p), c, s)
+    up_site = _to_site(r_hat, c, s)
+    g_site = _to_site(effective_gravity(params, p), c, s)
     ez = vec.quat_axis_z(q)
     thrust = vec.scale(ez, col["throttle"] * float(sh.max_thrust_n[i]))
-    slip = _to_site(params, v - surface_velocity(params, p), c, s)
+    slip = _to_site(v - surface_velocity(params, p), c, s)
     inertia = sh.inertia0_kgm2[i][None, :] * (mass / sh.mass0_kg[i])[:, None]
     e = energy.mechanical(body.gm_m3ps2, body.radius_m, body.omega_radps,
                           params.contact.stiffness_per_kg, legs, heights, mass, inertia, p, v, q,
@@ -205,7 +211,7 @@ def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np
         state=col["surface_state"].astype(np.int8), pos_site_m=pos_site,
         quat_site_xyzw=_site_quat_xyzw(q, c, s), up_site=up_site, feet_site_m=feet_site,
         lowest_foot_site_m=lowest, gravity_site_mps2=g_site,
-        thrust_site_n=_to_site(params, thrust, c, s), slip_site_mps=slip, series=series)
+        thrust_site_n=_to_site(thrust, c, s), slip_site_mps=slip, series=series)
 
 
 def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[float, float],
@@ -227,5 +233,3 @@ def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[flo
     tris = np.concatenate([np.stack([a, b, c2], 1), np.stack([a, c2, d], 1)])
     return verts, tris.astype(np.uint32)
 
-
-STATE_NAMES = {int(s): s.label for s in SurfaceState}
