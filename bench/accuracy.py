@@ -51,7 +51,6 @@ from sim.enums import EventKind
 from sim.params import ContactParams, SimParams
 from sim.run import run
 from sim.scenario import parse
-from sim.state import STATE_ARRAY_FIELDS, Inputs
 from sim.step import step
 
 PLAIN = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "exponential"]
@@ -124,9 +123,8 @@ def marginal_cost(doc: dict, recs: list) -> float:
     extra = 0.0
     for k in picks:
         st, inp = recs[k].state, recs[k + 1].inputs
-        st_b = replace(st, **{f: np.repeat(getattr(st, f), batch, axis=0) for f in STATE_ARRAY_FIELDS})
-        inp_b = Inputs(*(np.repeat(getattr(inp, f), batch, axis=0)
-                         for f in ("throttle", "rcs", "hold")))
+        st_b = replace(st, rows=np.repeat(st.rows, batch))
+        inp_b = replace(inp, rows=np.repeat(inp.rows, batch))
         t_one, t_many = _fastest_steps_s((one.params, st, inp), (many.params, st_b, inp_b))
         extra += max(t_many - t_one, 0.0)
     per_ship_step = extra / len(picks) / (batch - 1)

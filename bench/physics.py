@@ -75,8 +75,9 @@ def energy(scn, rec) -> float:
     c, s = math.cos(om * rec.tick * par.sim.dt_s), math.sin(om * rec.tick * par.sim.dt_s)
     spring = 0.0
     k_leg = 0.25 * par.contact.stiffness_per_kg * m
-    for off in foot_offsets_w(st.quat[:1], par.ships.leg_radius_m[:1], par.ships.com_height_m[:1]):
-        foot = p + off[0]
+    for off in foot_offsets_w(tuple(map(float, q)), float(par.ships.leg_radius_m[0]),
+                              float(par.ships.com_height_m[0])):
+        foot = p + np.array(off)
         east, north = -s * foot[0] + c * foot[1], foot[2]
         x = big_r + float(par.body.terrain.height_m(np.array([east]), np.array([north]))[0]) \
             - float(np.linalg.norm(foot))

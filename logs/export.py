@@ -1,7 +1,7 @@
 """JSON Lines export of a log (SPEC.md section 4): one object per ship per tick, or per event.
 
 Positions, velocities, angular velocities and energy come from the logged state through the same
-``sim`` functions the step uses (sim.frames.site_frame, sim.energy), with the parameters of the
+``sim`` functions the step uses (sim.measure: the site frame, sim.energy), with the parameters of the
 log's own recorded scenario. A field the log does not hold on a tick (a format-1 log's velocities
 between keyframes) is null.
 """
@@ -16,9 +16,8 @@ import numpy as np
 from logs import LogError
 from logs.mcap_log import LogReader, TickData, scenario_of
 from proto import touchdown_pb2 as pb
-from sim import energy
+from sim import measure
 from sim.enums import SurfaceState
-from sim.frames import site_frame
 
 _STATE = {int(s): s.label for s in SurfaceState}
 
@@ -34,9 +33,9 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     # a damaged log's numbers may overflow here: write_jsonl names the field that came out
     # non-finite, in one line, where numpy's warnings would add lines of their own
     with np.errstate(all="ignore"):
-        pos, vel = site_frame(params, p, v, t)
-        e = energy.at(params, t, p, v, q, w, a["mass_kg"])
-    return {"pos": pos, "vel": vel, "omega": w, "energy": e.total_j}
+        pos, vel = measure.site_frame(params, p, v, t)
+        e = measure.energy(params, np.arange(td.ship_count), t, p, v, q, w, a["mass_kg"])
+    return {"pos": pos, "vel": vel, "omega": w, "energy": e["total_j"]}
 
 
 def tick_rows(reader: LogReader) -> Iterator[dict]:

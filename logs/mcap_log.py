@@ -289,12 +289,12 @@ class TickData:
         if not self.is_keyframe:
             raise LogError(f"tick {self.tick} is not a keyframe")
         try:
-            return State(
-                tick=self.tick, surface_state=a["surface_state"].astype(np.int8),
-                pos_m=self.vec("pos_m", 3), vel_mps=self.vec("vel_mps", 3), quat=self.vec("quat", 4),
-                omega_body_radps=self.vec("omega_body_radps", 3), mass_kg=a["mass_kg"],
-                fuel_kg=a["fuel_kg"], absorbing=a["absorbing"].astype(bool),
-                sliding=self._sliding(), settle_ticks=a["settle_ticks"].astype(np.int64),
+            return State.of(
+                self.ship_count, tick=self.tick, surface_state=a["surface_state"],
+                pos_m=self.vec("pos_m", 3), vel_mps=self.vec("vel_mps", 3),
+                quat=self.vec("quat", 4), omega_body_radps=self.vec("omega_body_radps", 3),
+                mass_kg=a["mass_kg"], fuel_kg=a["fuel_kg"], absorbing=a["absorbing"] != 0,
+                sliding=self._sliding(), settle_ticks=a["settle_ticks"],
                 pivot_rate_radps=a["pivot_rate_radps"], pin_pos_bf_m=self.vec("pin_pos_bf_m", 3),
                 pin_quat_bf=self.vec("pin_quat_bf", 4), pin_pivot_bf_m=self.vec("pin_pivot_bf_m", 3))
         except (KeyError, ValueError) as exc:
@@ -308,8 +308,8 @@ class TickData:
 
     def inputs(self) -> Inputs:
         """The commands applied during the step into this tick."""
-        return Inputs(self.arrays["input_throttle"], self.vec("input_rcs", 3),
-                      self.arrays["input_hold"].astype(np.int8))
+        return Inputs.of(self.ship_count, throttle=self.arrays["input_throttle"],
+                         rcs=self.vec("input_rcs", 3), hold=self.arrays["input_hold"])
 
 
 class LogReader:

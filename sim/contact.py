@@ -26,196 +26,251 @@ ship back off the ground.
 
 Velocities are taken relative to the body's surface (``Omega z x p`` subtracted), and the ground is
 evaluated at the instant of each evaluation: on a rotating body the terrain moves under the ship.
+Everything here is one ship's, compiled (sim.compiled).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from typing import NamedTuple
 
 import numpy as np
 
-from sim import vec
-from sim.constants import LEG_DIRECTIONS_BODY
-from sim.params import Terrain
+from sim.compiled import kernel
+from sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
 
-Array = np.ndarray
-Four = tuple[Array, Array, Array, Array]
+#: Columns of the terrain's bump table (``Ground.bumps``, one row per bump).
+BUMP_EAST, BUMP_NORTH, BUMP_RADIUS, BUMP_HEIGHT = 0, 1, 2, 3
 
 
-@dataclass(frozen=True)
-class Ground:
-    """The body's surface at one instant (per ship: ``cos_theta``/``sin_theta`` may be arrays (N,))."""
+class Ground(NamedTuple):
+    """The body's surface at one instant, as one ship sees it.
+
+    The terrain is a deterministic height field over the landing site, m:
+    h(e, n) = base_height + sum_j height_j (1 - d_j^2 / radius_j^2)^2 for d_j < radius_j, d_j the
+    distance from bump j's centre (east_j, north_j) in the site's tangent plane. The biweight bump is
+    smooth (C1) and needs only +, *. The site is the body-fixed +x axis; east is body-fixed +y,
+    north +z; the body has turned by theta = Omega t about the inertial +z axis."""
 
     radius_m: float
-    terrain: Terrain
-    cos_theta: float | Array  # body rotation angle theta = Omega t, as its cosine and sine
-    sin_theta: float | Array
-    spin_radps: float = 0.0  # Omega, about the inertial +z axis
-    radial: bool = False  # the seed's normal: radial whatever the terrain's slope
-
-    def site_coords(self, point: Array) -> tuple[Array, Array]:
-        """(east, north) of inertial points (N,3): their body-fixed (y, z)."""
-        return -self.sin_theta * point[:, 0] + self.cos_theta * point[:, 1], point[:, 2]
-
-    def surface_radius_m(self, point: Array) -> Array:
-        """Body radius plus terrain height under inertial points (N,3)."""
-        east, north = self.site_coords(point)
-        return self.radius_m + self.terrain.height_m(east, north)
-
-    def under(self, point: Array) -> tuple[Array, Array]:
-        """(x, g): the penetration x = R + h - |p| of points (N,3) and g = -grad x, the direction
-        the ground pushes them (unit radial on level ground or with ``radial``)."""
-        r = vec.norm(point)
-        r_hat = point / r[:, None]
-        east, north = self.site_coords(point)
-        if self.terrain.flat:
-            return self.radius_m + self.terrain.base_height_m - r, r_hat
-        h, dh_de, dh_dn = self.terrain.height_and_slope(east, north)
-        pen = self.radius_m + h - r
-        if self.radial:
-            return pen, r_hat
-        # grad east = body-fixed y axis in the inertial frame, (-sin, cos, 0); grad north = z
-        push = r_hat.copy()
-        push[:, 0] += dh_de * self.sin_theta
-        push[:, 1] -= dh_de * self.cos_theta
-        push[:, 2] -= dh_dn
-        return pen, push
-
-    def surface_velocity(self, point: Array) -> Array:
-        """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
-        out = np.zeros_like(point)
-        if self.spin_radps != 0.0:
-            out[:, 0] = -self.spin_radps * point[:, 1]
-            out[:, 1] = self.spin_radps * point[:, 0]
-        return out
+    base_height_m: float
+    bumps: np.ndarray  # (B, 4): east, north, radius, height (m)
+    cos_theta: float
+    sin_theta: float
+    spin_radps: float  # Omega, about the inertial +z axis
+    radial: bool  # the seed's normal: radial whatever the terrain's slope
 
 
-@dataclass(frozen=True)
-class Feet:
-    """The four feet at one instant."""
+@kernel
+def height_and_slope(ground, east_m, north_m):
+    """(h, dh/de, dh/dn): the terrain's height and its gradient, analytically,
+    dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
+    h = ground.base_height_m
+    dh_de = 0.0
+    dh_dn = 0.0
+    for j in range(ground.bumps.shape[0]):
+        hgt = ground.bumps[j, BUMP_HEIGHT]
+        rad = ground.bumps[j, BUMP_RADIUS]
+        de = east_m - ground.bumps[j, BUMP_EAST]
+        dn = north_m - ground.bumps[j, BUMP_NORTH]
+        inv_r2 = 1.0 / (rad * rad)
+        s = (de * de + dn * dn) * inv_r2
+        w = 1.0 - s
+        inside = s < 1.0
+        h = h + (hgt * w * w if inside else 0.0)
+        slope = -4.0 * hgt * w * inv_r2 if inside else 0.0
+        dh_de = dh_de + slope * de
+        dh_dn = dh_dn + slope * dn
+    return h, dh_de, dh_dn
 
-    offset_w: Four  # (N,3) each: from the centre of mass, inertial
-    pos_w: Four  # (N,3) each
-    pen_m: Four  # (N,) each: penetration (negative: height above the ground)
-    push_w: Four  # (N,3) each: g = -grad x, the direction the ground pushes
+
+@kernel
+def site_coords(ground, point):
+    """(east, north) of an inertial point: its body-fixed (y, z)."""
+    return -ground.sin_theta * point[0] + ground.cos_theta * point[1], point[2]
 
 
-def body_axes(q: Array) -> tuple[Array, Array, Array]:
-    """The body x, y, z axes in the inertial frame: the columns of the rotation matrix of q."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    ex = np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
-    ey = np.stack([2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=1)
-    ez = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=1)
-    return ex, ey, ez
+@kernel
+def under(ground, point):
+    """(x, g): the penetration x = R + h - |p| of a point and g = -grad x, the direction the ground
+    pushes it (unit radial on level ground or with ``radial``)."""
+    r = norm(point)
+    r_hat = (point[0] / r, point[1] / r, point[2] / r)
+    if ground.bumps.shape[0] == 0:
+        return ground.radius_m + ground.base_height_m - r, r_hat
+    east, north = site_coords(ground, point)
+    h, dh_de, dh_dn = height_and_slope(ground, east, north)
+    pen = ground.radius_m + h - r
+    if ground.radial:
+        return pen, r_hat
+    # grad east = body-fixed y axis in the inertial frame, (-sin, cos, 0); grad north = z
+    return pen, (r_hat[0] + dh_de * ground.sin_theta, r_hat[1] - dh_de * ground.cos_theta,
+                 r_hat[2] - dh_dn)
 
 
-def foot_offsets_w(q: Array, leg_radius_m: Array, com_height_m: Array) -> list[Array]:
-    """Each foot's position relative to the centre of mass, inertial, four arrays (N,3)."""
+@kernel
+def surface_velocity(ground, point):
+    """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
+    om = ground.spin_radps
+    if om == 0.0:
+        return (0.0, 0.0, 0.0)
+    return (-om * point[1], om * point[0], 0.0)
+
+
+class Feet(NamedTuple):
+    """The four feet at one instant (each field: four of them)."""
+
+    offset_w: tuple  # from the centre of mass, inertial
+    pos_w: tuple
+    pen_m: tuple  # penetration (negative: height above the ground)
+    push_w: tuple  # g = -grad x, the direction the ground pushes
+
+
+@kernel
+def foot_offsets_w(q, leg_radius_m, com_height_m):
+    """Each foot's position relative to the centre of mass, inertial: body (+-a, 0, -h) and
+    (0, +-a, -h) (sim.constants.LEG_DIRECTIONS_BODY)."""
     ex, ey, ez = body_axes(q)
-    down = vec.scale(ez, -com_height_m)
-    out = []
-    for dx, dy in LEG_DIRECTIONS_BODY:
-        lateral = ex if dx else ey
-        sign = dx if dx else dy
-        out.append(down + vec.scale(lateral, sign * leg_radius_m))
-    return out
+    down = scale(ez, -com_height_m)
+    a = leg_radius_m
+    return (add(down, scale(ex, a)), add(down, scale(ey, a)), add(down, scale(ex, -a)),
+            add(down, scale(ey, -a)))
 
 
-def feet(pos_m: Array, quat: Array, leg_radius_m: Array, com_height_m: Array,
-         ground: Ground) -> Feet:
+@kernel
+def feet(ground, pos_m, quat, leg_radius_m, com_height_m):
     """Where the feet are, how deep, and which way the ground would push them."""
-    offsets = foot_offsets_w(quat, leg_radius_m, com_height_m)
-    pos, pen, push = [], [], []
-    for offset in offsets:
-        foot = pos_m + offset
-        x, g = ground.under(foot)
-        pos.append(foot)
-        pen.append(x)
-        push.append(g)
-    return Feet(tuple(offsets), tuple(pos), tuple(pen), tuple(push))
+    off = foot_offsets_w(quat, leg_radius_m, com_height_m)
+    p0, p1, p2, p3 = add(pos_m, off[0]), add(pos_m, off[1]), add(pos_m, off[2]), add(pos_m, off[3])
+    x0, g0 = under(ground, p0)
+    x1, g1 = under(ground, p1)
+    x2, g2 = under(ground, p2)
+    x3, g3 = under(ground, p3)
+    return Feet(off, (p0, p1, p2, p3), (x0, x1, x2, x3), (g0, g1, g2, g3))
 
 
-def lowest_foot_penetration(pos_m: Array, quat: Array, leg_radius_m: Array,
-                            com_height_m: Array, ground: Ground) -> Array:
-    """Penetration of the deepest foot (negative: height of the lowest foot above its ground);
-    the same numbers as :func:`evaluate`'s ``max_penetration_m``, without the forces."""
-    ft = feet(pos_m, quat, leg_radius_m, com_height_m, ground)
-    deepest = ft.pen_m[0]
-    for x in ft.pen_m[1:]:
-        deepest = np.maximum(deepest, x)
-    return deepest
+@kernel
+def lowest_foot_penetration(ground, pos_m, quat, leg_radius_m, com_height_m):
+    """Penetration of the deepest foot (negative: height of the lowest foot above its ground); the
+    same number as :func:`evaluate`'s ``max_penetration_m``, without the forces."""
+    pen = feet(ground, pos_m, quat, leg_radius_m, com_height_m).pen_m
+    return fmax(fmax(fmax(pen[0], pen[1]), pen[2]), pen[3])
 
 
-@dataclass(frozen=True)
-class ContactEval:
-    """The ground's action on each ship at one instant."""
+@kernel
+def lowest_foot(ground, pos_m, quat, leg_radius_m, com_height_m):
+    """(penetration, position) of the deepest foot; the first of equals."""
+    ft = feet(ground, pos_m, quat, leg_radius_m, com_height_m)
+    best = 0
+    for i in range(1, 4):
+        if ft.pen_m[i] > ft.pen_m[best]:
+            best = i
+    return ft.pen_m[best], ft.pos_w[best]
 
-    feet: Feet | None  # None: ships known to be clear of the ground (no contact work done)
-    foot_force_n: Four  # (N,) each: k x + c x' of each foot (clamped at 0 unless absorbing)
-    force_w: Array  # (N, 3) total force, inertial
-    torque_w: Array  # (N, 3) its moment about the centre of mass, inertial
-    normal_n: Array  # (N,) sum of the feet's force magnitudes (< 0 only while absorbing)
-    max_penetration_m: Array  # (N,) deepest foot (negative: lowest foot's height above ground)
-    lowest_foot_w: Array  # (N, 3) the deepest (or lowest) foot
+
+class ContactEval(NamedTuple):
+    """The ground's action on a ship at one instant."""
+
+    touching: bool  # False: a ship known to be clear of the ground (no contact work done)
+    feet: Feet
+    foot_force_n: tuple  # k x + c x' of each foot (clamped at 0 unless absorbing)
+    force_w: tuple  # total force, inertial
+    torque_w: tuple  # its moment about the centre of mass, inertial
+    normal_n: float  # sum of the feet's force magnitudes (< 0 only while absorbing)
+    max_penetration_m: float  # deepest foot (negative: lowest foot's height above the ground)
+    lowest_foot_w: tuple  # the deepest (or lowest) foot
     # The pressing feet (those whose force is not clamped away) as one linear spring-damper along
     # the centre of mass's radial n, for the exact method (sim.integrators.exponential): with
     # gamma_i = g_i . n, the sums of k_i gamma_i^2, c_i gamma_i^2, k_i gamma_i x_i and
     # k_i gamma_i x_i' (zeros unless asked for: evaluate's linear_model).
-    stiffness_npm: Array  # (N,)
-    damping_nspm: Array  # (N,)
-    spring_load_n: Array  # (N,)
-    spring_load_rate_nps: Array  # (N,)
+    stiffness_npm: float
+    damping_nspm: float
+    spring_load_n: float
+    spring_load_rate_nps: float
 
 
-def evaluate(pos_m: Array, vel_mps: Array, quat: Array, omega_w: Array, leg_radius_m: Array,
-             com_height_m: Array, k_npm: Array, c_nspm: Array, c_absorb_nspm: Array,
-             absorbing: Array, ground: Ground, engage_m: Array | float = 0.0,
-             linear_model: bool = False) -> ContactEval:
-    """Normal force, its moment, and penetration for every ship (see the module docstring).
+class FootForce(NamedTuple):
+    """One foot's share of a contact evaluation."""
+
+    force_n: float  # k x + c x', clamped as the contact requires
+    # its terms of the pressing feet's linear model (zeros when not pressing or not asked for)
+    stiffness_npm: float
+    damping_nspm: float
+    spring_load_n: float
+    spring_load_rate_nps: float
+
+
+@kernel
+def foot_force(ground, vel_mps, omega_w, offset, foot, pen, push, k_leg, c_leg, absorbing,
+               engage_m, n_hat, linear_model):
+    """One foot's spring-damper force k x + c x', its rate x' = -g . v_foot relative to the
+    surface, and (``linear_model``) its terms of the pressing feet's linear model along n_hat."""
+    v_foot = sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
+    pen_rate = -dot(push, v_foot)
+    f = k_leg * pen + c_leg * pen_rate
+    stiff = damp = load = load_rate = 0.0
+    if linear_model:
+        pressing = pen > -engage_m and (absorbing or f > 0.0)
+        gamma = dot(push, n_hat)
+        k_g = k_leg * gamma if pressing else 0.0
+        stiff = k_g * gamma
+        damp = c_leg * gamma * gamma if pressing else 0.0
+        load = k_g * pen
+        load_rate = k_g * pen_rate
+    if not absorbing:
+        f = fmax(f, 0.0)
+    if not pen > -engage_m:
+        f = 0.0
+    return FootForce(f, stiff, damp, load, load_rate)
+
+
+@kernel
+def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, k_npm, c_nspm,
+             c_absorb_nspm, absorbing, engage_m, linear_model):
+    """Normal force, its moment, and penetration (see the module docstring).
 
     ``engage_m``: a foot counts as touching from ``x > -engage_m``; a step that starts exactly
     at the surface crossing passes a micrometre so that rounding cannot leave out the damper's
     jump at its first stage. ``linear_model``: also sum the pressing feet's stiffness, damping,
     load and load rate along the radial (zeros otherwise)."""
-    n = pos_m.shape[0]
-    force = np.zeros((n, 3))
-    torque = np.zeros((n, 3))
-    normal = np.zeros(n)
-    max_pen = np.full(n, -np.inf)
-    lowest = np.zeros((n, 3))
-    stiff, damp, load, load_rate = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     k_leg = 0.25 * k_npm
-    c_leg = np.where(absorbing, 0.25 * c_absorb_nspm, 0.25 * c_nspm)
-    ft = feet(pos_m, quat, leg_radius_m, com_height_m, ground)
-    n_hat = vec.unit(pos_m) if linear_model else None
-    forces = []
-    for offset, foot, pen, push in zip(ft.offset_w, ft.pos_w, ft.pen_m, ft.push_w):
-        v_foot = vel_mps + vec.cross(omega_w, offset) - ground.surface_velocity(foot)
-        pen_rate = -vec.dot(push, v_foot)
-        f = k_leg * pen + c_leg * pen_rate
-        if linear_model:
-            pressing = (pen > -engage_m) & (absorbing | (f > 0.0))
-            gamma = vec.dot(push, n_hat)
-            k_g = np.where(pressing, k_leg * gamma, 0.0)
-            stiff += k_g * gamma
-            damp += np.where(pressing, c_leg * gamma * gamma, 0.0)
-            load += k_g * pen
-            load_rate += k_g * pen_rate
-        f = np.where(absorbing, f, np.maximum(f, 0.0))
-        f = np.where(pen > -engage_m, f, 0.0)
-        forces.append(f)
-        f_vec = vec.scale(push, f)
-        force += f_vec
-        torque += vec.cross(offset, f_vec)
-        normal += f * vec.norm(push)
-        deeper = pen > max_pen
-        lowest = np.where(deeper[:, None], foot, lowest)
-        max_pen = np.where(deeper, pen, max_pen)
-    return ContactEval(ft, tuple(forces), force, torque, normal, max_pen, lowest, stiff, damp,
-                       load, load_rate)
+    c_leg = 0.25 * c_absorb_nspm if absorbing else 0.25 * c_nspm
+    ft = feet(ground, pos_m, quat, leg_radius_m, com_height_m)
+    n_hat = unit(pos_m) if linear_model else (0.0, 0.0, 0.0)
+    ff = (foot_force(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0], ft.pen_m[0],
+                     ft.push_w[0], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+          foot_force(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1], ft.pen_m[1],
+                     ft.push_w[1], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+          foot_force(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2], ft.pen_m[2],
+                     ft.push_w[2], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+          foot_force(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3], ft.pen_m[3],
+                     ft.push_w[3], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model))
+    force = (0.0, 0.0, 0.0)
+    torque = (0.0, 0.0, 0.0)
+    normal = 0.0
+    max_pen = -math.inf
+    lowest = (0.0, 0.0, 0.0)
+    stiff = damp = load = load_rate = 0.0
+    for i in range(4):  # sums in foot order: the same bits on every machine
+        f = ff[i]
+        stiff += f.stiffness_npm
+        damp += f.damping_nspm
+        load += f.spring_load_n
+        load_rate += f.spring_load_rate_nps
+        f_vec = scale(ft.push_w[i], f.force_n)
+        force = add(force, f_vec)
+        torque = add(torque, cross(ft.offset_w[i], f_vec))
+        normal += f.force_n * norm(ft.push_w[i])
+        if ft.pen_m[i] > max_pen:
+            lowest = ft.pos_w[i]
+            max_pen = ft.pen_m[i]
+    return ContactEval(True, ft, (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n),
+                       force, torque, normal, max_pen, lowest, stiff, damp, load, load_rate)
 
 
-def no_contact(n: int, pos_m: Array) -> ContactEval:
-    """The evaluation of ships known to be clear of the ground for the whole step."""
-    z3, z1 = np.zeros((n, 3)), np.zeros(n)
-    return ContactEval(None, (z1, z1, z1, z1), z3, z3, z1, np.full(n, -np.inf), pos_m, z1, z1,
-                       z1, z1)
+@kernel
+def no_contact(pos_m):
+    """The evaluation of a ship known to be clear of the ground for the whole step."""
+    z = (0.0, 0.0, 0.0)
+    ft = Feet((z, z, z, z), (z, z, z, z), (0.0, 0.0, 0.0, 0.0), (z, z, z, z))
+    return ContactEval(False, ft, (0.0, 0.0, 0.0, 0.0), z, z, 0.0, -math.inf, pos_m, 0.0, 0.0,
+                       0.0, 0.0)

@@ -1,4 +1,4 @@
-"""Equations of motion of free ships (flying or in contact): a rigid body under point-mass gravity,
+"""Equations of motion of a free ship (flying or in contact): a rigid body under point-mass gravity,
 main-engine thrust, RCS torque and the ground's contact forces.
 
     p' = v
@@ -11,105 +11,116 @@ of mass. Newton-Euler about the centre of mass with the contact force applied at
 physics stated without that slip: when a foot holds (friction) and the ship turns about it, the
 inertia about the pivot (parallel-axis theorem) comes out by itself (SEED-NOTES 5).
 Gravity-gradient torque (order GM I / r^3, ~1e-6 of the contact torques) is neglected.
+One ship's functions, compiled (sim.compiled).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from typing import NamedTuple
 
 import numpy as np
 
-from sim import vec
-from sim.contact import ContactEval, Ground, evaluate, no_contact
-from sim.frames import body_rotation
-from sim.params import Params
+from sim.compiled import kernel
+from sim.contact import Ground, evaluate, no_contact
+from sim.frames import turned
+from sim.vec import add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative, quat_rotate, \
+    quat_rotate_inv, scale, sub
 
-Array = np.ndarray
 
+class FreeBody(NamedTuple):
+    """Everything about one free ship that is constant over a tick, and the ground it may meet."""
 
-@dataclass(frozen=True)
-class FreeBodies:
-    """Everything constant over one tick for a subset of free ships (arrays (M,...))."""
-
-    mass_kg: Array
-    inertia_kgm2: Array  # (M, 3)
-    thrust_n: Array
-    rcs_torque_body_nm: Array  # (M, 3)
-    leg_radius_m: Array
-    com_height_m: Array
-    k_npm: Array
-    c_nspm: Array
-    c_absorb_nspm: Array
+    mass_kg: float
+    inertia_kgm2: tuple  # principal moments, body frame
+    thrust_n: float  # main engine, along body +z
+    rcs_torque_body_nm: tuple
+    leg_radius_m: float
+    com_height_m: float
+    k_npm: float  # the seed's k = stiffness_per_kg m
+    c_nspm: float  # c = 2 zeta sqrt(k m)
+    c_absorb_nspm: float  # the absorbers' damper (SEED-NOTES 1)
+    stiffness_per_kg: float
     gm_m3ps2: float
     body_radius_m: float
     body_omega_radps: float
-    params: Params
-    touching: bool  # False: these ships cannot reach the ground this tick; skip the contact work
-    t_tick_s: float = 0.0  # the tick's start; instants within it are given as offsets from it
-    #: a foot presses from penetration > -engage_m (per ship or one number); negative while a
-    #: ship is stepped up to the instant its feet reach the ground (sim.step.free_flight)
-    engage_m: Array | float = 0.0
-    #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums); others
-    #: skip that work
-    linear_model: bool = False
-
-    def ground_at(self, offset_s: float | Array) -> Ground:
-        """The ground at ``t_tick + offset`` (offset a number or one per ship). The tick's angle
-        Omega t comes from one scalar libm call shared by every ship; the offset's small angle is
-        added with cos_sinc's +,*,/ series, so a ship's ground depends on its own offset alone."""
-        body = self.params.body
-        om = self.body_omega_radps
-        radial = self.params.contact.surface_normal == "radial"
-        if om == 0.0:
-            return Ground(self.body_radius_m, body.terrain, 1.0, 0.0, 0.0, radial)
-        c0, s0 = body_rotation(self.params, self.t_tick_s)
-        if body.terrain.flat:  # the sphere looks the same at every angle
-            return Ground(self.body_radius_m, body.terrain, c0, s0, om, radial)
-        d = np.broadcast_to(np.asarray(om * np.asarray(offset_s, dtype=float)),
-                            self.mass_kg.shape)
-        cd, sinc_d = vec.cos_sinc(d)
-        sd = d * sinc_d
-        return Ground(self.body_radius_m, body.terrain, c0 * cd - s0 * sd, s0 * cd + c0 * sd, om,
-                      radial)
+    base_height_m: float
+    bumps: np.ndarray  # the terrain's bumps (sim.contact.Ground)
+    radial: bool  # the seed's radial normal on any slope
+    cos0: float  # the body's angle at the tick's start
+    sin0: float
+    #: False: this ship cannot reach the ground this tick; skip the contact work
+    touching: bool
+    #: a foot presses from penetration > -engage_m; negative while the ship is stepped up to the
+    #: instant its feet reach the ground (sim.step.free_flight)
+    engage_m: float
+    #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums)
+    linear_model: bool
 
 
-    def ground_turn(self, dt_s: float | Array) -> tuple[float | Array, float | Array]:
-        """(cos, sin) of the angle the body turns through in dt_s (a number or one per ship),
-        with cos_sinc's series (per ship, so no ship depends on its neighbours)."""
-        if self.body_omega_radps == 0.0:
-            return 1.0, 0.0
-        d = np.broadcast_to(np.asarray(self.body_omega_radps * np.asarray(dt_s, dtype=float)),
-                            self.mass_kg.shape)
-        c, sinc = vec.cos_sinc(d)
-        return c, d * sinc
+@kernel
+def with_engage(fb, engage_m):
+    """``fb`` whose feet press from penetration > -engage_m."""
+    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
+                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
+                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.base_height_m, fb.bumps, fb.radial, fb.cos0, fb.sin0, fb.touching,
+                    engage_m, fb.linear_model)
 
 
-def contact_at(fb: FreeBodies, ground: Ground, p, v, q, w_b, absorbing,
-               engage_m: Array | float | None = None) -> ContactEval:
-    """The ground's action at one state. ``engage_m`` overrides ``fb.engage_m``."""
+@kernel
+def ground_at(fb, offset_s):
+    """The ground ``offset_s`` after the tick's start. On a flat body it looks the same at every
+    angle, so the tick's angle serves."""
+    om = fb.body_omega_radps
+    if om == 0.0:
+        return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, 1.0, 0.0, 0.0, fb.radial)
+    if fb.bumps.shape[0] == 0:
+        return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, fb.cos0, fb.sin0, om,
+                      fb.radial)
+    c, s = turned(fb.cos0, fb.sin0, om, offset_s)
+    return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, c, s, om, fb.radial)
+
+
+@kernel
+def ground_turn(fb, dt_s):
+    """(cos, sin) of the angle the body turns through in dt_s (sim.vec.cos_sinc's series)."""
+    if fb.body_omega_radps == 0.0:
+        return 1.0, 0.0
+    d = fb.body_omega_radps * dt_s
+    c, sinc = cos_sinc(d)
+    return c, d * sinc
+
+
+@kernel
+def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
+    """The ground's action at one state (``engage_m``: sim.contact.evaluate)."""
     if not fb.touching:
-        return no_contact(p.shape[0], p)
-    omega_w = vec.quat_rotate(q, w_b)
-    return evaluate(p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm,
-                    fb.c_absorb_nspm, absorbing, ground,
-                    fb.engage_m if engage_m is None else engage_m, fb.linear_model)
+        return no_contact(p)
+    omega_w = quat_rotate(q, w_b)
+    return evaluate(ground, p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm,
+                    fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model)
 
 
-def acceleration(fb: FreeBodies, ce: ContactEval, p, q) -> Array:
+@kernel
+def acceleration(fb, ce, p, q):
     """v': point-mass gravity, thrust along the long axis, and the ground's force."""
-    r2 = vec.dot(p, p)
-    r = np.sqrt(r2)
-    a = vec.scale(p, -fb.gm_m3ps2 / (r2 * r))
-    force = ce.force_w + vec.scale(vec.quat_axis_z(q), fb.thrust_n)
-    return a + force / fb.mass_kg[:, None]
+    r2 = dot(p, p)
+    r = math.sqrt(r2)
+    a = scale(p, -fb.gm_m3ps2 / (r2 * r))
+    force = add(ce.force_w, scale(quat_axis_z(q), fb.thrust_n))
+    m = fb.mass_kg
+    return add(a, (force[0] / m, force[1] / m, force[2] / m))
 
 
-def torque_body(fb: FreeBodies, ce: ContactEval, q) -> Array:
+@kernel
+def torque_body(fb, ce, q):
     """External torque in the body frame: the ground's, and the RCS's."""
-    return vec.quat_rotate_inv(q, ce.torque_w) + fb.rcs_torque_body_nm
+    return add(quat_rotate_inv(q, ce.torque_w), fb.rcs_torque_body_nm)
 
 
-def derivatives(fb: FreeBodies, ce: ContactEval, p, v, q, w_b):
+@kernel
+def derivatives(fb, ce, p, v, q, w_b):
     """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
-    i_w = fb.inertia_kgm2 * w_b
-    alpha_b = (torque_body(fb, ce, q) - vec.cross(w_b, i_w)) / fb.inertia_kgm2
-    return v, acceleration(fb, ce, p, q), vec.quat_derivative(q, w_b), alpha_b
+    i_w = mul(fb.inertia_kgm2, w_b)
+    alpha_b = div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.inertia_kgm2)
+    return v, acceleration(fb, ce, p, q), quat_derivative(q, w_b), alpha_b

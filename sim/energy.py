@@ -21,78 +21,65 @@ conserves with no thrust, no RCS and no dissipation; the dampers, friction and e
 inelastic transition (touchdown, landing, a fall onto the side) can only lower it. On a body that
 does not spin U_c = 0 and E is the ordinary energy. The velocities of landed, tipped and crashed
 ships are those of their pinned motion (zero relative to the surface, except a tipped ship turning
-about its pivot).
+about its pivot). One ship, compiled (sim.compiled).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
-import numpy as np
-
-from sim import vec
-from sim.contact import Ground, feet
-
-Array = np.ndarray
+from sim.compiled import kernel
+from sim.contact import feet, surface_velocity
+from sim.vec import dot, mul, norm, quat_rotate_inv, sub
 
 
-@dataclass(frozen=True)
-class Energy:
-    """The parts of E (J, one per ship); ``total_j`` adds them in this order."""
+class Energy(NamedTuple):
+    """The parts of E (J); :func:`total` adds them in a fixed order."""
 
-    translational_j: Array
-    rotational_j: Array
-    gravity_j: Array
-    centrifugal_j: Array  # the centre of mass's: -m Omega^2 (rho^2 - R^2) / 2
-    centrifugal_spin_j: Array  # the rotation's: -Omega_b . I Omega_b / 2
-    spring_j: Array
-
-    @property
-    def total_j(self) -> Array:
-        return self.translation_j + self.rotation_j + self.spring_j
-
-    @property
-    def translation_j(self) -> Array:
-        """The centre of mass's part; in free flight it is conserved on its own."""
-        return (self.translational_j + self.gravity_j) + self.centrifugal_j
-
-    @property
-    def rotation_j(self) -> Array:
-        """The rotation's part (E_rot - Omega . L_rot); in free flight conserved on its own."""
-        return self.rotational_j + self.centrifugal_spin_j
+    translational_j: float
+    rotational_j: float
+    gravity_j: float
+    centrifugal_j: float  # the centre of mass's: -m Omega^2 (rho^2 - R^2) / 2
+    centrifugal_spin_j: float  # the rotation's: -Omega_b . I Omega_b / 2
+    spring_j: float
 
 
-def mechanical(gm_m3ps2: float, radius_m: float, spin_radps: float, stiffness_per_kg: float,
-               leg_radius_m: Array, com_height_m: Array, mass_kg: Array, inertia_kgm2: Array,
-               p: Array, v: Array, q: Array, w_b: Array, ground: Ground) -> Energy:
-    """E of ships at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant."""
-    spin_b = vec.quat_rotate_inv(q, np.broadcast_to(np.array([0.0, 0.0, spin_radps]), p.shape))
-    v_rel = v - ground.surface_velocity(p)
-    w_rel = w_b - spin_b
-    r = vec.norm(p)
-    trans = 0.5 * mass_kg * vec.dot(v_rel, v_rel)
-    rot = 0.5 * vec.dot(w_rel, inertia_kgm2 * w_rel)
+@kernel
+def translation(e):
+    """The centre of mass's part; in free flight it is conserved on its own."""
+    return e.translational_j + e.gravity_j + e.centrifugal_j
+
+
+@kernel
+def rotation(e):
+    """The rotation's part (E_rot - Omega . L_rot); in free flight conserved on its own."""
+    return e.rotational_j + e.centrifugal_spin_j
+
+
+@kernel
+def total(e):
+    return translation(e) + rotation(e) + e.spring_j
+
+
+@kernel
+def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, com_height_m,
+               mass_kg, inertia_kgm2, p, v, q, w_b, ground):
+    """E of a ship at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant."""
+    spin_b = quat_rotate_inv(q, (0.0, 0.0, spin_radps))
+    v_rel = sub(v, surface_velocity(ground, p))
+    w_rel = sub(w_b, spin_b)
+    r = norm(p)
+    trans = 0.5 * mass_kg * dot(v_rel, v_rel)
+    rot = 0.5 * dot(w_rel, mul(inertia_kgm2, w_rel))
     grav = mass_kg * gm_m3ps2 * ((r - radius_m) / (radius_m * r))
+    cent = cent_spin = 0.0
     if spin_radps != 0.0:
-        rho2_minus_r2 = p[:, 0] * p[:, 0] + p[:, 1] * p[:, 1] - radius_m * radius_m
+        rho2_minus_r2 = p[0] * p[0] + p[1] * p[1] - radius_m * radius_m
         cent = -0.5 * mass_kg * spin_radps * spin_radps * rho2_minus_r2
-        cent_spin = -0.5 * vec.dot(spin_b, inertia_kgm2 * spin_b)
-    else:
-        cent = cent_spin = np.zeros_like(r)
-    ft = feet(p, q, leg_radius_m, com_height_m, ground)
+        cent_spin = -0.5 * dot(spin_b, mul(inertia_kgm2, spin_b))
+    pen = feet(ground, p, q, leg_radius_m, com_height_m).pen_m
     k_leg = 0.25 * stiffness_per_kg * mass_kg
-    spring = np.zeros_like(r)
-    for x in ft.pen_m:
-        spring = spring + np.where(x > 0.0, 0.5 * k_leg * x * x, 0.0)
+    spring = 0.0
+    for i in range(4):
+        x = pen[i]
+        spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)
     return Energy(trans, rot, grav, cent, cent_spin, spring)
-
-
-def at(params, t_s: float, p: Array, v: Array, q: Array, w_b: Array, mass_kg: Array) -> Energy:
-    """E of ships of ``params`` (all of them, in order) in a recorded state at time t_s: what
-    ``export`` reports as energy_j, and what the property tests hold to."""
-    from sim.frames import ground_at
-
-    sh, body = params.ships, params.body
-    inertia = sh.inertia0_kgm2 * (mass_kg / sh.mass0_kg)[:, None]
-    return mechanical(body.gm_m3ps2, body.radius_m, body.omega_radps,
-                      params.contact.stiffness_per_kg, sh.leg_radius_m, sh.com_height_m, mass_kg,
-                      inertia, p, v, q, w_b, ground_at(params, t_s))

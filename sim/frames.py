@@ -4,111 +4,98 @@ and the landing-site frame (east, north, up) in which positions are reported.
 
 The site is the body-fixed +x axis: east is body-fixed +y, north +z, and up is +x measured from the
 reference sphere (``body.radius``), so the site frame's origin is the point of the sphere under the
-site. The body's rotation angle at an instant comes from one scalar libm call shared by every ship.
+site. The body's rotation angle at a tick's start comes from one scalar libm call shared by every
+ship (:func:`body_rotation`, outside the kernels); an instant inside the tick adds its small angle
+with sim.vec's +,*,/ series (:func:`turned`), so a ship's frame depends on its own instants alone.
+One ship's functions, compiled (sim.compiled).
 """
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from sim import contact, vec
-from sim.params import Params
-from sim.state import State
-
-_Z = np.array([0.0, 0.0, 1.0])
+from sim.compiled import kernel
+from sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
 
 
-def body_rotation(params: Params, t_s: float) -> tuple[float, float]:
-    """(cos, sin) of the body's rotation angle Omega t. One scalar libm call per instant, shared by
-    every ship, so it cannot make ships differ."""
-    theta = params.body.omega_radps * t_s
+def body_rotation(omega_radps: float, t_s: float) -> tuple[float, float]:
+    """(cos, sin) of the body's rotation angle Omega t at a tick's start: one scalar libm call per
+    tick, shared by every ship, so it cannot make ships differ."""
+    theta = omega_radps * t_s
     return (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
 
 
-def ground_at(params: Params, t_s: float) -> contact.Ground:
-    """The ground at one instant shared by the batch (tick ends)."""
-    c, s = body_rotation(params, t_s)
-    return contact.Ground(params.body.radius_m, params.body.terrain, c, s,
-                          params.body.omega_radps, params.contact.surface_normal == "radial")
+@kernel
+def turned(cos0, sin0, omega_radps, offset_s):
+    """(cos, sin) of the body's angle ``offset_s`` after the angle (cos0, sin0): the small angle
+    Omega offset from the series, composed with the tick's."""
+    if omega_radps == 0.0:
+        return 1.0, 0.0
+    d = omega_radps * offset_s
+    cd, sinc_d = cos_sinc(d)
+    sd = d * sinc_d
+    return cos0 * cd - sin0 * sd, sin0 * cd + cos0 * sd
 
 
-def rotate_z(v: np.ndarray, c: float, s: float) -> np.ndarray:
-    """Rotate inertial vectors (N,3) by angle (c = cos, s = sin) about +z."""
-    out = v.copy()
-    out[:, 0] = c * v[:, 0] - s * v[:, 1]
-    out[:, 1] = s * v[:, 0] + c * v[:, 1]
-    return out
+@kernel
+def rotate_z(v, c, s):
+    """Rotate a vector by the angle of cosine c and sine s about +z."""
+    return (c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
 
 
-def quat_z(c: float, s: float, n: int) -> np.ndarray:
-    """Quaternions (n,4) of the rotation about +z whose angle has cosine c and sine s (half-angle
+@kernel
+def quat_z(c, s):
+    """The quaternion of the rotation about +z whose angle has cosine c and sine s (half-angle
     formulas: sqrt only)."""
     ch = math.sqrt(max(0.0, 0.5 * (1.0 + c)))
     sh = math.copysign(math.sqrt(max(0.0, 0.5 * (1.0 - c))), s)
-    q = np.zeros((n, 4))
-    q[:, 0] = ch
-    q[:, 3] = sh
-    return q
+    return (ch, 0.0, 0.0, sh)
 
 
-def pin_pose(p: np.ndarray, q: np.ndarray, c: float, s: float) -> tuple[np.ndarray, np.ndarray]:
+@kernel
+def pin_pose(p, q, c, s):
     """Inertial pose -> body-fixed pose at body angle (c, s)."""
     if c == 1.0 and s == 0.0:
-        return p.copy(), q.copy()
-    return rotate_z(p, c, -s), vec.quat_mul(quat_z(c, -s, p.shape[0]), q)
+        return p, q
+    return rotate_z(p, c, -s), quat_mul(quat_z(c, -s), q)
 
 
-def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
+@kernel
+def surface_velocity(omega_radps, p):
     """Omega z x p: velocity of the body's surface (or a pinned ship) at p."""
-    om = params.body.omega_radps
-    out = np.zeros_like(p)
-    if om == 0.0:
-        return out
-    out[:, 0] = -om * p[:, 1]
-    out[:, 1] = om * p[:, 0]
-    return out
+    if omega_radps == 0.0:
+        return (0.0, 0.0, 0.0)
+    return (-omega_radps * p[1], omega_radps * p[0], 0.0)
 
 
-def surface_spin_w(params: Params, n: int) -> np.ndarray:
-    return np.broadcast_to(_Z * params.body.omega_radps, (n, 3))
+@kernel
+def body_spin_in_body_frame(omega_radps, q):
+    """The body's spin (0, 0, Omega) expressed in the ship's body frame."""
+    if omega_radps == 0.0:
+        return (0.0, 0.0, 0.0)
+    return quat_rotate_inv(q, (0.0, 0.0, omega_radps))
 
 
-def body_spin_in_body_frame(params: Params, q: np.ndarray) -> np.ndarray:
-    """The body's spin (0, 0, Omega) expressed in each ship's body frame."""
-    if params.body.omega_radps == 0.0:
-        return np.zeros((q.shape[0], 3))
-    return vec.quat_rotate_inv(q, np.broadcast_to(_Z * params.body.omega_radps, (q.shape[0], 3)))
-
-
-def effective_gravity(params: Params, p: np.ndarray) -> np.ndarray:
+@kernel
+def effective_gravity(gm_m3ps2, omega2, p):
     """Gravity plus the centrifugal acceleration of the frame turning with the body,
     -GM p / r^3 + Omega^2 (p_x, p_y, 0), m/s^2: what a ship held on the surface weighs by. The
     same expression in the inertial and the body-fixed frames (both turn about z)."""
-    r2 = vec.dot(p, p)
-    g = vec.scale(p, -params.body.gm_m3ps2 / (r2 * np.sqrt(r2)))
-    om2 = params.body.omega_radps ** 2
-    if om2 != 0.0:
-        g[:, 0] += om2 * p[:, 0]
-        g[:, 1] += om2 * p[:, 1]
+    r2 = dot(p, p)
+    k = -gm_m3ps2 / (r2 * math.sqrt(r2))
+    g = (p[0] * k, p[1] * k, p[2] * k)
+    if omega2 != 0.0:
+        return (g[0] + omega2 * p[0], g[1] + omega2 * p[1], g[2])
     return g
 
 
-def inertia(params: Params, st: State) -> np.ndarray:
-    """Principal inertia (N,3), scaled with the wet mass (fuel spread like the structure)."""
-    return params.ships.inertia0_kgm2 * (st.mass_kg / params.ships.mass0_kg)[:, None]
+@kernel
+def inertia(inertia0_kgm2, mass0_kg, mass_kg):
+    """Principal inertia scaled with the wet mass (fuel spread like the structure)."""
+    f = mass_kg / mass0_kg
+    return (inertia0_kgm2[0] * f, inertia0_kgm2[1] * f, inertia0_kgm2[2] * f)
 
 
-def site_frame(params: Params, p: np.ndarray, v: np.ndarray, t_s: float
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """(east, north, up) of centres of mass (N,3), m, and their velocity relative to the surface
-    in the same axes (v_east, v_north, v_up), m/s, at time t_s."""
-    c, s = body_rotation(params, t_s)
-    pos = site_axes(rotate_z(p, c, -s))
-    pos[:, 2] -= params.body.radius_m
-    return pos, site_axes(rotate_z(v - surface_velocity(params, p), c, -s))
-
-
-def site_axes(v_bf: np.ndarray) -> np.ndarray:
-    """Body-fixed vectors (N,3) in the site's axes: (east, north, up) = body-fixed (y, z, x)."""
-    return np.stack([v_bf[:, 1], v_bf[:, 2], v_bf[:, 0]], axis=1)
+@kernel
+def site_axes(v_bf):
+    """A body-fixed vector in the site's axes: (east, north, up) = body-fixed (y, z, x)."""
+    return (v_bf[1], v_bf[2], v_bf[0])

@@ -35,183 +35,221 @@ by a h^2 / 2 a step.
 The seed's law (``"seed"``): kinetic above 0.01 m/s with no stopping test, else reset the centre of
 mass's tangential velocity, falling back to kinetic friction beyond mu_s N; it acts at the centre
 of mass (no moment). Kept reachable for comparison; it 2-cycles and creeps as SEED-NOTES 4 shows.
+One ship, compiled (sim.compiled).
 """
 from __future__ import annotations
 
-import numpy as np
+from typing import NamedTuple
 
-from sim import vec
+from sim.compiled import kernel
 from sim.constants import STICK_SPEED_MPS
-from sim.contact import Feet, Four, Ground
-
-Array = np.ndarray
+from sim.contact import surface_velocity
+from sim.vec import add, cross, div, dot, fmax, norm, quat_integrate, quat_rotate, \
+    quat_rotate_inv, scale, sub, unit
 
 #: A footprint with less than this much of its load's lever (sum of J_i |rho_i|^2 over sum J_i, m^2)
 #: is a point: it has no torsional friction (leg_radius = 0, or one foot pressing).
 POINT_CONTACT_M2 = 1e-12
 
 
-def spread_over_step(pos_m: Array, quat: Array, vel_before: Array, vel_after: Array,
-                     omega_before: Array, omega_after: Array,
-                     h: float | Array) -> tuple[Array, Array]:
+@kernel
+def spread_over_step(pos_m, quat, vel_before, vel_after, omega_before, omega_after, h):
     """Position and attitude as if the friction impulse had acted evenly over the step of length
     h: a velocity change dv spread over the step changes its drift by h dv / 2 (dv opposes the
     slip, so the ship ends short of where its speed before the impulse took it), and likewise
     for the turn. Exact for a constant friction force; a ship held at rest by static friction
     then stays exactly where it is."""
-    h_col = h if np.ndim(h) == 0 else np.asarray(h)[:, None]
-    pos = pos_m + 0.5 * h_col * (vel_after - vel_before)
-    d_omega = omega_after - omega_before
-    turned = (d_omega[:, 0] != 0.0) | (d_omega[:, 1] != 0.0) | (d_omega[:, 2] != 0.0)
-    # a ship that friction did not turn keeps its attitude's bits (renormalising would not)
-    quat = np.where(turned[:, None], vec.quat_integrate(quat, d_omega, 0.5 * np.asarray(h)), quat)
-    return pos, quat
+    pos = add(pos_m, scale(sub(vel_after, vel_before), 0.5 * h))
+    d_omega = sub(omega_after, omega_before)
+    if d_omega[0] != 0.0 or d_omega[1] != 0.0 or d_omega[2] != 0.0:
+        return pos, quat_integrate(quat, d_omega, 0.5 * h)
+    return pos, quat  # a ship that friction did not turn keeps its attitude's bits
 
 
-def _tangent_basis(n_hat: Array) -> tuple[Array, Array]:
-    """Two unit vectors spanning the plane normal to n_hat (any orientation; chosen per ship from
-    its own n_hat alone)."""
-    ref = np.zeros_like(n_hat)
-    use_z = np.abs(n_hat[:, 2]) < 0.9
-    ref[:, 2] = np.where(use_z, 1.0, 0.0)
-    ref[:, 0] = np.where(use_z, 0.0, 1.0)
-    t1 = vec.unit(vec.cross(ref, n_hat))
-    return t1, vec.cross(n_hat, t1)
+@kernel
+def tangent_basis(n_hat):
+    """Two unit vectors spanning the plane normal to n_hat (any orientation)."""
+    use_z = abs(n_hat[2]) < 0.9
+    ref = (0.0, 0.0, 1.0) if use_z else (1.0, 0.0, 0.0)
+    t1 = unit(cross(ref, n_hat))
+    return t1, cross(n_hat, t1)
 
 
-def _patch(pos_m: Array, ft: Feet, j_n: list[Array]) -> tuple[list[Array], Array, Array]:
+class Patch(NamedTuple):
+    """The footprint as friction sees it."""
+
+    normals: tuple  # each foot's friction plane normal
+    n_bar: tuple  # the load-weighted normal
+    centre: tuple  # the centre of pressure
+
+
+@kernel
+def patch(pos_m, ft, j_n):
     """Each foot's friction plane normal, and the footprint's: the load-weighted normal and the
     centre of pressure (weights: the feet's normal impulses). A foot's plane is the terrain's
     slope under it on the ship's local vertical: the sphere's own curvature across the footprint
     (a / R, 1e-6 rad) would make a straight descent slip every foot inwards."""
-    up = vec.unit(pos_m)
-    j_sum = ((j_n[0] + j_n[1]) + j_n[2]) + j_n[3]
-    pressed = j_sum > 0.0
-    normals = [vec.unit(ft.push_w[i] - vec.unit(ft.pos_w[i]) + up) for i in range(4)]
-    n_bar = vec.unit(sum((vec.scale(normals[i], j_n[i]) for i in range(1, 4)),
-                         vec.scale(normals[0], j_n[0])))
-    n_bar = np.where(pressed[:, None], n_bar, up)
-    centre = sum((vec.scale(ft.pos_w[i], j_n[i]) for i in range(1, 4)),
-                 vec.scale(ft.pos_w[0], j_n[0])) / np.where(pressed, j_sum, 1.0)[:, None]
-    return normals, n_bar, np.where(pressed[:, None], centre, pos_m)
+    up = unit(pos_m)
+    j_sum = j_n[0] + j_n[1] + j_n[2] + j_n[3]
+    n0 = unit(add(sub(ft.push_w[0], unit(ft.pos_w[0])), up))
+    n1 = unit(add(sub(ft.push_w[1], unit(ft.pos_w[1])), up))
+    n2 = unit(add(sub(ft.push_w[2], unit(ft.pos_w[2])), up))
+    n3 = unit(add(sub(ft.push_w[3], unit(ft.pos_w[3])), up))
+    if not j_sum > 0.0:
+        return Patch((n0, n1, n2, n3), up, pos_m)
+    n_bar = unit(add(add(add(scale(n0, j_n[0]), scale(n1, j_n[1])), scale(n2, j_n[2])),
+                     scale(n3, j_n[3])))
+    c = add(add(add(scale(ft.pos_w[0], j_n[0]), scale(ft.pos_w[1], j_n[1])),
+                scale(ft.pos_w[2], j_n[2])), scale(ft.pos_w[3], j_n[3]))
+    return Patch((n0, n1, n2, n3), n_bar, (c[0] / j_sum, c[1] / j_sum, c[2] / j_sum))
 
 
-def hold_footprint(pos_m: Array, ft_start: Feet, ft_end: Feet, foot_impulse_ns: Four,
-                   held: Array, cos_turn: float | Array, sin_turn: float | Array) -> Array:
-    """The ship moved so that a footprint held by static friction through the whole step (``held``)
-    ends exactly where the ground has carried the point it stood on (the ground turning by the
-    angle of (cos_turn, sin_turn) about z over the step): the position-level half of sticking.
-    The velocity-level half (the stop impulse) and the spread of its drift over the step leave a
+@kernel
+def hold_footprint(pos_m, ft_start, ft_end, foot_impulse_ns, cos_turn, sin_turn):
+    """The ship moved so that a footprint held by static friction through the whole step ends
+    exactly where the ground has carried the point it stood on (the ground turning by the angle of
+    (cos_turn, sin_turn) about z over the step): the position-level half of sticking. The
+    velocity-level half (the stop impulse) and the spread of its drift over the step leave a
     residue when a held foot's slip does not grow evenly within the step (a held ship on a
     rotating body, whose ground curves away under its straight inertial step, crept 0.5 m an hour
     at 25 ms sub-steps without this); only the drift along the ground is undone."""
-    j_n = [np.maximum(j, 0.0) for j in foot_impulse_ns]
-    _, _, start = _patch(pos_m, ft_start, j_n)
-    _, n_bar, end = _patch(pos_m, ft_end, j_n)
-    carried = start.copy()
-    carried[:, 0] = cos_turn * start[:, 0] - sin_turn * start[:, 1]
-    carried[:, 1] = sin_turn * start[:, 0] + cos_turn * start[:, 1]
-    drift = end - carried
-    drift = drift - vec.scale(n_bar, vec.dot(drift, n_bar))
-    return pos_m - np.where(held[:, None], drift, 0.0)
+    j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
+           fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
+    start = patch(pos_m, ft_start, j_n).centre
+    end = patch(pos_m, ft_end, j_n)
+    carried = (cos_turn * start[0] - sin_turn * start[1],
+               sin_turn * start[0] + cos_turn * start[1], start[2])
+    drift = sub(end.centre, carried)
+    drift = sub(drift, scale(end.n_bar, dot(drift, end.n_bar)))
+    return sub(pos_m, drift)
 
 
-def coulomb(mu_s: float, mu_k: float, mass_kg: Array, inertia_kgm2: Array, pos_m: Array,
-            vel_mps: Array, quat: Array, omega_b: Array, ft: Feet, foot_impulse_ns: Four,
-            sliding: Array, ground: Ground) -> tuple[Array, Array, Array, Array]:
+class Friction(NamedTuple):
+    """What friction did over a step."""
+
+    vel_mps: tuple
+    omega_body_radps: tuple
+    sliding: tuple  # each foot's regime (kinetic) after the step
+    impulse_ns: float  # the sum of the feet's friction impulse magnitudes
+
+
+@kernel
+def _share(force_stop, safe_sum, n_bar, lever_t, twist):
+    """A foot's share of the stop impulse per unit of its load: the force in proportion to the
+    load, the moment in proportion to load times lever."""
+    return add((force_stop[0] / safe_sum, force_stop[1] / safe_sum, force_stop[2] / safe_sum),
+               scale(cross(n_bar, lever_t), twist))
+
+
+@kernel
+def coulomb(mu_s, mu_k, mass_kg, inertia_kgm2, pos_m, vel_mps, quat, omega_b, ft,
+            foot_impulse_ns, sliding, ground):
     """Coulomb friction at the pressing feet (module docstring). ``ft``: the feet at the step's
-    end state; ``sliding`` (N, 4): the feet's regime at the start. Returns (vel, omega_b,
-    sliding (N, 4), the sum of the feet's friction impulse magnitudes, N s)."""
-    j_n = [np.maximum(j, 0.0) for j in foot_impulse_ns]
-    j_sum = ((j_n[0] + j_n[1]) + j_n[2]) + j_n[3]
+    end state; ``sliding``: the feet's regime at the start."""
+    j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
+           fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
+    j_sum = j_n[0] + j_n[1] + j_n[2] + j_n[3]
     pressed = j_sum > 0.0
-    safe_sum = np.where(pressed, j_sum, 1.0)
-    normals, n_bar, centre = _patch(pos_m, ft, j_n)
-    t1, t2 = _tangent_basis(n_bar)
-    r = centre - pos_m
-    lever = [ft.pos_w[i] - centre for i in range(4)]
-    lever_t = [x - vec.scale(n_bar, vec.dot(x, n_bar)) for x in lever]
-    s2 = sum((j_n[i] * vec.dot(lever_t[i], lever_t[i]) for i in range(1, 4)),
-             j_n[0] * vec.dot(lever_t[0], lever_t[0]))
+    safe_sum = j_sum if pressed else 1.0
+    pt = patch(pos_m, ft, j_n)
+    n_bar, centre = pt.n_bar, pt.centre
+    t1, t2 = tangent_basis(n_bar)
+    r = sub(centre, pos_m)
+    lever_t = (_in_plane(sub(ft.pos_w[0], centre), n_bar), _in_plane(sub(ft.pos_w[1], centre), n_bar),
+               _in_plane(sub(ft.pos_w[2], centre), n_bar), _in_plane(sub(ft.pos_w[3], centre), n_bar))
+    s2 = (j_n[0] * dot(lever_t[0], lever_t[0]) + j_n[1] * dot(lever_t[1], lever_t[1])
+          + j_n[2] * dot(lever_t[2], lever_t[2]) + j_n[3] * dot(lever_t[3], lever_t[3]))
     twists = s2 > POINT_CONTACT_M2 * safe_sum
 
     # the footprint's slip (at its centre, and its spin about n_bar) and effective mass
-    omega_w = vec.quat_rotate(quat, omega_b)
-    spin_w = np.zeros_like(omega_w)
-    spin_w[:, 2] = ground.spin_radps
-    slip_c = vel_mps + vec.cross(omega_w, r) - ground.surface_velocity(centre)
-    sigma = (vec.dot(slip_c, t1), vec.dot(slip_c, t2), vec.dot(omega_w - spin_w, n_bar))
-    a1 = vec.quat_rotate_inv(quat, vec.cross(r, t1))  # the body-frame turn per unit impulse, x I
-    a2 = vec.quat_rotate_inv(quat, vec.cross(r, t2))
-    a3 = vec.quat_rotate_inv(quat, n_bar)
+    omega_w = quat_rotate(quat, omega_b)
+    spin_w = (0.0, 0.0, ground.spin_radps)
+    slip_c = sub(add(vel_mps, cross(omega_w, r)), surface_velocity(ground, centre))
+    sigma0, sigma1 = dot(slip_c, t1), dot(slip_c, t2)
+    sigma2 = dot(sub(omega_w, spin_w), n_bar)
+    a1 = quat_rotate_inv(quat, cross(r, t1))  # the body-frame turn per unit impulse, x I
+    a2 = quat_rotate_inv(quat, cross(r, t2))
+    a3 = quat_rotate_inv(quat, n_bar)
     inv_m = 1.0 / mass_kg
-    k11 = inv_m + vec.dot(a1, a1 / inertia_kgm2)
-    k22 = inv_m + vec.dot(a2, a2 / inertia_kgm2)
-    k12 = vec.dot(a1, a2 / inertia_kgm2)
-    k13 = np.where(twists, vec.dot(a1, a3 / inertia_kgm2), 0.0)
-    k23 = np.where(twists, vec.dot(a2, a3 / inertia_kgm2), 0.0)
-    k33 = np.where(twists, vec.dot(a3, a3 / inertia_kgm2), 1.0)
-    s3 = np.where(twists, sigma[2], 0.0)
+    k11 = inv_m + dot(a1, div(a1, inertia_kgm2))
+    k22 = inv_m + dot(a2, div(a2, inertia_kgm2))
+    k12 = dot(a1, div(a2, inertia_kgm2))
+    k13 = dot(a1, div(a3, inertia_kgm2)) if twists else 0.0
+    k23 = dot(a2, div(a3, inertia_kgm2)) if twists else 0.0
+    k33 = dot(a3, div(a3, inertia_kgm2)) if twists else 1.0
+    s3 = sigma2 if twists else 0.0
     # stop impulse (P1, P2, L) = -K^-1 sigma, by cofactors
     c11, c22, c33 = k22 * k33 - k23 * k23, k11 * k33 - k13 * k13, k11 * k22 - k12 * k12
     c12, c13, c23 = k13 * k23 - k12 * k33, k12 * k23 - k13 * k22, k12 * k13 - k11 * k23
     det = k11 * c11 + k12 * c12 + k13 * c13
-    p1 = -(c11 * sigma[0] + c12 * sigma[1] + c13 * s3) / det
-    p2 = -(c12 * sigma[0] + c22 * sigma[1] + c23 * s3) / det
-    torque = -(c13 * sigma[0] + c23 * sigma[1] + c33 * s3) / det
-    force_stop = vec.scale(t1, p1) + vec.scale(t2, p2)
+    p1 = -(c11 * sigma0 + c12 * sigma1 + c13 * s3) / det
+    p2 = -(c12 * sigma0 + c22 * sigma1 + c23 * s3) / det
+    torque = -(c13 * sigma0 + c23 * sigma1 + c33 * s3) / det
+    force_stop = add(scale(t1, p1), scale(t2, p2))
 
     # does the stop impulse's share fit every pressing foot's disk?
-    was_sliding = (sliding & np.stack([j > 0.0 for j in j_n], axis=1)).any(axis=1)
-    mu = np.where(was_sliding, mu_k, mu_s)
-    twist_per_s2 = torque / np.where(twists, s2, 1.0)
-    fits = pressed.copy()
+    was_sliding = ((sliding[0] and j_n[0] > 0.0) or (sliding[1] and j_n[1] > 0.0)
+                   or (sliding[2] and j_n[2] > 0.0) or (sliding[3] and j_n[3] > 0.0))
+    mu = mu_k if was_sliding else mu_s
+    twist = torque / (s2 if twists else 1.0) if twists else 0.0
+    fits = pressed
     for i in range(4):
-        share = force_stop / safe_sum[:, None] + vec.scale(vec.cross(n_bar, lever_t[i]),
-                                                           np.where(twists, twist_per_s2, 0.0))
-        fits &= (j_n[i] <= 0.0) | (vec.dot(share, share) <= mu * mu)
+        share = _share(force_stop, safe_sum, n_bar, lever_t[i], twist)
+        fits = fits and (j_n[i] <= 0.0 or dot(share, share) <= mu * mu)
 
     # apply: the stop impulse at the centre, or each foot's kinetic impulse at the foot
-    d_vel = np.zeros_like(vel_mps)
-    d_ang = np.zeros_like(vel_mps)  # angular impulse about the centre of mass, inertial
-    stop_ang = vec.cross(r, force_stop) + vec.scale(n_bar, np.where(twists, torque, 0.0))
-    d_vel = np.where(fits[:, None], force_stop, d_vel)
-    d_ang = np.where(fits[:, None], stop_ang, d_ang)
-    total = np.zeros_like(j_sum)
-    kinetic = pressed & ~fits
+    stop_ang = add(cross(r, force_stop), scale(n_bar, torque if twists else 0.0))
+    d_vel = force_stop if fits else (0.0, 0.0, 0.0)
+    d_ang = stop_ang if fits else (0.0, 0.0, 0.0)  # angular impulse about the centre, inertial
+    total = 0.0
+    kinetic = pressed and not fits
     for i in range(4):
-        slip_i = (vel_mps + vec.cross(omega_w, ft.offset_w[i]) - ground.surface_velocity(ft.pos_w[i]))
-        slip_i = slip_i - vec.scale(normals[i], vec.dot(slip_i, normals[i]))
-        speed = vec.norm(slip_i)
-        lam = vec.scale(slip_i, -mu_k * j_n[i] / np.where(speed > 0.0, speed, 1.0))
-        lam = np.where((kinetic & (speed > 0.0))[:, None], lam, 0.0)
-        d_vel = d_vel + lam
-        d_ang = d_ang + vec.cross(ft.offset_w[i], lam)
-        share = force_stop / safe_sum[:, None] + vec.scale(vec.cross(n_bar, lever_t[i]),
-                                                           np.where(twists, twist_per_s2, 0.0))
-        total = total + np.where(fits, j_n[i] * vec.norm(share), vec.norm(lam))
-    vel = vel_mps + d_vel / mass_kg[:, None]
-    omega = omega_b + vec.quat_rotate_inv(quat, d_ang) / inertia_kgm2
-    now_sliding = np.stack([kinetic & (j > 0.0) for j in j_n], axis=1)
-    return vel, omega, now_sliding, total
+        slip_i = sub(add(vel_mps, cross(omega_w, ft.offset_w[i])),
+                     surface_velocity(ground, ft.pos_w[i]))
+        normal = pt.normals[i]
+        slip_i = sub(slip_i, scale(normal, dot(slip_i, normal)))
+        speed = norm(slip_i)
+        lam = scale(slip_i, -mu_k * j_n[i] / (speed if speed > 0.0 else 1.0))
+        if not (kinetic and speed > 0.0):
+            lam = (0.0, 0.0, 0.0)
+        d_vel = add(d_vel, lam)
+        d_ang = add(d_ang, cross(ft.offset_w[i], lam))
+        if fits:
+            total = total + j_n[i] * norm(_share(force_stop, safe_sum, n_bar, lever_t[i], twist))
+        else:
+            total = total + norm(lam)
+    vel = add(vel_mps, (d_vel[0] / mass_kg, d_vel[1] / mass_kg, d_vel[2] / mass_kg))
+    omega = add(omega_b, div(quat_rotate_inv(quat, d_ang), inertia_kgm2))
+    now = (kinetic and j_n[0] > 0.0, kinetic and j_n[1] > 0.0, kinetic and j_n[2] > 0.0,
+           kinetic and j_n[3] > 0.0)
+    return Friction(vel, omega, now, total)
 
 
-def seed(mu_s: float, mu_k: float, mass_kg: Array, pos_m: Array, vel_mps: Array,
-         normal_impulse_ns: Array, sliding: Array, ground: Ground
-         ) -> tuple[Array, Array, Array]:
-    """The seed's law at the centre of mass (module docstring). Returns (vel, sliding (N, 4),
-    friction impulse N s)."""
-    n_hat = vec.unit(pos_m)
-    v_rel = vel_mps - ground.surface_velocity(pos_m)
-    v_t = v_rel - vec.scale(n_hat, vec.dot(v_rel, n_hat))
-    s = vec.norm(v_t)
+@kernel
+def _in_plane(x, n_bar):
+    """x without its component along n_bar."""
+    return sub(x, scale(n_bar, dot(x, n_bar)))
+
+
+@kernel
+def seed(mu_s, mu_k, mass_kg, pos_m, vel_mps, omega_b, normal_impulse_ns, ground):
+    """The seed's law at the centre of mass (module docstring)."""
+    n_hat = unit(pos_m)
+    v_rel = sub(vel_mps, surface_velocity(ground, pos_m))
+    v_t = sub(v_rel, scale(n_hat, dot(v_rel, n_hat)))
+    s = norm(v_t)
     moving = s > 0.0
-    t_hat = v_t / np.where(moving, s, 1.0)[:, None]
-    j_n = np.maximum(normal_impulse_ns, 0.0)
+    sf = s if moving else 1.0
+    t_hat = (v_t[0] / sf, v_t[1] / sf, v_t[2] / sf)
+    j_n = fmax(normal_impulse_ns, 0.0)
     lim_s, lim_k = mu_s * j_n, mu_k * j_n
     j_stop = mass_kg * s
-    j = np.where(s > STICK_SPEED_MPS, lim_k, np.where(j_stop <= lim_s, j_stop, lim_k))
-    j = np.where(moving & (j_n > 0.0), j, 0.0)
-    vel = vel_mps - vec.scale(t_hat, j / mass_kg)
-    still = (s - j / mass_kg > STICK_SPEED_MPS) & moving
-    return vel, np.repeat(still[:, None], 4, axis=1), j
+    if s > STICK_SPEED_MPS:
+        j = lim_k
+    else:
+        j = j_stop if j_stop <= lim_s else lim_k
+    if not (moving and j_n > 0.0):
+        j = 0.0
+    vel = sub(vel_mps, scale(t_hat, j / mass_kg))
+    still = s - j / mass_kg > STICK_SPEED_MPS and moving
+    return Friction(vel, omega_b, (still, still, still, still), j)

@@ -1,134 +1,195 @@
-"""Stepping methods, chosen by name (``sim.integrator``). Each advances free ships by one (sub)step h.
+"""Stepping methods, chosen by name (``sim.integrator``). Each advances a free ship by one (sub)step h.
 
-A method takes the state y = (p, v, q, omega_b), the step h (a number, or one per ship, shape (N,))
-and the contact evaluation at its start, and returns a :class:`Stepped`: the new y and the
-normal-force impulse it applied divided by h (the mean normal force over the step, which bounds
-the friction impulse). Friction is applied afterwards as an impulse (:mod:`sim.friction`), so every
+A method takes the state y = (p, v, q, omega_b), the step h and the contact evaluation at its start,
+and returns a :class:`Stepped`: the new y and each foot's normal impulse over the step (which
+bounds its friction). Friction is applied afterwards as an impulse (:mod:`sim.friction`), so every
 method shares one friction law.
 
 ``semi_implicit_euler`` is the seed's (``velocity += accel dt; position += velocity dt``).
 ``exponential`` is built for the stiff contact: it solves the pressing feet's linear spring-damper
-exactly over the step. An unknown name is an error, never a silent fallback.
+exactly over the step. An unknown name is an error, never a silent fallback. One ship, compiled.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
+import math
+from typing import NamedTuple
 
-import numpy as np
-
-from sim import exact, vec
-from sim.contact import ContactEval, Four
-from sim.dynamics import FreeBodies, acceleration, contact_at, derivatives, torque_body
+from sim.compiled import kernel
+from sim.dynamics import acceleration, contact_at, derivatives, ground_at, torque_body
+from sim.exact import Flow, Functional, bracketed_root, first_crossing, flow_at, flow_start, \
+    value_and_rate
 from sim.rotation import free_rotation
+from sim.vec import add, div, dot, fmax, mul, norm, quat_add_scaled, quat_integrate, \
+    quat_normalize, scale, sub, unit
 
-Y = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-Step = float | np.ndarray
+#: Every method by name, and its code inside the kernels. An unknown name is rejected when a
+#: scenario is loaded.
+METHODS: dict[str, int] = {
+    "explicit_euler": 0,
+    "semi_implicit_euler": 1,
+    "velocity_verlet": 2,
+    "rk4": 3,
+    "exponential": 4,
+}
+EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL = range(5)
 
 
-@dataclass(frozen=True)
-class Stepped:
+def method_code(name: str) -> int:
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ValueError(f"unknown integrator {name!r}; known: {', '.join(sorted(METHODS))}") from None
+
+
+class Stepped(NamedTuple):
     """What one (sub)step of a method produced."""
 
-    y: Y
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
     #: each foot's normal impulse over the step, N s (>= 0): what bounds its friction
-    foot_impulse_ns: Four
-    #: (N,) deepest penetration inside the step, for methods that locate it exactly (else None:
-    #: the caller interpolates between the step's ends); -inf where it lies at an end
-    peak_penetration_m: np.ndarray | None = None
+    foot_impulse_ns: tuple
+    #: the deepest penetration inside the step (-inf where it lies at an end), for a method that
+    #: locates it (``located``); otherwise the caller interpolates between the step's ends
+    peak_penetration_m: float
+    located: bool
 
 
-#: (free bodies, step h, state y, contact at the start, absorbing, the start's offset in the tick)
-Method = Callable[[FreeBodies, Step, Y, ContactEval, np.ndarray, Step], Stepped]
+@kernel
+def _foot_share(ce, i, weight):
+    """weight max(f_i, 0) |g_i|: foot i's term of a quadrature rule for its normal impulse."""
+    return weight * fmax(ce.foot_force_n[i], 0.0) * norm(ce.feet.push_w[i])
 
 
-def times(h: Step, x: np.ndarray) -> np.ndarray:
-    """h * x for a step that is a number or one per ship (rows of x)."""
-    return h * x if np.ndim(h) == 0 else h[:, None] * x
+@kernel
+def foot_impulses_1(h, ce):
+    """Each foot's normal impulse h max(f_i, 0) |g_i| (the rectangle rule on the step's start)."""
+    if not ce.touching:
+        return (0.0, 0.0, 0.0, 0.0)
+    return (h * (0.0 + _foot_share(ce, 0, 1.0)), h * (0.0 + _foot_share(ce, 1, 1.0)),
+            h * (0.0 + _foot_share(ce, 2, 1.0)), h * (0.0 + _foot_share(ce, 3, 1.0)))
 
 
-def foot_impulses(h: Step, evals: list[ContactEval], weights: tuple[float, ...]) -> Four:
-    """Each foot's normal impulse h sum_k w_k max(f_ik, 0) |g_ik| over the evaluations of a step
-    (a quadrature rule: weights sum to one). A pulling absorber gives no friction."""
-    if evals[0].feet is None:
-        z = np.zeros(evals[0].normal_n.shape)
-        return z, z, z, z
-    out = []
-    for i in range(4):
-        acc = 0.0
-        for w, ce in zip(weights, evals):
-            acc = acc + w * np.maximum(ce.foot_force_n[i], 0.0) * vec.norm(ce.feet.push_w[i])
-        out.append(h * acc)
-    return tuple(out)
+@kernel
+def _trapezoid(ce0, ce1, i):
+    return 0.0 + _foot_share(ce0, i, 0.5) + _foot_share(ce1, i, 0.5)
 
 
-def explicit_euler(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: Step
-                   ) -> Stepped:
+@kernel
+def foot_impulses_2(h, ce0, ce1):
+    """Each foot's normal impulse by the trapezoid rule on the step's two ends."""
+    if not ce0.touching:
+        return (0.0, 0.0, 0.0, 0.0)
+    return (h * _trapezoid(ce0, ce1, 0), h * _trapezoid(ce0, ce1, 1),
+            h * _trapezoid(ce0, ce1, 2), h * _trapezoid(ce0, ce1, 3))
+
+
+@kernel
+def _rk4_share(c1, c2, c3, c4, i):
+    return (0.0 + _foot_share(c1, i, 1 / 6) + _foot_share(c2, i, 1 / 3)
+            + _foot_share(c3, i, 1 / 3) + _foot_share(c4, i, 1 / 6))
+
+
+@kernel
+def foot_impulses_4(h, c1, c2, c3, c4):
+    """Each foot's normal impulse by RK4's weights on its four evaluations."""
+    if not c1.touching:
+        return (0.0, 0.0, 0.0, 0.0)
+    return (h * _rk4_share(c1, c2, c3, c4, 0), h * _rk4_share(c1, c2, c3, c4, 1),
+            h * _rk4_share(c1, c2, c3, c4, 2), h * _rk4_share(c1, c2, c3, c4, 3))
+
+
+@kernel
+def explicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
     """y += h f(y): first order, unstable on the undamped spring for any h."""
-    p, v, q, w = y
     dp, dv, dq, dw = derivatives(fb, ce, p, v, q, w)
-    return Stepped((p + times(h, dp), v + times(h, dv), vec.quat_normalize(q + times(h, dq)),
-                    w + times(h, dw)), foot_impulses(h, [ce], (1.0,)))
+    return Stepped(add(p, scale(dp, h)), add(v, scale(dv, h)),
+                   quat_normalize(quat_add_scaled(q, dq, h)), add(w, scale(dw, h)),
+                   foot_impulses_1(h, ce), -math.inf, False)
 
 
-def semi_implicit_euler(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: Step
-                        ) -> Stepped:
+@kernel
+def semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
     """The seed's method: velocities first, then positions with the new velocities."""
-    p, v, q, w = y
     _, dv, _, dw = derivatives(fb, ce, p, v, q, w)
-    v1 = v + times(h, dv)
-    w1 = w + times(h, dw)
-    return Stepped((p + times(h, v1), v1, vec.quat_integrate(q, w1, h), w1),
-                   foot_impulses(h, [ce], (1.0,)))
+    v1 = add(v, scale(dv, h))
+    w1 = add(w, scale(dw, h))
+    return Stepped(add(p, scale(v1, h)), v1, quat_integrate(q, w1, h), w1,
+                   foot_impulses_1(h, ce), -math.inf, False)
 
 
-def rk4(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: Step) -> Stepped:
+@kernel
+def _rk4_stage(fb, h, frac, p, v, q, w, k, absorbing, t0):
+    hf = frac * h
+    ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
+        quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
+    ce_s = contact_at(fb, ground_at(fb, t0 + hf), ps, vs, qs, ws, absorbing, fb.engage_m)
+    return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
+
+
+@kernel
+def _rk4_combine(a, b1, b2, b3, b4, h6):
+    return add(a, scale(add(add(add(b1, scale(b2, 2.0)), scale(b3, 2.0)), b4), h6))
+
+
+@kernel
+def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
     """Classical fourth-order Runge-Kutta; the quaternion is renormalised at the end."""
-    p, v, q, w = y
     k1 = derivatives(fb, ce, p, v, q, w)
+    k2, c2 = _rk4_stage(fb, h, 0.5, p, v, q, w, k1, absorbing, t0)
+    k3, c3 = _rk4_stage(fb, h, 0.5, p, v, q, w, k2, absorbing, t0)
+    k4, c4 = _rk4_stage(fb, h, 1.0, p, v, q, w, k3, absorbing, t0)
+    h6 = h / 6.0
+    q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
+             k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
+             k1[2][2] + 2.0 * k2[2][2] + 2.0 * k3[2][2] + k4[2][2],
+             k1[2][3] + 2.0 * k2[2][3] + 2.0 * k3[2][3] + k4[2][3])
+    return Stepped(_rk4_combine(p, k1[0], k2[0], k3[0], k4[0], h6),
+                   _rk4_combine(v, k1[1], k2[1], k3[1], k4[1], h6),
+                   quat_normalize(quat_add_scaled(q, q_sum, h6)),
+                   _rk4_combine(w, k1[3], k2[3], k3[3], k4[3], h6),
+                   foot_impulses_4(h, ce, c2, c3, c4), -math.inf, False)
 
-    def stage(kprev, frac):
-        ys = tuple(a + times(frac * h, b) for a, b in zip(y, kprev))
-        ce_s = contact_at(fb, fb.ground_at(t0 + frac * h), *ys, absorbing)
-        return derivatives(fb, ce_s, *ys), ce_s
 
-    k2, c2 = stage(k1, 0.5)
-    k3, c3 = stage(k2, 0.5)
-    k4, c4 = stage(k3, 1.0)
-    out = tuple(a + times(h / 6.0, b1 + 2.0 * b2 + 2.0 * b3 + b4)
-                for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4))
-    return Stepped((out[0], out[1], vec.quat_normalize(out[2]), out[3]),
-                   foot_impulses(h, [ce, c2, c3, c4], (1 / 6, 1 / 3, 1 / 3, 1 / 6)))
-
-
-def _turn(fb: FreeBodies, q, w, tau_b, h: Step):
+@kernel
+def _turn(fb, q, w, tau_b, h):
     """The rotation's kick and drift: a half kick of the external torque, then the exact
     torque-free flow (sim.rotation). Returns the new attitude and the body-frame angular momentum
     before the closing half kick."""
-    l_half = fb.inertia_kgm2 * w + times(0.5 * h, tau_b)
+    l_half = add(mul(fb.inertia_kgm2, w), scale(tau_b, 0.5 * h))
     return free_rotation(q, l_half, fb.inertia_kgm2, h)
 
 
-def velocity_verlet(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: Step
-                    ) -> Stepped:
+@kernel
+def velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0):
     """Kick-drift-kick (second order, symplectic for position-only forces). The closing kick
     evaluates the force at the new position with the half-step velocity, the usual explicit form
     when the force also depends on velocity (the damper). The rotation's drift is the exact
     torque-free flow (Dullweber, Leimkuhler & McLachlan, J. Chem. Phys. 107, 1997)."""
-    p, v, q, w = y
     a0 = acceleration(fb, ce, p, q)
-    v_half = v + times(0.5 * h, a0)
-    p1 = p + times(h, v_half)
+    v_half = add(v, scale(a0, 0.5 * h))
+    p1 = add(p, scale(v_half, h))
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = l_pre / fb.inertia_kgm2
-    ce1 = contact_at(fb, fb.ground_at(t0 + h), p1, v_half, q1, w_pre, absorbing)
-    v1 = v_half + times(0.5 * h, acceleration(fb, ce1, p1, q1))
-    w1 = (l_pre + times(0.5 * h, torque_body(fb, ce1, q1))) / fb.inertia_kgm2
-    return Stepped((p1, v1, q1, w1), foot_impulses(h, [ce, ce1], (0.5, 0.5)))
+    w_pre = div(l_pre, fb.inertia_kgm2)
+    ce1 = contact_at(fb, ground_at(fb, t0 + h), p1, v_half, q1, w_pre, absorbing, fb.engage_m)
+    v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
 
 
-def exponential(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: Step
-                ) -> Stepped:
+class Released(NamedTuple):
+    """The spring-damper's flow over a step until the spring lets go, ballistic after."""
+
+    x_m: float  # height gained over the step
+    v_mps: float  # x' at the step's end
+    a_mps2: float  # x'' at the step's end
+    t_acted_s: float  # how long the spring acted (the step, if it never let go)
+    v_released_mps: float  # x' when it let go
+
+
+@kernel
+def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the local vertical at the step's start (held fixed over the step), the pressing feet
@@ -152,134 +213,119 @@ def exponential(fb: FreeBodies, h: Step, y: Y, ce: ContactEval, absorbing, t0: S
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
     sim.stability)."""
-    p, v, q, w = y
-    n_hat = vec.unit(p)
+    n_hat = unit(p)
     m = fb.mass_kg
-    h_arr = np.broadcast_to(np.asarray(h, dtype=float), m.shape)
     a0 = acceleration(fb, ce, p, q)
-    a0_n = vec.dot(a0, n_hat)
-    v_n0 = vec.dot(v, n_hat)
-    v_half = v + times(0.5 * h, a0 - vec.scale(n_hat, a0_n))  # across n only
+    a0_n = dot(a0, n_hat)
+    v_n0 = dot(v, n_hat)
+    v_half = add(v, scale(sub(a0, scale(n_hat, a0_n)), 0.5 * h))  # across n only
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = l_pre / fb.inertia_kgm2
+    w_pre = div(l_pre, fb.inertia_kgm2)
 
-    force0_n = vec.dot(ce.force_w, n_hat)
+    force0_n = dot(ce.force_w, n_hat)
     a_free = a0_n - force0_n / m  # gravity and thrust along n
-    flow, k_u = _spring_flow(ce, m, a_free, v_n0, force0_n)
+    flow, k_u = spring_flow(ce, m, a_free, v_n0, force0_n)
     pressing = flow.w2 > 0.0
-    x_h, v_h, acc_h, t_act, v_act = _until_released(flow, ce, absorbing, a_free, k_u, h_arr)
-    sep = t_act < h_arr
-    peak = _deepest(flow, ce, k_u, v_n0, t_act, v_act)
-    impulse_per_kg = np.where(pressing, v_act - v_n0 - a_free * t_act, 0.0)
+    rel = until_released(flow, ce, absorbing, a_free, k_u, h)
+    sep = rel.t_acted_s < h
+    peak = deepest(flow, ce, k_u, v_n0, rel.t_acted_s, rel.v_released_mps)
+    impulse_per_kg = rel.v_released_mps - v_n0 - a_free * rel.t_acted_s if pressing else 0.0
 
     # drift: along n by the flow, across n with the half-kicked velocity
-    v_across = v_half - vec.scale(n_hat, v_n0)
-    p1 = p + vec.scale(n_hat, x_h) + times(h, v_across)
-    v_pre = v_across + vec.scale(n_hat, v_h)
-    ce1 = contact_at(fb, fb.ground_at(t0 + h), p1, v_pre, q1, w_pre, absorbing)
+    v_across = sub(v_half, scale(n_hat, v_n0))
+    p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
+    v_pre = add(v_across, scale(n_hat, rel.v_mps))
+    ce1 = contact_at(fb, ground_at(fb, t0 + h), p1, v_pre, q1, w_pre, absorbing, fb.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
-    v1 = v_pre + times(0.5 * h, a1 - vec.scale(n_hat, acc_h))
-    w1 = (l_pre + times(0.5 * h, torque_body(fb, ce1, q1))) / fb.inertia_kgm2
-    return Stepped((p1, v1, q1, w1),
-                   _exact_foot_impulses(fb, ce, ce1, n_hat, h_arr, impulse_per_kg, pressing, sep,
-                                        acc_h, a_free),
-                   peak)
+    v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    return Stepped(p1, v1, q1, w1,
+                   exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep,
+                                       rel.a_mps2, a_free),
+                   peak, True)
 
 
-def _exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep, acc_h, a_free
-                         ) -> Four:
+@kernel
+def exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep, acc_h, a_free):
     """Each foot's normal impulse for the exponential step: the total along n is the flow's
     (plus the closing kick's residual, for a foot that lifted or pressed during the step); it is
     shared among the feet as the trapezoid rule on their forces at the step's ends shares it."""
-    if ce.feet is None:
-        return foot_impulses(h, [ce], (1.0,))
+    if not ce.touching:
+        return (0.0, 0.0, 0.0, 0.0)
     m = fb.mass_kg
-    model_end_n = np.where(pressing & ~sep, m * (acc_h - a_free), 0.0)
-    total_n = m * impulse_per_kg + 0.5 * h * (vec.dot(ce1.force_w, n_hat) - model_end_n)
-    trap_n = 0.5 * h * (vec.dot(ce.force_w, n_hat) + vec.dot(ce1.force_w, n_hat))
-    scale = total_n / np.where(trap_n != 0.0, trap_n, 1.0)
-    scale = np.where(trap_n != 0.0, scale, 1.0)
-    shares = foot_impulses(h, [ce, ce1], (0.5, 0.5))
-    return tuple(np.maximum(scale * j, 0.0) for j in shares)
+    model_end_n = m * (acc_h - a_free) if pressing and not sep else 0.0
+    end_n = dot(ce1.force_w, n_hat)
+    total_n = m * impulse_per_kg + 0.5 * h * (end_n - model_end_n)
+    trap_n = 0.5 * h * (dot(ce.force_w, n_hat) + end_n)
+    f = total_n / trap_n if trap_n != 0.0 else 1.0
+    j = foot_impulses_2(h, ce, ce1)
+    return (fmax(f * j[0], 0.0), fmax(f * j[1], 0.0), fmax(f * j[2], 0.0), fmax(f * j[3], 0.0))
 
 
-def _spring_flow(ce: ContactEval, m: np.ndarray, a_free: np.ndarray, v_n0: np.ndarray,
-                 force0_n: np.ndarray) -> tuple[exact.Flow, np.ndarray]:
+@kernel
+def spring_flow(ce, m, a_free, v_n0, force0_n):
     """The pressing feet as one spring-damper along n, fitted at the step's start, and K U (the
     rate at which rotation alone loads the springs: sum k_i gamma_i u_i). x is the height gained;
     ``force0_n`` the feet's force along n at the start."""
     stiff, damp = ce.stiffness_npm, ce.damping_nspm
     k_u = -(ce.spring_load_rate_nps + stiff * v_n0)
-    flow = exact.Flow(w2=stiff / m, c1=damp / m, b0=a_free + (force0_n + damp * v_n0) / m,
-                      b1=-k_u / m, x0=np.zeros_like(m), v0=v_n0)
+    flow = Flow(stiff / m, damp / m, a_free + (force0_n + damp * v_n0) / m, -k_u / m, 0.0, v_n0)
     return flow, k_u
 
 
-def _until_released(flow: exact.Flow, ce: ContactEval, absorbing: np.ndarray,
-                    a_free: np.ndarray, k_u: np.ndarray, h: np.ndarray):
+@kernel
+def until_released(flow, ce, absorbing, a_free, k_u, h):
     """The flow over the step, until the spring lets go and ballistic after: the normal force per
     unit mass (x'' - a_free) reaching zero, or, for an absorbed (bilateral) contact, the pressing
-    feet's mean penetration reaching zero. Returns (x, x', x'') at the step's end, how long the
-    spring acted, and x' when it let go."""
-    x_h, v_h, acc_h = flow.at(h)
-    pressing = flow.w2 > 0.0
-    safe_k = np.where(pressing, ce.stiffness_npm, 1.0)
-    let_go = exact.Functional(
-        cx=np.where(absorbing, -1.0, 0.0), ca=np.where(absorbing, 0.0, 1.0),
-        c0=np.where(absorbing, ce.spring_load_n / safe_k, -a_free),
-        ct=np.where(absorbing, -k_u / safe_k, 0.0))
-    g0, _ = let_go.value_and_rate(flow, np.zeros_like(h), flow.start())
-    g_h, _ = let_go.value_and_rate(flow, h, (x_h, v_h, acc_h))
-    t_act = h.copy()
-    v_act = v_h.copy()
-    c = np.flatnonzero(pressing & (g0 > 0.0))
-    if c.size:
-        crossed, lo, hi, g_lo, g_hi = exact.first_crossing(
-            flow.take(c), let_go.take(c), h[c], g0[c], g_h[c])
-        i, k = c[crossed], np.flatnonzero(crossed)
-        if i.size:
-            t_act[i] = exact.bracketed_root(flow.take(i), let_go.take(i), lo[k], hi[k], g_lo[k],
-                                            g_hi[k])
-            x_s, v_act[i], _ = flow.take(i).at(t_act[i])
-            tail = h[i] - t_act[i]
-            x_h[i] = x_s + tail * (v_act[i] + 0.5 * a_free[i] * tail)
-            v_h[i] = v_act[i] + a_free[i] * tail
-            acc_h[i] = a_free[i]
-    return x_h, v_h, acc_h, t_act, v_act
+    feet's mean penetration reaching zero."""
+    x_h, v_h, acc_h = flow_at(flow, h)
+    if not flow.w2 > 0.0:
+        return Released(x_h, v_h, acc_h, h, v_h)
+    k = ce.stiffness_npm
+    if absorbing:
+        let_go = Functional(-1.0, 0.0, 0.0, ce.spring_load_n / k, -k_u / k)
+    else:
+        let_go = Functional(0.0, 0.0, 1.0, -a_free, 0.0)
+    x0, v0, a0 = flow_start(flow)
+    g0 = value_and_rate(let_go, flow, 0.0, x0, v0, a0)[0]
+    if not g0 > 0.0:
+        return Released(x_h, v_h, acc_h, h, v_h)
+    g_h = value_and_rate(let_go, flow, h, x_h, v_h, acc_h)[0]
+    crossed, lo, hi, g_lo, g_hi = first_crossing(flow, let_go, h, g0, g_h)
+    if not crossed:
+        return Released(x_h, v_h, acc_h, h, v_h)
+    t_act = bracketed_root(flow, let_go, lo, hi, g_lo, g_hi)
+    x_s, v_act, _ = flow_at(flow, t_act)
+    tail = h - t_act
+    return Released(x_s + tail * (v_act + 0.5 * a_free * tail), v_act + a_free * tail, a_free,
+                    t_act, v_act)
 
 
-def _deepest(flow: exact.Flow, ce: ContactEval, k_u: np.ndarray, v_n0: np.ndarray,
-             t_act: np.ndarray, v_act: np.ndarray) -> np.ndarray:
+@kernel
+def deepest(flow, ce, k_u, v_n0, t_act, v_act):
     """The deepest penetration inside the step, where x' first turns from down to up while the
     spring acts (-inf where it lies at an end of the step)."""
-    peak = np.full(v_n0.shape, -np.inf)
-    d = np.flatnonzero((flow.w2 > 0.0) & (v_n0 < 0.0))
-    if d.size:
-        speed = exact.Functional(cv=1.0)
-        turned, lo, hi, g_lo, g_hi = exact.first_crossing(flow.take(d), speed, t_act[d], v_n0[d],
-                                                          v_act[d])
-        i, k = d[turned], np.flatnonzero(turned)
-        if i.size:
-            fl = flow.take(i)
-            t_pk = exact.bracketed_root(fl, speed, lo[k], hi[k], g_lo[k], g_hi[k])
-            x_pk, _, _ = fl.at(t_pk)
-            peak[i] = ce.max_penetration_m[i] - x_pk - (k_u[i] / ce.stiffness_npm[i]) * t_pk
-    return peak
+    if not (flow.w2 > 0.0 and v_n0 < 0.0):
+        return -math.inf
+    speed = Functional(0.0, 1.0, 0.0, 0.0, 0.0)
+    turned, lo, hi, g_lo, g_hi = first_crossing(flow, speed, t_act, v_n0, v_act)
+    if not turned:
+        return -math.inf
+    t_pk = bracketed_root(flow, speed, lo, hi, g_lo, g_hi)
+    x_pk = flow_at(flow, t_pk)[0]
+    return ce.max_penetration_m - x_pk - (k_u / ce.stiffness_npm) * t_pk
 
 
-#: Every method by name; an unknown name is rejected when a scenario is loaded.
-METHODS: dict[str, Method] = {
-    "explicit_euler": explicit_euler,
-    "semi_implicit_euler": semi_implicit_euler,
-    "velocity_verlet": velocity_verlet,
-    "rk4": rk4,
-    "exponential": exponential,
-}
-
-
-def method(name: str) -> Method:
-    try:
-        return METHODS[name]
-    except KeyError:
-        raise ValueError(f"unknown integrator {name!r}; known: {', '.join(sorted(METHODS))}") from None
+@kernel
+def advance(method, fb, h, p, v, q, w, ce, absorbing, t0):
+    """One (sub)step of the method coded ``method`` (:data:`METHODS`)."""
+    if method == EXPONENTIAL:
+        return exponential(fb, h, p, v, q, w, ce, absorbing, t0)
+    if method == RK4:
+        return rk4(fb, h, p, v, q, w, ce, absorbing, t0)
+    if method == VELOCITY_VERLET:
+        return velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0)
+    if method == SEMI_IMPLICIT_EULER:
+        return semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0)
+    return explicit_euler(fb, h, p, v, q, w, ce, absorbing, t0)

@@ -5,12 +5,14 @@ Kept apart from :mod:`sim.state` (what changes every tick), as in brax's ``base.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 
 from sim.constants import CONTACT_STIFFNESS_PER_KG
+from sim.state import Batch
 
 
 @dataclass(frozen=True)
@@ -107,29 +109,15 @@ class Terrain:
     bump_radius_m: tuple[float, ...] = ()
     bump_height_m: tuple[float, ...] = ()
 
-    def height_m(self, east_m: np.ndarray, north_m: np.ndarray) -> np.ndarray:
-        return self.height_and_slope(east_m, north_m)[0]
+    def bump_table(self) -> np.ndarray:
+        """The bumps as rows (east, north, radius, height): sim.contact.Ground's table."""
+        return np.array([self.bump_east_m, self.bump_north_m, self.bump_radius_m,
+                         self.bump_height_m], dtype=float).T.reshape(-1, 4).copy()
 
-    def height_and_slope(self, east_m: np.ndarray, north_m: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(h, dh/de, dh/dn): the height and its gradient, analytically,
-        dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
-        h = np.full(np.shape(east_m), self.base_height_m)
-        dh_de = np.zeros(np.shape(east_m))
-        dh_dn = np.zeros(np.shape(east_m))
-        for e0, n0, rad, hgt in zip(self.bump_east_m, self.bump_north_m, self.bump_radius_m,
-                                    self.bump_height_m):
-            de = east_m - e0
-            dn = north_m - n0
-            inv_r2 = 1.0 / (rad * rad)
-            s = (de * de + dn * dn) * inv_r2
-            w = 1.0 - s
-            inside = s < 1.0
-            h = h + np.where(inside, hgt * w * w, 0.0)
-            slope = np.where(inside, -4.0 * hgt * w * inv_r2, 0.0)
-            dh_de = dh_de + slope * de
-            dh_dn = dh_dn + slope * dn
-        return h, dh_de, dh_dn
+    def height_m(self, east_m: np.ndarray, north_m: np.ndarray) -> np.ndarray:
+        """The terrain's height at site coordinates (arrays), m (sim.contact.height_and_slope)."""
+        from sim.measure import terrain_height
+        return terrain_height(self, np.asarray(east_m, float), np.asarray(north_m, float))
 
     @property
     def flat(self) -> bool:
@@ -156,40 +144,36 @@ class BodyParams:
         return self.gm_m3ps2 / (self.radius_m * self.radius_m)
 
 
-@dataclass(frozen=True)
-class ShipParams:
-    """Per-ship constants, each an array over the batch (N,) unless noted."""
-
-    ship_id: tuple[str, ...]
-    player_id: tuple[str, ...]
-    mass0_kg: np.ndarray  # (N,) wet mass at t = 0
-    fuel0_kg: np.ndarray  # (N,)
-    com_height_m: np.ndarray  # (N,) centre of mass above the feet plane
-    leg_radius_m: np.ndarray  # (N,) radius of the landing-leg footprint
-    inertia0_kgm2: np.ndarray  # (N, 3) principal moments at t = 0, body frame (z = long axis)
-    max_thrust_n: np.ndarray  # (N,) main engine, along body +z
-    max_rcs_torque_nm: np.ndarray  # (N,) per body axis
-    isp_s: np.ndarray  # (N,) main engine specific impulse
-    rcs_isp_s: np.ndarray  # (N,)
-    rcs_arm_m: np.ndarray  # (N,) lever arm of the RCS thrusters (torque / arm = thrust)
-
-    @property
-    def n(self) -> int:
-        return int(self.mass0_kg.shape[0])
-
-    def take(self, idx: np.ndarray, with_ids: bool = False) -> "ShipParams":
-        """The ships at ``idx``, as a batch of their own (ids only if asked: the step never
-        reads them, and building them costs more than the arrays for large batches)."""
-        ids = [int(i) for i in idx] if with_ids else []
-        return ShipParams(
-            ship_id=tuple(self.ship_id[i] for i in ids),
-            player_id=tuple(self.player_id[i] for i in ids),
-            **{f: getattr(self, f)[idx] for f in _ARRAY_FIELDS},
-        )
+SHIP_DTYPE = np.dtype([
+    ("mass0_kg", "f8"),  # wet mass at t = 0
+    ("fuel0_kg", "f8"),
+    ("com_height_m", "f8"),  # centre of mass above the feet plane
+    ("leg_radius_m", "f8"),  # radius of the landing-leg footprint
+    ("inertia0_kgm2", "f8", (3,)),  # principal moments at t = 0, body frame (z = long axis)
+    ("max_thrust_n", "f8"),  # main engine, along body +z
+    ("max_rcs_torque_nm", "f8"),  # per body axis
+    ("isp_s", "f8"),  # main engine specific impulse
+    ("rcs_isp_s", "f8"),
+    ("rcs_arm_m", "f8"),  # lever arm of the RCS thrusters (torque / arm = thrust)
+    ("n_substeps", "i8"),  # sub-steps a tick near the ground, from this ship's own modes
+], align=True)
 
 
-_ARRAY_FIELDS = ("mass0_kg", "fuel0_kg", "com_height_m", "leg_radius_m", "inertia0_kgm2",
-                 "max_thrust_n", "max_rcs_torque_nm", "isp_s", "rcs_isp_s", "rcs_arm_m")
+@dataclass(frozen=True, eq=False)
+class ShipParams(Batch):
+    """Per-ship constants: a record per ship (:data:`SHIP_DTYPE`), and the ships' names."""
+
+    ship_id: tuple[str, ...] = ()
+    player_id: tuple[str, ...] = ()
+    DTYPE: ClassVar[np.dtype] = SHIP_DTYPE
+
+    def take(self, idx, with_ids: bool = True) -> "ShipParams":
+        """The ships at ``idx``, as a batch of their own (their names only if asked)."""
+        idx = np.asarray(idx)
+        ids = [int(i) for i in (np.flatnonzero(idx) if idx.dtype == bool else idx.ravel())] \
+            if with_ids and self.ship_id else []
+        return replace(self, rows=self.rows[idx], ship_id=tuple(self.ship_id[i] for i in ids),
+                       player_id=tuple(self.player_id[i] for i in ids))
 
 
 @dataclass(frozen=True)
@@ -202,6 +186,22 @@ class ControllerParams:
     bandwidth_radps: float = 1.0
 
 
+SCENE_DTYPE = np.dtype([
+    ("dt_s", "f8"), ("method", "i8"), ("vertical_one_step", "?"), ("energy_guard", "?"),
+    ("linear_model", "?"),
+    ("crash_speed_mps", "f8"), ("crash_speed2", "f8"), ("bounce_speed_mps", "f8"),
+    ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
+    ("tipped_rest_rad", "f8"), ("damping_ratio", "f8"), ("absorb_damping_ratio", "f8"),
+    ("friction_static", "f8"), ("friction_kinetic", "f8"), ("align_on_touchdown", "?"),
+    ("settle_need_ticks", "i8"), ("seed_friction", "?"), ("stiffness_per_kg", "f8"),
+    ("contact_omega_radps", "f8"), ("radial_normal", "?"),
+    ("body_radius_m", "f8"), ("gm_m3ps2", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
+    ("surface_gravity_mps2", "f8"), ("base_height_m", "f8"), ("terrain_max_m", "f8"),
+    ("bandwidth_radps", "f8"),
+], align=True)
+"""The scene's constants as the compiled step reads them (one record; derived from Params)."""
+
+
 @dataclass(frozen=True)
 class Params:
     sim: SimParams
@@ -210,6 +210,57 @@ class Params:
     ships: ShipParams
     controller: ControllerParams = field(default_factory=ControllerParams)
 
-    def take(self, idx: np.ndarray, with_ids: bool = False) -> "Params":
+    def take(self, idx, with_ids: bool = True) -> "Params":
         return Params(self.sim, self.contact, self.body, self.ships.take(idx, with_ids),
                       self.controller)
+
+    @cached_property
+    def scene(self) -> np.ndarray:
+        """One record of :data:`SCENE_DTYPE`: every scene-wide number the step reads, the
+        angles as the cosines its comparisons use."""
+        from sim.integrators import METHODS
+        from sim.stability import KICKS
+
+        sim, cp, body = self.sim, self.contact, self.body
+        ter = body.terrain
+        rec = np.zeros(1, SCENE_DTYPE)
+        r = rec[0]
+        r["dt_s"] = sim.dt_s
+        r["method"] = METHODS[sim.integrator]
+        r["vertical_one_step"] = sim.vertical_one_step
+        r["energy_guard"] = sim.energy_guard
+        r["linear_model"] = sim.integrator in KICKS
+        r["crash_speed_mps"] = cp.crash_speed_mps
+        r["crash_speed2"] = cp.crash_speed_mps ** 2
+        r["bounce_speed_mps"] = cp.bounce_speed_mps
+        r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
+        r["settle_ang2"] = cp.settle_angular_vel_radps ** 2
+        r["cos_settle_tilt"] = cp.cos_settle_tilt
+        r["cos_tipped"] = cp.cos_tipped
+        r["tipped_rest_rad"] = math.radians(cp.tipped_rest_deg)
+        r["damping_ratio"] = cp.damping_ratio
+        r["absorb_damping_ratio"] = cp.absorb_damping_ratio
+        r["friction_static"] = cp.friction_static
+        r["friction_kinetic"] = cp.friction_kinetic
+        r["align_on_touchdown"] = cp.align_on_touchdown
+        # samples at n consecutive tick ends span (n - 1) dt: landing needs them to span
+        # settle_time (settle_time = 0, the seed's instantaneous rule: the first tick they hold)
+        r["settle_need_ticks"] = int(math.ceil(cp.settle_time_s / sim.dt_s - 1e-9))
+        r["seed_friction"] = cp.friction_model == "seed"
+        r["stiffness_per_kg"] = cp.stiffness_per_kg
+        r["contact_omega_radps"] = cp.omega_radps
+        r["radial_normal"] = cp.surface_normal == "radial"
+        r["body_radius_m"] = body.radius_m
+        r["gm_m3ps2"] = body.gm_m3ps2
+        r["omega_radps"] = body.omega_radps
+        r["omega2"] = body.omega_radps ** 2
+        r["surface_gravity_mps2"] = body.surface_gravity_mps2
+        r["base_height_m"] = ter.base_height_m
+        r["terrain_max_m"] = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
+        r["bandwidth_radps"] = self.controller.bandwidth_radps
+        return rec
+
+    @cached_property
+    def bumps(self) -> np.ndarray:
+        """The terrain's bumps, one row each (sim.contact.Ground)."""
+        return self.body.terrain.bump_table()

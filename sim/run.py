@@ -4,11 +4,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterator
 
-import numpy as np
-
 from sim.scenario import Scenario
 from sim.state import Event, Inputs, Outputs, State
-from sim.step import Commands, observe, step
+from sim.step import outputs_at, step
 
 
 @dataclass(frozen=True)
@@ -25,10 +23,7 @@ class TickRecord:
 
 def initial_record(scn: Scenario) -> TickRecord:
     st = scn.initial
-    n = st.n
-    none = Inputs(np.zeros(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8))
-    idle = Commands(np.zeros(n), np.zeros(n), np.zeros((n, 3)))
-    return TickRecord(0, st, observe(scn.params, st, idle, np.zeros(n), np.zeros(n), np.zeros(n), 0.0), [], none)
+    return TickRecord(0, st, outputs_at(scn.params, st), [], Inputs.zeros(st.n))
 
 
 def run(scn: Scenario, start: State | None = None, start_inputs: Inputs | None = None,

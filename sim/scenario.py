@@ -18,7 +18,8 @@ import numpy as np
 
 from sim import constants as C
 from sim import vec
-from sim.contact import Ground, feet, lowest_foot_penetration
+from sim.compiled import kernel
+from sim.contact import Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
@@ -208,20 +209,17 @@ class Scenario:
         """The commands in force during ``tick``: a fold of the changes over (from_tick, tick]
         onto ``base`` (the commands in force at ``from_tick``; none given: everything off)."""
         if base is None:
-            n = self.initial.n
-            base = Inputs(np.zeros(n), np.zeros((n, 3)), np.zeros(n, dtype=np.int8))
+            base = Inputs.zeros(self.initial.n)
             from_tick = -1
         ticks = self._change_ticks
         lo = bisect.bisect_right(ticks, from_tick)
         hi = bisect.bisect_right(ticks, tick)
         if lo == hi:
             return base  # nothing changes: the same commands (Inputs is never mutated)
-        throttle, rcs, hold = base.throttle.copy(), base.rcs.copy(), base.hold.copy()
+        rows = base.rows.copy()
         for ch in self.input_changes[lo:hi]:
-            throttle[ch.ship] = ch.throttle
-            rcs[ch.ship] = ch.rcs
-            hold[ch.ship] = ch.hold
-        return Inputs(throttle, rcs, hold)
+            rows[ch.ship] = (ch.throttle, ch.rcs, ch.hold)
+        return Inputs(rows=rows)
 
     @cached_property
     def _change_ticks(self) -> list[int]:
@@ -538,15 +536,15 @@ def _build(res: dict) -> Scenario:
                      duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"],
                      energy_guard=sim["energy_guard"])
 
-    def col(key, dtype=float):
-        return np.array([s[key] for s in ships], dtype=dtype)
-
-    shp = ShipParams(
-        ship_id=tuple(s["id"] for s in ships), player_id=tuple(s["player_id"] for s in ships),
-        mass0_kg=col("mass"), fuel0_kg=col("fuel_mass"), com_height_m=col("com_height"),
-        leg_radius_m=col("leg_radius"), inertia0_kgm2=np.array([s["inertia"] for s in ships]),
-        max_thrust_n=col("max_thrust"), max_rcs_torque_nm=col("max_rcs_torque"),
-        isp_s=col("isp"), rcs_isp_s=col("rcs_isp"), rcs_arm_m=col("rcs_arm"))
+    shp = ShipParams.of(
+        len(ships), ship_id=tuple(s["id"] for s in ships),
+        player_id=tuple(s["player_id"] for s in ships),
+        mass0_kg=[s["mass"] for s in ships], fuel0_kg=[s["fuel_mass"] for s in ships],
+        com_height_m=[s["com_height"] for s in ships], leg_radius_m=[s["leg_radius"] for s in ships],
+        inertia0_kgm2=[s["inertia"] for s in ships], max_thrust_n=[s["max_thrust"] for s in ships],
+        max_rcs_torque_nm=[s["max_rcs_torque"] for s in ships], isp_s=[s["isp"] for s in ships],
+        rcs_isp_s=[s["rcs_isp"] for s in ships], rcs_arm_m=[s["rcs_arm"] for s in ships],
+        n_substeps=spar.n_fine_substeps)
     params = Params(spar, cp, bp, shp, ControllerParams(res["controller"]["bandwidth"]))
     initial = _initial_state(params, ships)
     changes = []
@@ -564,72 +562,60 @@ def _build(res: dict) -> Scenario:
 MAX_PLACEMENT_ITERATIONS = 50
 
 
-def _place(params: Params, ground: Ground, r_hat: np.ndarray, quat: np.ndarray, i: int,
-           altitude_m: float) -> np.ndarray:
+@kernel
+def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     """The centre of mass on the ray r_hat such that the lowest foot is ``altitude_m`` above the
     terrain under it (SPEC.md section 3), whatever the tilt and the slope."""
-    sh = params.ships
-    a, h = sh.leg_radius_m[i:i + 1], sh.com_height_m[i:i + 1]
-    rho = params.body.radius_m + altitude_m + float(h[0])
+    rho = ground.radius_m + altitude_m + com_height_m
     for _ in range(MAX_PLACEMENT_ITERATIONS):
-        alt = -float(lowest_foot_penetration(r_hat * rho, quat, a, h, ground)[0])
+        alt = -lowest_foot_penetration(ground, vec.scale(r_hat, rho), quat, leg_radius_m,
+                                       com_height_m)
         move = altitude_m - alt
         rho = rho + move
-        if abs(move) <= 4.0 * np.finfo(float).eps * rho:
+        if abs(move) <= 4.0 * 2.220446049250313e-16 * rho:
             break
-    return r_hat * rho
+    return vec.scale(r_hat, rho)
 
 
 def _initial_state(params: Params, ships: list[dict]) -> State:
-    n = len(ships)
-    body, terrain = params.body, params.body.terrain
+    """Every ship where its ``initial`` table puts it. sim.vec keeps even the set-up elementwise
+    IEEE arithmetic: a replay on another CPU rebuilds this state bit for bit."""
+    body = params.body
     om = body.omega_radps
-    pos, vel, quat, omega = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 4)), np.zeros((n, 3))
-    surf = np.zeros(n, dtype=np.int8)
-    absorbing = np.zeros(n, dtype=bool)
-    ground0 = Ground(body.radius_m, terrain, 1.0, 0.0, om,
+    sh = params.ships
+    ground0 = Ground(body.radius_m, body.terrain.base_height_m, params.bumps, 1.0, 0.0, om,
                      params.contact.surface_normal == "radial")
-
-    def v3(x) -> np.ndarray:
-        return np.asarray(x, dtype=float).reshape(1, 3)
-
+    st = State.zeros(len(ships))
+    rows = st.rows
     for i, s in enumerate(ships):
         ini = s["initial"]
-        # sim.vec keeps even the set-up elementwise IEEE arithmetic: a replay on another CPU
-        # rebuilds this state bit for bit
-        r_hat = vec.unit(v3([body.radius_m, ini["east"], ini["north"]]))
-        east = vec.unit(vec.cross(v3([0.0, 0.0, 1.0]), r_hat))
+        r_hat = vec.unit((body.radius_m, ini["east"], ini["north"]))
+        east = vec.unit(vec.cross((0.0, 0.0, 1.0), r_hat))
         north = vec.cross(r_hat, east)
         hd = math.radians(ini["heading_deg"])
-        fwd = math.cos(hd) * north + math.sin(hd) * east
+        fwd = vec.add(vec.scale(north, math.cos(hd)), vec.scale(east, math.sin(hd)))
         th = math.radians(ini["tilt_deg"])
-        ez = math.cos(th) * r_hat + math.sin(th) * fwd
-        ex = math.cos(th) * fwd - math.sin(th) * r_hat
+        ez = vec.add(vec.scale(r_hat, math.cos(th)), vec.scale(fwd, math.sin(th)))
+        ex = vec.sub(vec.scale(fwd, math.cos(th)), vec.scale(r_hat, math.sin(th)))
         ey = vec.cross(ez, ex)
         yaw = math.radians(ini["yaw_deg"])  # about the long axis: foot 0 (body +x) off the heading
-        ex, ey = math.cos(yaw) * ex + math.sin(yaw) * ey, math.cos(yaw) * ey - math.sin(yaw) * ex
-        quat[i] = _quat_from_axes(ex[0], ey[0], ez[0])
-        pos[i] = _place(params, ground0, r_hat, quat[i:i + 1], i, ini["altitude"])[0]
-        surf_v = om * np.array([-pos[i, 1], pos[i, 0], 0.0])
-        vel[i] = surf_v + ini["vertical_speed"] * r_hat[0] + ini["horizontal_speed"] * fwd[0]
+        ex, ey = (vec.add(vec.scale(ex, math.cos(yaw)), vec.scale(ey, math.sin(yaw))),
+                  vec.sub(vec.scale(ey, math.cos(yaw)), vec.scale(ex, math.sin(yaw))))
+        quat = tuple(float(x) for x in _quat_from_axes(ex, ey, ez))
+        a, h = float(sh.leg_radius_m[i]), float(sh.com_height_m[i])
+        pos = _place(ground0, r_hat, quat, a, h, ini["altitude"])
+        surf_v = (om * -pos[1], om * pos[0], 0.0)
+        vel = vec.add(vec.add(surf_v, vec.scale(r_hat, ini["vertical_speed"])),
+                      vec.scale(fwd, ini["horizontal_speed"]))
         state = SurfaceState.from_label(ini["state"])
-        surf[i] = state
-        absorbing[i] = state != SurfaceState.FLYING and abs(ini["vertical_speed"]) < \
-            params.contact.bounce_speed_mps
-    # body-frame angular velocity: the scenario's (relative to the surface) plus the body's spin
-    spin_w = np.zeros((n, 3))
-    spin_w[:, 2] = om
-    omega = np.array([s["initial"]["angular_velocity"] for s in ships]) + vec.quat_rotate_inv(quat, spin_w)
-    ft = feet(pos, quat, params.ships.leg_radius_m, params.ships.com_height_m, ground0)
-    lowest = ft.pos_w[0].copy()
-    deepest = ft.pen_m[0].copy()
-    for foot, x in zip(ft.pos_w[1:], ft.pen_m[1:]):
-        lowest = np.where((x > deepest)[:, None], foot, lowest)
-        deepest = np.maximum(deepest, x)
-    return State(
-        tick=0, surface_state=surf, pos_m=pos, vel_mps=vel, quat=quat, omega_body_radps=omega,
-        mass_kg=params.ships.mass0_kg.copy(), fuel_kg=params.ships.fuel0_kg.copy(),
-        absorbing=absorbing, sliding=np.zeros((n, 4), dtype=bool),
-        settle_ticks=np.zeros(n, dtype=np.int64),
-        pivot_rate_radps=np.zeros(n), pin_pos_bf_m=pos.copy(), pin_quat_bf=quat.copy(),
-        pin_pivot_bf_m=lowest)
+        # body-frame angular velocity: the scenario's (relative to the surface) plus the body's spin
+        omega = vec.add(tuple(ini["angular_velocity"]), vec.quat_rotate_inv(quat, (0.0, 0.0, om)))
+        _, lowest = lowest_foot(ground0, pos, quat, a, h)
+        r = rows[i]
+        r["surface_state"] = state
+        r["pos_m"], r["vel_mps"], r["quat"], r["omega_body_radps"] = pos, vel, quat, omega
+        r["mass_kg"], r["fuel_kg"] = sh.mass0_kg[i], sh.fuel0_kg[i]
+        r["absorbing"] = (state != SurfaceState.FLYING
+                          and abs(ini["vertical_speed"]) < params.contact.bounce_speed_mps)
+        r["pin_pos_bf_m"], r["pin_quat_bf"], r["pin_pivot_bf_m"] = pos, quat, lowest
+    return st

@@ -55,11 +55,8 @@ def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
         # the exact flow exp(A h): its columns are the flow from (1, 0) and from (0, 1)
         cols = []
         for x0, v0 in ((1.0, 0.0), (0.0, 1.0)):
-            one = np.ones(1)
-            flow = exact.Flow(w2=one, c1=2.0 * zeta * one, b0=0.0 * one, b1=0.0 * one,
-                              x0=x0 * one, v0=v0 * one)
-            x, v, _ = flow.at(np.array([h]))
-            cols.append([x[0], v[0]])
+            x, v, _ = exact.flow_at(exact.Flow(1.0, 2.0 * zeta, 0.0, 0.0, x0, v0), float(h))
+            cols.append([x, v])
         return np.array(cols).T
     raise ValueError(f"no stability analysis for method {method!r}")
 

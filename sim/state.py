@@ -1,5 +1,11 @@
 """What changes every tick: the batch's state, the commands applied, and what a tick reports.
 
+Each batched type holds one numpy structured array, a record per ship (``rows``), whose fields read
+as arrays over the batch (``state.pos_m`` is an (N, 3) view). The compiled step takes and fills
+these records directly (a handful of arguments, however many fields), and one generic set of
+operations serves every type (:class:`Batch`: take, concatenate, with_fields), as brax's ``Base``
+does for its pytrees.
+
 Frames: positions and velocities are inertial, centred on the body (the body's own motion is a
 uniform translation, so this frame is inertial too). ``quat`` rotates body-frame vectors into it.
 Pinned ships (landed, tipped, crashed) also keep their pose in the body-fixed frame, so that they
@@ -7,86 +13,141 @@ turn with a rotating body without drift.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
+from typing import ClassVar, Sequence, TypeVar
 
 import numpy as np
 
+STATE_DTYPE = np.dtype([
+    ("surface_state", "i1"),  # SurfaceState values
+    ("pos_m", "f8", (3,)),  # centre of mass, inertial
+    ("vel_mps", "f8", (3,)),  # inertial
+    ("quat", "f8", (4,)),  # (w, x, y, z), body -> inertial
+    ("omega_body_radps", "f8", (3,)),  # angular velocity in the body frame (inertial rate)
+    ("mass_kg", "f8"),  # wet mass
+    ("fuel_kg", "f8"),
+    ("absorbing", "?"),  # this contact began slower than bounce_speed (SEED-NOTES 1)
+    ("sliding", "u1", (4,)),  # 1 where a foot's friction was kinetic at the last sub-step's end
+    ("settle_ticks", "i8"),  # consecutive ticks the settle thresholds have held
+    ("pivot_rate_radps", "f8"),  # tipped only: rate of turn about the pivot (+ = toppling)
+    ("pin_pos_bf_m", "f8", (3,)),  # pinned ships: centre of mass, body-fixed frame
+    ("pin_quat_bf", "f8", (4,)),  # pinned ships: attitude relative to the body-fixed frame
+    ("pin_pivot_bf_m", "f8", (3,)),  # tipped only: the pivot (lowest foot), body-fixed frame
+], align=True)
 
-@dataclass(frozen=True)
-class State:
-    tick: int
-    surface_state: np.ndarray  # (N,) int8, SurfaceState values
-    pos_m: np.ndarray  # (N, 3) centre of mass, inertial
-    vel_mps: np.ndarray  # (N, 3) inertial
-    quat: np.ndarray  # (N, 4) (w, x, y, z), body -> inertial
-    omega_body_radps: np.ndarray  # (N, 3) angular velocity in the body frame (inertial rate)
-    mass_kg: np.ndarray  # (N,) wet mass
-    fuel_kg: np.ndarray  # (N,)
-    absorbing: np.ndarray  # (N,) bool: this contact began slower than bounce_speed (SEED-NOTES 1)
-    sliding: np.ndarray  # (N, 4) bool: each foot's friction regime (kinetic) at the last sub-step's end
-    settle_ticks: np.ndarray  # (N,) int64: consecutive ticks the settle thresholds have held
-    pivot_rate_radps: np.ndarray  # (N,) tipped only: rate of turn about the pivot (+ = toppling)
-    pin_pos_bf_m: np.ndarray  # (N, 3) pinned ships: centre of mass, body-fixed frame
-    pin_quat_bf: np.ndarray  # (N, 4) pinned ships: attitude relative to the body-fixed frame
-    pin_pivot_bf_m: np.ndarray  # (N, 3) tipped only: the pivot (lowest foot), body-fixed frame
+INPUTS_DTYPE = np.dtype([
+    ("throttle", "f8"),  # 0..1 of max_thrust
+    ("rcs", "f8", (3,)),  # -1..1 of max_rcs_torque per body axis; 0 leaves the axis to the hold
+    ("hold", "i1"),  # HoldMode values
+], align=True)
+
+OUTPUTS_DTYPE = np.dtype([
+    ("altitude_m", "f8"),  # lowest foot above the terrain under it (negative = penetrating)
+    ("penetration_m", "f8"),  # max(0, -altitude)
+    ("peak_penetration_m", "f8"),  # deepest penetration at any sub-step of the tick (>= 0)
+    ("cos_tilt", "f8"),  # cosine of the long axis' angle from local up
+    ("v_radial_mps", "f8"),  # + = up, relative to the surface
+    ("v_tangential_mps", "f8"),  # speed along the surface, relative to it
+    ("normal_force_n", "f8"),
+    ("friction_force_n", "f8"),
+    ("throttle", "f8"),  # applied (0 without fuel)
+    ("rcs_torque_body_nm", "f8", (3,)),  # applied
+    ("energy_guard_j", "f8"),  # energy the passivity guard removed this tick (sim.step)
+], align=True)
+
+#: One state transition as the compiled step writes it (sim.step).
+TRANSITION_DTYPE = np.dtype([
+    ("ship", "i8"),  # index in the batch
+    ("from_state", "i1"),
+    ("to_state", "i1"),
+    ("v_radial_mps", "f8"),
+], align=True)
+
+#: State fields in a fixed order (for logs and comparisons).
+STATE_ARRAY_FIELDS: tuple[str, ...] = tuple(STATE_DTYPE.names)
+
+B = TypeVar("B", bound="Batch")
+
+
+@dataclass(frozen=True, eq=False)
+class Batch:
+    """Per-ship records of one dtype (``DTYPE``); each field reads as an array over the batch."""
+
+    rows: np.ndarray
+    DTYPE: ClassVar[np.dtype]
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        # only called for names that are not attributes: the dtype's fields, as views
+        dtype = type(self).DTYPE
+        if name in dtype.names:
+            return self.rows[name]
+        raise AttributeError(f"{type(self).__name__} has no field {name!r}")
 
     @property
     def n(self) -> int:
-        return int(self.surface_state.shape[0])
+        return int(self.rows.shape[0])
 
-    def take(self, idx: np.ndarray) -> "State":
-        """The ships at ``idx`` as a batch of their own."""
-        return replace(self, **{f.name: getattr(self, f.name)[idx] for f in fields(self)
-                                if f.name != "tick"})
+    def take(self: B, idx) -> B:
+        """The ships at ``idx`` (indices or a mask), as a batch of their own."""
+        return replace(self, rows=self.rows[np.asarray(idx)])
 
-    def put(self, parts: "list[tuple[np.ndarray, State]]") -> "State":
-        """A copy of self with the ships at each ``idx`` replaced by its ``part`` (one copy of
-        each array, whatever the number of parts)."""
-        out = {}
-        for f in fields(self):
-            if f.name == "tick":
-                continue
-            arr = getattr(self, f.name).copy()
-            for idx, part in parts:
-                arr[idx] = getattr(part, f.name)
-            out[f.name] = arr
-        return replace(self, **out)
+    def with_fields(self: B, **arrays) -> B:
+        """A copy with the named fields set (arrays over the batch, or one value for all)."""
+        rows = self.rows.copy()
+        for name, value in arrays.items():
+            if name not in type(self).DTYPE.names:
+                raise AttributeError(f"{type(self).__name__} has no field {name!r}")
+            rows[name] = value
+        return replace(self, rows=rows)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "tick"}
+        """Every field by name, in the dtype's order (views of the rows)."""
+        return {name: self.rows[name] for name in type(self).DTYPE.names}
+
+    @classmethod
+    def zeros(cls: type[B], n: int, **extra) -> B:
+        return cls(rows=np.zeros(n, cls.DTYPE), **extra)
+
+    @classmethod
+    def of(cls: type[B], n: int | None = None, **fields_and_extra) -> B:
+        """A batch from per-field arrays (missing fields zero); other keywords go to the class."""
+        names = cls.DTYPE.names
+        fields = {k: v for k, v in fields_and_extra.items() if k in names}
+        extra = {k: v for k, v in fields_and_extra.items() if k not in names}
+        if n is None:
+            n = len(next(iter(fields.values())))
+        rows = np.zeros(n, cls.DTYPE)
+        for name, value in fields.items():
+            rows[name] = value
+        return cls(rows=rows, **extra)
 
 
-#: State fields in a fixed order (for logs and comparisons).
-STATE_ARRAY_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(State) if f.name != "tick")
+def concatenate(parts: Sequence[B]) -> B:
+    """One batch of the ships of ``parts``, in order (the first part's other attributes)."""
+    return replace(parts[0], rows=np.concatenate([p.rows for p in parts]))
 
 
-@dataclass(frozen=True)
-class Inputs:
-    """The players' commands for one tick (what the scenario's ``[[ships.inputs]]`` hold at that tick)."""
+@dataclass(frozen=True, eq=False)
+class State(Batch):
+    """The batch's state at the end of tick ``tick`` (the start of the next)."""
 
-    throttle: np.ndarray  # (N,) 0..1 of max_thrust
-    rcs: np.ndarray  # (N, 3) -1..1 of max_rcs_torque per body axis; 0 leaves the axis to the hold mode
-    hold: np.ndarray  # (N,) int8, HoldMode values
-
-    def take(self, idx: np.ndarray) -> "Inputs":
-        return Inputs(self.throttle[idx], self.rcs[idx], self.hold[idx])
+    tick: int = 0
+    DTYPE: ClassVar[np.dtype] = STATE_DTYPE
 
 
-@dataclass(frozen=True)
-class Outputs:
+@dataclass(frozen=True, eq=False)
+class Inputs(Batch):
+    """The players' commands for one tick (what the scenario's ``[[ships.inputs]]`` hold at that
+    tick)."""
+
+    DTYPE: ClassVar[np.dtype] = INPUTS_DTYPE
+
+
+@dataclass(frozen=True, eq=False)
+class Outputs(Batch):
     """What one tick reports per ship, at the end of the tick (forces: last sub-step's)."""
 
-    altitude_m: np.ndarray  # (N,) lowest foot above the terrain under it (negative = penetrating)
-    penetration_m: np.ndarray  # (N,) max(0, -altitude)
-    peak_penetration_m: np.ndarray  # (N,) deepest penetration at any sub-step of the tick (>= 0)
-    cos_tilt: np.ndarray  # (N,) cosine of the long axis' angle from local up
-    v_radial_mps: np.ndarray  # (N,) + = up, relative to the surface
-    v_tangential_mps: np.ndarray  # (N,) speed along the surface, relative to it
-    normal_force_n: np.ndarray  # (N,)
-    friction_force_n: np.ndarray  # (N,)
-    throttle: np.ndarray  # (N,) applied (0 without fuel)
-    rcs_torque_body_nm: np.ndarray  # (N, 3) applied
-    energy_guard_j: np.ndarray  # (N,) energy the passivity guard removed this tick (sim.step)
+    DTYPE: ClassVar[np.dtype] = OUTPUTS_DTYPE
 
 
 @dataclass(frozen=True)

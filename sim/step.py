@@ -1,12 +1,14 @@
 """The tick: ``step(params, state, inputs) -> (state, outputs, events)``, a pure function.
 
-Phases, in order (each a function below):
+The batch is stepped by one loop over its ships (:func:`step_ships`), compiled (sim.compiled);
+inside it, one ship's tick is a chain of phases, in order, each a function below:
 
 1. ``commands``     throttle and RCS torque actually applied (fuel, hold-mode controller)
 2. ``free_flight``  flying and contact ships: integrate, friction at the feet, the passivity
                     guard, and the in-flight transitions (contact, crash, liftoff, tipped) at
-                    every sub-step; ships near the ground take ``n_fine_substeps`` sub-steps,
-                    ships far above take one and do no contact work
+                    every sub-step; a ship near the ground takes its own ``n_substeps``
+                    sub-steps, a purely vertical one a single exact step, and a ship far above
+                    one step with no contact work
 3. ``settle``       contact -> landed once the settle thresholds have held for ``settle_time``
                     with the centre of mass over the footprint
 4. ``pinned``       landed, tipped and crashed ships turn with the body; liftoff; tipped ships'
@@ -14,87 +16,36 @@ Phases, in order (each a function below):
 5. ``burn``         fuel and mass
 6. ``observe``      the tick's telemetry
 
-A ship's numbers depend only on its own state, inputs and parameters: every operation is elementwise
-over the batch (no reductions across ships, no BLAS), so a ship stepped alone or among thousands
-gives bit-identical results. Decisions compare cosines and squared speeds, never angles.
+A ship's numbers depend only on its own state, inputs and parameters: nothing is summed or compared
+across ships, so a ship stepped alone or among thousands gives bit-identical results. Decisions
+compare cosines and squared speeds, never angles.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
-from sim import contact, energy, friction, vec
+from sim.compiled import kernel
 from sim.constants import G0_MPS2
-from sim.dynamics import FreeBodies, contact_at
-from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, ground_at,
-                        inertia, pin_pose, quat_z, rotate_z, surface_velocity)
+from sim.contact import lowest_foot_penetration
+from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_engage
+from sim.energy import mechanical, rotation, total, translation
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
-from sim.integrators import method
+from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, inertia,
+                        pin_pose, quat_z, rotate_z, surface_velocity)
+from sim.friction import coulomb, hold_footprint, seed, spread_over_step
+from sim.contact import Ground, feet
+from sim.integrators import advance
 from sim.params import Params
-from sim.pivot import pinned_motion, pivot_rate_from_momentum, pivot_step
-from sim.stability import KICKS
-from sim.state import Event, Inputs, Outputs, State
+from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
+from sim.state import TRANSITION_DTYPE, Event, Inputs, Outputs, State
+from sim.vec import add, cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, \
+    quat_normalize, quat_rotate_inv, scale, sub, unit
 
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
-_Z = np.array([0.0, 0.0, 1.0])
-
-
-@dataclass(frozen=True)
-class Commands:
-    throttle: np.ndarray  # (N,)
-    thrust_n: np.ndarray  # (N,)
-    rcs_torque_body_nm: np.ndarray  # (N, 3)
-
-    def take(self, idx: np.ndarray) -> "Commands":
-        return Commands(self.throttle[idx], self.thrust_n[idx], self.rcs_torque_body_nm[idx])
-
-
-# -- 1. commands ---------------------------------------------------------------------------------
-def commands(params: Params, st: State, inputs: Inputs) -> Commands:
-    """Applied throttle and RCS torque. The hold-mode controller (flying and contact) is a PD law,
-    tau = -I (w_c^2 err + 2 w_c omega_rel), saturated at max_rcs_torque; a non-zero manual RCS
-    command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
-    sh = params.ships
-    live = (st.fuel_kg > 0.0) & (st.surface_state != CRASHED)
-    throttle = np.where(live, np.clip(inputs.throttle, 0.0, 1.0), 0.0)
-    max_tau = sh.max_rcs_torque_nm[:, None]
-    manual = np.clip(inputs.rcs, -1.0, 1.0) * max_tau
-
-    controlled = ((inputs.hold != HoldMode.OFF)
-                  & ((st.surface_state == FLYING) | (st.surface_state == CONTACT)))
-    auto = np.zeros_like(manual)
-    ctl = np.flatnonzero(controlled)
-    if ctl.size:  # elementwise on the controlled ships only: the same numbers, less work
-        bw = params.controller.bandwidth_radps
-        q = st.quat[ctl]
-        omega_rel = st.omega_body_radps[ctl] - body_spin_in_body_frame(params, q)
-        up_b = vec.quat_rotate_inv(q, vec.unit(st.pos_m[ctl]))
-        ez_b = np.broadcast_to(_Z, up_b.shape)
-        radial = (inputs.hold[ctl] == HoldMode.RADIAL)[:, None]
-        err = np.where(radial, vec.cross(ez_b, up_b), 0.0)
-        inertia_ctl = sh.inertia0_kgm2[ctl] * (st.mass_kg[ctl] / sh.mass0_kg[ctl])[:, None]
-        tau = inertia_ctl * (bw * bw * err - 2.0 * bw * omega_rel)
-        auto[ctl] = np.clip(tau, -max_tau[ctl], max_tau[ctl])
-    rcs = np.where(manual != 0.0, manual, auto)
-    rcs = np.where(live[:, None], rcs, 0.0)
-    return Commands(throttle, throttle * sh.max_thrust_n, rcs)
-
-
-# -- 2. free flight ------------------------------------------------------------------------------
-def near_ground(params: Params, st: State, cmd: Commands) -> np.ndarray:
-    """True for ships that might touch the ground within this tick (conservative bound)."""
-    sh, body, dt = params.ships, params.body, params.sim.dt_s
-    ter = body.terrain
-    terrain_max = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
-    reach_down = sh.com_height_m + sh.leg_radius_m
-    clearance = vec.norm(st.pos_m) - body.radius_m - terrain_max - reach_down
-    speed = vec.norm(st.vel_mps)
-    accel = body.surface_gravity_mps2 + cmd.thrust_n / st.mass_kg
-    reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
-    return clearance < reach
-
+HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -103,97 +54,227 @@ def near_ground(params: Params, st: State, cmd: Commands) -> np.ndarray:
 #: exact step and sub-steps of the full model agree (tests/test_models.py).
 VERTICAL_TOL2 = 1e-16
 
-
-def purely_vertical(params: Params, st: State, cmd: Commands) -> np.ndarray:
-    """Ships whose motion this tick is along the local vertical only: upright, not turning, not
-    slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
-    For them every kick of the exponential method is zero, so its one step per tick is already
-    exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
-    n = st.n
-    if params.body.omega_radps != 0.0:
-        return np.zeros(n, dtype=bool)
-    r_hat = vec.unit(st.pos_m)
-    tilt = vec.cross(vec.quat_axis_z(st.quat), r_hat)
-    v_rad = vec.dot(st.vel_mps, r_hat)
-    slip = st.vel_mps - vec.scale(r_hat, v_rad)
-    w = st.omega_body_radps
-    ok = ((vec.dot(tilt, tilt) < VERTICAL_TOL2) & (vec.dot(w, w) < VERTICAL_TOL2)
-          & (vec.dot(slip, slip) < VERTICAL_TOL2)
-          & (cmd.rcs_torque_body_nm[:, 0] == 0.0) & (cmd.rcs_torque_body_nm[:, 1] == 0.0)
-          & (cmd.rcs_torque_body_nm[:, 2] == 0.0))
-    ter = params.body.terrain
-    # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
-    reach = params.ships.leg_radius_m
-    for e0, n0, rad in zip(ter.bump_east_m, ter.bump_north_m, ter.bump_radius_m):
-        de = st.pos_m[:, 1] - e0
-        dn = st.pos_m[:, 2] - n0
-        clear = rad + reach + 1.0
-        ok &= de * de + dn * dn > clear * clear
-    return ok
-
-
-def _free_bodies(params: Params, st: State, cmd: Commands, touching: bool, t_tick_s: float
-                 ) -> FreeBodies:
-    cp = params.contact
-    m = st.mass_kg
-    k = cp.stiffness_per_kg * m
-    two_omega_m = 2.0 * cp.omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
-    return FreeBodies(
-        mass_kg=m, inertia_kgm2=inertia(params, st), thrust_n=cmd.thrust_n,
-        rcs_torque_body_nm=cmd.rcs_torque_body_nm, leg_radius_m=params.ships.leg_radius_m,
-        com_height_m=params.ships.com_height_m, k_npm=k, c_nspm=cp.damping_ratio * two_omega_m,
-        c_absorb_nspm=cp.absorb_damping_ratio * two_omega_m, gm_m3ps2=params.body.gm_m3ps2,
-        body_radius_m=params.body.radius_m, body_omega_radps=params.body.omega_radps,
-        params=params, touching=touching, t_tick_s=t_tick_s,
-        linear_model=params.sim.integrator in KICKS)
-
-
-def align_to_surface(q: np.ndarray, r_hat: np.ndarray) -> np.ndarray:
-    """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
-
-    Half-way quaternion: (1 + ez.r, ez x r) normalised (sqrt only)."""
-    ez = vec.quat_axis_z(q)
-    rot = np.empty((q.shape[0], 4))
-    rot[:, 0] = 1.0 + vec.dot(ez, r_hat)
-    rot[:, 1:] = vec.cross(ez, r_hat)
-    degenerate = rot[:, 0] <= 0.0  # upside down: no unique smallest rotation; leave as is
-    rot = np.where(degenerate[:, None], np.array([1.0, 0.0, 0.0, 0.0]), rot)
-    return vec.quat_normalize(vec.quat_mul(vec.quat_normalize(rot), q))
-
-
-Transition = tuple[int, int, int, float]  # (ship, from state, to state, v_radial m/s)
-
 #: A step that ends (or starts) exactly where the feet reach the ground leaves them within rounding
 #: of it (ulp(|p|) ~ 2e-10 m on the Moon): the feet count as clear before that instant and as
 #: pressing from it, within this margin, so that all of an upright ship's feet engage together.
 ONSET_MARGIN_M = 1e-6
 
 
-def ship_energy(fb: FreeBodies, ground: contact.Ground, p, v, q, w) -> energy.Energy:
-    """sim.energy of free ships at one instant."""
-    par = fb.params
-    return energy.mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
-                             par.contact.stiffness_per_kg, par.ships.leg_radius_m,
-                             par.ships.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                             ground)
+class Ship(NamedTuple):
+    """One ship's state inside the kernels (sim.state.STATE_DTYPE, as numbers and tuples)."""
+
+    surface_state: int
+    p: tuple  # centre of mass, inertial, m
+    v: tuple  # m/s
+    q: tuple  # body -> inertial
+    w: tuple  # body-frame angular velocity, rad/s
+    mass_kg: float
+    fuel_kg: float
+    absorbing: bool
+    sliding: tuple  # each foot's friction regime
+    settle_ticks: int
+    pivot_rate_radps: float
+    pin_pos_bf_m: tuple
+    pin_quat_bf: tuple
+    pin_pivot_bf_m: tuple
 
 
-@dataclass(frozen=True)
-class EnergyRef:
+@kernel
+def load(rec):
+    """A ship's record as a :class:`Ship`."""
+    return Ship(int(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
+                (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
+                (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
+                (rec.omega_body_radps[0], rec.omega_body_radps[1], rec.omega_body_radps[2]),
+                rec.mass_kg, rec.fuel_kg, bool(rec.absorbing),
+                (rec.sliding[0] != 0, rec.sliding[1] != 0, rec.sliding[2] != 0,
+                 rec.sliding[3] != 0),
+                int(rec.settle_ticks), rec.pivot_rate_radps,
+                (rec.pin_pos_bf_m[0], rec.pin_pos_bf_m[1], rec.pin_pos_bf_m[2]),
+                (rec.pin_quat_bf[0], rec.pin_quat_bf[1], rec.pin_quat_bf[2], rec.pin_quat_bf[3]),
+                (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
+
+
+@kernel
+def store(s, rec):
+    """Write a :class:`Ship` into its record."""
+    rec.surface_state = s.surface_state
+    for k in range(3):
+        rec.pos_m[k] = s.p[k]
+        rec.vel_mps[k] = s.v[k]
+        rec.omega_body_radps[k] = s.w[k]
+        rec.pin_pos_bf_m[k] = s.pin_pos_bf_m[k]
+        rec.pin_pivot_bf_m[k] = s.pin_pivot_bf_m[k]
+    for k in range(4):
+        rec.quat[k] = s.q[k]
+        rec.pin_quat_bf[k] = s.pin_quat_bf[k]
+        rec.sliding[k] = 1 if s.sliding[k] else 0
+    rec.mass_kg = s.mass_kg
+    rec.fuel_kg = s.fuel_kg
+    rec.absorbing = s.absorbing
+    rec.settle_ticks = s.settle_ticks
+    rec.pivot_rate_radps = s.pivot_rate_radps
+
+
+@kernel
+def emit(events, n, ship, from_state, to_state, v_radial_mps):
+    """Append a transition to the tick's list; returns the new count."""
+    if n < events.shape[0]:
+        e = events[n]
+        e.ship = ship
+        e.from_state = from_state
+        e.to_state = to_state
+        e.v_radial_mps = v_radial_mps
+    return n + 1
+
+
+# -- 1. commands ---------------------------------------------------------------------------------
+class Commands(NamedTuple):
+    throttle: float
+    thrust_n: float
+    rcs_torque_body_nm: tuple
+
+
+@kernel
+def commands(cfg, sp, s, inp):
+    """Applied throttle and RCS torque. The hold-mode controller (flying and contact) is a PD law,
+    tau = -I (w_c^2 err + 2 w_c omega_rel), saturated at max_rcs_torque; a non-zero manual RCS
+    command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
+    live = s.fuel_kg > 0.0 and s.surface_state != CRASHED
+    if not live:
+        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0))
+    throttle = fmin(fmax(inp.throttle, 0.0), 1.0)
+    max_tau = sp.max_rcs_torque_nm
+    auto = (0.0, 0.0, 0.0)
+    hold = int(inp.hold)
+    if hold != HOLD_OFF and (s.surface_state == FLYING or s.surface_state == CONTACT):
+        bw = cfg.bandwidth_radps
+        omega_rel = sub(s.w, body_spin_in_body_frame(cfg.omega_radps, s.q))
+        up_b = quat_rotate_inv(s.q, unit(s.p))
+        err = cross((0.0, 0.0, 1.0), up_b) if hold == HOLD_RADIAL else (0.0, 0.0, 0.0)
+        i_ctl = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                        sp.mass0_kg, s.mass_kg)
+        bw2, two_bw = bw * bw, 2.0 * bw
+        tau = mul(i_ctl, (bw2 * err[0] - two_bw * omega_rel[0], bw2 * err[1] - two_bw * omega_rel[1],
+                          bw2 * err[2] - two_bw * omega_rel[2]))
+        auto = (fmin(fmax(tau[0], -max_tau), max_tau), fmin(fmax(tau[1], -max_tau), max_tau),
+                fmin(fmax(tau[2], -max_tau), max_tau))
+    rcs = (0.0, 0.0, 0.0)
+    m0 = fmin(fmax(inp.rcs[0], -1.0), 1.0) * max_tau
+    m1 = fmin(fmax(inp.rcs[1], -1.0), 1.0) * max_tau
+    m2 = fmin(fmax(inp.rcs[2], -1.0), 1.0) * max_tau
+    rcs = (m0 if m0 != 0.0 else auto[0], m1 if m1 != 0.0 else auto[1],
+           m2 if m2 != 0.0 else auto[2])
+    return Commands(throttle, throttle * sp.max_thrust_n, rcs)
+
+
+# -- 2. free flight ------------------------------------------------------------------------------
+@kernel
+def near_ground(cfg, sp, s, cmd):
+    """True for a ship that might touch the ground within this tick (conservative bound)."""
+    dt = cfg.dt_s
+    reach_down = sp.com_height_m + sp.leg_radius_m
+    clearance = norm(s.p) - cfg.body_radius_m - cfg.terrain_max_m - reach_down
+    speed = norm(s.v)
+    accel = cfg.surface_gravity_mps2 + cmd.thrust_n / s.mass_kg
+    reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
+    return clearance < reach
+
+
+@kernel
+def purely_vertical(cfg, bumps, sp, s, cmd):
+    """A ship whose motion this tick is along the local vertical only: upright, not turning, not
+    slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
+    For it every kick of the exponential method is zero, so its one step per tick is already
+    exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
+    if cfg.omega_radps != 0.0:
+        return False
+    r_hat = unit(s.p)
+    tilt = cross(quat_axis_z(s.q), r_hat)
+    v_rad = dot(s.v, r_hat)
+    slip = sub(s.v, scale(r_hat, v_rad))
+    rcs = cmd.rcs_torque_body_nm
+    if not (dot(tilt, tilt) < VERTICAL_TOL2 and dot(s.w, s.w) < VERTICAL_TOL2
+            and dot(slip, slip) < VERTICAL_TOL2 and rcs[0] == 0.0 and rcs[1] == 0.0
+            and rcs[2] == 0.0):
+        return False
+    # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
+    for j in range(bumps.shape[0]):
+        de = s.p[1] - bumps[j, 0]
+        dn = s.p[2] - bumps[j, 1]
+        clear = bumps[j, 2] + sp.leg_radius_m + 1.0
+        if not de * de + dn * dn > clear * clear:
+            return False
+    return True
+
+
+@kernel
+def free_body(cfg, bumps, sp, s, cmd, touching, cos0, sin0):
+    m = s.mass_kg
+    two_omega_m = 2.0 * cfg.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
+    return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                               sp.mass0_kg, m),
+                    cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
+                    cfg.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
+                    cfg.absorb_damping_ratio * two_omega_m, cfg.stiffness_per_kg, cfg.gm_m3ps2,
+                    cfg.body_radius_m, cfg.omega_radps, cfg.base_height_m, bumps,
+                    cfg.radial_normal, cos0, sin0, touching, 0.0, cfg.linear_model)
+
+
+@kernel
+def align_to_surface(q, r_hat):
+    """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
+
+    Half-way quaternion: (1 + ez.r, ez x r) normalised (sqrt only)."""
+    ez = quat_axis_z(q)
+    c = cross(ez, r_hat)
+    rot = (1.0 + dot(ez, r_hat), c[0], c[1], c[2])
+    if rot[0] <= 0.0:  # upside down: no unique smallest rotation; leave as is
+        rot = (1.0, 0.0, 0.0, 0.0)
+    return quat_normalize(quat_mul(quat_normalize(rot), q))
+
+
+@kernel
+def ship_energy(fb, ground, p, v, q, w):
+    """sim.energy of a free ship at one instant."""
+    return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
+                      fb.leg_radius_m, fb.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
+                      ground)
+
+
+class EnergyRef(NamedTuple):
     """A passive ship's energy at the end of its last sub-step: the total, and its translational
     and rotational parts (conserved each on its own while nothing touches the ship)."""
 
-    total_j: np.ndarray
-    translation_j: np.ndarray
-    rotation_j: np.ndarray
-
-    @staticmethod
-    def of(e: energy.Energy) -> "EnergyRef":
-        return EnergyRef(e.total_j, e.translation_j, e.rotation_j)
+    total_j: float
+    translation_j: float
+    rotation_j: float
 
 
-def passivity_guard(params: Params, fb: FreeBodies, ground: contact.Ground, y, ref: EnergyRef,
-                    passive: np.ndarray, airborne: np.ndarray):
+@kernel
+def energy_ref(e):
+    return EnergyRef(total(e), translation(e), rotation(e))
+
+
+@kernel
+def _guard_factor(excess, kinetic):
+    """sqrt(1 - excess / kinetic): the scale of the kinetic energy that removes ``excess``."""
+    if not excess > 0.0:
+        return 1.0
+    if not kinetic > 0.0:
+        return 0.0
+    return math.sqrt(fmax(1.0 - excess / kinetic, 0.0))
+
+
+class Guarded(NamedTuple):
+    v: tuple
+    w: tuple
+    ref: EnergyRef
+    removed_j: float
+
+
+@kernel
+def passivity_guard(fb, ground, p, v, q, w, ref, passive, airborne):
     """With no thrust and no RCS nothing can add energy (sim.energy: the dampers, friction and
     every inelastic transition only take it). A step's integration error can (the explicit
     kicks on a rocking ship, measured up to 2.5e-4 of its energy in a tick; free flight's
@@ -204,332 +285,353 @@ def passivity_guard(params: Params, fb: FreeBodies, ground: contact.Ground, y, r
     translational and rotational energies each on its own, so each is guarded on its own (the
     rotation's step is exact for an axisymmetric ship and must not pay for the translation's
     error). The correction is the size of the local error, so the method's order is kept; what
-    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``). Returns the state, the
-    new reference, and what was removed (J)."""
-    p, v, q, w = y
+    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``)."""
     e = ship_energy(fb, ground, p, v, q, w)
-    whole = passive & ~airborne
-    split = passive & airborne
-    ex_all = np.where(whole, e.total_j - ref.total_j, 0.0)
-    ex_tr = np.where(split, e.translation_j - ref.translation_j, 0.0)
-    ex_rot = np.where(split, e.rotation_j - ref.rotation_j, 0.0)
-    if not ((ex_all > 0.0).any() or (ex_tr > 0.0).any() or (ex_rot > 0.0).any()):
-        return y, EnergyRef.of(e), np.zeros(p.shape[0])
-
-    def factor(excess, kinetic):
-        f = np.sqrt(np.maximum(1.0 - excess / np.where(kinetic > 0.0, kinetic, 1.0), 0.0))
-        return np.where(excess > 0.0, np.where(kinetic > 0.0, f, 0.0), 1.0)
-
-    kin = e.translational_j + e.rotational_j
-    f_all = factor(ex_all, kin)
-    f_v = f_all * factor(ex_tr, e.translational_j)
-    f_w = f_all * factor(ex_rot, e.rotational_j)
-    v_surf = ground.surface_velocity(p)
-    spin_b = body_spin_in_body_frame(params, q)
-    # only where a correction is due: (v - v_surf) + v_surf is not v in floating point, and a
-    # ship's bits must not depend on whether a neighbour needed the guard
-    v = np.where((f_v != 1.0)[:, None], v_surf + (v - v_surf) * f_v[:, None], v)
-    w = np.where((f_w != 1.0)[:, None], spin_b + (w - spin_b) * f_w[:, None], w)
+    ex_all = total(e) - ref.total_j if passive and not airborne else 0.0
+    ex_tr = translation(e) - ref.translation_j if passive and airborne else 0.0
+    ex_rot = rotation(e) - ref.rotation_j if passive and airborne else 0.0
+    if not (ex_all > 0.0 or ex_tr > 0.0 or ex_rot > 0.0):
+        return Guarded(v, w, energy_ref(e), 0.0)
+    f_all = _guard_factor(ex_all, e.translational_j + e.rotational_j)
+    f_v = f_all * _guard_factor(ex_tr, e.translational_j)
+    f_w = f_all * _guard_factor(ex_rot, e.rotational_j)
+    # only where a correction is due: (v - v_surf) + v_surf is not v in floating point
+    if f_v != 1.0:
+        v_surf = surface_velocity(fb.body_omega_radps, p)
+        v = add(v_surf, scale(sub(v, v_surf), f_v))
+    if f_w != 1.0:
+        spin_b = body_spin_in_body_frame(fb.body_omega_radps, q)
+        w = add(spin_b, scale(sub(w, spin_b), f_w))
     taken_tr = e.translational_j * (1.0 - f_v * f_v)
     taken_rot = e.rotational_j * (1.0 - f_w * f_w)
     removed = taken_tr + taken_rot
-    new = EnergyRef(e.total_j - removed, e.translation_j - taken_tr, e.rotation_j - taken_rot)
-    return (p, v, q, w), new, removed
+    return Guarded(v, w, EnergyRef(total(e) - removed, translation(e) - taken_tr,
+                                   rotation(e) - taken_rot), removed)
 
 
-def free_flight(params: Params, st: State, cmd: Commands, n_sub: int, touching: bool,
-                t0_s: float) -> tuple[State, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                      list[Transition]]:
-    """Advance free ships (a sub-batch) by one tick in ``n_sub`` equal sub-steps.
+class Aligned(NamedTuple):
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    aligned: bool
 
-    Returns the new sub-batch, the last sub-step's friction force (N: the sum of the feet's), the
-    normal force at the end (N), the deepest penetration of any sub-step (m), the energy the
-    passivity guard removed (J), and the transitions as (local ship index, from, to, v_radial)
-    in the order they happened."""
-    cp, dt, sh = params.contact, params.sim.dt_s, params.ships
+
+@kernel
+def align_at_touchdown(fb, ground, p, v, q, w):
+    """The seed's Flying -> Contact rule: attitude snapped to local up and rotation stopped
+    (relative to the surface); then the ship moves out along local up so that its deepest foot
+    is no deeper than before the snap: turning must not bury the feet (MODEL-NOTES 11). The snap
+    must not make energy either (MODEL-NOTES 24): a ship that it would raise (tilted past
+    2 atan(a / h), 74 degrees for the default lander) pays for the lift out of its descent speed;
+    a ship too slow to pay is not stood up and touches down as it is."""
+    r_hat = unit(p)
+    q1 = align_to_surface(q, r_hat)
+    w1 = body_spin_in_body_frame(fb.body_omega_radps, q1)
+    pen0 = lowest_foot_penetration(ground, p, q, fb.leg_radius_m, fb.com_height_m)
+    pen1 = lowest_foot_penetration(ground, p, q1, fb.leg_radius_m, fb.com_height_m)
+    p1 = add(p, scale(r_hat, fmax(pen1 - pen0, 0.0)))
+    cost = total(ship_energy(fb, ground, p1, v, q1, w1)) - total(ship_energy(fb, ground, p, v, q, w))
+    v_rad = dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
+    pays = cost > 0.0 and v_rad < 0.0 and spare >= 0.0
+    if not (cost <= 0.0 or pays):
+        return Aligned(p, v, q, w, False)
+    dv = -math.sqrt(fmax(spare, 0.0)) - v_rad if pays else 0.0
+    return Aligned(p1, add(v, scale(r_hat, dv)), q1, w1, True)
+
+
+@kernel
+def hermite_peak(x0, xd0, x1, xd1, h):
+    """Largest value over a sub-step of the cubic Hermite interpolant through (x0, x0') and
+    (x1, x1'): the deepest penetration between sub-step ends, to O(h^4). Telemetry only."""
+    a = 6.0 * (x0 - x1) + 3.0 * h * (xd0 + xd1)
+    b = 6.0 * (x1 - x0) - h * (4.0 * xd0 + 2.0 * xd1)
+    c = h * xd0
+    best = fmax(x0, x1)
+    disc = b * b - 4.0 * a * c
+    root = math.sqrt(fmax(disc, 0.0))
+    for sgn in (-1.0, 1.0):
+        if a != 0.0:
+            s = (-b + sgn * root) / (2.0 * a)
+        elif b != 0.0:
+            s = -c / b
+        else:
+            s = 0.0
+        if disc >= 0.0 and s > 0.0 and s < 1.0 and math.isfinite(x0) and math.isfinite(x1):
+            s2 = s * s
+            s3 = s * s * s
+            xs = ((2.0 * s3 - 3.0 * s2 + 1.0) * x0 + (s3 - 2.0 * s2 + s) * h * xd0
+                  + (-2.0 * s3 + 3.0 * s2) * x1 + (s3 - s2) * h * xd1)
+            best = fmax(best, xs)
+    return best
+
+
+class SubStep(NamedTuple):
+    """One integrator (sub-)step followed by friction's impulses."""
+
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    sliding: tuple
+    friction_n: float  # the feet's friction impulse over the step divided by it
+    peak_penetration_m: float  # the method's own deepest penetration inside the step
+    located: bool  # whether the method located it
+    pressed: bool  # whether any foot pressed during the step
+
+
+@kernel
+def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_start):
+    """One step of the method (with ``bodies``, which may differ from ``fb`` in where its feet
+    engage), then Coulomb friction (or the seed's) at the feet that pressed, spread over the
+    step, and a held footprint kept where the ground carried it."""
+    z4 = (False, False, False, False)
+    res = advance(cfg.method, bodies, h, p, v, q, w, ce_start, absorbing, t_start)
+    j = res.foot_impulse_ns
+    pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
+    if not fb.touching:
+        return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
+                       res.located, pressed)
+    if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
+        return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
+                       pressed)
+    ground_end = ground_at(fb, t_start + h)
+    if cfg.seed_friction:
+        j_n = j[0] + j[1] + j[2] + j[3]
+        fr = seed(cfg.friction_static, cfg.friction_kinetic, fb.mass_kg, res.p, res.v, res.w,
+                  j_n, ground_end)
+        return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
+                       res.peak_penetration_m, res.located, pressed)
+    ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
+    fr = coulomb(cfg.friction_static, cfg.friction_kinetic, fb.mass_kg, fb.inertia_kgm2, res.p,
+                 res.v, res.q, res.w, ft, j, sliding, ground_end)
+    p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
+    held = not (sliding[0] or sliding[1] or sliding[2] or sliding[3] or fr.sliding[0]
+                or fr.sliding[1] or fr.sliding[2] or fr.sliding[3]) and fr.impulse_ns > 0.0
+    if held:
+        c_turn, s_turn = ground_turn(fb, h)
+        ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
+        p2 = hold_footprint(p2, ce_start.feet, ft2, j, c_turn, s_turn)
+    return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
+                   res.peak_penetration_m, res.located, pressed)
+
+
+@kernel
+def _a_down(fb, p, q, r_hat):
+    """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
+    return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
+
+
+class Flight(NamedTuple):
+    """A free ship after its tick of flight."""
+
+    ship: Ship
+    friction_n: float  # the last sub-step's friction force (the feet's sum)
+    normal_n: float  # the normal force at the end
+    peak_penetration_m: float  # the deepest penetration of any sub-step
+    guard_j: float  # what the passivity guard removed
+    n_events: int
+
+
+@kernel
+def free_flight(cfg, fb, s, n_sub, t0_s, ship_index, events, n_ev):
+    """Advance a free ship by one tick in ``n_sub`` equal sub-steps; transitions are emitted in
+    the order they happen."""
+    dt = cfg.dt_s
     h = dt / n_sub
-    fb = _free_bodies(params, st, cmd, touching, t0_s)
-    advance = method(params.sim.integrator)
-    n = st.n
-    p, v, q, w = st.pos_m, st.vel_mps, st.quat, st.omega_body_radps
-    surf = st.surface_state.copy()
-    absorbing = st.absorbing.copy()
-    sliding = st.sliding.copy()
-    settle = st.settle_ticks.copy()
-    pin_p, pin_q, pin_pivot = st.pin_pos_bf_m.copy(), st.pin_quat_bf.copy(), st.pin_pivot_bf_m.copy()
-    pivot_rate = st.pivot_rate_radps.copy()
-    friction_n = np.zeros(n)
-    active = np.ones(n, dtype=bool)
-    transitions: list[Transition] = []
-    peak = np.zeros(n)
-    ce = contact_at(fb, fb.ground_at(0.0), p, v, q, w, absorbing)
-    v_rad = vec.dot(v, vec.unit(p))
-    guard = params.sim.energy_guard
-    passive = ((cmd.thrust_n == 0.0) & (cmd.rcs_torque_body_nm[:, 0] == 0.0)
-               & (cmd.rcs_torque_body_nm[:, 1] == 0.0) & (cmd.rcs_torque_body_nm[:, 2] == 0.0))
-    guard_j = np.zeros(n)
-    if guard:
-        e_ref = EnergyRef.of(ship_energy(fb, fb.ground_at(0.0), p, v, q, w))
-
-    def substep(h_step, y, ce_start, sliding_start, t_start, bodies=fb):
-        """One integrator step plus the friction impulses; returns (y, sliding, friction N, the
-        method's own peak penetration inside the step or None)."""
-        res = advance(bodies, h_step, y, ce_start, absorbing, t_start)
-        pressed = (((res.foot_impulse_ns[0] != 0.0) | (res.foot_impulse_ns[1] != 0.0))
-                   | (res.foot_impulse_ns[2] != 0.0)) | (res.foot_impulse_ns[3] != 0.0)
-        if not touching:
-            return res.y, sliding_start, np.zeros(n), res.peak_penetration_m, pressed
-        p1, v1, q1, w1 = res.y
-        if not pressed.any():  # no foot pressed: no friction (nor any foot's regime) to keep
-            return res.y, np.zeros_like(sliding_start), np.zeros(n), res.peak_penetration_m, pressed
-        ground_end = fb.ground_at(t_start + h_step)
-        if cp.friction_model == "seed":
-            j_n = sum(res.foot_impulse_ns[1:], res.foot_impulse_ns[0])
-            v2, sl, j_f = friction.seed(cp.friction_static, cp.friction_kinetic, fb.mass_kg, p1,
-                                        v1, j_n, sliding_start, ground_end)
-            return (p1, v2, q1, w1), sl, j_f / h_step, res.peak_penetration_m, pressed
-        ft = contact.feet(p1, q1, sh.leg_radius_m, sh.com_height_m, ground_end)
-        v2, w2, sl, j_f = friction.coulomb(cp.friction_static, cp.friction_kinetic, fb.mass_kg,
-                                           fb.inertia_kgm2, p1, v1, q1, w1, ft,
-                                           res.foot_impulse_ns, sliding_start, ground_end)
-        p2, q2 = friction.spread_over_step(p1, q1, v1, v2, w1, w2, h_step)
-        held = ~(sliding_start.any(axis=1) | sl.any(axis=1)) & (j_f > 0.0)
-        if held.any():
-            c_turn, s_turn = fb.ground_turn(h_step)
-            ft2 = contact.feet(p2, q2, sh.leg_radius_m, sh.com_height_m, ground_end)
-            p2 = friction.hold_footprint(p2, ce_start.feet, ft2, res.foot_impulse_ns, held,
-                                         c_turn, s_turn)
-        return (p2, v2, q2, w2), sl, j_f / h_step, res.peak_penetration_m, pressed
+    touching = fb.touching
+    om = fb.body_omega_radps
+    p, v, q, w = s.p, s.v, s.q, s.w
+    surf = s.surface_state
+    absorbing = s.absorbing
+    sliding = s.sliding
+    settle = s.settle_ticks
+    pin_p, pin_q, pin_pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
+    pivot_rate = s.pivot_rate_radps
+    friction_n = 0.0
+    peak = 0.0
+    guard_j = 0.0
+    ground0 = ground_at(fb, 0.0)
+    ce = contact_at(fb, ground0, p, v, q, w, absorbing, fb.engage_m)
+    v_rad = dot(v, unit(p))
+    guard = cfg.energy_guard
+    passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
+               and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
+    e_ref = energy_ref(ship_energy(fb, ground0, p, v, q, w)) if guard else EnergyRef(0.0, 0.0, 0.0)
 
     for j in range(n_sub):
         t_off = j * h  # this sub-step's start, from the tick's start
         pen_before, v_rad_before = ce.max_penetration_m, v_rad
-        h_first: float | np.ndarray = h
-        crossing = np.zeros(n, dtype=bool)
-        v_cross = np.zeros(n)
-        tau = np.zeros(n)
+        crossing = False
+        v_cross = 0.0
+        tau = 0.0
         if touching:
             # Contact onset inside the sub-step: the damper's force jumps to c v at the surface,
             # so step exactly to the crossing (ballistic time of flight of the lowest foot,
             # tau = 2 z / (v + sqrt(v^2 + 2 a z))) and from there to the sub-step's end.
             z = -pen_before
             v_down = -v_rad
-            a_dn = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * vec.dot(
-                vec.quat_axis_z(q), vec.unit(p)) / fb.mass_kg
-            disc = v_down * v_down + 2.0 * a_dn * np.where(z > 0.0, z, 0.0)
-            denom = v_down + np.sqrt(np.maximum(disc, 0.0))
-            tau = 2.0 * z / np.where(denom > 0.0, denom, 1.0)
-            crossing = (active & (surf == FLYING) & (z > 0.0) & (v_down > 0.0) & (disc >= 0.0)
-                        & (denom > 0.0) & (tau < h))
-            h_first = np.where(crossing, tau, h)
-            v_cross = np.sqrt(np.maximum(disc, 0.0))  # speed of the lowest foot at the surface
-        # Up to the crossing the motion is ballistic by construction. Its last stage ends with
-        # the feet at the surface to within rounding, where some feet would press (with the
-        # damper's full jump c v) and others not: a spurious torque. They must not press there.
-        first = replace(fb, engage_m=np.where(crossing, -ONSET_MARGIN_M, 0.0)) if crossing.any() else fb
-        y1, sliding1, fr, inner_peak, touched = substep(h_first, (p, v, q, w), ce, sliding, t_off,
-                                                        first)
-        aligned = np.zeros(n, dtype=bool)
-        if crossing.any():
+            a_dn = _a_down(fb, p, q, unit(p))
+            disc = v_down * v_down + 2.0 * a_dn * (z if z > 0.0 else 0.0)
+            denom = v_down + math.sqrt(fmax(disc, 0.0))
+            tau = 2.0 * z / (denom if denom > 0.0 else 1.0)
+            crossing = (surf == FLYING and z > 0.0 and v_down > 0.0 and disc >= 0.0
+                        and denom > 0.0 and tau < h)
+            v_cross = math.sqrt(fmax(disc, 0.0))  # speed of the lowest foot at the surface
+        aligned = False
+        if crossing:
+            # Up to the crossing the motion is ballistic by construction. Its last stage ends with
+            # the feet at the surface to within rounding, where some feet would press (with the
+            # damper's full jump c v) and others not: a spurious torque. They must not press there.
+            st1 = substep(cfg, fb, with_engage(fb, -ONSET_MARGIN_M), tau, p, v, q, w, ce, sliding,
+                          absorbing, t_off)
             # At the crossing itself: an impact slower than bounce_speed is taken by the
             # absorbers from its first instant, and the seed's touchdown alignment happens here
-            absorbing = np.where(crossing, v_cross < cp.bounce_speed_mps, absorbing)
-            t_cross = t_off + np.where(crossing, tau, h)
-            ground_x = fb.ground_at(t_cross)
-            if cp.align_on_touchdown:
-                y1, aligned = _align_at_touchdown(params, fb, ground_x, y1, crossing)
-            ce_mid = contact_at(fb, ground_x, *y1, absorbing, np.where(crossing, ONSET_MARGIN_M, 0.0))
-            y2, sliding2, fr2, peak2, touched2 = substep(np.where(crossing, h - tau, h), y1,
-                                                         ce_mid, sliding1, t_cross)
-            touched = touched | (crossing & touched2)
-            c3 = crossing[:, None]
-            y1 = tuple(np.where(c3, b, a) for a, b in zip(y1, y2))
-            sliding1 = np.where(c3, sliding2, sliding1)
-            fr = np.where(crossing, fr2, fr)
-            if inner_peak is not None:
-                inner_peak = np.where(crossing, np.maximum(inner_peak, peak2), inner_peak)
-        sliding = np.where(active[:, None], sliding1, sliding)
-        keep = active[:, None]
-        p, v, q, w = (np.where(keep, a1, a0) for a1, a0 in zip(y1, (p, v, q, w)))
-        friction_n = np.where(active, fr, friction_n)
+            absorbing = v_cross < cfg.bounce_speed_mps
+            t_cross = t_off + tau
+            ground_x = ground_at(fb, t_cross)
+            p1, v1, q1, w1 = st1.p, st1.v, st1.q, st1.w
+            if cfg.align_on_touchdown:
+                al = align_at_touchdown(fb, ground_x, p1, v1, q1, w1)
+                p1, v1, q1, w1, aligned = al.p, al.v, al.q, al.w, al.aligned
+            ce_mid = contact_at(fb, ground_x, p1, v1, q1, w1, absorbing, ONSET_MARGIN_M)
+            st2 = substep(cfg, fb, fb, h - tau, p1, v1, q1, w1, ce_mid, st1.sliding, absorbing,
+                          t_cross)
+            touched = st1.pressed or st2.pressed
+            inner_peak = fmax(st1.peak_penetration_m, st2.peak_penetration_m)
+            located = st2.located
+            p, v, q, w = st2.p, st2.v, st2.q, st2.w
+            sliding = st2.sliding
+            friction_n = st2.friction_n
+        else:
+            st = substep(cfg, fb, fb, h, p, v, q, w, ce, sliding, absorbing, t_off)
+            touched = st.pressed
+            inner_peak = st.peak_penetration_m
+            located = st.located
+            p, v, q, w = st.p, st.v, st.q, st.w
+            sliding = st.sliding
+            friction_n = st.friction_n
         t_end_off = (j + 1) * h
-        ground = fb.ground_at(t_end_off)
-        ce = contact_at(fb, ground, p, v, q, w, absorbing)
+        ground = ground_at(fb, t_end_off)
+        ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
         if guard:
             # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
             # absorber's pull passes no positive impulse, yet trades translation for rotation)
-            airborne = ~touched & (pen_before < 0.0) & (ce.max_penetration_m < 0.0)
-            (p, v, q, w), e_ref, took = passivity_guard(params, fb, ground, (p, v, q, w), e_ref,
-                                                        passive & active, airborne)
-            guard_j = guard_j + took
-            if (took > 0.0).any():  # the dampers' forces follow the velocities it scaled
-                ce = contact_at(fb, ground, p, v, q, w, absorbing)
+            airborne = not touched and pen_before < 0.0 and ce.max_penetration_m < 0.0
+            gd = passivity_guard(fb, ground, p, v, q, w, e_ref, passive, airborne)
+            v, w, e_ref = gd.v, gd.w, gd.ref
+            guard_j = guard_j + gd.removed_j
+            if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
+                ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
 
         # in-flight transitions, decided on this sub-step's end state
-        r_hat = vec.unit(p)
-        v_rad = vec.dot(v, r_hat)
+        r_hat = unit(p)
+        v_rad = dot(v, r_hat)
         pen = ce.max_penetration_m
         if touching:
-            if inner_peak is None:  # interpolate between the sub-step's ends
-                step_peak = _hermite_peak(pen_before, -v_rad_before, pen, -v_rad, h)
-            else:  # the method located it
-                step_peak = np.maximum(np.maximum(pen_before, pen), inner_peak)
-            peak = np.where(active, np.maximum(peak, step_peak), peak)
-        was = surf.copy()
+            if located:
+                step_peak = fmax(fmax(pen_before, pen), inner_peak)
+            else:  # interpolate between the sub-step's ends
+                step_peak = hermite_peak(pen_before, -v_rad_before, pen, -v_rad, h)
+            peak = fmax(peak, step_peak)
+        was = surf
         # a located crossing is a touchdown even if the ship is already rebounding at the end
-        touch = active & (was == FLYING) & (((pen > 0.0) & (v_rad < 0.0)) | crossing)
+        touch = was == FLYING and ((pen > 0.0 and v_rad < 0.0) or crossing)
         # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
         # damper acts from the first millimetre, so the sub-step's end speed is already lower):
         # v_cross^2 = v^2 + 2 a_down height, a_down = g - T cos(tilt) / m.
-        a_down = fb.gm_m3ps2 / vec.dot(p, p) - fb.thrust_n * vec.dot(
-            vec.quat_axis_z(q), r_hat) / fb.mass_kg
-        above_before = np.maximum(-pen_before, 0.0)
-        impact = np.where(v_rad_before < 0.0, np.sqrt(np.maximum(
-            v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0)), -v_rad)
-        impact = np.where(crossing, v_cross, impact)
-        separation = np.sqrt(np.maximum(v_rad * v_rad + 2.0 * a_down * np.maximum(-pen, 0.0), 0.0))
+        a_down = _a_down(fb, p, q, r_hat)
+        if crossing:
+            impact = v_cross
+        elif v_rad_before < 0.0:
+            above_before = fmax(-pen_before, 0.0)
+            impact = math.sqrt(fmax(v_rad_before * v_rad_before
+                                    + 2.0 * a_down * above_before, 0.0))
+        else:
+            impact = -v_rad
+        separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
         # in contact: descending faster than crash_speed at either end of the sub-step (the
         # damper may already have slowed it by the end)
-        crash = (touch & (impact > cp.crash_speed_mps)) | (
-            active & (was == CONTACT) & (np.minimum(v_rad, v_rad_before) < -cp.crash_speed_mps))
-        touch_ok = touch & ~crash
-        if touch_ok.any():
-            absorbing = np.where(touch_ok, impact < cp.bounce_speed_mps, absorbing)
-            sliding = np.where(touch_ok[:, None], False, sliding)
-            settle = np.where(touch_ok, 0, settle)
-            snap = touch_ok & ~crossing  # a located crossing was aligned there
-            if cp.align_on_touchdown and snap.any():
-                (p, v, q, w), snapped = _align_at_touchdown(params, fb, ground, (p, v, q, w), snap)
-                aligned |= snapped
-                ce = contact_at(fb, ground, p, v, q, w, absorbing)
-                if guard:  # the snap never adds energy; measure from where it left the ship
-                    now = EnergyRef.of(ship_energy(fb, ground, p, v, q, w))
-                    e_ref = EnergyRef(*(np.where(snapped, a_, b_) for a_, b_ in zip(
-                        (now.total_j, now.translation_j, now.rotation_j),
-                        (e_ref.total_j, e_ref.translation_j, e_ref.rotation_j))))
-        cos_tilt = vec.dot(vec.quat_axis_z(q), r_hat)
+        crash = (touch and impact > cfg.crash_speed_mps) or (
+            was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
+        touch_ok = touch and not crash
+        if touch_ok:
+            absorbing = impact < cfg.bounce_speed_mps
+            sliding = (False, False, False, False)
+            settle = 0
+            if cfg.align_on_touchdown and not crossing:  # a located crossing was aligned there
+                al = align_at_touchdown(fb, ground, p, v, q, w)
+                p, v, q, w = al.p, al.v, al.q, al.w
+                aligned = aligned or al.aligned
+                ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
+                if guard and al.aligned:  # the snap never adds energy; measure from after it
+                    e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
+        cos_tilt = dot(quat_axis_z(q), r_hat)
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)
-        lift = active & (was == CONTACT) & ~crash & (ce.max_penetration_m < 0.0) & (v_rad > 0.0)
+        lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
         # past tipped_angle in contact; a touchdown already past it that was not stood up by the
         # alignment lies down at once (its hull, which the model does not have, is what touches)
-        lying_down = touch & ~aligned
-        tip = (active & (((was == CONTACT) & ~lift) | lying_down) & ~crash
-               & (cos_tilt < cp.cos_tipped))
-        v_rel = v - surface_velocity(params, p)
-        tip_crash = tip & (vec.dot(v_rel, v_rel) > cp.crash_speed_mps ** 2)
-        crash = crash | tip_crash
-        tip = tip & ~tip_crash
-
-        c, s = body_rotation(params, t0_s + t_end_off)
-        if tip.any():
-            pp, pq = pin_pose(p, q, c, s)
-            pin_p = np.where(tip[:, None], pp, pin_p)
-            pin_q = np.where(tip[:, None], pq, pin_q)
-            pin_pivot = np.where(tip[:, None], rotate_z(ce.lowest_foot_w, c, -s), pin_pivot)
-            rate = pivot_rate_from_momentum(params, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                                            ce.lowest_foot_w)
-            pivot_rate = np.where(tip, rate, pivot_rate)
-        if crash.any():
-            pp, pq = pin_pose(p, q, c, s)
-            pin_p = np.where(crash[:, None], pp, pin_p)
-            pin_q = np.where(crash[:, None], pq, pin_q)
-        surf = np.where(touch_ok, CONTACT, surf)
-        surf = np.where(lift, FLYING, surf)
-        surf = np.where(tip, TIPPED, surf)
-        surf = np.where(crash, CRASHED, surf)
-        changed = surf != was
-        touched_and_tipped = touch_ok & tip
-        for i in np.flatnonzero(touched_and_tipped):  # two transitions in one sub-step
-            transitions.append((int(i), FLYING, CONTACT, float(-impact[i])))
-            was[i] = CONTACT
-        for i in np.flatnonzero(changed):
-            if was[i] == FLYING:
-                speed = -impact[i]
-            elif surf[i] == FLYING:
-                speed = separation[i]
+        lying_down = touch and not aligned
+        tip = (((was == CONTACT and not lift) or lying_down) and not crash
+               and cos_tilt < cfg.cos_tipped)
+        v_rel = sub(v, surface_velocity(om, p))
+        tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
+        crash = crash or tip_crash
+        tip = tip and not tip_crash
+        if tip or crash:
+            c, s_ = body_rotation_at(om, t0_s + t_end_off)
+            pin_p, pin_q = pin_pose(p, q, c, s_)
+            if tip:
+                pin_pivot = rotate_z(ce.lowest_foot_w, c, -s_)
+                pivot_rate = rate_from_momentum(om, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
+                                                ce.lowest_foot_w)
+        if touch_ok:
+            surf = CONTACT
+        if lift:
+            surf = FLYING
+        if tip:
+            surf = TIPPED
+        if crash:
+            surf = CRASHED
+        if touch_ok and tip:  # two transitions in one sub-step
+            n_ev = emit(events, n_ev, ship_index, FLYING, CONTACT, -impact)
+            was = CONTACT
+        if surf != was:
+            if was == FLYING:
+                speed = -impact
+            elif surf == FLYING:
+                speed = separation
             else:
-                speed = v_rad[i]
-            transitions.append((int(i), int(was[i]), int(surf[i]), float(speed)))
-        active = active & ~tip & ~crash
-    crashed = surf == CRASHED
-    tipped = surf == TIPPED
-    if crashed.any() or tipped.any():
+                speed = v_rad
+            n_ev = emit(events, n_ev, ship_index, was, surf, speed)
+        if tip or crash:
+            break
+    if surf == CRASHED or surf == TIPPED:
         # pinned during the tick: carried with the body to the tick's end, moving as pinned
-        c, s = body_rotation(params, t0_s + dt)
-        held = (crashed | tipped)[:, None]
-        p = np.where(held, rotate_z(pin_p, c, s), p)
-        q = np.where(held, vec.quat_mul(quat_z(c, s, n), pin_q), q)
-        v_pin, w_pin = pinned_motion(params, p, q, rotate_z(pin_pivot, c, s),
-                                     np.where(tipped, pivot_rate, 0.0))
-        v = np.where(held, v_pin, v)
-        w = np.where(held, w_pin, w)
-    out = replace(st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q,
-                  omega_body_radps=w, absorbing=absorbing, sliding=sliding, settle_ticks=settle,
-                  pivot_rate_radps=pivot_rate, pin_pos_bf_m=pin_p, pin_quat_bf=pin_q,
-                  pin_pivot_bf_m=pin_pivot)
-    return out, friction_n, np.abs(ce.normal_n), peak, guard_j, transitions
+        c, s_ = body_rotation_at(om, t0_s + dt)
+        p = rotate_z(pin_p, c, s_)
+        q = quat_mul(quat_z(c, s_), pin_q)
+        v, w = pinned_motion(om, p, q, rotate_z(pin_pivot, c, s_),
+                             pivot_rate if surf == TIPPED else 0.0)
+    out = Ship(surf, p, v, q, w, s.mass_kg, s.fuel_kg, absorbing, sliding, settle, pivot_rate,
+               pin_p, pin_q, pin_pivot)
+    return Flight(out, friction_n, abs(ce.normal_n), peak, guard_j, n_ev)
 
 
-def _align_at_touchdown(params: Params, fb: FreeBodies, ground: contact.Ground, y,
-                        mask: np.ndarray):
-    """The seed's Flying -> Contact rule for the ships in ``mask``: attitude snapped to local up
-    and rotation stopped (relative to the surface); then the ship moves out along local up so
-    that its deepest foot is no deeper than before the snap: turning must not bury the feet
-    (MODEL-NOTES 11). The snap must not make energy either (MODEL-NOTES 24): a ship that it would
-    raise (tilted past 2 atan(a / h), 74 degrees for the default lander) pays for the lift out of
-    its descent speed; a ship too slow to pay is not stood up and touches down as it is.
-    Returns the new state and the ships actually aligned."""
-    p, v, q, w = y
-    sh, cp = params.ships, params.contact
-    r_hat = vec.unit(p)
-    q1 = np.where(mask[:, None], align_to_surface(q, r_hat), q)
-    w1 = np.where(mask[:, None], body_spin_in_body_frame(params, q1), w)
-    pen0 = contact.lowest_foot_penetration(p, q, sh.leg_radius_m, sh.com_height_m, ground)
-    pen1 = contact.lowest_foot_penetration(p, q1, sh.leg_radius_m, sh.com_height_m, ground)
-    p1 = p + vec.scale(r_hat, np.where(mask, np.maximum(pen1 - pen0, 0.0), 0.0))
-
-    def energy_of(pp, qq, ww):
-        return energy.mechanical(
-            fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, cp.stiffness_per_kg,
-            sh.leg_radius_m, sh.com_height_m, fb.mass_kg, fb.inertia_kgm2, pp, v, qq, ww,
-            ground).total_j
-
-    cost = energy_of(p1, q1, w1) - energy_of(p, q, w)
-    v_rad = vec.dot(v - ground.surface_velocity(p), r_hat)
-    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
-    pays = (cost > 0.0) & (v_rad < 0.0) & (spare >= 0.0)
-    aligned = mask & ((cost <= 0.0) | pays)
-    v1 = v + vec.scale(r_hat, np.where(aligned & pays, -np.sqrt(np.maximum(spare, 0.0)) - v_rad,
-                                       0.0))
-    a3 = aligned[:, None]
-    return (np.where(a3, p1, p), np.where(a3, v1, v), np.where(a3, q1, q),
-            np.where(a3, w1, w)), aligned
-
-
-def _hermite_peak(x0, xd0, x1, xd1, h: float) -> np.ndarray:
-    """Largest value over a sub-step of the cubic Hermite interpolant through (x0, x0') and
-    (x1, x1'): the deepest penetration between sub-step ends, to O(h^4). Telemetry only."""
-    a = 6.0 * (x0 - x1) + 3.0 * h * (xd0 + xd1)
-    b = 6.0 * (x1 - x0) - h * (4.0 * xd0 + 2.0 * xd1)
-    c = h * xd0
-    best = np.maximum(x0, x1)
-    disc = b * b - 4.0 * a * c
-    root = np.sqrt(np.maximum(disc, 0.0))
-    safe_a = np.where(a != 0.0, a, 1.0)
-    for sgn in (-1.0, 1.0):
-        s = np.where(a != 0.0, (-b + sgn * root) / (2.0 * safe_a),
-                     np.where(b != 0.0, -c / np.where(b != 0.0, b, 1.0), 0.0))
-        ok = (disc >= 0.0) & (s > 0.0) & (s < 1.0) & np.isfinite(x0) & np.isfinite(x1)
-        s2, s3 = s * s, s * s * s
-        xs = ((2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * h * xd0
-              + (-2 * s3 + 3 * s2) * x1 + (s3 - s2) * h * xd1)
-        best = np.where(ok, np.maximum(best, xs), best)
-    return best
+@kernel
+def body_rotation_at(omega_radps, t_s):
+    """(cos, sin) of the body's angle at t_s (libm, as sim.frames.body_rotation)."""
+    theta = omega_radps * t_s
+    if theta == 0.0:
+        return 1.0, 0.0
+    return math.cos(theta), math.sin(theta)
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
-def over_footprint(params: Params, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+@kernel
+def over_footprint(cfg, sp, p, q):
     """The centre of mass is over the footprint: the line through it along the effective gravity
     meets the feet's plane inside the square the four feet span. With u the effective "up" in the
     body frame, the line meets the plane at -h (u_x, u_y) / u_z, inside |x| + |y| < a when
@@ -539,189 +641,222 @@ def over_footprint(params: Params, p: np.ndarray, q: np.ndarray) -> np.ndarray:
     an exact comparison (toward a foot: tilt < atan(a / h), 37 degrees for the default lander;
     toward the edge between two: atan(a / (sqrt(2) h)), 28 degrees). With leg_radius = 0 nothing is
     over the footprint: the seed's inverted pendulum, which no tilt makes stable."""
-    u = vec.quat_rotate_inv(q, -effective_gravity(params, p))
-    sh = params.ships
-    return sh.com_height_m * (np.abs(u[:, 0]) + np.abs(u[:, 1])) < sh.leg_radius_m * u[:, 2]
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    u = quat_rotate_inv(q, (-g[0], -g[1], -g[2]))
+    return sp.com_height_m * (abs(u[0]) + abs(u[1])) < sp.leg_radius_m * u[2]
 
 
-def settle(params: Params, st: State, t_end_s: float) -> tuple[State, np.ndarray]:
+@kernel
+def settle(cfg, sp, s, cos1, sin1, ship_index, events, n_ev):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
-    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26).
-    Returns the new state and the mask of ships that landed."""
-    cp = params.contact
-    in_contact = st.surface_state == CONTACT
-    r_hat = vec.unit(st.pos_m)
-    v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
-    v_rad = vec.dot(v_rel, r_hat)
-    v_tan = v_rel - vec.scale(r_hat, v_rad)
-    omega_rel = st.omega_body_radps - body_spin_in_body_frame(params, st.quat)
-    ez = vec.quat_axis_z(st.quat)
-    lin2 = cp.settle_linear_vel_mps ** 2
-    ok = (in_contact & (v_rad * v_rad < lin2) & (vec.dot(v_tan, v_tan) < lin2)
-          & (vec.dot(omega_rel, omega_rel) < cp.settle_angular_vel_radps ** 2)
-          & (vec.dot(ez, r_hat) > cp.cos_settle_tilt))
-    ok &= over_footprint(params, st.pos_m, st.quat)
-    ticks = np.where(ok, st.settle_ticks + 1, 0)
-    # samples at n consecutive tick ends span (n - 1) dt: landing needs them to span settle_time
-    # (settle_time = 0, the seed's instantaneous rule: the first tick the thresholds hold)
-    need = int(math.ceil(cp.settle_time_s / params.sim.dt_s - 1e-9))
-    landed = ok & (ticks > need)
-    if not landed.any():
-        return replace(st, settle_ticks=ticks), landed
-    c, s = body_rotation(params, t_end_s)
-    pp, pq = pin_pose(st.pos_m, st.quat, c, s)
-    m3 = landed[:, None]
-    return replace(
-        st, settle_ticks=np.where(landed, 0, ticks),
-        surface_state=np.where(landed, LANDED, st.surface_state).astype(np.int8),
-        vel_mps=np.where(m3, surface_velocity(params, st.pos_m), st.vel_mps),
-        omega_body_radps=np.where(m3, body_spin_in_body_frame(params, st.quat),
-                                  st.omega_body_radps),
-        pin_pos_bf_m=np.where(m3, pp, st.pin_pos_bf_m), pin_quat_bf=np.where(m3, pq, st.pin_quat_bf),
-    ), landed
+    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26)."""
+    om = cfg.omega_radps
+    r_hat = unit(s.p)
+    v_rel = sub(s.v, surface_velocity(om, s.p))
+    v_rad = dot(v_rel, r_hat)
+    v_tan = sub(v_rel, scale(r_hat, v_rad))
+    omega_rel = sub(s.w, body_spin_in_body_frame(om, s.q))
+    ez = quat_axis_z(s.q)
+    lin2 = cfg.settle_lin2
+    ok = (s.surface_state == CONTACT and v_rad * v_rad < lin2 and dot(v_tan, v_tan) < lin2
+          and dot(omega_rel, omega_rel) < cfg.settle_ang2 and dot(ez, r_hat) > cfg.cos_settle_tilt
+          and over_footprint(cfg, sp, s.p, s.q))
+    ticks = s.settle_ticks + 1 if ok else 0
+    if not (ok and ticks > cfg.settle_need_ticks):
+        return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, s.absorbing,
+                    s.sliding, ticks, s.pivot_rate_radps, s.pin_pos_bf_m, s.pin_quat_bf,
+                    s.pin_pivot_bf_m), n_ev
+    pp, pq = pin_pose(s.p, s.q, cos1, sin1)
+    n_ev = emit(events, n_ev, ship_index, CONTACT, LANDED, 0.0)
+    return Ship(LANDED, s.p, surface_velocity(om, s.p), s.q, body_spin_in_body_frame(om, s.q),
+                s.mass_kg, s.fuel_kg, s.absorbing, s.sliding, 0, s.pivot_rate_radps, pp, pq,
+                s.pin_pivot_bf_m), n_ev
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
-def pinned(params: Params, st: State, cmd: Commands, t_end_s: float
-           ) -> tuple[State, list[Transition]]:
-    """Landed, tipped and crashed ships (all of ``st``): body-fixed poses mapped to the inertial
-    frame at the tick's end; liftoff when the engine's push along local up beats the weight in
-    the effective gravity (MODEL-NOTES 25); tipped ships turn about their pivot foot
-    (:func:`pivot_step`), righted (back to contact) when tilt < tipped_angle while turning
-    upright. Velocities are those of the pinned motion (a tipped ship's turn included)."""
-    n = st.n
-    surf = st.surface_state.copy()
-    p_bf, q_bf, pivot = st.pin_pos_bf_m, st.pin_quat_bf, st.pin_pivot_bf_m
-    rate = st.pivot_rate_radps.copy()
-    m = st.mass_kg
-    transitions: list[Transition] = []
-
-    tipped = surf == TIPPED
-    righted = np.zeros(n, dtype=bool)
-    if tipped.any():  # the pivot model on the tipped ships alone (an upright one has no axis)
-        idx = np.flatnonzero(tipped)
-        ps = pivot_step(params.take(idx), st.take(idx), cmd.rcs_torque_body_nm[idx])
-        p_bf, q_bf = p_bf.copy(), q_bf.copy()
-        p_bf[idx], q_bf[idx], rate[idx] = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
-        righted[idx] = ps.righted
-        surf[idx] = np.where(ps.hull_crash, CRASHED, np.where(ps.righted, CONTACT, surf[idx]))
-
-    up = vec.unit(p_bf)
-    ez = vec.quat_axis_z(q_bf)
-    weight = -m * vec.dot(effective_gravity(params, p_bf), up)
-    liftable = (surf == LANDED) | (surf == TIPPED)
-    lift = liftable & (cmd.thrust_n * vec.dot(ez, up) > weight)
-    surf = np.where(lift, FLYING, surf)
-
-    if params.body.omega_radps == 0.0:  # the body-fixed frame is the inertial one
-        c, s = 1.0, 0.0
+@kernel
+def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, n_ev):
+    """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
+    tick's end; liftoff when the engine's push along local up beats the weight in the effective
+    gravity (MODEL-NOTES 25); tipped ships turn about their pivot foot (sim.pivot.pivot_step),
+    righted (back to contact) when tilt < tipped_angle while turning upright. Velocities are
+    those of the pinned motion (a tipped ship's turn included)."""
+    om = cfg.omega_radps
+    surf = s.surface_state
+    p_bf, q_bf, pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
+    rate = s.pivot_rate_radps
+    m = s.mass_kg
+    righted = False
+    if surf == TIPPED:  # the pivot model (an upright ship has no axis to turn about)
+        i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                      sp.mass0_kg, m)
+        ps = pivot_step(cfg.dt_s, cfg.gm_m3ps2, om, cfg.tipped_rest_rad, cfg.crash_speed_mps,
+                        cfg.cos_tipped, p_bf, q_bf, pivot, m, i_b, rate, cmd.rcs_torque_body_nm)
+        p_bf, q_bf, rate = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
+        righted = ps.righted
+        if ps.hull_crash:
+            surf = CRASHED
+        elif ps.righted:
+            surf = CONTACT
+    up = unit(p_bf)
+    ez = quat_axis_z(q_bf)
+    weight = -m * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, p_bf), up)
+    lift = (surf == LANDED or surf == TIPPED) and cmd.thrust_n * dot(ez, up) > weight
+    if lift:
+        surf = FLYING
+    if om == 0.0:  # the body-fixed frame is the inertial one
+        c, s_ = 1.0, 0.0
         p, q = p_bf, q_bf
     else:
-        c, s = body_rotation(params, t_end_s)
-        p = rotate_z(p_bf, c, s)
-        q = vec.quat_mul(quat_z(c, s, n), q_bf)
-    turning = (surf == TIPPED) | righted
-    v, w = pinned_motion(params, p, q, rotate_z(pivot, c, s), np.where(turning, rate, 0.0))
-    v_rad = vec.dot(v - surface_velocity(params, p), vec.unit(p))
-    for i in np.flatnonzero(surf != st.surface_state):
-        transitions.append((int(i), int(st.surface_state[i]), int(surf[i]), float(v_rad[i])))
-    freed = righted | lift
-    out = replace(
-        st, surface_state=surf.astype(np.int8), pos_m=p, vel_mps=v, quat=q, omega_body_radps=w,
-        pivot_rate_radps=np.where(freed | (surf == CRASHED), 0.0, rate), pin_pos_bf_m=p_bf,
-        pin_quat_bf=q_bf, absorbing=np.where(freed, True, st.absorbing),
-        sliding=np.where(freed[:, None], False, st.sliding),
-        settle_ticks=np.where(freed, 0, st.settle_ticks))
-    return out, transitions
+        c, s_ = cos1, sin1
+        p = rotate_z(p_bf, c, s_)
+        q = quat_mul(quat_z(c, s_), q_bf)
+    turning = surf == TIPPED or righted
+    v, w = pinned_motion(om, p, q, rotate_z(pivot, c, s_), rate if turning else 0.0)
+    if surf != s.surface_state:
+        v_rad = dot(sub(v, surface_velocity(om, p)), unit(p))
+        n_ev = emit(events, n_ev, ship_index, s.surface_state, surf, v_rad)
+    freed = righted or lift
+    return Ship(surf, p, v, q, w, m, s.fuel_kg, True if freed else s.absorbing,
+                (False, False, False, False) if freed else s.sliding,
+                0 if freed else s.settle_ticks,
+                0.0 if (freed or surf == CRASHED) else rate, p_bf, q_bf, pivot), n_ev
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
-def burn(params: Params, st: State, cmd: Commands) -> State:
+@kernel
+def burn(cfg, sp, s, cmd):
     """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
-    sh = params.ships
-    rcs_thrust = (np.abs(cmd.rcs_torque_body_nm[:, 0]) + np.abs(cmd.rcs_torque_body_nm[:, 1])
-                  + np.abs(cmd.rcs_torque_body_nm[:, 2])) / sh.rcs_arm_m
-    flow = cmd.thrust_n / (sh.isp_s * G0_MPS2) + rcs_thrust / (sh.rcs_isp_s * G0_MPS2)
-    used = np.minimum(flow * params.sim.dt_s, st.fuel_kg)
-    return replace(st, fuel_kg=st.fuel_kg - used, mass_kg=st.mass_kg - used)
+    rcs = cmd.rcs_torque_body_nm
+    rcs_thrust = (abs(rcs[0]) + abs(rcs[1]) + abs(rcs[2])) / sp.rcs_arm_m
+    flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
+    used = fmin(flow * cfg.dt_s, s.fuel_kg)
+    return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg - used, s.fuel_kg - used,
+                s.absorbing, s.sliding, s.settle_ticks, s.pivot_rate_radps, s.pin_pos_bf_m,
+                s.pin_quat_bf, s.pin_pivot_bf_m)
 
 
 # -- 6. observe ----------------------------------------------------------------------------------
-def observe(params: Params, st: State, cmd: Commands, friction_n: np.ndarray,
-            normal_n: np.ndarray, peak_pen_m: np.ndarray, t_s: float,
-            energy_guard_j: np.ndarray | None = None) -> Outputs:
-    """Telemetry at the end of the tick. Forces come from the free-flight phase (free ships) or
-    are the weight (landed, tipped); only the feet's geometry is computed here."""
-    pen = contact.lowest_foot_penetration(st.pos_m, st.quat, params.ships.leg_radius_m,
-                                          params.ships.com_height_m, ground_at(params, t_s))
-    r_hat = vec.unit(st.pos_m)
-    v_rel = st.vel_mps - surface_velocity(params, st.pos_m)
-    v_rad = vec.dot(v_rel, r_hat)
-    v_tan = vec.norm(v_rel - vec.scale(r_hat, v_rad))
-    surf = st.surface_state
-    weight = -st.mass_kg * vec.dot(effective_gravity(params, st.pos_m), r_hat)
-    held = (surf == LANDED) | (surf == TIPPED)
-    normal = np.where(held, weight, np.where(surf == CRASHED, 0.0, normal_n))
-    return Outputs(
-        altitude_m=-pen, penetration_m=np.maximum(pen, 0.0),
-        peak_penetration_m=np.maximum(peak_pen_m, pen).clip(0.0),
-        cos_tilt=vec.dot(vec.quat_axis_z(st.quat), r_hat), v_radial_mps=v_rad,
-        v_tangential_mps=v_tan, normal_force_n=normal,
-        friction_force_n=np.where(held, 0.0, friction_n),
-        throttle=cmd.throttle, rcs_torque_body_nm=cmd.rcs_torque_body_nm,
-        energy_guard_j=np.zeros(st.n) if energy_guard_j is None else energy_guard_j)
+@kernel
+def observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, cos1, sin1, out):
+    """Telemetry at the end of the tick, into the ship's output record. Forces come from the
+    free-flight phase (free ships) or are the weight (landed, tipped)."""
+    om = cfg.omega_radps
+    ground = Ground(cfg.body_radius_m, cfg.base_height_m, bumps, cos1, sin1, om, cfg.radial_normal)
+    pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
+    r_hat = unit(s.p)
+    v_rel = sub(s.v, surface_velocity(om, s.p))
+    v_rad = dot(v_rel, r_hat)
+    held = s.surface_state == LANDED or s.surface_state == TIPPED
+    if held:
+        normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.p), r_hat)
+    elif s.surface_state == CRASHED:
+        normal = 0.0
+    else:
+        normal = normal_n
+    out.altitude_m = -pen
+    out.penetration_m = fmax(pen, 0.0)
+    out.peak_penetration_m = fmax(fmax(peak_pen_m, pen), 0.0)
+    out.cos_tilt = dot(quat_axis_z(s.q), r_hat)
+    out.v_radial_mps = v_rad
+    out.v_tangential_mps = norm(sub(v_rel, scale(r_hat, v_rad)))
+    out.normal_force_n = normal
+    out.friction_force_n = 0.0 if held else friction_n
+    out.throttle = cmd.throttle
+    for k in range(3):
+        out.rcs_torque_body_nm[k] = cmd.rcs_torque_body_nm[k]
+    out.energy_guard_j = guard_j
 
 
 # -- the step ------------------------------------------------------------------------------------
+@kernel
+def step_ship(cfg, bumps, sp, rec, inp, out, tick, cos0, sin0, cos1, sin1, ship_index, events,
+              n_ev):
+    """One ship's tick: the phases above, in order. ``rec`` is updated in place."""
+    s = load(rec)
+    cmd = commands(cfg, sp, s, inp)
+    friction_n = normal_n = peak = guard_j = 0.0
+    if s.surface_state == FLYING or s.surface_state == CONTACT:
+        fine = s.surface_state == CONTACT or near_ground(cfg, sp, s, cmd)
+        n_sub = 1
+        if fine and not (cfg.vertical_one_step and cfg.linear_model
+                         and purely_vertical(cfg, bumps, sp, s, cmd)):
+            n_sub = sp.n_substeps
+        fb = free_body(cfg, bumps, sp, s, cmd, fine, cos0, sin0)
+        fl = free_flight(cfg, fb, s, n_sub, tick * cfg.dt_s, ship_index, events, n_ev)
+        s, n_ev = fl.ship, fl.n_events
+        friction_n, normal_n, peak, guard_j = (fl.friction_n, fl.normal_n, fl.peak_penetration_m,
+                                               fl.guard_j)
+        if fine:
+            s, n_ev = settle(cfg, sp, s, cos1, sin1, ship_index, events, n_ev)
+    else:
+        s, n_ev = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, n_ev)
+    s = burn(cfg, sp, s, cmd)
+    store(s, rec)
+    observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
+    return n_ev
+
+
+@kernel
+def step_ships(scene, bumps, ships, state, inputs, outputs, tick, cos0, sin0, cos1, sin1, events):
+    """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` and
+    ``events`` written. Returns the number of transitions (those past ``events``' capacity are
+    counted, not written)."""
+    cfg = scene[0]
+    n_ev = 0
+    for i in range(state.shape[0]):
+        n_ev = step_ship(cfg, bumps, ships[i], state[i], inputs[i], outputs[i], tick, cos0, sin0,
+                         cos1, sin1, i, events, n_ev)
+    return n_ev
+
+
+#: Transitions one ship can make in a tick: two in a sub-step (a touchdown already past
+#: tipped_angle), then none once tipped or crashed, and landing after.
+def transition_capacity(ships_n_substeps: np.ndarray) -> int:
+    return int(np.sum(2 * ships_n_substeps + 2)) if ships_n_substeps.size else 0
+
+
 def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, list[Event]]:
-    """Advance the batch by one tick: the phases above, in order. Each phase works on the ships
-    it concerns only (index groups), so idle ships cost little."""
+    """Advance the batch by one tick (pure: ``state`` is not changed)."""
     dt = params.sim.dt_s
-    t0 = state.tick * dt
-    t1 = (state.tick + 1) * dt
-    n = state.n
-    cmd = commands(params, state, inputs)
-    surf0 = state.surface_state
-    free = (surf0 == FLYING) | (surf0 == CONTACT)
-    fine = free & ((surf0 == CONTACT) | near_ground(params, state, cmd))
-    one_step = np.zeros(n, dtype=bool)
-    if params.sim.vertical_one_step and params.sim.integrator in KICKS and fine.any():
-        one_step = fine & purely_vertical(params, state, cmd)
-    friction_n = np.zeros(n)
-    normal_n = np.zeros(n)
-    peak_pen = np.zeros(n)
-    guard_j = np.zeros(n)
-    found: list[tuple[int, int, int, int, float]] = []  # (ship, order, from, to, v_radial)
-    parts: list[tuple[np.ndarray, State]] = []
-    groups = ((np.flatnonzero(fine & ~one_step), params.sim.n_fine_substeps, True),
-              (np.flatnonzero(one_step), 1, True),
-              (np.flatnonzero(free & ~fine), 1, False))
-    for idx, n_sub, touching in groups:
-        if idx.size == 0:
-            continue
-        sub_params = params.take(idx)
-        part, fr, nf, peak, took, trans = free_flight(sub_params, state.take(idx), cmd.take(idx),
-                                                      n_sub, touching, t0)
-        if touching:
-            part, landed = settle(sub_params, part, t1)
-            trans = trans + [(int(i), CONTACT, LANDED, 0.0) for i in np.flatnonzero(landed)]
-        parts.append((idx, part))
-        friction_n[idx] = fr
-        normal_n[idx] = nf
-        peak_pen[idx] = peak
-        guard_j[idx] = took
-        found += [(int(idx[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
-    held = np.flatnonzero(~free)
-    if held.size:
-        part, trans = pinned(params.take(held), state.take(held), cmd.take(held), t1)
-        parts.append((held, part))
-        found += [(int(held[i]), k, a, b, vr) for k, (i, a, b, vr) in enumerate(trans)]
-    st = state.put(parts)
-    st = burn(params, st, cmd)
-    st = replace(st, tick=state.tick + 1)
-    out = observe(params, st, cmd, friction_n, normal_n, peak_pen, t1, guard_j)
-    found.sort(key=lambda e: (e[0], e[1]))
-    events = [Event(st.tick, ship, int(TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]), a, b,
-                    vr) for ship, _, a, b, vr in found]
-    return st, out, events
+    om = params.body.omega_radps
+    c0, s0 = body_rotation(om, state.tick * dt)
+    c1, s1 = body_rotation(om, (state.tick + 1) * dt)
+    rows = state.rows.copy()
+    out = Outputs.zeros(state.n)
+    events = np.zeros(transition_capacity(params.ships.n_substeps), TRANSITION_DTYPE)
+    n_ev = step_ships(params.scene, params.bumps, params.ships.rows, rows, inputs.rows, out.rows,
+                      state.tick, c0, s0, c1, s1, events)
+    tick = state.tick + 1
+    return State(rows=rows, tick=tick), out, transitions(events[:n_ev], tick)
+
+
+def transitions(events: np.ndarray, tick: int) -> list[Event]:
+    """The kernel's transitions as Events (in ship order, each ship's in the order they
+    happened)."""
+    out = []
+    for e in events:
+        a, b = int(e["from_state"]), int(e["to_state"])
+        kind = TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]
+        out.append(Event(tick, int(e["ship"]), int(kind), a, b, float(e["v_radial_mps"])))
+    return out
+
+
+@kernel
+def observe_ships(scene, bumps, ships, state, outputs, cos_t, sin_t):
+    """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
+    log records for the tick a run starts from."""
+    cfg = scene[0]
+    idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0))
+    for i in range(state.shape[0]):
+        observe(cfg, bumps, ships[i], load(state[i]), idle, 0.0, 0.0, 0.0, 0.0, cos_t, sin_t,
+                outputs[i])
+
+
+def outputs_at(params: Params, state: State) -> Outputs:
+    """:func:`observe_ships` of ``state`` at its tick."""
+    c, s = body_rotation(params.body.omega_radps, state.tick * params.sim.dt_s)
+    out = Outputs.zeros(state.n)
+    observe_ships(params.scene, params.bumps, params.ships.rows, state.rows, out.rows, c, s)
+    return out

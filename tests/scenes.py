@@ -45,3 +45,19 @@ def series(recs, name: str, ship: int = 0) -> np.ndarray:
 
 def tilt_deg(recs, ship: int = 0) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(series(recs, "cos_tilt", ship), -1.0, 1.0)))
+
+
+def long_axis(quat: np.ndarray) -> np.ndarray:
+    """The body z axis (N,3) of attitudes (N,4)."""
+    w, x, y, z = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
+    return np.stack([2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)], 1)
+
+
+def one_ship(params, state, inputs=None, i: int = 0):
+    """What the compiled phases of sim.step take for ship ``i``: (scene constants, the terrain's
+    bumps, its parameters, its state as a sim.step.Ship, its commands' record)."""
+    from sim.state import Inputs
+    from sim.step import load
+    inputs = Inputs.zeros(state.n) if inputs is None else inputs
+    return (params.scene[0], params.bumps, params.ships.rows[i], load(state.rows[i]),
+            inputs.rows[i])

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 import scenarios
 from bench import physics as audit
 from scenes import records, scene
-from sim import energy
+from sim import measure
 from sim.enums import TRANSITION_EVENTS, SurfaceState
 from sim.run import run
 from sim.scenario import parse_text
@@ -32,8 +32,10 @@ ROUNDOFF_OF_GRAVITY = 1e-13
 def energies(scn, recs) -> np.ndarray:
     """energy_j of every ship at every tick (ticks x ships), as export reports it."""
     p = scn.params
-    return np.array([energy.at(p, r.tick * p.sim.dt_s, r.state.pos_m, r.state.vel_mps,
-                               r.state.quat, r.state.omega_body_radps, r.state.mass_kg).total_j
+    ships = np.arange(scn.initial.n)
+    return np.array([measure.energy(p, ships, r.tick * p.sim.dt_s, r.state.pos_m, r.state.vel_mps,
+                                    r.state.quat, r.state.omega_body_radps,
+                                    r.state.mass_kg)["total_j"]
                      for r in recs])
 
 
@@ -182,18 +184,18 @@ def test_a_wide_ship_rights_itself_without_gaining_energy():
 
 
 def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest():
-    """sim.pivot.pivot_rate_from_momentum: a motion that is already a turn about the pivot's axis
+    """sim.pivot.rate_from_momentum: a motion that is already a turn about the pivot's axis
     keeps its rate; any other loses exactly its part orthogonal to that turn in the kinetic-energy
     metric (KE = KE(kept) + KE(lost)), as an inelastic impact at the foot does."""
     from scipy.spatial.transform import Rotation
 
-    from sim.pivot import pivot_axis, pivot_rate_from_momentum
+    from sim.pivot import pivot_axis, rate_from_momentum
     scn = scene({"state": "contact", "altitude": -0.01, "tilt_deg": 60.0, "heading_deg": 20.0})
     st, par = scn.initial, scn.params
     m, i_b = st.mass_kg, par.ships.inertia0_kgm2
     p, q = st.pos_m, st.quat
     pivot = st.pin_pivot_bf_m
-    a = pivot_axis(p, q)
+    a = np.array([pivot_axis(tuple(p[0]), tuple(q[0]))])
     d = p - pivot
     rot = Rotation.from_quat(np.roll(q[0], -1))
 
@@ -201,16 +203,19 @@ def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest()
         w_b = rot.inv().apply(w_w)
         return 0.5 * m[0] * float(v @ v) + 0.5 * float(w_b @ (i_b[0] * w_b))
 
+    def rate_of(v, w_w):
+        return rate_from_momentum(par.body.omega_radps, float(m[0]), tuple(i_b[0]), tuple(p[0]),
+                                  tuple(v), tuple(q[0]), tuple(rot.inv().apply(w_w)),
+                                  tuple(pivot[0]))
+
     w_turn = 0.37 * a[0]
     v_turn = np.cross(w_turn, d[0])
-    rate = pivot_rate_from_momentum(par, m, i_b, p, v_turn[None], q,
-                                    rot.inv().apply(w_turn)[None], pivot)
-    assert rate[0] == pytest.approx(0.37, rel=1e-12)
+    rate = rate_of(v_turn, w_turn)
+    assert rate == pytest.approx(0.37, rel=1e-12)
     rng = np.random.default_rng(7)
     for _ in range(5):
         v, w_w = rng.normal(size=3), 0.3 * rng.normal(size=3)
-        rate = float(pivot_rate_from_momentum(par, m, i_b, p, v[None], q,
-                                              rot.inv().apply(w_w)[None], pivot)[0])
+        rate = float(rate_of(v, w_w))
         kept_w = rate * a[0]
         kept_v = np.cross(kept_w, d[0])
         before, kept = kinetic(v, w_w), kinetic(kept_v, kept_w)

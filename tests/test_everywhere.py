@@ -12,10 +12,9 @@ from click.testing import CliRunner
 
 from bench.reference import rotating_slide
 from cli import main
-from scenes import events, records, scene, series, tilt_deg, topics
-from sim import vec
+from scenes import events, long_axis, records, scene, series, tilt_deg, topics
 from sim.enums import SurfaceState
-from sim.frames import site_frame
+from sim.measure import site_frame
 from sim.scenario import ScenarioError
 
 SPINNER = {"name": "Spinner", "radius": 200000.0, "surface_gravity": 1.0,
@@ -27,7 +26,7 @@ MOON_G = 1.6248
 
 def footprint_site(scn, rec, com_height):
     """(east, north) of the feet's centre in the landing-site frame."""
-    centre = rec.state.pos_m - com_height * vec.quat_axis_z(rec.state.quat)
+    centre = rec.state.pos_m - com_height * long_axis(rec.state.quat)
     pos, _ = site_frame(scn.params, centre, rec.state.vel_mps, rec.tick * scn.params.sim.dt_s)
     return pos[0, :2]
 

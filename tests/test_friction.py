@@ -8,12 +8,11 @@ import numpy as np
 import pytest
 
 from bench.reference import planar_touchdown
-from scenes import events, final_state, records, scene, series, tilt_deg, topics
-from sim import friction, vec
+from scenes import events, final_state, long_axis, records, scene, series, tilt_deg, topics
+from sim import friction
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.contact import Ground, feet
 from sim.enums import SurfaceState
-from sim.params import Terrain
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 MU_K, MU_S = 0.5, 0.8
@@ -32,7 +31,7 @@ def slide(v0, com_height=3.0, **sim):
 
 def _feet_travel(recs, com_height):
     def centre(r):
-        return r.state.pos_m[0] - com_height * vec.quat_axis_z(r.state.quat)[0]
+        return r.state.pos_m[0] - com_height * long_axis(r.state.quat)[0]
     return float(np.linalg.norm(centre(recs[-1]) - centre(recs[0])))
 
 
@@ -102,23 +101,23 @@ def _one_ship_at_rest(side_force_n, normal_n=10000.0 * G, h=0.0025, steps=400):
     """Apply a steady sideways force for ``steps`` sub-steps through the friction law alone, to an
     upright ship on level ground whose four feet share the normal force (their friction has no
     moment about the centre of mass here: the feet are put at it, so only translation is free)."""
-    m = np.array([10000.0])
-    inertia = np.array([[40000.0, 40000.0, 20000.0]])
-    pos = np.array([[MOON_RADIUS_M + 3.0, 0.0, 0.0]])
-    quat = np.array([[0.7071067811865476, 0.0, 0.7071067811865476, 0.0]])  # body z along +x (up)
-    ground = Ground(MOON_RADIUS_M, Terrain(), 1.0, 0.0)
-    ft = feet(pos, quat, np.zeros(1), np.zeros(1), ground)
-    vel = np.zeros((1, 3))
-    omega = np.zeros((1, 3))
-    sliding = np.zeros((1, 4), dtype=bool)
+    m = 10000.0
+    inertia = (40000.0, 40000.0, 20000.0)
+    pos = (MOON_RADIUS_M + 3.0, 0.0, 0.0)
+    quat = (0.7071067811865476, 0.0, 0.7071067811865476, 0.0)  # body z along +x (up)
+    ground = Ground(MOON_RADIUS_M, 0.0, np.zeros((0, 4)), 1.0, 0.0, 0.0, False)
+    ft = feet(ground, pos, quat, 0.0, 0.0)
+    vel = (0.0, 0.0, 0.0)
+    omega = (0.0, 0.0, 0.0)
+    sliding = (False, False, False, False)
     x = 0.0
     for _ in range(steps):
-        vel = vel + np.array([[0.0, side_force_n * h / m[0], 0.0]])
-        impulses = tuple(np.array([0.25 * normal_n * h]) for _ in range(4))
+        vel = (vel[0], vel[1] + side_force_n * h / m, vel[2])
+        impulses = tuple(0.25 * normal_n * h for _ in range(4))
         vel, omega, sliding, _j = friction.coulomb(MU_S, MU_K, m, inertia, pos, vel, quat, omega,
                                                    ft, impulses, sliding, ground)
-        x += vel[0, 1] * h
-    return x, vel[0, 1]
+        x += vel[1] * h
+    return x, vel[1]
 
 
 def test_static_friction_holds_exactly_below_mu_s_n():

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from scenes import events, records, scene, series, tilt_deg, topics
+from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.step import commands, near_ground, purely_vertical, step
 
@@ -58,8 +58,8 @@ def test_the_vertical_model_is_used_only_where_nothing_else_moves():
         scn = scene(initial or {"altitude": 0.5, "vertical_speed": -20.0}, body=body,
                     inputs=inputs or [])
         inp = scn.inputs_at(0)
-        return bool(purely_vertical(scn.params, scn.initial,
-                                    commands(scn.params, scn.initial, inp))[0])
+        cfg, bumps, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
+        return bool(purely_vertical(cfg, bumps, sp, ship, commands(cfg, sp, ship, rec)))
 
     assert qualifies()
     assert qualifies({"state": "contact", "altitude": -0.016})
@@ -108,9 +108,10 @@ def test_coarse_flight_is_never_caught_below_the_ground(altitude, vertical, hori
                 sim={"dt": dt, "on_unstable": "allow"}, contact={"align_on_touchdown": False},
                 duration=dt)
     inp = scn.inputs_at(0)
-    far = ~near_ground(scn.params, scn.initial, commands(scn.params, scn.initial, inp))
+    cfg, _, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
+    far = not near_ground(cfg, sp, ship, commands(cfg, sp, ship, rec))
     _, out, _ = step(scn.params, scn.initial, inp)
-    if far[0]:
+    if far:
         assert out.altitude_m[0] > 0.0
 
 

@@ -17,17 +17,9 @@ import numpy as np
 
 from logs import LogError
 from logs.mcap_log import LogReader, scenario_of
-from sim import contact, energy, vec
-from sim.frames import effective_gravity, rotate_z, site_axes, surface_velocity
+from sim import measure
+from sim.measure import ENERGY_PARTS
 from sim.params import Params
-
-#: the site frame's axes (east, north, up) are the body-fixed (y, z, x): this quaternion (w, x, y,
-#: z) turns body-fixed vectors into site-frame ones (a turn of -120 degrees about (1, 1, 1))
-Q_SITE_FROM_BODY_FIXED = np.array([0.5, -0.5, -0.5, -0.5])
-
-#: energy_j's parts (sim.energy), in the order they add up
-ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
-                "centrifugal_spin_j", "spring_j")
 
 
 @dataclass(frozen=True)
@@ -97,22 +89,6 @@ class Run:
         return np.degrees(np.arctan2(sh.leg_radius_m, math.sqrt(2.0) * sh.com_height_m))
 
 
-def _to_site(v: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Inertial vectors (T,3) at body angles (c, s) (T,) into site axes (east, north, up)."""
-    return site_axes(rotate_z(v, c, -s))
-
-
-def _site_quat_xyzw(q: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Attitudes (T,4, w x y z, body -> inertial) as body -> site quaternions in x y z w."""
-    ch = np.sqrt(np.maximum(0.0, 0.5 * (1.0 + c)))
-    sh = np.copysign(np.sqrt(np.maximum(0.0, 0.5 * (1.0 - c))), s)
-    undo_spin = np.zeros_like(q)  # rotation by -theta about z
-    undo_spin[:, 0], undo_spin[:, 3] = ch, -sh
-    perm = np.broadcast_to(Q_SITE_FROM_BODY_FIXED, q.shape)
-    qs = vec.quat_mul(perm, vec.quat_mul(undo_spin, q))
-    return np.concatenate([qs[:, 1:], qs[:, :1]], axis=1)
-
-
 def read_run(path: str | Path, label: str | None = None, ship_id: str | None = None) -> Run:
     """Read a log into columns. ``ship_id`` keeps one ship (LogError if the log has none such)."""
     path = Path(path)
@@ -154,8 +130,7 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
     tick = np.asarray(ticks, dtype=np.int64)
     dt = params.sim.dt_s
     t_s = tick * dt
-    theta = params.body.omega_radps * t_s
-    c, s = np.cos(theta), np.sin(theta)
+    c, s = measure.body_angles(params, t_s, tick.shape[0])
     tracks = []
     for j, i in enumerate(keep):
         tracks.append(_track(params, i, stacked, j, tick, t_s, c, s))
@@ -171,27 +146,21 @@ def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np
     mass = col["mass_kg"]
     a = float(sh.leg_radius_m[i])
     h = float(sh.com_height_m[i])
-    pos_site = _to_site(p, c, s)  # each tick at its own body angle
+    pos_site = measure.to_site(p, c, s)  # each tick at its own body angle
     pos_site[:, 2] -= body.radius_m
-    ground = contact.Ground(body.radius_m, body.terrain, c, s, body.omega_radps,
-                            params.contact.surface_normal == "radial")
-    legs = np.full(T, a)
-    heights = np.full(T, h)
-    ft = contact.feet(p, q, legs, heights, ground)
-    feet_site = np.stack([_to_site(ft.offset_w[k], c, s) for k in range(4)], axis=1)
+    ft = measure.feet_at(params, p, q, a, h, c, s)
+    feet_site = np.stack([measure.to_site(ft["offset_w"][:, k], c, s) for k in range(4)], axis=1)
     feet_site = feet_site + pos_site[:, None, :]
-    deepest = np.argmax(np.stack(ft.pen_m, axis=1), axis=1)
+    deepest = np.argmax(ft["pen_m"], axis=1)
     lowest = feet_site[np.arange(T), deepest]
-    r_hat = vec.unit(p)
-    up_site = _to_site(r_hat, c, s)
-    g_site = _to_site(effective_gravity(params, p), c, s)
-    ez = vec.quat_axis_z(q)
-    thrust = vec.scale(ez, col["throttle"] * float(sh.max_thrust_n[i]))
-    slip = _to_site(v - surface_velocity(params, p), c, s)
-    inertia = sh.inertia0_kgm2[i][None, :] * (mass / sh.mass0_kg[i])[:, None]
-    e = energy.mechanical(body.gm_m3ps2, body.radius_m, body.omega_radps,
-                          params.contact.stiffness_per_kg, legs, heights, mass, inertia, p, v, q,
-                          w, ground)
+    r = np.sqrt(np.einsum("ij,ij->i", p, p))
+    up_site = measure.to_site(p / r[:, None], c, s)
+    g_site = measure.to_site(measure.gravity(params, p), c, s)
+    w_, x_, y_, z_ = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    ez = np.stack([2 * (x_ * z_ + w_ * y_), 2 * (y_ * z_ - w_ * x_), 1 - 2 * (x_ * x_ + y_ * y_)], 1)
+    thrust = ez * (col["throttle"] * float(sh.max_thrust_n[i]))[:, None]
+    slip = measure.to_site(v - measure.surface_velocity(params, p), c, s)
+    e = measure.energy(params, i, t_s, p, v, q, w, mass)
     cos_tilt = np.clip(col["cos_tilt"], -1.0, 1.0)
     series = {
         "altitude_m": col["altitude_m"], "penetration_m": col["penetration_m"],
@@ -201,17 +170,17 @@ def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np
         "v_radial_mps": col["v_radial_mps"], "v_tangential_mps": col["v_tangential_mps"],
         "normal_force_n": col["normal_force_n"], "friction_force_n": col["friction_force_n"],
         "fuel_kg": col["fuel_kg"], "mass_kg": mass, "throttle": col["throttle"],
-        "energy_j": e.total_j, "energy_guard_j": col["energy_guard_j"],
+        "energy_j": e["total_j"], "energy_guard_j": col["energy_guard_j"],
     }
     for part in ENERGY_PARTS:
-        series[part] = getattr(e, part)
+        series[part] = e[part]
     return ShipTrack(
         ship_id=params.ships.ship_id[i], player_id=params.ships.player_id[i], leg_radius_m=a,
         com_height_m=h, max_thrust_n=float(sh.max_thrust_n[i]), tick=tick, t_s=t_s,
         state=col["surface_state"].astype(np.int8), pos_site_m=pos_site,
-        quat_site_xyzw=_site_quat_xyzw(q, c, s), up_site=up_site, feet_site_m=feet_site,
+        quat_site_xyzw=measure.site_quats_xyzw(q, c, s), up_site=up_site, feet_site_m=feet_site,
         lowest_foot_site_m=lowest, gravity_site_mps2=g_site,
-        thrust_site_n=_to_site(thrust, c, s), slip_site_mps=slip, series=series)
+        thrust_site_n=measure.to_site(thrust, c, s), slip_site_mps=slip, series=series)
 
 
 def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[float, float],

@@ -1,0 +1,96 @@
+"""The one way ``sim`` compiles its physics: numba, per ship, deterministic, cached on disk.
+
+Every kernel is ``numba.njit`` with
+
+* ``fastmath=False``: no reassociation, no fused multiply-add, no approximate reciprocals. IEEE
+  +, -, *, / and sqrt are correctly rounded on every CPU, so a ship's numbers are the same bits
+  whether the kernels were compiled for this host or for a generic x86-64 (``NUMBA_CPU_NAME=
+  generic``; a test checks it). With fastmath on, 83% of positions differed (issue 9).
+* ``error_model="numpy"``: a division by zero gives inf or nan as numpy does, never an exception
+  raised from inside a kernel.
+* ``nogil=True``: the log writer's thread runs while the ships are stepped.
+* ``cache=True``: compiled code is kept on disk, so only the first run after an install compiles.
+
+numba's cache checks only the source file of the function it compiled, not the files of the
+functions it calls (which it inlines); a change to ``sim/vec.py`` would leave ``sim/step.py``'s
+cached code stale. The cache directory is therefore named after a hash of every source file of
+``sim/`` (and numba's version): any change to the physics compiles afresh.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import sys
+from pathlib import Path
+from typing import Callable
+
+import numba
+from numba.core import event
+
+_SIM_DIR = Path(__file__).resolve().parent
+
+
+def _sources_hash() -> str:
+    digest = hashlib.sha256(numba.__version__.encode())
+    for path in sorted(_SIM_DIR.glob("*.py")):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _writable(path: Path) -> bool:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".probe"
+        probe.write_bytes(b"")
+        probe.unlink()
+        return True
+    except OSError:
+        return False
+
+
+def cache_dir() -> Path:
+    """Where compiled kernels are kept: ``$NUMBA_CACHE_DIR/touchdown-<hash>`` if that is set, else
+    beside the sources (``sim/__pycache__``), else ``$XDG_CACHE_HOME/touchdown`` (``~/.cache``)."""
+    name = f"kernels-{_sources_hash()}"
+    user = os.environ.get("NUMBA_CACHE_DIR")
+    candidates = [Path(user) / f"touchdown-{name}"] if user else []
+    candidates.append(_SIM_DIR / "__pycache__" / name)
+    xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    candidates.append(Path(xdg) / "touchdown" / name)
+    for path in candidates:
+        if _writable(path):
+            return path
+    return candidates[-1]  # numba then compiles without caching, and says so
+
+
+numba.config.CACHE_DIR = str(cache_dir())
+
+
+def kernel(fn: Callable) -> Callable:
+    """Compile ``fn`` as a deterministic, cached, GIL-free numba function (module docstring)."""
+    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(fn)
+
+
+class _CompileNotice(event.Listener):
+    def __init__(self, say: Callable[[str], None]):
+        self.say = say
+        self.said = False
+
+    def on_start(self, ev: event.Event) -> None:
+        if not self.said:
+            self.said = True
+            self.say("compiling the physics kernels for this CPU (once after an install or a "
+                     "change to sim/; about 20 s) ...")
+
+    def on_end(self, ev: event.Event) -> None:
+        pass
+
+
+def notify_compilation(say: Callable[[str], None] | None = None) -> None:
+    """Call ``say`` (default: a line on stderr) once, when a kernel starts compiling rather than
+    loading from the cache. For the command line; the core itself prints nothing."""
+    if say is None:
+        def say(text: str) -> None:
+            print(f"touchdown: {text}", file=sys.stderr, flush=True)
+    event.register("numba:compile", _CompileNotice(say))
