@@ -171,8 +171,8 @@ class ContactEval(NamedTuple):
     """The ground's action on a ship at one instant."""
 
     touching: bool  # False: a ship known to be clear of the ground (no contact work done)
-    feet: Feet
     foot_force_n: tuple  # k x + c x' of each foot (clamped at 0 unless absorbing)
+    push_norm: tuple  # |g_i| of each foot: sec(slope), 1 on level ground
     force_w: tuple  # total force, inertial
     torque_w: tuple  # its moment about the centre of mass, inertial
     normal_n: float  # sum of the feet's force magnitudes (< 0 only while absorbing)
@@ -246,6 +246,7 @@ def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, 
                      ft.push_w[3], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model))
     force = (0.0, 0.0, 0.0)
     torque = (0.0, 0.0, 0.0)
+    g = (norm(ft.push_w[0]), norm(ft.push_w[1]), norm(ft.push_w[2]), norm(ft.push_w[3]))
     normal = 0.0
     max_pen = -math.inf
     lowest = (0.0, 0.0, 0.0)
@@ -259,11 +260,11 @@ def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, 
         f_vec = scale(ft.push_w[i], f.force_n)
         force = add(force, f_vec)
         torque = add(torque, cross(ft.offset_w[i], f_vec))
-        normal += f.force_n * norm(ft.push_w[i])
+        normal += f.force_n * g[i]
         if ft.pen_m[i] > max_pen:
             lowest = ft.pos_w[i]
             max_pen = ft.pen_m[i]
-    return ContactEval(True, ft, (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n),
+    return ContactEval(True, (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, max_pen, lowest, stiff, damp, load, load_rate)
 
 
@@ -271,6 +272,5 @@ def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, 
 def no_contact(pos_m):
     """The evaluation of a ship known to be clear of the ground for the whole step."""
     z = (0.0, 0.0, 0.0)
-    ft = Feet((z, z, z, z), (z, z, z, z), (0.0, 0.0, 0.0, 0.0), (z, z, z, z))
-    return ContactEval(False, ft, (0.0, 0.0, 0.0, 0.0), z, z, 0.0, -math.inf, pos_m, 0.0, 0.0,
-                       0.0, 0.0)
+    return ContactEval(False, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), z, z, 0.0, -math.inf,
+                       pos_m, 0.0, 0.0, 0.0, 0.0)

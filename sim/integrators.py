@@ -57,9 +57,11 @@ class Stepped(NamedTuple):
 
 
 @kernel
-def _foot_share(ce, i, weight):
-    """weight max(f_i, 0) |g_i|: foot i's term of a quadrature rule for its normal impulse."""
-    return weight * fmax(ce.foot_force_n[i], 0.0) * norm(ce.feet.push_w[i])
+def _pressing(ce):
+    """(max(f_i, 0), |g_i|) for each foot of an evaluation: its force and the length of its
+    push (the weight of a quadrature rule multiplies the force first)."""
+    f = ce.foot_force_n
+    return (fmax(f[0], 0.0), fmax(f[1], 0.0), fmax(f[2], 0.0), fmax(f[3], 0.0)), ce.push_norm
 
 
 @kernel
@@ -67,13 +69,9 @@ def foot_impulses_1(h, ce):
     """Each foot's normal impulse h max(f_i, 0) |g_i| (the rectangle rule on the step's start)."""
     if not ce.touching:
         return (0.0, 0.0, 0.0, 0.0)
-    return (h * (0.0 + _foot_share(ce, 0, 1.0)), h * (0.0 + _foot_share(ce, 1, 1.0)),
-            h * (0.0 + _foot_share(ce, 2, 1.0)), h * (0.0 + _foot_share(ce, 3, 1.0)))
-
-
-@kernel
-def _trapezoid(ce0, ce1, i):
-    return 0.0 + _foot_share(ce0, i, 0.5) + _foot_share(ce1, i, 0.5)
+    f, g = _pressing(ce)
+    return (h * (0.0 + 1.0 * f[0] * g[0]), h * (0.0 + 1.0 * f[1] * g[1]),
+            h * (0.0 + 1.0 * f[2] * g[2]), h * (0.0 + 1.0 * f[3] * g[3]))
 
 
 @kernel
@@ -81,14 +79,12 @@ def foot_impulses_2(h, ce0, ce1):
     """Each foot's normal impulse by the trapezoid rule on the step's two ends."""
     if not ce0.touching:
         return (0.0, 0.0, 0.0, 0.0)
-    return (h * _trapezoid(ce0, ce1, 0), h * _trapezoid(ce0, ce1, 1),
-            h * _trapezoid(ce0, ce1, 2), h * _trapezoid(ce0, ce1, 3))
-
-
-@kernel
-def _rk4_share(c1, c2, c3, c4, i):
-    return (0.0 + _foot_share(c1, i, 1 / 6) + _foot_share(c2, i, 1 / 3)
-            + _foot_share(c3, i, 1 / 3) + _foot_share(c4, i, 1 / 6))
+    f, g = _pressing(ce0)
+    e, k = _pressing(ce1)
+    return (h * (0.0 + 0.5 * f[0] * g[0] + 0.5 * e[0] * k[0]),
+            h * (0.0 + 0.5 * f[1] * g[1] + 0.5 * e[1] * k[1]),
+            h * (0.0 + 0.5 * f[2] * g[2] + 0.5 * e[2] * k[2]),
+            h * (0.0 + 0.5 * f[3] * g[3] + 0.5 * e[3] * k[3]))
 
 
 @kernel
@@ -96,8 +92,19 @@ def foot_impulses_4(h, c1, c2, c3, c4):
     """Each foot's normal impulse by RK4's weights on its four evaluations."""
     if not c1.touching:
         return (0.0, 0.0, 0.0, 0.0)
-    return (h * _rk4_share(c1, c2, c3, c4, 0), h * _rk4_share(c1, c2, c3, c4, 1),
-            h * _rk4_share(c1, c2, c3, c4, 2), h * _rk4_share(c1, c2, c3, c4, 3))
+    fa, ga = _pressing(c1)
+    fb, gb = _pressing(c2)
+    fc, gc = _pressing(c3)
+    fd, gd = _pressing(c4)
+    w1, w2 = 1 / 6, 1 / 3
+    return (h * (0.0 + w1 * fa[0] * ga[0] + w2 * fb[0] * gb[0] + w2 * fc[0] * gc[0]
+                 + w1 * fd[0] * gd[0]),
+            h * (0.0 + w1 * fa[1] * ga[1] + w2 * fb[1] * gb[1] + w2 * fc[1] * gc[1]
+                 + w1 * fd[1] * gd[1]),
+            h * (0.0 + w1 * fa[2] * ga[2] + w2 * fb[2] * gb[2] + w2 * fc[2] * gc[2]
+                 + w1 * fd[2] * gd[2]),
+            h * (0.0 + w1 * fa[3] * ga[3] + w2 * fb[3] * gb[3] + w2 * fc[3] * gc[3]
+                 + w1 * fd[3] * gd[3]))
 
 
 @kernel

@@ -34,7 +34,7 @@ from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_enga
 from sim.energy import mechanical, rotation, total, translation
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, inertia,
-                        pin_pose, quat_z, rotate_z, surface_velocity)
+                        pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from sim.friction import coulomb, hold_footprint, seed, spread_over_step
 from sim.contact import Ground, feet
 from sim.integrators import advance
@@ -82,14 +82,14 @@ class Ship(NamedTuple):
 @kernel
 def load(rec):
     """A ship's record as a :class:`Ship`."""
-    return Ship(int(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
+    return Ship(np.int64(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
                 (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
                 (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
                 (rec.omega_body_radps[0], rec.omega_body_radps[1], rec.omega_body_radps[2]),
                 rec.mass_kg, rec.fuel_kg, bool(rec.absorbing),
                 (rec.sliding[0] != 0, rec.sliding[1] != 0, rec.sliding[2] != 0,
                  rec.sliding[3] != 0),
-                int(rec.settle_ticks), rec.pivot_rate_radps,
+                np.int64(rec.settle_ticks), rec.pivot_rate_radps,
                 (rec.pin_pos_bf_m[0], rec.pin_pos_bf_m[1], rec.pin_pos_bf_m[2]),
                 (rec.pin_quat_bf[0], rec.pin_quat_bf[1], rec.pin_quat_bf[2], rec.pin_quat_bf[3]),
                 (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
@@ -117,15 +117,17 @@ def store(s, rec):
 
 
 @kernel
-def emit(events, n, ship, from_state, to_state, v_radial_mps):
-    """Append a transition to the tick's list; returns the new count."""
+def emit(events, count, ship, from_state, to_state, v_radial_mps):
+    """Append a transition to ``events``; ``count[0]`` is how many there are (those past the
+    array's end are counted, not written)."""
+    n = count[0]
     if n < events.shape[0]:
         e = events[n]
         e.ship = ship
         e.from_state = from_state
         e.to_state = to_state
         e.v_radial_mps = v_radial_mps
-    return n + 1
+    count[0] = n + 1
 
 
 # -- 1. commands ---------------------------------------------------------------------------------
@@ -412,7 +414,9 @@ def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_star
     if held:
         c_turn, s_turn = ground_turn(fb, h)
         ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
-        p2 = hold_footprint(p2, ce_start.feet, ft2, j, c_turn, s_turn)
+        # the feet where the step began (what ce_start was evaluated on)
+        ft0 = feet(ground_at(fb, t_start), p, q, fb.leg_radius_m, fb.com_height_m)
+        p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
     return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
                    res.peak_penetration_m, res.located, pressed)
 
@@ -431,11 +435,10 @@ class Flight(NamedTuple):
     normal_n: float  # the normal force at the end
     peak_penetration_m: float  # the deepest penetration of any sub-step
     guard_j: float  # what the passivity guard removed
-    n_events: int
 
 
 @kernel
-def free_flight(cfg, fb, s, n_sub, t0_s, ship_index, events, n_ev):
+def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps; transitions are emitted in
     the order they happen."""
     dt = cfg.dt_s
@@ -581,7 +584,7 @@ def free_flight(cfg, fb, s, n_sub, t0_s, ship_index, events, n_ev):
         crash = crash or tip_crash
         tip = tip and not tip_crash
         if tip or crash:
-            c, s_ = body_rotation_at(om, t0_s + t_end_off)
+            c, s_ = turned(fb.cos0, fb.sin0, om, t_end_off)
             pin_p, pin_q = pin_pose(p, q, c, s_)
             if tip:
                 pin_pivot = rotate_z(ce.lowest_foot_w, c, -s_)
@@ -596,7 +599,7 @@ def free_flight(cfg, fb, s, n_sub, t0_s, ship_index, events, n_ev):
         if crash:
             surf = CRASHED
         if touch_ok and tip:  # two transitions in one sub-step
-            n_ev = emit(events, n_ev, ship_index, FLYING, CONTACT, -impact)
+            emit(events, count, ship_index, FLYING, CONTACT, -impact)
             was = CONTACT
         if surf != was:
             if was == FLYING:
@@ -605,28 +608,18 @@ def free_flight(cfg, fb, s, n_sub, t0_s, ship_index, events, n_ev):
                 speed = separation
             else:
                 speed = v_rad
-            n_ev = emit(events, n_ev, ship_index, was, surf, speed)
+            emit(events, count, ship_index, was, surf, speed)
         if tip or crash:
             break
     if surf == CRASHED or surf == TIPPED:
         # pinned during the tick: carried with the body to the tick's end, moving as pinned
-        c, s_ = body_rotation_at(om, t0_s + dt)
-        p = rotate_z(pin_p, c, s_)
-        q = quat_mul(quat_z(c, s_), pin_q)
-        v, w = pinned_motion(om, p, q, rotate_z(pin_pivot, c, s_),
+        p = rotate_z(pin_p, cos1, sin1)
+        q = quat_mul(quat_z(cos1, sin1), pin_q)
+        v, w = pinned_motion(om, p, q, rotate_z(pin_pivot, cos1, sin1),
                              pivot_rate if surf == TIPPED else 0.0)
     out = Ship(surf, p, v, q, w, s.mass_kg, s.fuel_kg, absorbing, sliding, settle, pivot_rate,
                pin_p, pin_q, pin_pivot)
-    return Flight(out, friction_n, abs(ce.normal_n), peak, guard_j, n_ev)
-
-
-@kernel
-def body_rotation_at(omega_radps, t_s):
-    """(cos, sin) of the body's angle at t_s (libm, as sim.frames.body_rotation)."""
-    theta = omega_radps * t_s
-    if theta == 0.0:
-        return 1.0, 0.0
-    return math.cos(theta), math.sin(theta)
+    return Flight(out, friction_n, abs(ce.normal_n), peak, guard_j)
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
@@ -647,7 +640,7 @@ def over_footprint(cfg, sp, p, q):
 
 
 @kernel
-def settle(cfg, sp, s, cos1, sin1, ship_index, events, n_ev):
+def settle(cfg, sp, s, cos1, sin1, ship_index, events, count):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26)."""
@@ -666,17 +659,17 @@ def settle(cfg, sp, s, cos1, sin1, ship_index, events, n_ev):
     if not (ok and ticks > cfg.settle_need_ticks):
         return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, s.absorbing,
                     s.sliding, ticks, s.pivot_rate_radps, s.pin_pos_bf_m, s.pin_quat_bf,
-                    s.pin_pivot_bf_m), n_ev
+                    s.pin_pivot_bf_m)
     pp, pq = pin_pose(s.p, s.q, cos1, sin1)
-    n_ev = emit(events, n_ev, ship_index, CONTACT, LANDED, 0.0)
+    emit(events, count, ship_index, CONTACT, LANDED, 0.0)
     return Ship(LANDED, s.p, surface_velocity(om, s.p), s.q, body_spin_in_body_frame(om, s.q),
                 s.mass_kg, s.fuel_kg, s.absorbing, s.sliding, 0, s.pivot_rate_radps, pp, pq,
-                s.pin_pivot_bf_m), n_ev
+                s.pin_pivot_bf_m)
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 @kernel
-def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, n_ev):
+def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
     """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
     tick's end; liftoff when the engine's push along local up beats the weight in the effective
     gravity (MODEL-NOTES 25); tipped ships turn about their pivot foot (sim.pivot.pivot_step),
@@ -716,12 +709,12 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, n_ev):
     v, w = pinned_motion(om, p, q, rotate_z(pivot, c, s_), rate if turning else 0.0)
     if surf != s.surface_state:
         v_rad = dot(sub(v, surface_velocity(om, p)), unit(p))
-        n_ev = emit(events, n_ev, ship_index, s.surface_state, surf, v_rad)
+        emit(events, count, ship_index, s.surface_state, surf, v_rad)
     freed = righted or lift
     return Ship(surf, p, v, q, w, m, s.fuel_kg, True if freed else s.absorbing,
                 (False, False, False, False) if freed else s.sliding,
                 0 if freed else s.settle_ticks,
-                0.0 if (freed or surf == CRASHED) else rate, p_bf, q_bf, pivot), n_ev
+                0.0 if (freed or surf == CRASHED) else rate, p_bf, q_bf, pivot)
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
@@ -771,8 +764,7 @@ def observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, c
 
 # -- the step ------------------------------------------------------------------------------------
 @kernel
-def step_ship(cfg, bumps, sp, rec, inp, out, tick, cos0, sin0, cos1, sin1, ship_index, events,
-              n_ev):
+def step_ship(cfg, bumps, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index, events, count):
     """One ship's tick: the phases above, in order. ``rec`` is updated in place."""
     s = load(rec)
     cmd = commands(cfg, sp, s, inp)
@@ -784,31 +776,28 @@ def step_ship(cfg, bumps, sp, rec, inp, out, tick, cos0, sin0, cos1, sin1, ship_
                          and purely_vertical(cfg, bumps, sp, s, cmd)):
             n_sub = sp.n_substeps
         fb = free_body(cfg, bumps, sp, s, cmd, fine, cos0, sin0)
-        fl = free_flight(cfg, fb, s, n_sub, tick * cfg.dt_s, ship_index, events, n_ev)
-        s, n_ev = fl.ship, fl.n_events
+        fl = free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count)
+        s = fl.ship
         friction_n, normal_n, peak, guard_j = (fl.friction_n, fl.normal_n, fl.peak_penetration_m,
                                                fl.guard_j)
         if fine:
-            s, n_ev = settle(cfg, sp, s, cos1, sin1, ship_index, events, n_ev)
+            s = settle(cfg, sp, s, cos1, sin1, ship_index, events, count)
     else:
-        s, n_ev = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, n_ev)
+        s = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count)
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
     observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
-    return n_ev
 
 
 @kernel
-def step_ships(scene, bumps, ships, state, inputs, outputs, tick, cos0, sin0, cos1, sin1, events):
-    """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` and
-    ``events`` written. Returns the number of transitions (those past ``events``' capacity are
-    counted, not written)."""
+def step_ships(scene, bumps, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
+               count):
+    """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` written,
+    and the transitions appended to ``events`` (``count[0]`` of them; sim.step.emit)."""
     cfg = scene[0]
-    n_ev = 0
     for i in range(state.shape[0]):
-        n_ev = step_ship(cfg, bumps, ships[i], state[i], inputs[i], outputs[i], tick, cos0, sin0,
-                         cos1, sin1, i, events, n_ev)
-    return n_ev
+        step_ship(cfg, bumps, ships[i], state[i], inputs[i], outputs[i], cos0, sin0, cos1, sin1, i,
+                  events, count)
 
 
 #: Transitions one ship can make in a tick: two in a sub-step (a touchdown already past
@@ -826,10 +815,11 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     rows = state.rows.copy()
     out = Outputs.zeros(state.n)
     events = np.zeros(transition_capacity(params.ships.n_substeps), TRANSITION_DTYPE)
-    n_ev = step_ships(params.scene, params.bumps, params.ships.rows, rows, inputs.rows, out.rows,
-                      state.tick, c0, s0, c1, s1, events)
+    count = np.zeros(1, np.int64)
+    step_ships(params.scene, params.bumps, params.ships.rows, rows, inputs.rows, out.rows, c0, s0,
+               c1, s1, events, count)
     tick = state.tick + 1
-    return State(rows=rows, tick=tick), out, transitions(events[:n_ev], tick)
+    return State(rows=rows, tick=tick), out, transitions(events[:count[0]], tick)
 
 
 def transitions(events: np.ndarray, tick: int) -> list[Event]:

@@ -95,9 +95,9 @@ def _contact_state():
 
 def _settles(params, st, ticks=1):
     cfg, _, sp, ship, _ = one_ship(params, st)
-    events = np.zeros(4, TRANSITION_DTYPE)
+    events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship, _ = settle(cfg, sp, ship, 1.0, 0.0, 0, events, 0)
+        ship = settle(cfg, sp, ship, 1.0, 0.0, 0, events, count)
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
