@@ -60,7 +60,7 @@ def default_lander():
     scn = parse_text(scenarios.text("bounce"), "bounce")
     sh, cp = scn.params.ships, scn.params.contact
     xml = lander_xml(float(sh.mass0_kg[0]), sh.inertia0_kgm2[0], float(sh.leg_radius_m[0]),
-                     float(sh.com_height_m[0]), cp.stiffness_per_kg, cp.damping_ratio)
+                     float(sh.com_height_m[0]), float(sh.stiffness_per_kg[0]), cp.damping_ratio)
     return mujoco.MjModel.from_xml_string(xml), scn
 
 

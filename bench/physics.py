@@ -74,7 +74,7 @@ def energy(scn, rec) -> float:
             - 0.5 * float(spin_b @ (inertia(scn, st) * spin_b)))
     c, s = math.cos(om * rec.tick * par.sim.dt_s), math.sin(om * rec.tick * par.sim.dt_s)
     spring = 0.0
-    k_leg = 0.25 * par.contact.stiffness_per_kg * m
+    k_leg = 0.25 * float(par.ships.stiffness_per_kg[0]) * m
     for off in foot_offsets_w(tuple(map(float, q)), float(par.ships.leg_radius_m[0]),
                               float(par.ships.com_height_m[0])):
         foot = p + np.array(off)

@@ -147,7 +147,7 @@ def _energy(gm, radius, om, kpm, base, bumps, radial, cos_t, sin_t, leg, height,
             p, v, q, w, out):
     for i in range(p.shape[0]):
         g = Ground(radius, base, bumps, cos_t[i], sin_t[i], om, radial)
-        e = mechanical(gm, radius, om, kpm, leg[i], height[i], mass[i],
+        e = mechanical(gm, radius, om, kpm[i], leg[i], height[i], mass[i],
                        (inertia[i, 0], inertia[i, 1], inertia[i, 2]), (p[i, 0], p[i, 1], p[i, 2]),
                        (v[i, 0], v[i, 1], v[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]),
                        (w[i, 0], w[i, 1], w[i, 2]), g)
@@ -170,7 +170,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     c, s = body_angles(params, t_s, n)
     body = params.body
     out = np.empty((n, 7))
-    _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, params.contact.stiffness_per_kg,
+    _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, sh.stiffness_per_kg[ship].copy(),
             body.terrain.base_height_m, params.bumps, params.contact.surface_normal == "radial",
             c, s, sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(), mass,
             np.ascontiguousarray(inertia), p, v, q, w, out)

@@ -155,6 +155,8 @@ SHIP_DTYPE = np.dtype([
     ("isp_s", "f8"),  # main engine specific impulse
     ("rcs_isp_s", "f8"),
     ("rcs_arm_m", "f8"),  # lever arm of the RCS thrusters (torque / arm = thrust)
+    ("stiffness_per_kg", "f8"),  # the contact spring's k / m, 1/s^2 (the seed's 100)
+    ("contact_omega_radps", "f8"),  # sqrt(k / m): the contact's natural frequency
     ("n_substeps", "i8"),  # sub-steps a tick near the ground, from this ship's own modes
 ], align=True)
 
@@ -193,8 +195,7 @@ SCENE_DTYPE = np.dtype([
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
     ("tipped_rest_rad", "f8"), ("damping_ratio", "f8"), ("absorb_damping_ratio", "f8"),
     ("friction_static", "f8"), ("friction_kinetic", "f8"), ("align_on_touchdown", "?"),
-    ("settle_need_ticks", "i8"), ("seed_friction", "?"), ("stiffness_per_kg", "f8"),
-    ("contact_omega_radps", "f8"), ("radial_normal", "?"),
+    ("settle_need_ticks", "i8"), ("seed_friction", "?"), ("radial_normal", "?"),
     ("body_radius_m", "f8"), ("gm_m3ps2", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("base_height_m", "f8"), ("terrain_max_m", "f8"),
     ("bandwidth_radps", "f8"),
@@ -247,8 +248,6 @@ class Params:
         # settle_time (settle_time = 0, the seed's instantaneous rule: the first tick they hold)
         r["settle_need_ticks"] = int(math.ceil(cp.settle_time_s / sim.dt_s - 1e-9))
         r["seed_friction"] = cp.friction_model == "seed"
-        r["stiffness_per_kg"] = cp.stiffness_per_kg
-        r["contact_omega_radps"] = cp.omega_radps
         r["radial_normal"] = cp.surface_normal == "radial"
         r["body_radius_m"] = body.radius_m
         r["gm_m3ps2"] = body.gm_m3ps2

@@ -103,6 +103,7 @@ SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),
         "isp": ("float", C.DEFAULT_ISP_S, _range(1.0, 1e5)),
         "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, _range(1.0, 1e5)),
         "rcs_arm": ("float", 2.0, _range(1e-3, 1e3)),
+        "stiffness_per_kg": ("float", None, _range(1e-2, 1e6)),  # default: contact's
         "initial": ("table", None, None), "inputs": ("list", [], None)}
 INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "tipped"})),
            "altitude": ("float", None, _range(-100.0, 1e7)),  # default: 10 flying, else 0
@@ -348,6 +349,8 @@ def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario
         seen.add(sh["id"])
         if sh["player_id"] is None:
             sh["player_id"] = "player-" + sh["id"]
+        if sh["stiffness_per_kg"] is None:
+            sh["stiffness_per_kg"] = con["stiffness_per_kg"]
         if sh["fuel_mass"] >= sh["mass"]:
             rd.fail(pre + "fuel_mass", "must be less than mass")
         if sh["inertia"] is not None:
@@ -371,9 +374,8 @@ def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario
             rd.fail(pre + "inputs", "entries must be in order of t")
         _check_initial(rd, sh, con, pre + "initial.")
         ships.append(sh)
-    _check_stability(rd, sim, con, ships)
     resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
-    return _build(resolved)
+    return _build(resolved, _substeps(rd, sim, con, ships))
 
 
 #: Bounds on the work a scenario may ask for: a run does bounded work per tick.
@@ -390,60 +392,61 @@ PRACTICAL_BOUND_WH = 1e-3
 STABILITY_MARGIN = 0.5
 
 
-def contact_omega_max(con: dict, ships: list[dict]) -> float:
-    """The fastest contact mode of the scene, rad/s: the four-foot bounce w = sqrt(k/m), or one
-    foot alone rocking the ship, w^2 = (k/4)(1/m + a^2 / I_transverse) (a normal force at a
-    foot has lever arm leg_radius about the transverse axes)."""
-    kpm = con["stiffness_per_kg"]
-    w2 = kpm
-    for sh in ships:
-        i_t = min(sh["inertia"][0], sh["inertia"][1])
-        w2 = max(w2, 0.25 * kpm * (1.0 + sh["mass"] * sh["leg_radius"] ** 2 / i_t))
-    return math.sqrt(w2)
+def contact_omega(sh: dict) -> float:
+    """A ship's fastest contact mode, rad/s: the four-foot bounce w = sqrt(k/m), or one foot
+    alone rocking the ship, w^2 = (k/4)(1/m + a^2 / I_transverse) (a normal force at a foot has
+    lever arm leg_radius about the transverse axes); k/m the ship's ``stiffness_per_kg``."""
+    kpm = sh["stiffness_per_kg"]
+    i_t = min(sh["inertia"][0], sh["inertia"][1])
+    return math.sqrt(max(kpm, 0.25 * kpm * (1.0 + sh["mass"] * sh["leg_radius"] ** 2 / i_t)))
 
 
-def rocking_omega_max(con: dict, ships: list[dict]) -> float:
-    """The fastest rocking mode of the scene, rad/s: the ship turning about a transverse axis on
-    the feet's springs alone (its centre of mass held), w^2 = (k/2) a^2 / I_transverse (the two
-    feet off that axis, each k/4 at lever arm leg_radius). The load's destabilising moment
-    (m g com_height) only slows it, so this bounds it from above."""
-    kpm = con["stiffness_per_kg"]
-    w2 = 0.0
-    for sh in ships:
-        i_t = min(sh["inertia"][0], sh["inertia"][1])
-        w2 = max(w2, 0.5 * kpm * sh["mass"] * sh["leg_radius"] ** 2 / i_t)
-    return math.sqrt(w2)
+def rocking_omega(sh: dict) -> float:
+    """A ship's fastest rocking mode, rad/s: turning about a transverse axis on the feet's springs
+    alone (its centre of mass held), w^2 = (k/2) a^2 / I_transverse (the two feet off that axis,
+    each k/4 at lever arm leg_radius). The load's destabilising moment (m g com_height) only slows
+    it, so this bounds it from above."""
+    i_t = min(sh["inertia"][0], sh["inertia"][1])
+    return math.sqrt(0.5 * sh["stiffness_per_kg"] * sh["mass"] * sh["leg_radius"] ** 2 / i_t)
 
 
-def _check_stability(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> None:
-    """SEED-NOTES 8: refuse, or sub-step further, a method and sub-step that would be unstable on
-    the scene's stiffest contact mode (sim.stability explains the bound); ``allow`` runs it anyway.
-    A method that solves the spring exactly is limited by its kicks on the rocking modes only."""
+def _substeps(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> list[int]:
+    """Each ship's sub-steps a tick near the ground: the scene's (``ceil(dt / max_substep)``), or
+    more where that ship's own stiffest contact mode needs them to be stable (SEED-NOTES 8;
+    sim.stability explains the bounds), so that no ship's numbers depend on another's class.
+    ``on_unstable``: ``substep`` (default) sub-steps further, ``error`` refuses naming the ship,
+    ``allow`` runs it anyway. A method that solves the spring exactly is limited by its kicks on
+    the rocking modes only."""
     from sim.stability import KICKS, largest_stable_wh
-    n_sub = 1 if sim["max_substep"] <= 0.0 else max(1, math.ceil(sim["dt"] / sim["max_substep"] - 1e-9))
-    h = sim["dt"] / n_sub
-    if sim["integrator"] in KICKS:
-        w, limiting = rocking_omega_max(con, ships), KICKS[sim["integrator"]]
-    else:
-        w, limiting = contact_omega_max(con, ships), sim["integrator"]
+    n_scene = 1 if sim["max_substep"] <= 0.0 else max(1, math.ceil(sim["dt"] / sim["max_substep"]
+                                                                   - 1e-9))
+    h = sim["dt"] / n_scene
+    kicks = sim["integrator"] in KICKS
+    limiting = KICKS[sim["integrator"]] if kicks else sim["integrator"]
     bound = min(largest_stable_wh(limiting, z)
                 for z in (con["damping_ratio"], con["absorb_damping_ratio"]))
-    if w * h < bound * STABILITY_MARGIN or sim["on_unstable"] == "allow":
-        return
-    if bound < PRACTICAL_BOUND_WH:  # explicit Euler undamped: 1.4e-6 is rounding, not a bound
-        rd.fail("sim.integrator", f"{sim['integrator']} is unstable on an undamped contact at any "
-                                  "step; use another method or damping")
-    need = math.ceil(w * sim["dt"] / (bound * STABILITY_MARGIN))
-    if need > MAX_SUBSTEPS_PER_TICK:
-        rd.fail("sim.dt", f"{sim['integrator']} needs {need:,} sub-steps a tick of {sim['dt']:g} s "
-                          f"on this scene's stiffest contact (at most {MAX_SUBSTEPS_PER_TICK}); "
-                          f"use a shorter tick or another method")
-    if sim["on_unstable"] == "error":
-        rd.fail("sim.dt", f"{sim['integrator']} with a contact sub-step of {h:g} s is unstable for "
-                          f"this scene's contact (omega h = {w * h:.3f} >= its limit {bound:.3f}); "
-                          f"set sim.max_substep <= {sim['dt'] / need:.6g} or sim.on_unstable = "
-                          f"\"substep\"")
-    sim["max_substep"] = sim["dt"] / need
+    out = []
+    for i, sh in enumerate(ships):
+        w = rocking_omega(sh) if kicks else contact_omega(sh)
+        if w * h < bound * STABILITY_MARGIN or sim["on_unstable"] == "allow":
+            out.append(n_scene)
+            continue
+        if bound < PRACTICAL_BOUND_WH:  # explicit Euler undamped: 1.4e-6 is rounding, not a bound
+            rd.fail("sim.integrator", f"{sim['integrator']} is unstable on an undamped contact at "
+                                      "any step; use another method or damping")
+        need = math.ceil(w * sim["dt"] / (bound * STABILITY_MARGIN))
+        who = f"ship {sh['id']!r} (ships[{i}])"
+        if need > MAX_SUBSTEPS_PER_TICK:
+            rd.fail("sim.dt", f"{sim['integrator']} needs {need:,} sub-steps a tick of "
+                              f"{sim['dt']:g} s on the stiffest contact of {who} (at most "
+                              f"{MAX_SUBSTEPS_PER_TICK}); use a shorter tick or another method")
+        if sim["on_unstable"] == "error":
+            rd.fail("sim.dt", f"{sim['integrator']} with a contact sub-step of {h:g} s is unstable "
+                              f"for the contact of {who} (omega h = {w * h:.3f} >= its limit "
+                              f"{bound:.3f}); set sim.max_substep <= {sim['dt'] / need:.6g} or "
+                              f"sim.on_unstable = \"substep\"")
+        out.append(max(n_scene, need))
+    return out
 
 
 def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
@@ -453,7 +456,7 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
     nothing comes out of the ground faster); landed and tipped ships are pinned, at rest."""
     ini = sh["initial"]
     state, alt = ini["state"], ini["altitude"]
-    deepest = con["crash_speed"] / math.sqrt(con["stiffness_per_kg"])
+    deepest = con["crash_speed"] / math.sqrt(sh["stiffness_per_kg"])
     if state == "flying" and alt < 0.0:
         rd.fail(pre + "altitude", f"a flying ship's feet are above the ground (altitude >= 0, got "
                                   f"{alt:g}); a ship in the ground is in contact: "
@@ -512,7 +515,7 @@ def _quat_from_axes(ex, ey, ez) -> np.ndarray:
     return q / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
 
 
-def _build(res: dict) -> Scenario:
+def _build(res: dict, n_substeps: list[int]) -> Scenario:
     sim, con, body, ships = res["sim"], res["contact"], res["body"], res["ships"]
     ter = body["terrain"]
     terrain = Terrain(
@@ -544,7 +547,9 @@ def _build(res: dict) -> Scenario:
         inertia0_kgm2=[s["inertia"] for s in ships], max_thrust_n=[s["max_thrust"] for s in ships],
         max_rcs_torque_nm=[s["max_rcs_torque"] for s in ships], isp_s=[s["isp"] for s in ships],
         rcs_isp_s=[s["rcs_isp"] for s in ships], rcs_arm_m=[s["rcs_arm"] for s in ships],
-        n_substeps=spar.n_fine_substeps)
+        stiffness_per_kg=[s["stiffness_per_kg"] for s in ships],
+        contact_omega_radps=[math.sqrt(s["stiffness_per_kg"]) for s in ships],
+        n_substeps=n_substeps)
     params = Params(spar, cp, bp, shp, ControllerParams(res["controller"]["bandwidth"]))
     initial = _initial_state(params, ships)
     changes = []

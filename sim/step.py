@@ -213,12 +213,12 @@ def purely_vertical(cfg, bumps, sp, s, cmd):
 @kernel
 def free_body(cfg, bumps, sp, s, cmd, touching, cos0, sin0):
     m = s.mass_kg
-    two_omega_m = 2.0 * cfg.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
+    two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
     return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
                                sp.mass0_kg, m),
                     cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
-                    cfg.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
-                    cfg.absorb_damping_ratio * two_omega_m, cfg.stiffness_per_kg, cfg.gm_m3ps2,
+                    sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
+                    cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, cfg.base_height_m, bumps,
                     cfg.radial_normal, cos0, sin0, touching, 0.0, cfg.linear_model)
 

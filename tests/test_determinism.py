@@ -7,7 +7,7 @@ from sim.step import step
 
 OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
                  "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
-                 "rcs_torque_body_nm")
+                 "rcs_torque_body_nm", "energy_guard_j")
 
 
 def varied_fleet(n, seed=20261122):
@@ -37,10 +37,20 @@ def varied_fleet(n, seed=20261122):
             inputs.append({"t": float(rng.uniform(0, 1)), "throttle": float(rng.uniform(0, 1)),
                            "rcs": [float(x) for x in rng.uniform(-1, 1, 3)],
                            "hold": str(rng.choice(["off", "radial", "kill_rotation"]))})
-        ships.append({"id": f"s{i}", "mass": float(rng.uniform(3e3, 2e4)),
-                      "fuel_mass": float(rng.uniform(100, 2000)),
-                      "com_height": float(rng.uniform(1.5, 5)),
-                      "leg_radius": float(rng.uniform(1, 4)), "initial": ini, "inputs": inputs})
+        # ship classes: mass, legs (some wide and squat, stiff enough on their rocking mode to
+        # need more sub-steps than the scene's), inertia (some with three different moments) and
+        # contact stiffness
+        wide = rng.random() < 0.1
+        ship = {"id": f"s{i}", "mass": float(rng.uniform(3e3, 2e4)),
+                "fuel_mass": float(rng.uniform(100, 2000)),
+                "com_height": float(rng.uniform(0.5, 1.0) if wide else rng.uniform(1.5, 5)),
+                "leg_radius": float(rng.uniform(6, 9) if wide else rng.uniform(1, 4)),
+                "stiffness_per_kg": float(rng.choice([100.0, rng.uniform(50.0, 400.0)])),
+                "initial": ini, "inputs": inputs}
+        if rng.random() < 0.3:
+            a, b = rng.uniform(1e4, 6e4, 2)
+            ship["inertia"] = [float(a), float(b), float(rng.uniform(abs(a - b), a + b))]
+        ships.append(ship)
     return ships
 
 
@@ -53,12 +63,19 @@ def assert_same_ship(a_rec, b_rec, i, j):
         assert np.asarray(x).tobytes() == np.asarray(y).tobytes(), (a_rec.tick, name)
 
 
-def test_one_ship_alone_and_among_a_thousand_is_bit_identical():
+def test_one_ship_alone_and_among_a_thousand_of_other_classes_is_bit_identical():
+    """Every tick, every number of the state and the telemetry, and every event: a ship's bits
+    do not depend on its neighbours, whatever their mass, legs, inertia or stiffness, nor on how
+    many sub-steps they need."""
     fleet = varied_fleet(1000)
     body = {"terrain": {"bumps": [{"east": 30.0, "north": 0.0, "radius": 40.0, "height": 1.5}]},
             "rotation_period": 7200.0}
-    together = records(scene(ships=fleet, body=body, duration=2.0))
-    for k in (0, 3, 4, 5, 997):  # flying, contact, landed, tipped, flying
+    scn = scene(ships=fleet, body=body, duration=2.0)
+    subs = scn.params.ships.n_substeps
+    assert subs.min() == 2 and subs.max() > 2  # the wide-legged ships take sub-steps of their own
+    together = records(scn)
+    wide = [i for i, s in enumerate(fleet) if s["leg_radius"] > 5][:2]
+    for k in (0, 3, 4, 5, 997, *wide):  # flying, contact, landed, tipped, flying, wide-legged
         alone = records(scene(ships=[fleet[k]], body=body, duration=2.0))
         assert len(alone) == len(together)
         for a, b in zip(together, alone):

@@ -105,9 +105,9 @@ def test_an_unstable_scene_is_refused_when_asked():
 def test_an_unstable_scene_is_sub_stepped_by_default():
     scn = scene({"altitude": 0.5, "vertical_speed": -20.0},
                 sim={"integrator": "explicit_euler", "dt": 0.1, "max_substep": 0.0}, duration=30.0)
-    h = scn.params.sim.dt_s / scn.params.sim.n_fine_substeps
+    h = scn.params.sim.dt_s / scn.params.ships.n_substeps[0]
     assert OMEGA * h < largest_stable_wh("explicit_euler", ZETA)
-    assert scn.resolved["sim"]["max_substep"] == pytest.approx(h)
+    assert scn.resolved["sim"]["max_substep"] == 0.0  # the scene's setting; the ship's own need
     recs = records(scn)
     assert np.isfinite(series(recs, "altitude_m")).all()
     # bounded: no energy from nowhere (stable is not accurate: near its bound explicit Euler
@@ -122,11 +122,11 @@ def test_the_exponential_method_is_sub_stepped_for_its_rocking_mode_only():
     rocking mode needs sub-steps, and `error` refuses instead."""
     plain = scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.1,
                                           "max_substep": 0.0, "on_unstable": "error"})
-    assert plain.params.sim.n_fine_substeps == 1
+    assert plain.params.ships.n_substeps[0] == 1
     big = scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.5, "max_substep": 0.0})
-    h = big.params.sim.dt_s / big.params.sim.n_fine_substeps
+    h = big.params.sim.dt_s / big.params.ships.n_substeps[0]
     w_rock_bound = math.sqrt(100.0 * 2.26 ** 2 / 2 / ((3 * 2.26 ** 2 + 36.0) / 12.0))
-    assert 1 < big.params.sim.n_fine_substeps
+    assert 1 < big.params.ships.n_substeps[0]
     assert w_rock_bound * h < 0.5 * largest_stable_wh("velocity_verlet", ZETA)
     with pytest.raises(ScenarioError):
         scene({"altitude": 1.0}, sim={"integrator": "exponential", "dt": 0.5, "max_substep": 0.0,
