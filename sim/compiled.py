@@ -60,8 +60,19 @@ def cache_dir() -> Path:
     candidates.append(Path(xdg) / "touchdown" / name)
     for path in candidates:
         if _writable(path):
+            _prune_siblings(path)
             return path
     return candidates[-1]  # numba then compiles without caching, and says so
+
+
+def _prune_siblings(path: Path) -> None:
+    """Remove the kernels compiled from other versions of the sources beside ``path`` (best
+    effort: another process may be using them, or the directory may not be ours to clean)."""
+    import shutil
+    prefix = path.name.split("-")[0] + "-"
+    for other in path.parent.glob(prefix + "*"):
+        if other != path and other.is_dir() and len(other.name) == len(path.name):
+            shutil.rmtree(other, ignore_errors=True)
 
 
 numba.config.CACHE_DIR = str(cache_dir())
@@ -69,7 +80,24 @@ numba.config.CACHE_DIR = str(cache_dir())
 
 def kernel(fn: Callable) -> Callable:
     """Compile ``fn`` as a deterministic, cached, GIL-free numba function (module docstring)."""
-    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(fn)
+    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
+                      no_cfunc_wrapper=True)(fn)
+
+
+def leaf(fn: Callable) -> Callable:
+    """:func:`kernel` for a small function on the hot path: LLVM inlines its machine code into
+    every caller (numba's ``forceinline``), so a vector operation costs its arithmetic and no
+    call. Numba still types it once, so compiling it costs no more."""
+    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
+                      no_cfunc_wrapper=True, forceinline=True)(fn)
+
+
+def constructor(fn: Callable) -> Callable:
+    """:func:`kernel` for a function that builds a tuple holding a record (``Ground``,
+    ``FreeBody``): numba cannot return such a tuple from a call, so the function's code is
+    inlined where it is called (numba's ``inline="always"``)."""
+    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
+                      no_cfunc_wrapper=True, inline="always")(fn)
 
 
 class _CompileNotice(event.Listener):

@@ -35,11 +35,21 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel
+from sim.compiled import kernel, leaf
 from sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
 
-#: Columns of the terrain's bump table (``Ground.bumps``, one row per bump).
+#: Columns of the terrain's bump table (one row per bump).
 BUMP_EAST, BUMP_NORTH, BUMP_RADIUS, BUMP_HEIGHT = 0, 1, 2, 3
+#: Most bumps a terrain may have.
+MAX_BUMPS = 1000
+
+#: The terrain as the kernels read it: one record (a pointer inside the kernels: no reference
+#: counting wherever a Ground goes).
+TERRAIN_DTYPE = np.dtype([
+    ("base_height_m", "f8"),
+    ("n_bumps", "i8"),
+    ("bumps", "f8", (MAX_BUMPS, 4)),  # rows: east, north, radius, height (m); the first n_bumps
+], align=True)
 
 
 class Ground(NamedTuple):
@@ -52,26 +62,26 @@ class Ground(NamedTuple):
     north +z; the body has turned by theta = Omega t about the inertial +z axis."""
 
     radius_m: float
-    base_height_m: float
-    bumps: np.ndarray  # (B, 4): east, north, radius, height (m)
+    terrain: np.record  # a TERRAIN_DTYPE record
     cos_theta: float
     sin_theta: float
     spin_radps: float  # Omega, about the inertial +z axis
     radial: bool  # the seed's normal: radial whatever the terrain's slope
 
 
-@kernel
+@leaf
 def height_and_slope(ground, east_m, north_m):
     """(h, dh/de, dh/dn): the terrain's height and its gradient, analytically,
     dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
-    h = ground.base_height_m
+    ter = ground.terrain
+    h = ter.base_height_m
     dh_de = 0.0
     dh_dn = 0.0
-    for j in range(ground.bumps.shape[0]):
-        hgt = ground.bumps[j, BUMP_HEIGHT]
-        rad = ground.bumps[j, BUMP_RADIUS]
-        de = east_m - ground.bumps[j, BUMP_EAST]
-        dn = north_m - ground.bumps[j, BUMP_NORTH]
+    for j in range(ter.n_bumps):
+        hgt = ter.bumps[j, BUMP_HEIGHT]
+        rad = ter.bumps[j, BUMP_RADIUS]
+        de = east_m - ter.bumps[j, BUMP_EAST]
+        dn = north_m - ter.bumps[j, BUMP_NORTH]
         inv_r2 = 1.0 / (rad * rad)
         s = (de * de + dn * dn) * inv_r2
         w = 1.0 - s
@@ -83,20 +93,20 @@ def height_and_slope(ground, east_m, north_m):
     return h, dh_de, dh_dn
 
 
-@kernel
+@leaf
 def site_coords(ground, point):
     """(east, north) of an inertial point: its body-fixed (y, z)."""
     return -ground.sin_theta * point[0] + ground.cos_theta * point[1], point[2]
 
 
-@kernel
+@leaf
 def under(ground, point):
     """(x, g): the penetration x = R + h - |p| of a point and g = -grad x, the direction the ground
     pushes it (unit radial on level ground or with ``radial``)."""
     r = norm(point)
     r_hat = (point[0] / r, point[1] / r, point[2] / r)
-    if ground.bumps.shape[0] == 0:
-        return ground.radius_m + ground.base_height_m - r, r_hat
+    if ground.terrain.n_bumps == 0:
+        return ground.radius_m + ground.terrain.base_height_m - r, r_hat
     east, north = site_coords(ground, point)
     h, dh_de, dh_dn = height_and_slope(ground, east, north)
     pen = ground.radius_m + h - r
@@ -107,7 +117,7 @@ def under(ground, point):
                  r_hat[2] - dh_dn)
 
 
-@kernel
+@leaf
 def surface_velocity(ground, point):
     """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
     om = ground.spin_radps
@@ -125,7 +135,7 @@ class Feet(NamedTuple):
     push_w: tuple  # g = -grad x, the direction the ground pushes
 
 
-@kernel
+@leaf
 def foot_offsets_w(q, leg_radius_m, com_height_m):
     """Each foot's position relative to the centre of mass, inertial: body (+-a, 0, -h) and
     (0, +-a, -h) (sim.constants.LEG_DIRECTIONS_BODY)."""

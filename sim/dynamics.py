@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel
+from sim.compiled import constructor, kernel, leaf
 from sim.contact import Ground, evaluate, no_contact
 from sim.frames import turned
 from sim.vec import add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative, quat_rotate, \
@@ -43,8 +43,7 @@ class FreeBody(NamedTuple):
     gm_m3ps2: float
     body_radius_m: float
     body_omega_radps: float
-    base_height_m: float
-    bumps: np.ndarray  # the terrain's bumps (sim.contact.Ground)
+    terrain: np.record  # sim.contact.TERRAIN_DTYPE
     radial: bool  # the seed's radial normal on any slope
     cos0: float  # the body's angle at the tick's start
     sin0: float
@@ -57,31 +56,30 @@ class FreeBody(NamedTuple):
     linear_model: bool
 
 
-@kernel
+@constructor
 def with_engage(fb, engage_m):
     """``fb`` whose feet press from penetration > -engage_m."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
                     fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
-                    fb.base_height_m, fb.bumps, fb.radial, fb.cos0, fb.sin0, fb.touching,
+                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
                     engage_m, fb.linear_model)
 
 
-@kernel
+@constructor
 def ground_at(fb, offset_s):
     """The ground ``offset_s`` after the tick's start. On a flat body it looks the same at every
     angle, so the tick's angle serves."""
     om = fb.body_omega_radps
     if om == 0.0:
-        return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, 1.0, 0.0, 0.0, fb.radial)
-    if fb.bumps.shape[0] == 0:
-        return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, fb.cos0, fb.sin0, om,
-                      fb.radial)
+        return Ground(fb.body_radius_m, fb.terrain, 1.0, 0.0, 0.0, fb.radial)
+    if fb.terrain.n_bumps == 0:
+        return Ground(fb.body_radius_m, fb.terrain, fb.cos0, fb.sin0, om, fb.radial)
     c, s = turned(fb.cos0, fb.sin0, om, offset_s)
-    return Ground(fb.body_radius_m, fb.base_height_m, fb.bumps, c, s, om, fb.radial)
+    return Ground(fb.body_radius_m, fb.terrain, c, s, om, fb.radial)
 
 
-@kernel
+@leaf
 def ground_turn(fb, dt_s):
     """(cos, sin) of the angle the body turns through in dt_s (sim.vec.cos_sinc's series)."""
     if fb.body_omega_radps == 0.0:
@@ -101,7 +99,7 @@ def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
                     fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model)
 
 
-@kernel
+@leaf
 def acceleration(fb, ce, p, q):
     """v': point-mass gravity, thrust along the long axis, and the ground's force."""
     r2 = dot(p, p)
@@ -112,13 +110,13 @@ def acceleration(fb, ce, p, q):
     return add(a, (force[0] / m, force[1] / m, force[2] / m))
 
 
-@kernel
+@leaf
 def torque_body(fb, ce, q):
     """External torque in the body frame: the ground's, and the RCS's."""
     return add(quat_rotate_inv(q, ce.torque_w), fb.rcs_torque_body_nm)
 
 
-@kernel
+@leaf
 def derivatives(fb, ce, p, v, q, w_b):
     """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
     i_w = mul(fb.inertia_kgm2, w_b)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sim.compiled import kernel
+from sim.compiled import kernel, leaf
 from sim.contact import feet, surface_velocity
 from sim.vec import dot, mul, norm, quat_rotate_inv, sub
 
@@ -43,19 +43,19 @@ class Energy(NamedTuple):
     spring_j: float
 
 
-@kernel
+@leaf
 def translation(e):
     """The centre of mass's part; in free flight it is conserved on its own."""
     return e.translational_j + e.gravity_j + e.centrifugal_j
 
 
-@kernel
+@leaf
 def rotation(e):
     """The rotation's part (E_rot - Omega . L_rot); in free flight conserved on its own."""
     return e.rotational_j + e.centrifugal_spin_j
 
 
-@kernel
+@leaf
 def total(e):
     return translation(e) + rotation(e) + e.spring_j
 

@@ -33,8 +33,8 @@ def body_angles(params: Params, t_s: np.ndarray | float, n: int) -> tuple[np.nda
 
 
 @kernel
-def _terrain_height(base, bumps, east, north, out):
-    g = Ground(0.0, base, bumps, 1.0, 0.0, 0.0, False)
+def _terrain_height(terrain, east, north, out):
+    g = Ground(0.0, terrain[0], 1.0, 0.0, 0.0, False)
     for i in range(east.shape[0]):
         out[i] = height_and_slope(g, east[i], north[i])[0]
 
@@ -45,7 +45,7 @@ def terrain_height(terrain: Terrain, east_m: np.ndarray, north_m: np.ndarray) ->
     n = np.ascontiguousarray(north_m, dtype=float)
     flat_e, flat_n = e.ravel(), np.broadcast_to(n, e.shape).ravel().copy()
     out = np.empty(flat_e.shape[0])
-    _terrain_height(terrain.base_height_m, terrain.bump_table(), flat_e, flat_n, out)
+    _terrain_height(terrain.record(), flat_e, flat_n, out)
     return out.reshape(e.shape)
 
 
@@ -109,10 +109,9 @@ def site_quats_xyzw(q: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.n
 
 
 @kernel
-def _feet(radius, base, bumps, radial, om, cos_t, sin_t, p, q, leg, height, offset, pos, pen,
-          push):
+def _feet(radius, terrain, radial, om, cos_t, sin_t, p, q, leg, height, offset, pos, pen, push):
     for i in range(p.shape[0]):
-        g = Ground(radius, base, bumps, cos_t[i], sin_t[i], om, radial)
+        g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
         ft = feet(g, (p[i, 0], p[i, 1], p[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]), leg[i],
                   height[i])
         for k in range(4):
@@ -133,7 +132,7 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
     out = {"offset_w": np.empty((n, 4, 3)), "pos_w": np.empty((n, 4, 3)),
            "pen_m": np.empty((n, 4)), "push_w": np.empty((n, 4, 3))}
     body = params.body
-    _feet(body.radius_m, body.terrain.base_height_m, params.bumps,
+    _feet(body.radius_m, params.terrain,
           params.contact.surface_normal == "radial", body.omega_radps,
           np.ascontiguousarray(cos_t, float), np.ascontiguousarray(sin_t, float), p, q,
           np.broadcast_to(np.asarray(leg_radius_m, float), (n,)).copy(),
@@ -143,10 +142,10 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
 
 
 @kernel
-def _energy(gm, radius, om, kpm, base, bumps, radial, cos_t, sin_t, leg, height, mass, inertia,
-            p, v, q, w, out):
+def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mass, inertia, p, v, q,
+            w, out):
     for i in range(p.shape[0]):
-        g = Ground(radius, base, bumps, cos_t[i], sin_t[i], om, radial)
+        g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
         e = mechanical(gm, radius, om, kpm[i], leg[i], height[i], mass[i],
                        (inertia[i, 0], inertia[i, 1], inertia[i, 2]), (p[i, 0], p[i, 1], p[i, 2]),
                        (v[i, 0], v[i, 1], v[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]),
@@ -171,7 +170,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     body = params.body
     out = np.empty((n, 7))
     _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, sh.stiffness_per_kg[ship].copy(),
-            body.terrain.base_height_m, params.bumps, params.contact.surface_normal == "radial",
+            params.terrain, params.contact.surface_normal == "radial",
             c, s, sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(), mass,
             np.ascontiguousarray(inertia), p, v, q, w, out)
     parts = {name: out[:, k] for k, name in enumerate(ENERGY_PARTS)}

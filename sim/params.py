@@ -109,10 +109,16 @@ class Terrain:
     bump_radius_m: tuple[float, ...] = ()
     bump_height_m: tuple[float, ...] = ()
 
-    def bump_table(self) -> np.ndarray:
-        """The bumps as rows (east, north, radius, height): sim.contact.Ground's table."""
-        return np.array([self.bump_east_m, self.bump_north_m, self.bump_radius_m,
-                         self.bump_height_m], dtype=float).T.reshape(-1, 4).copy()
+    def record(self) -> np.ndarray:
+        """One record of sim.contact.TERRAIN_DTYPE: what sim.contact.Ground reads."""
+        from sim.contact import TERRAIN_DTYPE
+        rec = np.zeros(1, TERRAIN_DTYPE)
+        n = len(self.bump_height_m)
+        rec[0]["base_height_m"] = self.base_height_m
+        rec[0]["n_bumps"] = n
+        rec[0]["bumps"][:n] = np.array([self.bump_east_m, self.bump_north_m, self.bump_radius_m,
+                                       self.bump_height_m], dtype=float).T.reshape(-1, 4)
+        return rec
 
     def height_m(self, east_m: np.ndarray, north_m: np.ndarray) -> np.ndarray:
         """The terrain's height at site coordinates (arrays), m (sim.contact.height_and_slope)."""
@@ -260,6 +266,6 @@ class Params:
         return rec
 
     @cached_property
-    def bumps(self) -> np.ndarray:
-        """The terrain's bumps, one row each (sim.contact.Ground)."""
-        return self.body.terrain.bump_table()
+    def terrain(self) -> np.ndarray:
+        """The terrain as the step reads it: one record of sim.contact.TERRAIN_DTYPE."""
+        return self.body.terrain.record()

@@ -19,12 +19,12 @@ import numpy as np
 from sim import constants as C
 from sim import vec
 from sim.compiled import kernel
-from sim.contact import Ground, lowest_foot, lowest_foot_penetration
+from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
                         Terrain)
-from sim.state import Inputs, State
+from sim.state import COMMAND_DTYPE, Inputs, State
 
 
 class ScenarioError(ValueError):
@@ -226,6 +226,14 @@ class Scenario:
     def _change_ticks(self) -> list[int]:
         return [ch.tick for ch in self.input_changes]
 
+    @cached_property
+    def commands(self) -> np.ndarray:
+        """The input changes as the step's commands (sim.state.COMMAND_DTYPE), in order."""
+        out = np.zeros(len(self.input_changes), COMMAND_DTYPE)
+        for k, ch in enumerate(self.input_changes):
+            out[k] = (ch.tick, ch.ship, ch.throttle, ch.rcs, ch.hold)
+        return out
+
 
 def parse_text(text: str, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
     return parse(load_toml(text, source), source, overrides)
@@ -383,7 +391,6 @@ MAX_SUBSTEPS_PER_TICK = 1000
 MAX_TICKS = 1_000_000_000
 MAX_SHIPS = 1_000_000
 MAX_INPUTS = 1_000_000
-MAX_BUMPS = 1000
 #: a method whose stable w h is below this is unstable at any step a run could take
 PRACTICAL_BOUND_WH = 1e-3
 
@@ -588,7 +595,7 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
     body = params.body
     om = body.omega_radps
     sh = params.ships
-    ground0 = Ground(body.radius_m, body.terrain.base_height_m, params.bumps, 1.0, 0.0, om,
+    ground0 = Ground(body.radius_m, params.terrain[0], 1.0, 0.0, om,
                      params.contact.surface_normal == "radial")
     st = State.zeros(len(ships))
     rows = st.rows

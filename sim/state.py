@@ -63,6 +63,15 @@ TRANSITION_DTYPE = np.dtype([
     ("v_radial_mps", "f8"),
 ], align=True)
 
+#: A command: from ``tick`` on, ship ``ship`` (its index in the batch) is given these inputs.
+COMMAND_DTYPE = np.dtype([
+    ("tick", "i8"),
+    ("ship", "i8"),
+    ("throttle", "f8"),
+    ("rcs", "f8", (3,)),
+    ("hold", "i1"),
+], align=True)
+
 #: State fields in a fixed order (for logs and comparisons).
 STATE_ARRAY_FIELDS: tuple[str, ...] = tuple(STATE_DTYPE.names)
 

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel
+from sim.compiled import constructor, kernel, leaf
 from sim.constants import G0_MPS2
 from sim.contact import lowest_foot_penetration
 from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_engage
@@ -40,7 +40,8 @@ from sim.contact import Ground, feet
 from sim.integrators import advance
 from sim.params import Params
 from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
-from sim.state import TRANSITION_DTYPE, Event, Inputs, Outputs, State
+from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
+                       Event, Inputs, Outputs, State)
 from sim.vec import add, cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, \
     quat_normalize, quat_rotate_inv, scale, sub, unit
 
@@ -58,6 +59,9 @@ VERTICAL_TOL2 = 1e-16
 #: of it (ulp(|p|) ~ 2e-10 m on the Moon): the feet count as clear before that instant and as
 #: pressing from it, within this margin, so that all of an upright ship's feet engage together.
 ONSET_MARGIN_M = 1e-6
+
+#: an empty list of commands (sim.state.COMMAND_DTYPE)
+NO_COMMANDS = np.zeros(0, COMMAND_DTYPE)
 
 
 class Ship(NamedTuple):
@@ -79,7 +83,7 @@ class Ship(NamedTuple):
     pin_pivot_bf_m: tuple
 
 
-@kernel
+@leaf
 def load(rec):
     """A ship's record as a :class:`Ship`."""
     return Ship(np.int64(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
@@ -95,7 +99,7 @@ def load(rec):
                 (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
 
 
-@kernel
+@leaf
 def store(s, rec):
     """Write a :class:`Ship` into its record."""
     rec.surface_state = s.surface_state
@@ -116,7 +120,7 @@ def store(s, rec):
     rec.pivot_rate_radps = s.pivot_rate_radps
 
 
-@kernel
+@leaf
 def emit(events, count, ship, from_state, to_state, v_radial_mps):
     """Append a transition to ``events``; ``count[0]`` is how many there are (those past the
     array's end are counted, not written)."""
@@ -171,7 +175,7 @@ def commands(cfg, sp, s, inp):
 
 
 # -- 2. free flight ------------------------------------------------------------------------------
-@kernel
+@leaf
 def near_ground(cfg, sp, s, cmd):
     """True for a ship that might touch the ground within this tick (conservative bound)."""
     dt = cfg.dt_s
@@ -184,7 +188,7 @@ def near_ground(cfg, sp, s, cmd):
 
 
 @kernel
-def purely_vertical(cfg, bumps, sp, s, cmd):
+def purely_vertical(cfg, terrain, sp, s, cmd):
     """A ship whose motion this tick is along the local vertical only: upright, not turning, not
     slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
     For it every kick of the exponential method is zero, so its one step per tick is already
@@ -201,17 +205,17 @@ def purely_vertical(cfg, bumps, sp, s, cmd):
             and rcs[2] == 0.0):
         return False
     # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
-    for j in range(bumps.shape[0]):
-        de = s.p[1] - bumps[j, 0]
-        dn = s.p[2] - bumps[j, 1]
-        clear = bumps[j, 2] + sp.leg_radius_m + 1.0
+    for j in range(terrain.n_bumps):
+        de = s.p[1] - terrain.bumps[j, 0]
+        dn = s.p[2] - terrain.bumps[j, 1]
+        clear = terrain.bumps[j, 2] + sp.leg_radius_m + 1.0
         if not de * de + dn * dn > clear * clear:
             return False
     return True
 
 
-@kernel
-def free_body(cfg, bumps, sp, s, cmd, touching, cos0, sin0):
+@constructor
+def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0):
     m = s.mass_kg
     two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
     return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
@@ -219,11 +223,11 @@ def free_body(cfg, bumps, sp, s, cmd, touching, cos0, sin0):
                     cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
                     cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
-                    cfg.body_radius_m, cfg.omega_radps, cfg.base_height_m, bumps,
+                    cfg.body_radius_m, cfg.omega_radps, terrain,
                     cfg.radial_normal, cos0, sin0, touching, 0.0, cfg.linear_model)
 
 
-@kernel
+@leaf
 def align_to_surface(q, r_hat):
     """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
 
@@ -236,7 +240,7 @@ def align_to_surface(q, r_hat):
     return quat_normalize(quat_mul(quat_normalize(rot), q))
 
 
-@kernel
+@leaf
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant."""
     return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
@@ -253,12 +257,12 @@ class EnergyRef(NamedTuple):
     rotation_j: float
 
 
-@kernel
+@leaf
 def energy_ref(e):
     return EnergyRef(total(e), translation(e), rotation(e))
 
 
-@kernel
+@leaf
 def _guard_factor(excess, kinetic):
     """sqrt(1 - excess / kinetic): the scale of the kinetic energy that removes ``excess``."""
     if not excess > 0.0:
@@ -421,7 +425,7 @@ def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_star
                    res.peak_penetration_m, res.located, pressed)
 
 
-@kernel
+@leaf
 def _a_down(fb, p, q, r_hat):
     """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
     return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
@@ -623,7 +627,7 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
-@kernel
+@leaf
 def over_footprint(cfg, sp, p, q):
     """The centre of mass is over the footprint: the line through it along the effective gravity
     meets the feet's plane inside the square the four feet span. With u the effective "up" in the
@@ -718,7 +722,7 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
-@kernel
+@leaf
 def burn(cfg, sp, s, cmd):
     """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
     rcs = cmd.rcs_torque_body_nm
@@ -732,11 +736,11 @@ def burn(cfg, sp, s, cmd):
 
 # -- 6. observe ----------------------------------------------------------------------------------
 @kernel
-def observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, cos1, sin1, out):
+def observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, cos1, sin1, out):
     """Telemetry at the end of the tick, into the ship's output record. Forces come from the
     free-flight phase (free ships) or are the weight (landed, tipped)."""
     om = cfg.omega_radps
-    ground = Ground(cfg.body_radius_m, cfg.base_height_m, bumps, cos1, sin1, om, cfg.radial_normal)
+    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
     pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
     r_hat = unit(s.p)
     v_rel = sub(s.v, surface_velocity(om, s.p))
@@ -764,7 +768,7 @@ def observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, c
 
 # -- the step ------------------------------------------------------------------------------------
 @kernel
-def step_ship(cfg, bumps, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index, events, count):
+def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index, events, count):
     """One ship's tick: the phases above, in order. ``rec`` is updated in place."""
     s = load(rec)
     cmd = commands(cfg, sp, s, inp)
@@ -773,9 +777,9 @@ def step_ship(cfg, bumps, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index,
         fine = s.surface_state == CONTACT or near_ground(cfg, sp, s, cmd)
         n_sub = 1
         if fine and not (cfg.vertical_one_step and cfg.linear_model
-                         and purely_vertical(cfg, bumps, sp, s, cmd)):
+                         and purely_vertical(cfg, terrain, sp, s, cmd)):
             n_sub = sp.n_substeps
-        fb = free_body(cfg, bumps, sp, s, cmd, fine, cos0, sin0)
+        fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0)
         fl = free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count)
         s = fl.ship
         friction_n, normal_n, peak, guard_j = (fl.friction_n, fl.normal_n, fl.peak_penetration_m,
@@ -786,61 +790,107 @@ def step_ship(cfg, bumps, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index,
         s = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count)
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
-    observe(cfg, bumps, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
+    observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
 
 
 @kernel
-def step_ships(scene, bumps, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
+def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
                count):
     """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` written,
     and the transitions appended to ``events`` (``count[0]`` of them; sim.step.emit)."""
-    cfg = scene[0]
+    cfg, ter = scene[0], terrain[0]
     for i in range(state.shape[0]):
-        step_ship(cfg, bumps, ships[i], state[i], inputs[i], outputs[i], cos0, sin0, cos1, sin1, i,
+        step_ship(cfg, ter, ships[i], state[i], inputs[i], outputs[i], cos0, sin0, cos1, sin1, i,
                   events, count)
 
 
-#: Transitions one ship can make in a tick: two in a sub-step (a touchdown already past
-#: tipped_angle), then none once tipped or crashed, and landing after.
-def transition_capacity(ships_n_substeps: np.ndarray) -> int:
-    return int(np.sum(2 * ships_n_substeps + 2)) if ships_n_substeps.size else 0
+@kernel
+def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
+               outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
+    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(states_out)``:
+    before the step from each tick the commands for it (``commands``, sorted by tick, from index
+    ``next_command``) are applied to ``inputs``; after it the state, the telemetry and the commands
+    in force are row k of ``states_out``, ``outputs_out`` and ``inputs_out``. Transitions are
+    appended to ``events`` (the tick each one led to in ``event_ticks``); the loop stops early
+    when fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin)
+    at the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+    c = next_command
+    for k in range(states_out.shape[0]):
+        if events.shape[0] - count[0] < tick_capacity:
+            return k, c
+        tick = first_tick + k
+        while c < commands.shape[0] and commands[c].tick <= tick:
+            cmd = commands[c]
+            rec = inputs[cmd.ship]
+            rec.throttle = cmd.throttle
+            for j in range(3):
+                rec.rcs[j] = cmd.rcs[j]
+            rec.hold = cmd.hold
+            c += 1
+        n0 = count[0]
+        step_ships(scene, terrain, ships, state, inputs, outputs_out[k], rotations[k, 0],
+                   rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1], events, count)
+        for e in range(n0, min(count[0], events.shape[0])):
+            event_ticks[e] = tick + 1
+        states_out[k, :] = state
+        inputs_out[k, :] = inputs
+    return states_out.shape[0], c
+
+
+def tick_capacity(params: Params) -> int:
+    """Transitions a batch can make in a tick: per ship, two in a sub-step (a touchdown already
+    past tipped_angle), none after a tip or crash, and landing after that."""
+    return int(np.sum(2 * params.ships.n_substeps + 2))
+
+
+def rotations(params: Params, first_tick: int, n_ticks: int) -> np.ndarray:
+    """(cos, sin) of the body's angle at the start of ticks first_tick .. first_tick + n_ticks
+    (sim.frames.body_rotation: one libm call per tick, outside the kernels)."""
+    om, dt = params.body.omega_radps, params.sim.dt_s
+    out = np.empty((n_ticks + 1, 2))
+    if om == 0.0:
+        out[:, 0], out[:, 1] = 1.0, 0.0
+        return out
+    for k in range(n_ticks + 1):
+        out[k] = body_rotation(om, (first_tick + k) * dt)
+    return out
 
 
 def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, list[Event]]:
-    """Advance the batch by one tick (pure: ``state`` is not changed)."""
-    dt = params.sim.dt_s
-    om = params.body.omega_radps
-    c0, s0 = body_rotation(om, state.tick * dt)
-    c1, s1 = body_rotation(om, (state.tick + 1) * dt)
-    rows = state.rows.copy()
-    out = Outputs.zeros(state.n)
-    events = np.zeros(transition_capacity(params.ships.n_substeps), TRANSITION_DTYPE)
+    """Advance the batch by one tick (pure: ``state`` and ``inputs`` are not changed)."""
+    n = state.n
+    states, outputs, ins = (np.empty((1, n), STATE_DTYPE), np.empty((1, n), OUTPUTS_DTYPE),
+                            np.empty((1, n), INPUTS_DTYPE))
+    cap = tick_capacity(params)
+    events, event_ticks = np.empty(cap, TRANSITION_DTYPE), np.empty(cap, np.int64)
     count = np.zeros(1, np.int64)
-    step_ships(params.scene, params.bumps, params.ships.rows, rows, inputs.rows, out.rows, c0, s0,
-               c1, s1, events, count)
+    step_ticks(params.scene, params.terrain, params.ships.rows, state.rows.copy(), inputs.rows.copy(),
+               NO_COMMANDS, 0, rotations(params, state.tick, 1), states, outputs, ins, events,
+               event_ticks, count, state.tick, cap)
     tick = state.tick + 1
-    return State(rows=rows, tick=tick), out, transitions(events[:count[0]], tick)
+    return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
+            transitions(events[:count[0]], event_ticks[:count[0]]))
 
 
-def transitions(events: np.ndarray, tick: int) -> list[Event]:
-    """The kernel's transitions as Events (in ship order, each ship's in the order they
+def transitions(events: np.ndarray, ticks: np.ndarray) -> list[Event]:
+    """The kernel's transitions as Events (by tick, then ship, each ship's in the order they
     happened)."""
     out = []
-    for e in events:
-        a, b = int(e["from_state"]), int(e["to_state"])
+    for e, tick in zip(events.tolist(), ticks.tolist()):
+        ship, a, b, v = e
         kind = TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]
-        out.append(Event(tick, int(e["ship"]), int(kind), a, b, float(e["v_radial_mps"])))
+        out.append(Event(tick, ship, int(kind), a, b, v))
     return out
 
 
 @kernel
-def observe_ships(scene, bumps, ships, state, outputs, cos_t, sin_t):
+def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""
-    cfg = scene[0]
+    cfg, ter = scene[0], terrain[0]
     idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0))
     for i in range(state.shape[0]):
-        observe(cfg, bumps, ships[i], load(state[i]), idle, 0.0, 0.0, 0.0, 0.0, cos_t, sin_t,
+        observe(cfg, ter, ships[i], load(state[i]), idle, 0.0, 0.0, 0.0, 0.0, cos_t, sin_t,
                 outputs[i])
 
 
@@ -848,5 +898,5 @@ def outputs_at(params: Params, state: State) -> Outputs:
     """:func:`observe_ships` of ``state`` at its tick."""
     c, s = body_rotation(params.body.omega_radps, state.tick * params.sim.dt_s)
     out = Outputs.zeros(state.n)
-    observe_ships(params.scene, params.bumps, params.ships.rows, state.rows, out.rows, c, s)
+    observe_ships(params.scene, params.terrain, params.ships.rows, state.rows, out.rows, c, s)
     return out

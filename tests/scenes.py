@@ -59,5 +59,5 @@ def one_ship(params, state, inputs=None, i: int = 0):
     from sim.state import Inputs
     from sim.step import load
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
-    return (params.scene[0], params.bumps, params.ships.rows[i], load(state.rows[i]),
+    return (params.scene[0], params.terrain[0], params.ships.rows[i], load(state.rows[i]),
             inputs.rows[i])

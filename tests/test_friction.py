@@ -13,6 +13,7 @@ from sim import friction
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.contact import Ground, feet
 from sim.enums import SurfaceState
+from sim.params import Terrain
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 MU_K, MU_S = 0.5, 0.8
@@ -105,7 +106,7 @@ def _one_ship_at_rest(side_force_n, normal_n=10000.0 * G, h=0.0025, steps=400):
     inertia = (40000.0, 40000.0, 20000.0)
     pos = (MOON_RADIUS_M + 3.0, 0.0, 0.0)
     quat = (0.7071067811865476, 0.0, 0.7071067811865476, 0.0)  # body z along +x (up)
-    ground = Ground(MOON_RADIUS_M, 0.0, np.zeros((0, 4)), 1.0, 0.0, 0.0, False)
+    ground = Ground(MOON_RADIUS_M, Terrain().record()[0], 1.0, 0.0, 0.0, False)
     ft = feet(ground, pos, quat, 0.0, 0.0)
     vel = (0.0, 0.0, 0.0)
     omega = (0.0, 0.0, 0.0)
