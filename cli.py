@@ -114,7 +114,7 @@ def scenarios_cmd() -> None:
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
            stream: str, keyframe_every: int, show: bool) -> None:
     from logs.mcap_log import LogWriter
-    from sim.run import run
+    from sim.run import run_blocks
 
     scn, source = load_scenario(scenario, sets)
     out = Path(output) if output else Path(f"{scn.name}.mcap")
@@ -127,7 +127,7 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
             raise UserError(str(exc)) from None
     n_ticks = scn.params.sim.n_ticks
     events = 0
-    # Ctrl-C asks the loop to stop after the tick in hand, so that no library call (compression,
+    # Ctrl-C asks the loop to stop after the block in hand, so that no library call (compression,
     # a chunk being written) is cut in half, and the log is finished. A second Ctrl-C before then
     # stops at once and removes the partial file. While finishing or cleaning up, Ctrl-C is
     # ignored: a file is either finished under its name or gone, never a footerless .partial.
@@ -152,13 +152,13 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
     prog = _progress(n_ticks, scn.name)
     outcome = "done"
     try:
-        for rec in run(scn):
-            msgs = writer.write(rec)
+        for block in run_blocks(scn):
+            msgs = writer.write_block(block)
             events += len(msgs)
             if publisher is not None:
                 publisher.publish(msgs)
-            if prog is not None and rec.tick % 50 == 0:
-                prog.update(prog.task_ids[0], completed=rec.tick)
+            if prog is not None:
+                prog.update(prog.task_ids[0], completed=block.last_tick)
             if sig["count"]:
                 break
         sig["busy"] = True

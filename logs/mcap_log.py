@@ -13,6 +13,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import queue
+import threading
 from pathlib import Path
 from typing import Iterator
 
@@ -21,12 +23,12 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
-from logs.codec import decode_tick, encode_tick
+from logs.codec import BlockEncoder, decode_tick
 from logs.safe_read import ReadStatus, iter_messages
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
-from sim.run import TickRecord
+from sim.run import Block, TickRecord
 from sim.scenario import Scenario, ScenarioError, parse
 from sim.state import STATE_ARRAY_FIELDS, Inputs, State
 
@@ -92,12 +94,12 @@ def ship_state_message(scn: Scenario, rec_state, i: int) -> pb.ShipState:
         tilt_deg=tilt, surface_contact_state=st.seed_string)
 
 
-def event_message(scn: Scenario, rec: TickRecord, ev) -> pb.TransitionEvent:
+def event_message(scn: Scenario, state: State, ev) -> pb.TransitionEvent:
     return pb.TransitionEvent(
         event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * scn.params.sim.dt_s,
         ship_id=scn.params.ships.ship_id[ev.ship], player_id=scn.params.ships.player_id[ev.ship],
         body=scn.params.body.name, from_state=ev.from_state, to_state=ev.to_state,
-        ship=ship_state_message(scn, rec.state, ev.ship), v_radial_mps=ev.v_radial_mps)
+        ship=ship_state_message(scn, state, ev.ship), v_radial_mps=ev.v_radial_mps)
 
 
 def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
@@ -111,8 +113,18 @@ def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
         keyframe_interval=keyframe_interval)
 
 
+#: encoded blocks waiting for the writer's thread, at most (each about a megabyte or one tick)
+QUEUE_BLOCKS = 4
+
+
 class LogWriter:
-    """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice."""
+    """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice.
+
+    The caller's thread encodes each block of ticks (compiled, without the GIL); a thread of the
+    writer's own adds the messages to the MCAP file and compresses its chunks (zstd releases the
+    GIL), so the next block is stepped meanwhile. The queue between them holds at most
+    QUEUE_BLOCKS blocks. An error on the writer's thread (a full disk) is raised by the next call
+    from the caller (write, close)."""
 
     def __init__(self, path: str | os.PathLike, scn: Scenario, source: str,
                  chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
@@ -140,6 +152,7 @@ class LogWriter:
             if keyframe_interval < 1:
                 raise ValueError("keyframe_interval must be at least 1")
             self.keyframe_interval = keyframe_interval
+            self._encoder = BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, keyframe_interval)
             self._put(TOPIC_SCENARIO, 0,
                       scenario_message(scn, source, keyframe_interval).SerializeToString())
         except BaseException:  # nothing half-written: no .partial without a writer
@@ -148,6 +161,45 @@ class LogWriter:
         self.last_tick = -1
         self.event_count = 0
         self._closed = False
+        self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_BLOCKS)
+        self._error: BaseException | None = None
+        self._abort = False
+        self._thread = threading.Thread(target=self._drain, name="touchdown-log", daemon=True)
+        self._thread.start()
+
+    def _drain(self) -> None:
+        """The writer's thread: add every queued block's messages, until the end marker."""
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            if self._error is not None or self._abort:
+                continue  # drop the rest; the caller hears of the error
+            try:
+                self._write_encoded(*item)
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                self._error = exc
+
+    def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
+                       events: dict[int, list[bytes]]) -> None:
+        view = memoryview(data)
+        for k in range(offsets.shape[0] - 1):
+            tick = first_tick + k
+            self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
+            for m in events.get(tick, ()):
+                self._put(TOPIC_EVENTS, tick, m)
+            if self._flush_every and tick % self._flush_every == 0:
+                self._mcap.flush()  # bounds what a killed writer loses
+
+    def _check(self) -> None:
+        if self._error is not None:
+            exc, self._error = self._error, None
+            raise exc
+
+    def _stop_thread(self) -> None:
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
 
     def _put(self, topic: str, tick: int, data: bytes) -> None:
         t_ns = tick * self._dt_ns
@@ -157,19 +209,24 @@ class LogWriter:
 
     def write(self, rec: TickRecord) -> list[pb.TransitionEvent]:
         """Append one tick; returns its events as messages (for publishing elsewhere too)."""
-        arrays = tick_arrays(rec)
-        if rec.tick % self.keyframe_interval:
-            for name in KEYFRAME_ONLY:
-                arrays[name] = _EMPTY
-        data = encode_tick(rec.tick, rec.tick * self.scn.params.sim.dt_s, rec.state.n, arrays)
-        self._put(TOPIC_TICKS, rec.tick, data)
-        msgs = [event_message(self.scn, rec, ev) for ev in rec.events]
-        for m in msgs:
-            self._put(TOPIC_EVENTS, rec.tick, m.SerializeToString())
+        return self.write_block(Block(rec.tick, rec.state.rows[None, :], rec.outputs.rows[None, :],
+                                      rec.inputs.rows[None, :], list(rec.events)))
+
+    def write_block(self, block: Block) -> list[pb.TransitionEvent]:
+        """Append a block of ticks (sim.run.Block); returns its events as messages."""
+        self._check()
+        data, offsets = self._encoder.encode(block.first_tick, block.states, block.outputs,
+                                             block.inputs)
+        msgs = []
+        events: dict[int, list[bytes]] = {}
+        for ev in block.events:
+            state = State(rows=block.states[ev.tick - block.first_tick], tick=ev.tick)
+            m = event_message(self.scn, state, ev)
+            events.setdefault(ev.tick, []).append(m.SerializeToString())
+            msgs.append(m)
+        self._queue.put((block.first_tick, data, offsets, events))
         self.event_count += len(msgs)
-        self.last_tick = rec.tick
-        if self._flush_every and rec.tick % self._flush_every == 0:
-            self._mcap.flush()  # bounds what a killed writer loses
+        self.last_tick = block.last_tick
         return msgs
 
     def close(self, complete: bool = True, reason: str = "") -> None:
@@ -180,6 +237,8 @@ class LogWriter:
             return
         self._closed = True
         try:
+            self._stop_thread()
+            self._check()
             summary = pb.LogSummary(last_tick=max(self.last_tick, 0), complete=complete,
                                     reason=reason, event_count=self.event_count)
             self._put(TOPIC_SUMMARY, max(self.last_tick, 0), summary.SerializeToString())
@@ -187,6 +246,8 @@ class LogWriter:
             self._stream.close()
             os.replace(self.partial, self.path)
         except BaseException:
+            self._abort = True
+            self._stop_thread()
             self._discard()
             raise
 
@@ -194,6 +255,8 @@ class LogWriter:
         """Drop the partial file (an error before anything worth keeping)."""
         if not self._closed:
             self._closed = True
+            self._abort = True
+            self._stop_thread()
             self._discard()
 
     def _discard(self) -> None:

@@ -14,12 +14,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from logs import LogError
-from logs.codec import PACKED, encode_tick
+from logs.codec import PACKED, BlockEncoder
 from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
                            WIDTH as _WIDTH, LogReader, event_message, scenario_of, tick_arrays)
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
-from sim.run import run
+from sim.run import run_blocks
 
 #: per-ship width of each packed field
 WIDTH = {name: _WIDTH.get(name, 1) for _, name, _ in PACKED}
@@ -171,35 +171,37 @@ def _compare_ticks(reader: LogReader, scn, index: int | None, res: VerifyResult,
         if index is not None:
             start = start.take(np.array([index]))
         res.ticks_compared += 1
-    sim = run(scn, start=start, last_tick=res.last_tick)
     interval = reader.keyframe_interval
+    encoder = BlockEncoder(sr.dt_s, KEYFRAME_ONLY, interval)
+    sim = _replayed(scn, start, res.last_tick, encoder)
     events: list[tuple[int, str, bytes]] = []
     compared_to = first or 0
     for recorded in ticks:
         # driven by the recorded ticks: the re-run does no more ticks than the log holds
-        new = next(sim, None)
-        if new is None:
+        step = next(sim, None)
+        if step is None:
             raise LogError(f"{path}: a tick record at tick {recorded.tick_from_time}, after the "
                            f"run's last tick {res.last_tick}")
+        mine, new = step
         if new.tick != recorded.tick_from_time:
             raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
                            f"found {recorded.tick_from_time})")
-        arrays = tick_arrays(new)
         res.ticks_compared += 1
         compared_to = new.tick
-        events += [(new.tick, ids[ev.ship], event_message(scn, new, ev).SerializeToString())
+        events += [(new.tick, ids[ev.ship], event_message(scn, new.state, ev).SerializeToString())
                    for ev in new.events]
         if index is None:
             # the whole batch: the replayed tick, encoded as the writer encodes it, must be
             # the recorded message byte for byte; only a mismatch is decoded and diagnosed
+            res.numbers_compared += _numbers_in(new.state.n, new.tick % interval == 0)
+            if mine == recorded.raw:
+                continue
+            arrays = tick_arrays(new)
             if new.tick % interval:
                 for name in KEYFRAME_ONLY:
                     arrays[name] = _EMPTY
-            mine = encode_tick(new.tick, new.tick * sr.dt_s, new.state.n, arrays)
-            res.numbers_compared += sum(np.size(a) for a in arrays.values())
-            if mine == recorded.raw:
-                continue
         else:
+            arrays = tick_arrays(new)
             res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
         hit = _first_difference(recorded.arrays, arrays, index, new.state.n,
                                 sr.log_format_version < LOG_FORMAT_VERSION)
@@ -220,6 +222,21 @@ def _compare_ticks(reader: LogReader, scn, index: int | None, res: VerifyResult,
         raise LogError(f"{path}: no tick records to compare (the log ends before its first "
                        f"tick{why})")
     return events
+
+
+def _replayed(scn, start, last_tick: int, encoder: BlockEncoder):
+    """The re-run, tick by tick: (the tick encoded as the writer encodes it, its record)."""
+    for block in run_blocks(scn, start=start, last_tick=last_tick, ramp=True):
+        data, offsets = encoder.encode(block.first_tick, block.states, block.outputs, block.inputs)
+        view = memoryview(data)
+        for k, rec in enumerate(block.records()):
+            yield bytes(view[offsets[k]:offsets[k + 1]]), rec
+
+
+def _numbers_in(n_ships: int, keyframe: bool) -> int:
+    """How many numbers a tick record of ``n_ships`` holds."""
+    return n_ships * sum(WIDTH[name] for _, name, _ in PACKED
+                         if keyframe or name not in KEYFRAME_ONLY)
 
 
 def _compare_events(reader: LogReader, res: VerifyResult, replayed: list[tuple[int, str, bytes]],

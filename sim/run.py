@@ -74,11 +74,13 @@ def block_ticks(n_ships: int) -> int:
 
 
 def run_blocks(scn: Scenario, start: State | None = None, last_tick: int | None = None,
-               max_ticks: int | None = None) -> Iterator[Block]:
+               max_ticks: int | None = None, ramp: bool = False) -> Iterator[Block]:
     """The run as blocks: the tick-0 record first (unless ``start`` is given), then blocks of at
     most ``max_ticks`` (default: about a megabyte of records) until ``last_tick`` (default: the
-    scenario's duration). Commands come from the scenario; from ``start`` at tick T, those of
-    ticks before T are in force."""
+    scenario's duration). ``ramp``: the first blocks are short and each twice the last, so a
+    consumer that stops early (a cut log's replay) has stepped at most twice what it used.
+    Commands come from the scenario; from ``start`` at tick T, those of ticks before T are in
+    force."""
     params = scn.params
     last = params.sim.n_ticks if last_tick is None else last_tick
     if start is None:
@@ -95,8 +97,12 @@ def run_blocks(scn: Scenario, start: State | None = None, last_tick: int | None 
     size = max_ticks or block_ticks(n)
     cap = tick_capacity(params)
     tick = start.tick
+    ramp_size = 1
     while tick < last:
         k_max = min(size, last - tick)
+        if ramp:
+            k_max = min(k_max, ramp_size)
+            ramp_size *= 2
         states = np.empty((k_max, n), STATE_DTYPE)
         outputs = np.empty((k_max, n), OUTPUTS_DTYPE)
         ins = np.empty((k_max, n), INPUTS_DTYPE)

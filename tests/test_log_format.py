@@ -143,3 +143,28 @@ def test_writer_close_is_idempotent_and_failure_leaves_no_log(tmp_path):
         with LogWriter(bad, scn, "bounce"):
             raise RuntimeError("boom")
     assert not bad.exists() and not Path(str(bad) + ".partial").exists()
+
+
+@pytest.mark.parametrize("interval", [1, 3])
+def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
+    """The recorder's compiled block encoder (logs.codec.BlockEncoder) gives, for every tick of a
+    run, the bytes protobuf gives for that tick's TickBatch (keyframe fields only on keyframes)."""
+    from logs.codec import BlockEncoder
+    from logs.mcap_log import KEYFRAME_ONLY, tick_arrays
+    from sim.run import run_blocks
+
+    scn = parse_text(scenarios.text("fleet"), "fleet", {"duration": 3.0})
+    enc = BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, interval)
+    checked = 0
+    for block in run_blocks(scn, max_ticks=7):
+        data, offsets = enc.encode(block.first_tick, block.states, block.outputs, block.inputs)
+        for k, rec in enumerate(block.records()):
+            arrays = tick_arrays(rec)
+            keyframe = rec.tick % interval == 0
+            msg = pb.TickBatch(
+                tick=rec.tick, t_s=rec.tick * scn.params.sim.dt_s, ship_count=rec.state.n,
+                **{name: np.asarray(a).ravel().tolist() for name, a in arrays.items()
+                   if keyframe or name not in KEYFRAME_ONLY})
+            assert data[offsets[k]:offsets[k + 1]].tobytes() == msg.SerializeToString(), rec.tick
+            checked += 1
+    assert checked == scn.params.sim.n_ticks + 1
