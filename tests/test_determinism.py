@@ -1,4 +1,6 @@
 """Determinism: the step is a pure function, and a ship's numbers do not depend on its batch."""
+from fractions import Fraction
+
 import numpy as np
 
 from scenes import records, scene
@@ -104,3 +106,77 @@ def test_step_is_pure():
     # the input state is not modified
     again, _, _ = step(scn.params, scn.initial, inputs)
     assert again.pos_m.tobytes() == s1.pos_m.tobytes()
+
+
+BODY = {"terrain": {"bumps": [{"east": 30.0, "north": 0.0, "radius": 40.0, "height": 1.5}]},
+        "rotation_period": 7200.0}
+
+
+def test_the_kernels_never_fuse_a_multiply_and_an_add():
+    """a * b + c rounded twice, as IEEE arithmetic (and numpy) do, never once (a fused
+    multiply-add, which this CPU may have): sim.compiled's settings, on inputs where the two
+    differ."""
+    from sim.compiled import kernel
+
+    @kernel
+    def mul_add(a, b, c, out):
+        for i in range(a.shape[0]):
+            out[i] = a[i] * b[i] + c[i]
+
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(1.0, 2.0, 10000), rng.uniform(1.0, 2.0, 10000)
+    c = -(a * b) * (1.0 + rng.uniform(-1e-15, 1e-15, 10000))  # cancellation exposes the rounding
+    out = np.empty_like(a)
+    mul_add(a, b, c, out)
+    assert out.tobytes() == (a * b + c).tobytes()
+    # the inputs do tell the two apart: a fused multiply-add rounds the exact a * b + c once
+    fused = [float(Fraction(x) * Fraction(y) + Fraction(z)) for x, y, z in zip(a[:500], b[:500],
+                                                                                c[:500])]
+    assert (np.array(fused) != (a * b + c)[:500]).sum() > 100
+
+
+def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
+    """A log recorded here verifies with the kernels compiled for a generic x86-64 (no FMA, no
+    AVX: NUMBA_CPU_NAME=generic), and a log recorded with those verifies here: varied ship
+    classes, every state, terrain, a turning body."""
+    import json
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from logs.mcap_log import LogWriter
+    from replay.verify import verify
+    from sim.run import run_blocks
+
+    doc = {"name": "generic", "duration": 1.5, "body": BODY, "ships": varied_fleet(120)}
+    (tmp_path / "fleet.json").write_text(json.dumps(doc))
+    host = scene(ships=doc["ships"], body=BODY, duration=1.5)
+    with LogWriter(tmp_path / "host.mcap", host, "test") as w:
+        for block in run_blocks(host):
+            w.write_block(block)
+    script = f"""
+import json, sys
+import numba
+assert numba.config.CPU_NAME == "generic", numba.config.CPU_NAME
+from logs.mcap_log import LogWriter
+from replay.verify import verify
+from sim.run import run_blocks
+from sim.scenario import parse
+res = verify({str(tmp_path / "host.mcap")!r})
+print(res.report())
+assert res.identical
+scn = parse(json.load(open({str(tmp_path / "fleet.json")!r})), "test")
+with LogWriter({str(tmp_path / "generic.mcap")!r}, scn, "test") as w:
+    for block in run_blocks(scn):
+        w.write_block(block)
+"""
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, NUMBA_CPU_NAME="generic")
+    env.pop("NUMBA_CPU_FEATURES", None)
+    r = subprocess.run([sys.executable, "-c", script], env=env, cwd=root, capture_output=True,
+                       text=True, timeout=900)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "identical" in r.stdout
+    mine = verify(str(tmp_path / "generic.mcap"))
+    assert mine.identical, mine.report()
