@@ -88,6 +88,8 @@ def _progress(total: int, label: str):
 @click.version_option(package_name="touchdown", message="%(version)s")
 def main() -> None:
     """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
+    from sim.compiled import notify_compilation
+    notify_compilation()  # one line on stderr while the kernels compile (first run after install)
 
 
 @main.command("scenarios")

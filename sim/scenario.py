@@ -502,24 +502,27 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
         rd.fail(pre + "tilt_deg", "a ship in contact must be tilted less than contact.tipped_angle_deg")
 
 
-def _quat_from_axes(ex, ey, ez) -> np.ndarray:
-    """Unit quaternion (w,x,y,z) of the rotation whose matrix has columns ex, ey, ez (Shepperd)."""
-    m = np.array([ex, ey, ez]).T
-    tr = m[0, 0] + m[1, 1] + m[2, 2]
+@kernel
+def quat_from_axes(ex, ey, ez):
+    """The unit quaternion (w, x, y, z) of the rotation whose matrix has columns ex, ey, ez
+    (Shepperd's method: the largest of the four candidates' diagonals, for accuracy)."""
+    m00, m10, m20 = ex
+    m01, m11, m21 = ey
+    m02, m12, m22 = ez
+    tr = m00 + m11 + m22
     if tr > 0:
         s = math.sqrt(tr + 1.0) * 2
-        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
-        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
-    elif m[1, 1] > m[2, 2]:
-        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
-        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+        q = (0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s)
+    elif m00 > m11 and m00 > m22:
+        s = math.sqrt(1.0 + m00 - m11 - m22) * 2
+        q = ((m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s)
+    elif m11 > m22:
+        s = math.sqrt(1.0 + m11 - m00 - m22) * 2
+        q = ((m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s)
     else:
-        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
-        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
-    q = np.array(q)
-    return q / math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        s = math.sqrt(1.0 + m22 - m00 - m11) * 2
+        q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
+    return vec.quat_normalize(q)
 
 
 def _build(res: dict, n_substeps: list[int]) -> Scenario:
@@ -573,6 +576,10 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
 #: site coordinates shift by a fraction of the move, so a few reach rounding on any slope).
 MAX_PLACEMENT_ITERATIONS = 50
 
+#: Columns of the table of starts _place_ships reads, one row per ship.
+(_EAST, _NORTH, _ALT, _COS_HD, _SIN_HD, _COS_TH, _SIN_TH, _COS_YAW, _SIN_YAW, _LEG, _COM, _V_UP,
+ _V_FWD, _W_X, _W_Y, _W_Z) = range(16)
+
 
 @kernel
 def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
@@ -589,45 +596,63 @@ def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     return vec.scale(r_hat, rho)
 
 
-def _initial_state(params: Params, ships: list[dict]) -> State:
-    """Every ship where its ``initial`` table puts it. sim.vec keeps even the set-up elementwise
-    IEEE arithmetic: a replay on another CPU rebuilds this state bit for bit."""
-    body = params.body
-    om = body.omega_radps
-    sh = params.ships
-    ground0 = Ground(body.radius_m, params.terrain[0], 1.0, 0.0, om,
-                     params.contact.surface_normal == "radial")
-    st = State.zeros(len(ships))
-    rows = st.rows
-    for i, s in enumerate(ships):
-        ini = s["initial"]
-        r_hat = vec.unit((body.radius_m, ini["east"], ini["north"]))
+@kernel
+def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
+    """Every ship's pose and motion from its row of ``starts``: the landing-site directions at
+    (east, north), the long axis tilted toward the heading and turned by yaw about itself, the
+    lowest foot at the altitude, velocities along local up and the heading (relative to the
+    surface), the body's spin added to the angular velocity. Written into ``rows`` (states)."""
+    ground = Ground(radius_m, terrain[0], 1.0, 0.0, omega_radps, radial)
+    for i in range(starts.shape[0]):
+        st = starts[i]
+        r_hat = vec.unit((radius_m, st[_EAST], st[_NORTH]))
         east = vec.unit(vec.cross((0.0, 0.0, 1.0), r_hat))
         north = vec.cross(r_hat, east)
-        hd = math.radians(ini["heading_deg"])
-        fwd = vec.add(vec.scale(north, math.cos(hd)), vec.scale(east, math.sin(hd)))
-        th = math.radians(ini["tilt_deg"])
-        ez = vec.add(vec.scale(r_hat, math.cos(th)), vec.scale(fwd, math.sin(th)))
-        ex = vec.sub(vec.scale(fwd, math.cos(th)), vec.scale(r_hat, math.sin(th)))
+        fwd = vec.add(vec.scale(north, st[_COS_HD]), vec.scale(east, st[_SIN_HD]))
+        ez = vec.add(vec.scale(r_hat, st[_COS_TH]), vec.scale(fwd, st[_SIN_TH]))
+        ex = vec.sub(vec.scale(fwd, st[_COS_TH]), vec.scale(r_hat, st[_SIN_TH]))
         ey = vec.cross(ez, ex)
-        yaw = math.radians(ini["yaw_deg"])  # about the long axis: foot 0 (body +x) off the heading
-        ex, ey = (vec.add(vec.scale(ex, math.cos(yaw)), vec.scale(ey, math.sin(yaw))),
-                  vec.sub(vec.scale(ey, math.cos(yaw)), vec.scale(ex, math.sin(yaw))))
-        quat = tuple(float(x) for x in _quat_from_axes(ex, ey, ez))
-        a, h = float(sh.leg_radius_m[i]), float(sh.com_height_m[i])
-        pos = _place(ground0, r_hat, quat, a, h, ini["altitude"])
-        surf_v = (om * -pos[1], om * pos[0], 0.0)
-        vel = vec.add(vec.add(surf_v, vec.scale(r_hat, ini["vertical_speed"])),
-                      vec.scale(fwd, ini["horizontal_speed"]))
-        state = SurfaceState.from_label(ini["state"])
-        # body-frame angular velocity: the scenario's (relative to the surface) plus the body's spin
-        omega = vec.add(tuple(ini["angular_velocity"]), vec.quat_rotate_inv(quat, (0.0, 0.0, om)))
-        _, lowest = lowest_foot(ground0, pos, quat, a, h)
+        ex, ey = (vec.add(vec.scale(ex, st[_COS_YAW]), vec.scale(ey, st[_SIN_YAW])),
+                  vec.sub(vec.scale(ey, st[_COS_YAW]), vec.scale(ex, st[_SIN_YAW])))
+        quat = quat_from_axes(ex, ey, ez)
+        pos = _place(ground, r_hat, quat, st[_LEG], st[_COM], st[_ALT])
+        surf_v = (omega_radps * -pos[1], omega_radps * pos[0], 0.0)
+        vel = vec.add(vec.add(surf_v, vec.scale(r_hat, st[_V_UP])), vec.scale(fwd, st[_V_FWD]))
+        omega = vec.add((st[_W_X], st[_W_Y], st[_W_Z]),
+                        vec.quat_rotate_inv(quat, (0.0, 0.0, omega_radps)))
+        lowest = lowest_foot(ground, pos, quat, st[_LEG], st[_COM])[1]
         r = rows[i]
-        r["surface_state"] = state
-        r["pos_m"], r["vel_mps"], r["quat"], r["omega_body_radps"] = pos, vel, quat, omega
-        r["mass_kg"], r["fuel_kg"] = sh.mass0_kg[i], sh.fuel0_kg[i]
-        r["absorbing"] = (state != SurfaceState.FLYING
-                          and abs(ini["vertical_speed"]) < params.contact.bounce_speed_mps)
-        r["pin_pos_bf_m"], r["pin_quat_bf"], r["pin_pivot_bf_m"] = pos, quat, lowest
+        for k in range(3):
+            r.pos_m[k] = pos[k]
+            r.vel_mps[k] = vel[k]
+            r.omega_body_radps[k] = omega[k]
+            r.pin_pos_bf_m[k] = pos[k]
+            r.pin_pivot_bf_m[k] = lowest[k]
+        for k in range(4):
+            r.quat[k] = quat[k]
+            r.pin_quat_bf[k] = quat[k]
+
+
+def _initial_state(params: Params, ships: list[dict]) -> State:
+    """Every ship where its ``initial`` table puts it (:func:`_place_ships`; the angles' cosines
+    and sines from libm here, once). sim.vec keeps even the set-up elementwise IEEE arithmetic: a
+    replay on another CPU rebuilds this state bit for bit."""
+    sh = params.ships
+    starts = np.empty((len(ships), 16))
+    for i, s in enumerate(ships):
+        ini = s["initial"]
+        hd, th, yaw = (math.radians(ini[k]) for k in ("heading_deg", "tilt_deg", "yaw_deg"))
+        starts[i] = (ini["east"], ini["north"], ini["altitude"], math.cos(hd), math.sin(hd),
+                     math.cos(th), math.sin(th), math.cos(yaw), math.sin(yaw),
+                     sh.leg_radius_m[i], sh.com_height_m[i], ini["vertical_speed"],
+                     ini["horizontal_speed"], *ini["angular_velocity"])
+    st = State.zeros(len(ships))
+    _place_ships(params.terrain, params.body.radius_m, params.body.omega_radps,
+                 params.contact.surface_normal == "radial", starts, st.rows)
+    rows = st.rows
+    rows["surface_state"] = [SurfaceState.from_label(s["initial"]["state"]) for s in ships]
+    rows["mass_kg"], rows["fuel_kg"] = sh.mass0_kg, sh.fuel0_kg
+    rows["absorbing"] = [s["initial"]["state"] != "flying"
+                         and abs(s["initial"]["vertical_speed"]) < params.contact.bounce_speed_mps
+                         for s in ships]
     return st
