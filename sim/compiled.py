@@ -115,10 +115,20 @@ class _CompileNotice(event.Listener):
         pass
 
 
+_NOTICE: _CompileNotice | None = None
+
+
 def notify_compilation(say: Callable[[str], None] | None = None) -> None:
-    """Call ``say`` (default: a line on stderr) once, when a kernel starts compiling rather than
-    loading from the cache. For the command line; the core itself prints nothing."""
+    """Call ``say`` once, when a kernel starts compiling rather than loading from the cache
+    (default: a line on stderr, if stderr is a terminal). For the command line; the core itself
+    prints nothing. Calling it again replaces ``say``."""
+    global _NOTICE
     if say is None:
         def say(text: str) -> None:
-            print(f"touchdown: {text}", file=sys.stderr, flush=True)
-    event.register("numba:compile", _CompileNotice(say))
+            if sys.stderr.isatty():
+                print(f"touchdown: {text}", file=sys.stderr, flush=True)
+    if _NOTICE is None:
+        _NOTICE = _CompileNotice(say)
+        event.register("numba:compile", _NOTICE)
+    else:
+        _NOTICE.say = say
