@@ -180,3 +180,27 @@ with LogWriter({str(tmp_path / "generic.mcap")!r}, scn, "test") as w:
     assert "identical" in r.stdout
     mine = verify(str(tmp_path / "generic.mcap"))
     assert mine.identical, mine.report()
+
+
+def test_compiling_is_announced_once_and_loading_from_the_cache_is_silent():
+    """sim.compiled.notify_compilation: the command line's one-line notice is said when a kernel
+    compiles (the first run after an install), once however many kernels follow."""
+    import numba
+
+    from sim.compiled import notify_compilation
+
+    said = []
+    notify_compilation(said.append)
+    try:
+        @numba.njit  # not cached: it compiles on every run of this test
+        def fresh_a(x):
+            return x * 2.0 + 1.0
+
+        @numba.njit
+        def fresh_b(x):
+            return fresh_a(x) - 1.0
+
+        assert fresh_b(3.0) == 6.0
+        assert len(said) == 1 and "compiling" in said[0]
+    finally:
+        notify_compilation()
