@@ -17,7 +17,7 @@ import struct
 
 import numpy as np
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel
 from sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
 
 from logs import LogError
@@ -175,7 +175,7 @@ def _field_table(keyframe_only: tuple[str, ...]) -> np.ndarray:
     return np.array(rows, dtype=np.int64)
 
 
-@leaf
+@kernel
 def _put_varint(out, o, value):
     while True:
         b = value & 0x7F

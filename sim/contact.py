@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
 
 #: Columns of the terrain's bump table (one row per bump).
@@ -69,7 +69,7 @@ class Ground(NamedTuple):
     radial: bool  # the seed's normal: radial whatever the terrain's slope
 
 
-@leaf
+@kernel
 def height_and_slope(ground, east_m, north_m):
     """(h, dh/de, dh/dn): the terrain's height and its gradient, analytically,
     dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
@@ -93,13 +93,13 @@ def height_and_slope(ground, east_m, north_m):
     return h, dh_de, dh_dn
 
 
-@leaf
+@kernel
 def site_coords(ground, point):
     """(east, north) of an inertial point: its body-fixed (y, z)."""
     return -ground.sin_theta * point[0] + ground.cos_theta * point[1], point[2]
 
 
-@leaf
+@kernel
 def under(ground, point):
     """(x, g): the penetration x = R + h - |p| of a point and g = -grad x, the direction the ground
     pushes it (unit radial on level ground or with ``radial``)."""
@@ -117,7 +117,7 @@ def under(ground, point):
                  r_hat[2] - dh_dn)
 
 
-@leaf
+@kernel
 def surface_velocity(ground, point):
     """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
     om = ground.spin_radps
@@ -135,7 +135,7 @@ class Feet(NamedTuple):
     push_w: tuple  # g = -grad x, the direction the ground pushes
 
 
-@leaf
+@kernel
 def foot_offsets_w(q, leg_radius_m, com_height_m):
     """Each foot's position relative to the centre of mass, inertial: body (+-a, 0, -h) and
     (0, +-a, -h) (sim.constants.LEG_DIRECTIONS_BODY)."""
@@ -146,7 +146,7 @@ def foot_offsets_w(q, leg_radius_m, com_height_m):
             add(down, scale(ey, -a)))
 
 
-@kernel
+@separate
 def feet(ground, pos_m, quat, leg_radius_m, com_height_m):
     """Where the feet are, how deep, and which way the ground would push them."""
     off = foot_offsets_w(quat, leg_radius_m, com_height_m)
@@ -233,7 +233,7 @@ def foot_force(ground, vel_mps, omega_w, offset, foot, pen, push, k_leg, c_leg, 
     return FootForce(f, stiff, damp, load, load_rate)
 
 
-@kernel
+@separate
 def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, k_npm, c_nspm,
              c_absorb_nspm, absorbing, engage_m, linear_model):
     """Normal force, its moment, and penetration (see the module docstring).

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import constructor, kernel, leaf
+from sim.compiled import constructor, kernel, separate
 from sim.contact import Ground, evaluate, no_contact
 from sim.frames import turned
 from sim.vec import add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative, quat_rotate, \
@@ -79,7 +79,7 @@ def ground_at(fb, offset_s):
     return Ground(fb.body_radius_m, fb.terrain, c, s, om, fb.radial)
 
 
-@leaf
+@kernel
 def ground_turn(fb, dt_s):
     """(cos, sin) of the angle the body turns through in dt_s (sim.vec.cos_sinc's series)."""
     if fb.body_omega_radps == 0.0:
@@ -89,7 +89,7 @@ def ground_turn(fb, dt_s):
     return c, d * sinc
 
 
-@kernel
+@separate
 def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
     """The ground's action at one state (``engage_m``: sim.contact.evaluate)."""
     if not fb.touching:
@@ -99,7 +99,7 @@ def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
                     fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model)
 
 
-@leaf
+@kernel
 def acceleration(fb, ce, p, q):
     """v': point-mass gravity, thrust along the long axis, and the ground's force."""
     r2 = dot(p, p)
@@ -110,13 +110,13 @@ def acceleration(fb, ce, p, q):
     return add(a, (force[0] / m, force[1] / m, force[2] / m))
 
 
-@leaf
+@kernel
 def torque_body(fb, ce, q):
     """External torque in the body frame: the ground's, and the RCS's."""
     return add(quat_rotate_inv(q, ce.torque_w), fb.rcs_torque_body_nm)
 
 
-@leaf
+@kernel
 def derivatives(fb, ce, p, v, q, w_b):
     """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
     i_w = mul(fb.inertia_kgm2, w_b)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.contact import feet, surface_velocity
 from sim.vec import dot, mul, norm, quat_rotate_inv, sub
 
@@ -43,24 +43,24 @@ class Energy(NamedTuple):
     spring_j: float
 
 
-@leaf
+@kernel
 def translation(e):
     """The centre of mass's part; in free flight it is conserved on its own."""
     return e.translational_j + e.gravity_j + e.centrifugal_j
 
 
-@leaf
+@kernel
 def rotation(e):
     """The rotation's part (E_rot - Omega . L_rot); in free flight conserved on its own."""
     return e.rotational_j + e.centrifugal_spin_j
 
 
-@leaf
+@kernel
 def total(e):
     return translation(e) + rotation(e) + e.spring_j
 
 
-@kernel
+@separate
 def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, com_height_m,
                mass_kg, inertia_kgm2, p, v, q, w_b, ground):
     """E of a ship at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant."""

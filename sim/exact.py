@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.vec import fmax, fmin
 
 
@@ -53,7 +53,7 @@ _EPS = 2.220446049250313e-16  # the double's machine epsilon
 _TWO_PI = 2.0 * 3.141592653589793
 
 
-@leaf
+@kernel
 def _exp_series(y):
     acc = _EXP[16]
     for k in range(15, -1, -1):
@@ -61,7 +61,7 @@ def _exp_series(y):
     return acc
 
 
-@leaf
+@kernel
 def _cos_series(z):
     acc = _COS[9]
     for k in range(8, -1, -1):
@@ -69,7 +69,7 @@ def _cos_series(z):
     return acc
 
 
-@leaf
+@kernel
 def _sinc_series(z):
     acc = _SINC[9]
     for k in range(8, -1, -1):
@@ -77,7 +77,7 @@ def _sinc_series(z):
     return acc
 
 
-@leaf
+@kernel
 def decay_cos_sinc(s, b2, t):
     """(e^{-s t}, Cb(t), Sb(t)) for s >= 0, any real b^2 = w2 - s^2 and t >= 0.
 
@@ -117,7 +117,7 @@ class Flow(NamedTuple):
     v0: float  # m/s
 
 
-@leaf
+@kernel
 def flow_at(flow, t):
     """(x, x', x'') at time t."""
     x = flow.x0 + t * (flow.v0 + 0.5 * flow.b0 * t)
@@ -138,7 +138,7 @@ def flow_at(flow, t):
     return x, v, a
 
 
-@leaf
+@kernel
 def flow_start(flow):
     """(x, x', x'') at t = 0, without evaluating the solution."""
     return flow.x0, flow.v0, flow.b0 - flow.c1 * flow.v0 - flow.w2 * flow.x0
@@ -155,7 +155,7 @@ class Functional(NamedTuple):
     ct: float
 
 
-@leaf
+@kernel
 def value_and_rate(g, flow, t, x, v, a):
     """g(t) and g'(t), given (x, x', x'') at t."""
     jerk = flow.b1 - flow.c1 * a - flow.w2 * v  # d/dt of x''
@@ -164,14 +164,14 @@ def value_and_rate(g, flow, t, x, v, a):
     return value, rate
 
 
-@leaf
+@kernel
 def value_and_rate_at(g, flow, t):
     """g(t) and g'(t)."""
     x, v, a = flow_at(flow, t)
     return value_and_rate(g, flow, t, x, v, a)
 
 
-@leaf
+@kernel
 def scan(flow, t_end):
     """(points, horizon): scan (0, horizon] in ``points`` equal sub-intervals for an event's first
     sign change. The first zero of a damped oscillation plus a constant comes within one period
@@ -188,7 +188,7 @@ def scan(flow, t_end):
     return int(n), horizon
 
 
-@kernel
+@separate
 def first_crossing(flow, g, t_end, g_start, g_end):
     """The first scanned sub-interval (:func:`scan`) over which g changes sign:
     (crossed, t_lo, t_hi, g_lo, g_hi). ``g_start`` and ``g_end`` are g at 0 and at t_end; the scan
@@ -208,7 +208,7 @@ def first_crossing(flow, g, t_end, g_start, g_end):
     return False, 0.0, t_end, g_start, g_end
 
 
-@kernel
+@separate
 def bracketed_root(flow, g, t_lo, t_hi, g_lo, g_hi):
     """The root of g in (t_lo, t_hi), where g changes sign (g_lo = g(t_lo), g_hi = g(t_hi) of
     opposite signs). Safeguarded Newton: a Newton step that leaves the bracket is replaced by

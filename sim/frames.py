@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from sim.compiled import leaf
+from sim.compiled import kernel
 from sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
 
 
@@ -24,7 +24,7 @@ def body_rotation(omega_radps: float, t_s: float) -> tuple[float, float]:
     return (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
 
 
-@leaf
+@kernel
 def turned(cos0, sin0, omega_radps, offset_s):
     """(cos, sin) of the body's angle ``offset_s`` after the angle (cos0, sin0): the small angle
     Omega offset from the series, composed with the tick's."""
@@ -36,13 +36,13 @@ def turned(cos0, sin0, omega_radps, offset_s):
     return cos0 * cd - sin0 * sd, sin0 * cd + cos0 * sd
 
 
-@leaf
+@kernel
 def rotate_z(v, c, s):
     """Rotate a vector by the angle of cosine c and sine s about +z."""
     return (c * v[0] - s * v[1], s * v[0] + c * v[1], v[2])
 
 
-@leaf
+@kernel
 def quat_z(c, s):
     """The quaternion of the rotation about +z whose angle has cosine c and sine s (half-angle
     formulas: sqrt only)."""
@@ -51,7 +51,7 @@ def quat_z(c, s):
     return (ch, 0.0, 0.0, sh)
 
 
-@leaf
+@kernel
 def pin_pose(p, q, c, s):
     """Inertial pose -> body-fixed pose at body angle (c, s)."""
     if c == 1.0 and s == 0.0:
@@ -59,7 +59,7 @@ def pin_pose(p, q, c, s):
     return rotate_z(p, c, -s), quat_mul(quat_z(c, -s), q)
 
 
-@leaf
+@kernel
 def surface_velocity(omega_radps, p):
     """Omega z x p: velocity of the body's surface (or a pinned ship) at p."""
     if omega_radps == 0.0:
@@ -67,7 +67,7 @@ def surface_velocity(omega_radps, p):
     return (-omega_radps * p[1], omega_radps * p[0], 0.0)
 
 
-@leaf
+@kernel
 def body_spin_in_body_frame(omega_radps, q):
     """The body's spin (0, 0, Omega) expressed in the ship's body frame."""
     if omega_radps == 0.0:
@@ -75,7 +75,7 @@ def body_spin_in_body_frame(omega_radps, q):
     return quat_rotate_inv(q, (0.0, 0.0, omega_radps))
 
 
-@leaf
+@kernel
 def effective_gravity(gm_m3ps2, omega2, p):
     """Gravity plus the centrifugal acceleration of the frame turning with the body,
     -GM p / r^3 + Omega^2 (p_x, p_y, 0), m/s^2: what a ship held on the surface weighs by. The
@@ -88,14 +88,14 @@ def effective_gravity(gm_m3ps2, omega2, p):
     return g
 
 
-@leaf
+@kernel
 def inertia(inertia0_kgm2, mass0_kg, mass_kg):
     """Principal inertia scaled with the wet mass (fuel spread like the structure)."""
     f = mass_kg / mass0_kg
     return (inertia0_kgm2[0] * f, inertia0_kgm2[1] * f, inertia0_kgm2[2] * f)
 
 
-@leaf
+@kernel
 def site_axes(v_bf):
     """A body-fixed vector in the site's axes: (east, north, up) = body-fixed (y, z, x)."""
     return (v_bf[1], v_bf[2], v_bf[0])

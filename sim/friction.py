@@ -41,7 +41,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.constants import STICK_SPEED_MPS
 from sim.contact import surface_velocity
 from sim.vec import add, cross, div, dot, fmax, norm, quat_integrate, quat_rotate, \
@@ -52,7 +52,7 @@ from sim.vec import add, cross, div, dot, fmax, norm, quat_integrate, quat_rotat
 POINT_CONTACT_M2 = 1e-12
 
 
-@leaf
+@kernel
 def spread_over_step(pos_m, quat, vel_before, vel_after, omega_before, omega_after, h):
     """Position and attitude as if the friction impulse had acted evenly over the step of length
     h: a velocity change dv spread over the step changes its drift by h dv / 2 (dv opposes the
@@ -66,7 +66,7 @@ def spread_over_step(pos_m, quat, vel_before, vel_after, omega_before, omega_aft
     return pos, quat  # a ship that friction did not turn keeps its attitude's bits
 
 
-@leaf
+@kernel
 def tangent_basis(n_hat):
     """Two unit vectors spanning the plane normal to n_hat (any orientation)."""
     use_z = abs(n_hat[2]) < 0.9
@@ -133,7 +133,7 @@ class Friction(NamedTuple):
     impulse_ns: float  # the sum of the feet's friction impulse magnitudes
 
 
-@leaf
+@kernel
 def _share(force_stop, safe_sum, n_bar, lever_t, twist):
     """A foot's share of the stop impulse per unit of its load: the force in proportion to the
     load, the moment in proportion to load times lever."""
@@ -141,7 +141,7 @@ def _share(force_stop, safe_sum, n_bar, lever_t, twist):
                scale(cross(n_bar, lever_t), twist))
 
 
-@kernel
+@separate
 def coulomb(mu_s, mu_k, mass_kg, inertia_kgm2, pos_m, vel_mps, quat, omega_b, ft,
             foot_impulse_ns, sliding, ground):
     """Coulomb friction at the pressing feet (module docstring). ``ft``: the feet at the step's
@@ -225,7 +225,7 @@ def coulomb(mu_s, mu_k, mass_kg, inertia_kgm2, pos_m, vel_mps, quat, omega_b, ft
     return Friction(vel, omega, now, total)
 
 
-@leaf
+@kernel
 def _in_plane(x, n_bar):
     """x without its component along n_bar."""
     return sub(x, scale(n_bar, dot(x, n_bar)))

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.dynamics import acceleration, contact_at, derivatives, ground_at, torque_body
 from sim.exact import Flow, Functional, bracketed_root, first_crossing, flow_at, flow_start, \
     value_and_rate
@@ -56,7 +56,7 @@ class Stepped(NamedTuple):
     located: bool
 
 
-@leaf
+@kernel
 def _pressing(ce):
     """(max(f_i, 0), |g_i|) for each foot of an evaluation: its force and the length of its
     push (the weight of a quadrature rule multiplies the force first)."""
@@ -64,7 +64,7 @@ def _pressing(ce):
     return (fmax(f[0], 0.0), fmax(f[1], 0.0), fmax(f[2], 0.0), fmax(f[3], 0.0)), ce.push_norm
 
 
-@leaf
+@kernel
 def foot_impulses_1(h, ce):
     """Each foot's normal impulse h max(f_i, 0) |g_i| (the rectangle rule on the step's start)."""
     if not ce.touching:
@@ -74,7 +74,7 @@ def foot_impulses_1(h, ce):
             h * (0.0 + 1.0 * f[2] * g[2]), h * (0.0 + 1.0 * f[3] * g[3]))
 
 
-@leaf
+@kernel
 def foot_impulses_2(h, ce0, ce1):
     """Each foot's normal impulse by the trapezoid rule on the step's two ends."""
     if not ce0.touching:
@@ -87,7 +87,7 @@ def foot_impulses_2(h, ce0, ce1):
             h * (0.0 + 0.5 * f[3] * g[3] + 0.5 * e[3] * k[3]))
 
 
-@leaf
+@kernel
 def foot_impulses_4(h, c1, c2, c3, c4):
     """Each foot's normal impulse by RK4's weights on its four evaluations."""
     if not c1.touching:
@@ -135,12 +135,12 @@ def _rk4_stage(fb, h, frac, p, v, q, w, k, absorbing, t0):
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
-@leaf
+@kernel
 def _rk4_combine(a, b1, b2, b3, b4, h6):
     return add(a, scale(add(add(add(b1, scale(b2, 2.0)), scale(b3, 2.0)), b4), h6))
 
 
-@kernel
+@separate
 def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
     """Classical fourth-order Runge-Kutta; the quaternion is renormalised at the end."""
     k1 = derivatives(fb, ce, p, v, q, w)
@@ -159,7 +159,7 @@ def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
                    foot_impulses_4(h, ce, c2, c3, c4), -math.inf, False)
 
 
-@leaf
+@kernel
 def _turn(fb, q, w, tau_b, h):
     """The rotation's kick and drift: a half kick of the external torque, then the exact
     torque-free flow (sim.rotation). Returns the new attitude and the body-frame angular momentum
@@ -270,7 +270,7 @@ def exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep, ac
     return (fmax(f * j[0], 0.0), fmax(f * j[1], 0.0), fmax(f * j[2], 0.0), fmax(f * j[3], 0.0))
 
 
-@leaf
+@kernel
 def spring_flow(ce, m, a_free, v_n0, force0_n):
     """The pressing feet as one spring-damper along n, fitted at the step's start, and K U (the
     rate at which rotation alone loads the springs: sum k_i gamma_i u_i). x is the height gained;

@@ -8,13 +8,13 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.frames import body_spin_in_body_frame, surface_velocity
 from sim.vec import add, angle, cos_sinc, cross, dot, fmax, mul, norm, quat_axis_z, \
     quat_from_rotvec, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit
 
 
-@leaf
+@kernel
 def pivot_axis(p, q):
     """The axis a tipped ship turns about: horizontal, normal to the plane of its tilt,
     unit(up x e_z), so that a positive rate tilts it further."""
@@ -44,7 +44,7 @@ def rate_from_momentum(omega_radps, m, inertia_b, p, v, q, w_b, pivot):
     return dot(axis, l_rel) / i_p
 
 
-@leaf
+@kernel
 def pinned_motion(omega_radps, p, q, pivot, rate):
     """Inertial velocity and body-frame angular velocity of a pinned ship: the body's rotation,
     plus a tipped ship's turn at ``rate`` about its pivot (zero rate: landed, crashed, resting)."""
@@ -110,7 +110,7 @@ def _slope(pv, delta):
     return g, dp
 
 
-@kernel
+@separate
 def pivot_step(dt_s, gm_m3ps2, omega_radps, tipped_rest_rad, crash_speed_mps, cos_tipped,
                p0, q0, pivot, m, inertia_b, rate0, rcs_torque_body_nm):
     """A tipped ship turns about its pivot foot, a one-degree-of-freedom rotation by theta about

@@ -29,7 +29,7 @@ Everything is +, *, / and sqrt (cos and sin from sim.vec.cos_sinc). One ship, co
 """
 from __future__ import annotations
 
-from sim.compiled import kernel, leaf
+from sim.compiled import kernel, separate
 from sim.vec import cos_sinc, quat_from_rotvec, quat_mul, quat_normalize, scale
 
 #: Yoshida's fourth-order triple jump: the Strang step at (w1, w0, w1) of the step, w0 = 1 - 2 w1.
@@ -55,14 +55,14 @@ FLOW_AXES = tuple(axis for axis, _ in AXIS_FLOWS)
 FLOW_FRACTIONS = tuple(frac for _, frac in AXIS_FLOWS)
 
 
-@leaf
+@kernel
 def median_moment(inertia):
     """The median of the three principal moments, by min and max only."""
     a, b, c = inertia
     return max(min(a, b), min(max(a, b), c))
 
 
-@leaf
+@kernel
 def axis_flow(q, l_b, coef, axis, t):
     """Flow of c L_axis^2 / 2 for time t: the body turns about its ``axis`` by theta = c L_axis t,
     and L turns by -theta about it."""
@@ -92,7 +92,7 @@ def axis_flow(q, l_b, coef, axis, t):
     return q1, l1
 
 
-@kernel
+@separate
 def free_rotation(q, l_b, inertia, h):
     """Attitude and body-frame angular momentum after a torque-free step of length h. Exact for an
     axisymmetric body; fourth order otherwise (module docstring). An axis flow whose coefficient

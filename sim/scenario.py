@@ -18,7 +18,7 @@ import numpy as np
 
 from sim import constants as C
 from sim import vec
-from sim.compiled import kernel
+from sim.compiled import kernel, separate
 from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.integrators import METHODS
@@ -581,7 +581,7 @@ MAX_PLACEMENT_ITERATIONS = 50
  _V_FWD, _W_X, _W_Y, _W_Z) = range(16)
 
 
-@kernel
+@separate
 def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     """The centre of mass on the ray r_hat such that the lowest foot is ``altitude_m`` above the
     terrain under it (SPEC.md section 3), whatever the tilt and the slope."""
@@ -596,7 +596,7 @@ def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     return vec.scale(r_hat, rho)
 
 
-@kernel
+@separate
 def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
     """Every ship's pose and motion from its row of ``starts``: the landing-site directions at
     (east, north), the long axis tilted toward the heading and turned by yaw about itself, the

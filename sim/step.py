@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import constructor, kernel, leaf
+from sim.compiled import constructor, kernel, separate
 from sim.constants import G0_MPS2
 from sim.contact import lowest_foot_penetration
 from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_engage
@@ -83,7 +83,7 @@ class Ship(NamedTuple):
     pin_pivot_bf_m: tuple
 
 
-@leaf
+@kernel
 def load(rec):
     """A ship's record as a :class:`Ship`."""
     return Ship(np.int64(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
@@ -99,7 +99,7 @@ def load(rec):
                 (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
 
 
-@leaf
+@kernel
 def store(s, rec):
     """Write a :class:`Ship` into its record."""
     rec.surface_state = s.surface_state
@@ -120,7 +120,7 @@ def store(s, rec):
     rec.pivot_rate_radps = s.pivot_rate_radps
 
 
-@leaf
+@kernel
 def emit(events, count, ship, from_state, to_state, v_radial_mps):
     """Append a transition to ``events``; ``count[0]`` is how many there are (those past the
     array's end are counted, not written)."""
@@ -175,7 +175,7 @@ def commands(cfg, sp, s, inp):
 
 
 # -- 2. free flight ------------------------------------------------------------------------------
-@leaf
+@kernel
 def near_ground(cfg, sp, s, cmd):
     """True for a ship that might touch the ground within this tick (conservative bound)."""
     dt = cfg.dt_s
@@ -227,7 +227,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0):
                     cfg.radial_normal, cos0, sin0, touching, 0.0, cfg.linear_model)
 
 
-@leaf
+@kernel
 def align_to_surface(q, r_hat):
     """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
 
@@ -240,7 +240,7 @@ def align_to_surface(q, r_hat):
     return quat_normalize(quat_mul(quat_normalize(rot), q))
 
 
-@leaf
+@kernel
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant."""
     return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
@@ -257,12 +257,12 @@ class EnergyRef(NamedTuple):
     rotation_j: float
 
 
-@leaf
+@kernel
 def energy_ref(e):
     return EnergyRef(total(e), translation(e), rotation(e))
 
 
-@leaf
+@kernel
 def _guard_factor(excess, kinetic):
     """sqrt(1 - excess / kinetic): the scale of the kinetic energy that removes ``excess``."""
     if not excess > 0.0:
@@ -387,7 +387,7 @@ class SubStep(NamedTuple):
     pressed: bool  # whether any foot pressed during the step
 
 
-@kernel
+@separate
 def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_start):
     """One step of the method (with ``bodies``, which may differ from ``fb`` in where its feet
     engage), then Coulomb friction (or the seed's) at the feet that pressed, spread over the
@@ -425,7 +425,7 @@ def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_star
                    res.peak_penetration_m, res.located, pressed)
 
 
-@leaf
+@kernel
 def _a_down(fb, p, q, r_hat):
     """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
     return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
@@ -441,7 +441,7 @@ class Flight(NamedTuple):
     guard_j: float  # what the passivity guard removed
 
 
-@kernel
+@separate
 def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps; transitions are emitted in
     the order they happen."""
@@ -627,7 +627,7 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
-@leaf
+@kernel
 def over_footprint(cfg, sp, p, q):
     """The centre of mass is over the footprint: the line through it along the effective gravity
     meets the feet's plane inside the square the four feet span. With u the effective "up" in the
@@ -722,7 +722,7 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
-@leaf
+@kernel
 def burn(cfg, sp, s, cmd):
     """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
     rcs = cmd.rcs_torque_body_nm
@@ -793,7 +793,7 @@ def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_inde
     observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
 
 
-@kernel
+@separate
 def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
                count):
     """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` written,
@@ -804,7 +804,7 @@ def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, 
                   events, count)
 
 
-@kernel
+@separate
 def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
                outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
     """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(states_out)``:
@@ -883,7 +883,7 @@ def transitions(events: np.ndarray, ticks: np.ndarray) -> list[Event]:
     return out
 
 
-@kernel
+@separate
 def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""

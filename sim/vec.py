@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from sim.compiled import leaf
+from sim.compiled import kernel
 
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -19,55 +19,55 @@ ZERO: Vec = (0.0, 0.0, 0.0)
 IDENTITY: Quat = (1.0, 0.0, 0.0, 0.0)
 
 
-@leaf
+@kernel
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@leaf
+@kernel
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@leaf
+@kernel
 def scale(a, s):
     """a * s for a vector and a number."""
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@leaf
+@kernel
 def neg(a):
     return (-a[0], -a[1], -a[2])
 
 
-@leaf
+@kernel
 def mul(a, b):
     """Elementwise a * b (a principal inertia times a body-frame rate)."""
     return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
 
 
-@leaf
+@kernel
 def div(a, b):
     """Elementwise a / b."""
     return (a[0] / b[0], a[1] / b[1], a[2] / b[2])
 
 
-@leaf
+@kernel
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@leaf
+@kernel
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@leaf
+@kernel
 def norm(a):
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-@leaf
+@kernel
 def unit(a):
     """a / |a|; a zero vector stays zero."""
     n = norm(a)
@@ -75,26 +75,26 @@ def unit(a):
     return (a[0] / safe, a[1] / safe, a[2] / safe)
 
 
-@leaf
+@kernel
 def select(flag, a, b):
     """a where flag, else b: vectors."""
     return a if flag else b
 
 
-@leaf
+@kernel
 def fmax(a, b):
     """numpy's maximum: a unless b is larger (a NaN in a is kept)."""
     return a if (a >= b or a != a) else b
 
 
-@leaf
+@kernel
 def fmin(a, b):
     """numpy's minimum."""
     return a if (a <= b or a != a) else b
 
 
 # -- quaternions ---------------------------------------------------------------------------------
-@leaf
+@kernel
 def quat_rotate(q, v):
     """Rotate a body vector v into the inertial frame: v + 2 w (u x v) + 2 u x (u x v),
     u = (x, y, z), the expanded form of q v q*."""
@@ -105,20 +105,20 @@ def quat_rotate(q, v):
     return (v[0] + t[0] * q[0] + c[0], v[1] + t[1] * q[0] + c[1], v[2] + t[2] * q[0] + c[2])
 
 
-@leaf
+@kernel
 def quat_rotate_inv(q, v):
     """Rotate an inertial vector into the body frame (by the conjugate of q)."""
     return quat_rotate((q[0], -q[1], -q[2], -q[3]), v)
 
 
-@leaf
+@kernel
 def quat_axis_z(q):
     """The body z axis (the long axis) in the inertial frame: q (0,0,1) q*."""
     w, x, y, z = q
     return (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
 
 
-@leaf
+@kernel
 def body_axes(q):
     """The body x, y, z axes in the inertial frame: the columns of the rotation matrix of q."""
     w, x, y, z = q
@@ -128,7 +128,7 @@ def body_axes(q):
     return ex, ey, ez
 
 
-@leaf
+@kernel
 def quat_mul(a, b):
     """Hamilton product a (x) b."""
     aw, ax, ay, az = a
@@ -139,20 +139,20 @@ def quat_mul(a, b):
             aw * bz + ax * by - ay * bx + az * bw)
 
 
-@leaf
+@kernel
 def quat_normalize(q):
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
-@leaf
+@kernel
 def quat_derivative(q, omega_body):
     """dq/dt = 1/2 q (x) (0, omega_body): attitude kinematics with body-frame angular velocity."""
     d = quat_mul(q, (0.0, omega_body[0], omega_body[1], omega_body[2]))
     return (0.5 * d[0], 0.5 * d[1], 0.5 * d[2], 0.5 * d[3])
 
 
-@leaf
+@kernel
 def quat_add_scaled(q, d, h):
     """q + h d, component by component."""
     return (q[0] + h * d[0], q[1] + h * d[1], q[2] + h * d[2], q[3] + h * d[3])
@@ -168,7 +168,7 @@ _SINC = (1.0, -1.0 / 6, 1.0 / 120, -1.0 / 5040, 1.0 / 362880, -1.0 / 39916800, 1
 MAX_HALVINGS = 60
 
 
-@leaf
+@kernel
 def cos_sinc(x):
     """(cos x, sin(x)/x) from polynomials and double-angle steps: IEEE +, * only."""
     x = abs(x)
@@ -195,7 +195,7 @@ def cos_sinc(x):
     return c, s
 
 
-@leaf
+@kernel
 def quat_from_rotvec(phi):
     """Unit quaternion of the rotation vector phi: (cos |phi|/2, sin(|phi|/2) phi/|phi|)."""
     half = 0.5 * norm(phi)
@@ -204,7 +204,7 @@ def quat_from_rotvec(phi):
     return (c, phi[0] * k, phi[1] * k, phi[2] * k)
 
 
-@leaf
+@kernel
 def quat_integrate(q, omega_body, dt):
     """q(t+dt) for constant body-frame angular velocity: q (x) exp(omega dt / 2)."""
     return quat_normalize(quat_mul(q, quat_from_rotvec(scale(omega_body, dt))))
@@ -216,7 +216,7 @@ _ATAN = (1.0, -1.0 / 3, 1.0 / 5, -1.0 / 7, 1.0 / 9, -1.0 / 11, 1.0 / 13, -1.0 / 
 PI = 3.141592653589793
 
 
-@leaf
+@kernel
 def angle(y, x):
     """atan2(y, x) for y >= 0, in [0, pi], from +,*,/ and sqrt only: the half-angle identity
     atan2(y, x) = 2 atan(y / (r + x)) (r = hypot(x, y); mirrored for x < 0), then
