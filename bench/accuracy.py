@@ -41,7 +41,7 @@ import csv
 import math
 import os
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -278,21 +278,29 @@ def configs(quick: bool) -> list[tuple[str, float, dict]]:
     return out
 
 
+def bounce_measures(one) -> dict[str, tuple[float, float]]:
+    """The bounce measures (:data:`BOUNCE_MEASURES`) as (relative error, cost), from
+    ``one(v0, body) -> (cost, errors by kind)`` run for each impact."""
+    nan = float("nan")
+    found = {}
+    for name, v0, body in (("12", 12.0, MOON), ("20", 20.0, MOON), ("45", 45.0, MOON),
+                           ("20_earth", 20.0, EARTH)):
+        cost, err = one(v0, body)
+        found["apex_" + name] = (err.get("apex", nan), cost)
+        if name == "45":
+            found["separation_45"] = (err.get("separation", nan), cost)
+            found["penetration_45"] = (err.get("penetration", nan), cost)
+        if name == "20":
+            found["contact_20"] = (err.get("contact", nan), cost)
+    return found
+
+
 def sweep(quick: bool, batch: int) -> list[dict]:
     rows = []
-    nan = float("nan")
     for label, dt, sim in configs(quick):
         found: dict[str, tuple[float, float]] = {}
         with np.errstate(all="ignore"):
-            for name, v0, body in (("12", 12.0, MOON), ("20", 20.0, MOON), ("45", 45.0, MOON),
-                                   ("20_earth", 20.0, EARTH)):
-                cost, err = bounce(sim, v0, body, batch)
-                found["apex_" + name] = (err.get("apex", nan), cost)
-                if name == "45":
-                    found["separation_45"] = (err.get("separation", nan), cost)
-                    found["penetration_45"] = (err.get("penetration", nan), cost)
-                if name == "20":
-                    found["contact_20"] = (err.get("contact", nan), cost)
+            found.update(bounce_measures(lambda v0, body: bounce(sim, v0, body, batch)))
             cost, err = settle(sim, 20.0, batch)
             found["settle_20"] = (err, cost)
             for name, fn in (("slide", slide), ("topple", topple), ("trip", trip),
@@ -332,26 +340,19 @@ def mujoco_sweep(quick: bool) -> list[dict]:
     from bench.reference import bounce_closed_form
 
     rows = []
-    nan = float("nan")
     dts = [0.002, 0.01, 0.05] if quick else [0.001, 0.002, 0.005, 0.01, 0.02, 0.05]
     for dt in dts:
-        found = {}
-        for name, v0, body in (("12", 12.0, MOON), ("20", 20.0, MOON), ("45", 45.0, MOON),
-                               ("20_earth", 20.0, EARTH)):
+        def one(v0, body):
             g = body.g
             m, cost = bounce_run(v0, g, dt)
             ref = bounce_closed_form(g, math.sqrt(v0 * v0 + 2.0 * g * 0.3))
-            err = {} if m is None else {
+            return cost, {} if m is None else {
                 "apex": abs(m["apex"] / ref.apex_m - 1),
                 "separation": abs(m["separation"] / ref.separation_speed_mps - 1),
                 "penetration": abs(m["penetration"] / ref.max_penetration_m - 1),
                 "contact": abs(m["contact"] / ref.contact_duration_s - 1)}
-            found["apex_" + name] = (err.get("apex", nan), cost)
-            if name == "45":
-                found["separation_45"] = (err.get("separation", nan), cost)
-                found["penetration_45"] = (err.get("penetration", nan), cost)
-            if name == "20":
-                found["contact_20"] = (err.get("contact", nan), cost)
+
+        found = bounce_measures(one)
         for measure in BOUNCE_MEASURES:
             err, cost = found[measure]
             rows.append({"measure": measure, "method": label, "dt_s": dt, "relative_error": err,

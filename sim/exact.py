@@ -54,26 +54,12 @@ _TWO_PI = 2.0 * 3.141592653589793
 
 
 @kernel
-def _exp_series(y):
-    acc = _EXP[16]
-    for k in range(15, -1, -1):
-        acc = acc * y + _EXP[k]
-    return acc
-
-
-@kernel
-def _cos_series(z):
-    acc = _COS[9]
-    for k in range(8, -1, -1):
-        acc = acc * z + _COS[k]
-    return acc
-
-
-@kernel
-def _sinc_series(z):
-    acc = _SINC[9]
-    for k in range(8, -1, -1):
-        acc = acc * z + _SINC[k]
+def _horner(coeffs, x):
+    """sum_k coeffs[k] x^k, by Horner's rule from the highest term."""
+    n = len(coeffs)
+    acc = coeffs[n - 1]
+    for k in range(n - 2, -1, -1):
+        acc = acc * x + coeffs[k]
     return acc
 
 
@@ -94,9 +80,9 @@ def decay_cos_sinc(s, b2, t):
         y = 0.5 * y
         z = 0.25 * z
         k += 1
-    e = _exp_series(y)
-    c = _cos_series(z)
-    sinc = _sinc_series(z)
+    e = _horner(_EXP, y)
+    c = _horner(_COS, z)
+    sinc = _horner(_SINC, z)
     sb = t * math.ldexp(1.0, -k) * sinc  # Sb(t_k) = t_k sinc, t_k = t / 2^k
     for _ in range(k):
         e = e * e

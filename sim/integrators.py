@@ -19,7 +19,7 @@ from sim.dynamics import acceleration, contact_at, derivatives, ground_at, torqu
 from sim.exact import Flow, Functional, bracketed_root, first_crossing, flow_at, flow_start, \
     value_and_rate
 from sim.rotation import free_rotation
-from sim.vec import add, div, dot, fmax, mul, norm, quat_add_scaled, quat_integrate, \
+from sim.vec import add, div, dot, fmax, mul, quat_add_scaled, quat_integrate, \
     quat_normalize, scale, sub, unit
 
 #: Every method by name, and its code inside the kernels. An unknown name is rejected when a
@@ -32,13 +32,6 @@ METHODS: dict[str, int] = {
     "exponential": 4,
 }
 EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL = range(5)
-
-
-def method_code(name: str) -> int:
-    try:
-        return METHODS[name]
-    except KeyError:
-        raise ValueError(f"unknown integrator {name!r}; known: {', '.join(sorted(METHODS))}") from None
 
 
 class Stepped(NamedTuple):

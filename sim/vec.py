@@ -15,10 +15,6 @@ from sim.compiled import kernel
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
-ZERO: Vec = (0.0, 0.0, 0.0)
-IDENTITY: Quat = (1.0, 0.0, 0.0, 0.0)
-
-
 @kernel
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
@@ -33,11 +29,6 @@ def sub(a, b):
 def scale(a, s):
     """a * s for a vector and a number."""
     return (a[0] * s, a[1] * s, a[2] * s)
-
-
-@kernel
-def neg(a):
-    return (-a[0], -a[1], -a[2])
 
 
 @kernel
@@ -73,12 +64,6 @@ def unit(a):
     n = norm(a)
     safe = n if n > 0.0 else 1.0
     return (a[0] / safe, a[1] / safe, a[2] / safe)
-
-
-@kernel
-def select(flag, a, b):
-    """a where flag, else b: vectors."""
-    return a if flag else b
 
 
 @kernel

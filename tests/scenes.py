@@ -55,7 +55,7 @@ def long_axis(quat: np.ndarray) -> np.ndarray:
 
 def one_ship(params, state, inputs=None, i: int = 0):
     """What the compiled phases of sim.step take for ship ``i``: (scene constants, the terrain's
-    bumps, its parameters, its state as a sim.step.Ship, its commands' record)."""
+    record, its parameters, its state as a sim.step.Ship, its commands' record)."""
     from sim.state import Inputs
     from sim.step import load
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
