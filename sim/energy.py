@@ -62,8 +62,10 @@ def total(e):
 
 @separate
 def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, com_height_m,
-               mass_kg, inertia_kgm2, p, v, q, w_b, ground):
-    """E of a ship at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant."""
+               mass_kg, inertia_kgm2, p, v, q, w_b, ground, may_touch):
+    """E of a ship at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant.
+    ``may_touch`` False: a ship known to be clear of the ground (its springs store nothing, and
+    its feet are not looked for)."""
     spin_b = quat_rotate_inv(q, (0.0, 0.0, spin_radps))
     v_rel = sub(v, surface_velocity(ground, p))
     w_rel = sub(w_b, spin_b)
@@ -76,10 +78,11 @@ def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, c
         rho2_minus_r2 = p[0] * p[0] + p[1] * p[1] - radius_m * radius_m
         cent = -0.5 * mass_kg * spin_radps * spin_radps * rho2_minus_r2
         cent_spin = -0.5 * dot(spin_b, mul(inertia_kgm2, spin_b))
-    pen = feet(ground, p, q, leg_radius_m, com_height_m).pen_m
-    k_leg = 0.25 * stiffness_per_kg * mass_kg
     spring = 0.0
-    for i in range(4):
-        x = pen[i]
-        spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)
+    if may_touch:
+        pen = feet(ground, p, q, leg_radius_m, com_height_m).pen_m
+        k_leg = 0.25 * stiffness_per_kg * mass_kg
+        for i in range(4):
+            x = pen[i]
+            spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)
     return Energy(trans, rot, grav, cent, cent_spin, spring)

@@ -149,7 +149,7 @@ def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mas
         e = mechanical(gm, radius, om, kpm[i], leg[i], height[i], mass[i],
                        (inertia[i, 0], inertia[i, 1], inertia[i, 2]), (p[i, 0], p[i, 1], p[i, 2]),
                        (v[i, 0], v[i, 1], v[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]),
-                       (w[i, 0], w[i, 1], w[i, 2]), g)
+                       (w[i, 0], w[i, 1], w[i, 2]), g, True)
         out[i, 0], out[i, 1], out[i, 2] = e.translational_j, e.rotational_j, e.gravity_j
         out[i, 3], out[i, 4], out[i, 5] = e.centrifugal_j, e.centrifugal_spin_j, e.spring_j
         out[i, 6] = total(e)

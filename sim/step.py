@@ -242,10 +242,11 @@ def align_to_surface(q, r_hat):
 
 @kernel
 def ship_energy(fb, ground, p, v, q, w):
-    """sim.energy of a free ship at one instant."""
+    """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
+    stores nothing in its springs: its feet are not looked for)."""
     return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
                       fb.leg_radius_m, fb.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                      ground)
+                      ground, fb.touching)
 
 
 class EnergyRef(NamedTuple):
