@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-import signal
 import sys
 import tempfile
 from pathlib import Path
@@ -72,18 +71,6 @@ def load_scenario(spec: str, sets: tuple[str, ...] = ()):
         raise UserError(str(exc)) from None
 
 
-def _progress(total: int, label: str):
-    """A rich progress bar on a terminal; nothing otherwise."""
-    if not sys.stdout.isatty():
-        return None
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-    prog = Progress(TextColumn(label), BarColumn(), TextColumn("{task.completed}/{task.total} ticks"),
-                    TimeRemainingColumn())
-    prog.start()
-    prog.add_task(label, total=total)
-    return prog
-
-
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="touchdown", message="%(version)s")
 def main() -> None:
@@ -115,8 +102,9 @@ def scenarios_cmd() -> None:
 @click.option("--view", "show", is_flag=True, help="open the Rerun viewer on the log when done")
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
            stream: str, keyframe_every: int, show: bool) -> None:
-    from logs.mcap_log import LogWriter
-    from sim.run import run_blocks
+    from logs.mcap_log import LogWriter, scenario_message
+    from service.driver import drive
+    from sim.world import World
 
     scn, source = load_scenario(scenario, sets)
     out = Path(output) if output else Path(f"{scn.name}.mcap")
@@ -128,78 +116,28 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
         except LogError as exc:
             raise UserError(str(exc)) from None
     n_ticks = scn.params.sim.n_ticks
-    events = 0
-    # Ctrl-C asks the loop to stop after the block in hand, so that no library call (compression,
-    # a chunk being written) is cut in half, and the log is finished. A second Ctrl-C before then
-    # stops at once and removes the partial file. While finishing or cleaning up, Ctrl-C is
-    # ignored: a file is either finished under its name or gone, never a footerless .partial.
-    sig = {"count": 0, "busy": False}
-
-    def on_sigint(signum, frame):
-        sig["count"] += 1
-        if sig["count"] > 1 and not sig["busy"]:
-            sig["busy"] = True
-            raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGINT, on_sigint)
     try:
-        writer = LogWriter(out, scn, source, keyframe_interval=keyframe_every)
+        writer = LogWriter(out, scenario_message(scn, source, keyframe_every))
     except OSError as exc:
-        signal.signal(signal.SIGINT, previous)
         raise UserError(f"{out}: cannot write: {exc.strerror}") from None
-    except KeyboardInterrupt:  # a second Ctrl-C while the file was being started (and removed)
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        click.echo(f"interrupted twice: stopped at once; nothing was kept (no {out})", err=True)
-        sys.exit(130)
-    prog = _progress(n_ticks, scn.name)
-    outcome = "done"
+    sinks = [lambda block, msgs: publisher.publish(msgs)] if publisher is not None else []
     try:
-        for block in run_blocks(scn):
-            msgs = writer.write_block(block)
-            events += len(msgs)
-            if publisher is not None:
-                publisher.publish(msgs)
-            if prog is not None:
-                prog.update(prog.task_ids[0], completed=block.last_tick)
-            if sig["count"]:
-                break
-        sig["busy"] = True
-        if sig["count"]:
-            outcome = "interrupted"
-            writer.close(complete=False, reason="interrupted")
-        else:
-            writer.close()
-    except KeyboardInterrupt:
-        outcome = "abandoned"
-        writer.abandon()
+        outcome = drive(World.of(scn), n_ticks, writer, sinks, progress=scn.name,
+                        on_close=publisher.close if publisher is not None else None)
     except (LogError, OSError) as exc:
-        sig["busy"] = True
-        writer.abandon()
         what = f"{out}: cannot write: {exc.strerror}" if isinstance(exc, OSError) else str(exc)
         raise WorkFailed(f"{what}; nothing was kept (no {out})") from None
-    except BaseException:
-        sig["busy"] = True
-        writer.abandon()
-        raise
-    finally:
-        if prog is not None:
-            prog.stop()
-        if publisher is not None:
-            publisher.close()
-        if outcome == "done":
-            signal.signal(signal.SIGINT, previous)
-        else:  # exiting on Ctrl-C: a late one must not turn exit 130 into death by SIGINT
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if outcome == "interrupted":
-        click.echo(f"interrupted at tick {writer.last_tick}; the log holds ticks 0..{writer.last_tick}"
-                   f" and is finished: {out}", err=True)
+    if outcome.how == "interrupted":
+        click.echo(f"interrupted at tick {outcome.last_tick}; the log holds ticks "
+                   f"0..{outcome.last_tick} and is finished: {out}", err=True)
         if show:
             _show([str(out)])
         sys.exit(130)
-    if outcome == "abandoned":
+    if outcome.how == "abandoned":
         click.echo(f"interrupted twice: stopped at once; nothing was kept (no {out})", err=True)
         sys.exit(130)
-    click.echo(f"{out}: {n_ticks + 1} ticks, {scn.initial.n} ship(s), {events} event(s)")
+    click.echo(f"{out}: {n_ticks + 1} ticks, {len(writer.ships)} ship(s), {outcome.events} "
+               f"event(s)")
     if show:
         _show([str(out)])
 

@@ -14,18 +14,15 @@ import time
 
 import scenarios
 from bench.speed import machine
-from logs.mcap_log import LogWriter
 from replay.verify import verify
-from sim.run import run
+from service import driver
 from sim.scenario import parse_text
 
 
 def record(path: str, n_ticks: int, keyframe_every: int = 1) -> float:
     scn = parse_text(scenarios.text("bounce"), "bounce", {"duration": n_ticks * 0.05})
     t0 = time.perf_counter()
-    with LogWriter(path, scn, "bounce", keyframe_interval=keyframe_every) as w:
-        for rec in run(scn):
-            w.write(rec)
+    driver.record(scn, path, "bounce", keyframe_every)
     return time.perf_counter() - t0
 
 

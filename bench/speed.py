@@ -35,7 +35,7 @@ from contextlib import contextmanager
 import numpy as np
 
 import scenarios
-from logs.mcap_log import LogWriter
+from service.driver import record
 from sim.run import run_blocks
 from sim.scenario import parse, parse_text
 
@@ -94,9 +94,7 @@ def one_ship_recording(n_ticks: int, path: str) -> float:
     scn = parse_text(scenarios.text("bounce"), "bounce", {"duration": n_ticks * 0.05})
     _warm(scn)
     t0 = time.perf_counter()
-    with LogWriter(path, scn, "bounce") as w:
-        for block in run_blocks(scn):
-            w.write_block(block)
+    record(scn, path, "bounce")
     return (scn.params.sim.n_ticks + 1) / (time.perf_counter() - t0)
 
 
@@ -122,9 +120,7 @@ def fleet_recording(n_ships: int, n_ticks: int, path: str) -> float:
     scn = parse(fleet_doc(n_ships, n_ticks * 0.05), "bench")
     _warm(scn)
     t0 = time.perf_counter()
-    with LogWriter(path, scn, "bench") as w:
-        for block in run_blocks(scn):
-            w.write_block(block)
+    record(scn, path, "bench")
     return n_ships * (n_ticks + 1) / (time.perf_counter() - t0)
 
 

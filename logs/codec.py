@@ -146,16 +146,22 @@ def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
 
 # -- blocks of ticks from the run's records --------------------------------------------------------
 #: Where each packed field's numbers come from: (record kind, field in that record).
-SOURCES = {"state": 0, "outputs": 1, "inputs": 2}  # _encode_ticks's src
+SOURCES = {"state": 0, "outputs": 1, "inputs": 2, "keys": 3}  # _encode_ticks's src
 _INPUT_FIELDS = {"input_throttle": "throttle", "input_rcs": "rcs", "input_hold": "hold"}
 
 
-def _field_table(keyframe_only: tuple[str, ...]) -> np.ndarray:
+def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.ndarray:
     """One row per packed field, in field-number order: (source, byte offset in its record,
     numbers per ship, bytes per number in the record, bytes per number on the wire, key,
     key length, keyframe-only)."""
     rows = []
     for num, name, dt in PACKED:
+        if name == "ship_key":  # the block's keys, one int64 per ship (format 3)
+            if with_keys:
+                key = _varint((num << 3) | 2)
+                rows.append((SOURCES["keys"], 0, 1, 8, 8, key[0], key[1] if len(key) > 1 else 0,
+                             len(key), False))
+            continue
         if name in _INPUT_FIELDS:
             src, dtype, fname = SOURCES["inputs"], INPUTS_DTYPE, _INPUT_FIELDS[name]
         elif name in STATE_DTYPE.names:
@@ -193,7 +199,7 @@ GATHER_SHIPS = 256
 
 
 @kernel
-def _gather(states, outputs, inputs, states64, outputs64, inputs64, table, start, out):
+def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, table, start, out):
     """One tick's numbers of every field, written to ``out`` where each field's numbers begin
     (``start[f]``; -1: not in this tick). Ships are taken GATHER_SHIPS at a time, so each record
     is read from memory once; an eight-byte number is read as a word and stored byte by byte
@@ -209,7 +215,8 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, table, start
                 table[f, 4]
             o = start[f] + i0 * count * wire
             if wire == 8:
-                words = states64 if src == 0 else (outputs64 if src == 1 else inputs64)
+                words = states64 if src == 0 else (outputs64 if src == 1 else (
+                    inputs64 if src == 2 else keys64))
                 w0 = off // 8
                 for i in range(i0, i1):
                     for j in range(count):
@@ -230,8 +237,8 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, table, start
 
 
 @kernel
-def _encode_ticks(states, outputs, inputs, table, ticks, t_s, t_bytes, keyframe_interval, out,
-                  offsets):
+def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, keyframe_interval,
+                  first_keyframe, out, offsets):
     """Each tick of a block as a TickBatch, one after another into ``out``; ``offsets[k]`` is
     where tick k starts. ``states``, ``outputs``, ``inputs``: the block's records as bytes
     (K, N, itemsize; 8-byte aligned, so also read as words). Each tick's keys and lengths are
@@ -255,7 +262,7 @@ def _encode_ticks(states, outputs, inputs, table, ticks, t_s, t_bytes, keyframe_
         if n:
             out[o] = 0x18
             o = _put_varint(out, o + 1, n)
-        keyframe = tick % keyframe_interval == 0
+        keyframe = tick % keyframe_interval == 0 or (k == 0 and first_keyframe)
         for f in range(nf):
             count, wire, key_len, kf_only = table[f, 2], table[f, 4], table[f, 7], table[f, 8]
             length = n * count * wire
@@ -269,30 +276,38 @@ def _encode_ticks(states, outputs, inputs, table, ticks, t_s, t_bytes, keyframe_
             start[f] = o
             o += length
         s8, o8, i8 = states[k], outputs[k], inputs[k]
-        if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), table,
-                   start, out) < 0:
+        if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), keys64,
+                   table, start, out) < 0:
             return -1
     offsets[ticks.shape[0]] = o
     return o
 
 
 class BlockEncoder:
-    """Encodes blocks of ticks (sim.run.Block) as TickBatch messages; the keyframe-only fields
-    (``keyframe_only``) go only into ticks that are multiples of ``keyframe_interval``."""
+    """Encodes blocks of ticks (sim.world.Block) as TickBatch messages; the keyframe-only fields
+    (``keyframe_only``) go only into ticks that are multiples of ``keyframe_interval``, and into
+    the first tick a writer writes (a log that starts later, or one cut from another, starts with
+    a keyframe). ``with_keys``: the ships' keys go into each tick (log format 3)."""
 
-    def __init__(self, dt_s: float, keyframe_only: tuple[str, ...], keyframe_interval: int = 1):
+    def __init__(self, dt_s: float, keyframe_only: tuple[str, ...], keyframe_interval: int = 1,
+                 with_keys: bool = True):
         self.dt_s = dt_s
         self.keyframe_interval = keyframe_interval
-        self.table = _field_table(keyframe_only)
+        self.table = _field_table(keyframe_only, with_keys)
 
     def _bytes_per_tick(self, n: int) -> int:
         """At most: the header, and each field's key, length and numbers."""
         return 31 + sum(12 + n * count * wire for _, _, count, _, wire, *_ in self.table.tolist())
 
     def encode(self, first_tick: int, states: np.ndarray, outputs: np.ndarray,
-               inputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(bytes, offsets): tick ``first_tick + k`` is ``bytes[offsets[k]:offsets[k + 1]]``."""
+               inputs: np.ndarray, keys: np.ndarray | None = None, first_keyframe: bool = False
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """(bytes, offsets): tick ``first_tick + k`` is ``bytes[offsets[k]:offsets[k + 1]]``.
+        ``keys``: the ships' keys (N,), for a table with them; ``first_keyframe``: the block's
+        first tick is a keyframe whatever its number."""
         k, n = states.shape
+        keys64 = np.zeros((n, 1), np.uint64) if keys is None else \
+            np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64).reshape(n, 1)
         views = [np.ascontiguousarray(a).view(np.uint8).reshape(k, n, a.dtype.itemsize)
                  for a in (states, outputs, inputs)]
         ticks = np.arange(first_tick, first_tick + k, dtype=np.int64)
@@ -300,7 +315,7 @@ class BlockEncoder:
         t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
         out = np.empty(k * self._bytes_per_tick(n), np.uint8)
         offsets = np.empty(k + 1, np.int64)
-        if _encode_ticks(*views, self.table, ticks, t_s, t_bytes, self.keyframe_interval, out,
-                         offsets) < 0:
+        if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
+                         first_keyframe, out, offsets) < 0:
             raise ValueError("a one-byte field holds a value outside 0..127")
         return out, offsets

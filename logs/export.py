@@ -14,7 +14,7 @@ from typing import IO, Iterator
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, TickData, scenario_of
+from logs.mcap_log import LogReader, TickData, fleet_params, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import measure
 from sim.enums import SurfaceState
@@ -23,6 +23,7 @@ _STATE = {int(s): s.label for s in SurfaceState}
 
 
 def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
+    """(``params``: every ship of the log in key order; sim.mcap_log.fleet_params.)"""
     """Site-frame position and velocity, body rates and energy of every ship at one tick."""
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
@@ -34,17 +35,20 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     # non-finite, in one line, where numpy's warnings would add lines of their own
     with np.errstate(all="ignore"):
         pos, vel = measure.site_frame(params, p, v, t)
-        e = measure.energy(params, np.arange(td.ship_count), t, p, v, q, w, a["mass_kg"])
+        e = measure.energy(params, td.keys, t, p, v, q, w, a["mass_kg"])
     return {"pos": pos, "vel": vel, "omega": w, "energy": e["total_j"]}
 
 
 def tick_rows(reader: LogReader) -> Iterator[dict]:
-    ids = list(reader.scenario.ship_ids)
-    params = scenario_of(reader)[0].params
+    """One row per ship per tick, the ships of each tick named by their ids (across joins and
+    leaves)."""
+    ids = reader.ship_table().ids
+    params = fleet_params(reader, scenario_of(reader)[0])
     for td in reader.ticks():
         a = td.arrays
         d = _derived(params, td)
-        for i, ship_id in enumerate(ids):
+        for i, key in enumerate(td.keys.tolist()):
+            ship_id = ids[key]
             c = max(-1.0, min(1.0, float(a["cos_tilt"][i])))
             row = {
                 "tick": td.tick, "t": td.t_s, "ship_id": ship_id,

@@ -1,5 +1,7 @@
-"""The MCAP log: one ScenarioRecord, one TickBatch per tick, a TransitionEvent per transition, and a
-LogSummary at the end. Chunked, zstd-compressed, CRCs on, protobuf schemas embedded, so that stock
+"""The MCAP log: one ScenarioRecord, one TickBatch per tick, a TransitionEvent per transition, a
+FleetChange per tick at which ships join or leave, a CommandBatch per tick with commands, and a
+LogSummary at the end. The ScenarioRecord, the joins and leaves and the commands are the run's whole
+input: a replay folds the step over them (replay.verify). Chunked, zstd-compressed, CRCs on, protobuf schemas embedded, so that stock
 readers (``mcap-protobuf-support``, Foxglove) decode every message without this project.
 
 Log times are simulation time, ``tick * dt`` in integer nanoseconds, never the wall clock.
@@ -28,13 +30,18 @@ from logs.safe_read import ReadStatus, iter_messages
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
-from sim.run import Block, TickRecord
+from sim.world import Block, TickRecord
 from sim.scenario import Scenario, ScenarioError, parse
-from sim.state import STATE_ARRAY_FIELDS, Inputs, State
+from sim.params import Params
+from sim.state import STATE_ARRAY_FIELDS, Inputs, State, concatenate
+from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: 2 (touchdown 0.3): per-foot ``sliding`` (4 per ship); velocities and angular velocities on every
 #: tick. A format-1 log still reads (``sliding`` per ship is given to all four feet).
-LOG_FORMAT_VERSION = 2
+#: 3 (touchdown 0.5): ships join and leave (FleetChange), each tick names its ships by key
+#: (TickBatch.ship_key), commands are recorded as commands (CommandBatch), and a replay folds over
+#: those; formats 1 and 2 replay from their scenario's inputs, with a notice.
+LOG_FORMAT_VERSION = 3
 #: the tick, s: what a scenario may set (sim.scenario), and so what a log may hold
 MIN_DT_S, MAX_DT_S = 1e-4, 1.0
 MAX_SHIPS = 10_000_000
@@ -44,6 +51,8 @@ TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
 TOPIC_EVENTS = "/touchdown/events"
 TOPIC_SUMMARY = "/touchdown/summary"
+TOPIC_FLEET = "/touchdown/fleet"
+TOPIC_COMMANDS = "/touchdown/commands"
 #: state fields written only on keyframe ticks; the rest (positions, velocities, attitudes, angular
 #: velocities, masses, states, telemetry, commands) are on every tick
 KEYFRAME_ONLY = ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m",
@@ -61,13 +70,17 @@ EVERY_TICK_V1 = ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitu
                  "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
                  "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
                  "rcs_torque_body_nm", "input_throttle", "input_rcs", "input_hold")
-#: ... and of today's format
-EVERY_TICK = EVERY_TICK_V1 + ("vel_mps", "omega_body_radps", "energy_guard_j")
+#: ... of format 2 ...
+EVERY_TICK_V2 = EVERY_TICK_V1 + ("vel_mps", "omega_body_radps", "energy_guard_j")
+#: ... and of today's
+EVERY_TICK = EVERY_TICK_V2 + ("ship_key",)
 
 
-def tick_arrays(rec: TickRecord) -> dict[str, np.ndarray]:
-    """Every per-ship array of a TickBatch, by field name."""
+def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Every per-ship array of a TickBatch, by field name (``keys``: the ships' keys)."""
     arrays = rec.state.arrays()
+    if keys is not None:
+        arrays["ship_key"] = keys
     for name in OUTPUT_FIELDS:
         arrays[name] = getattr(rec.outputs, name)
     arrays["input_throttle"] = rec.inputs.throttle
@@ -76,7 +89,8 @@ def tick_arrays(rec: TickRecord) -> dict[str, np.ndarray]:
     return arrays
 
 
-def ship_state_message(scn: Scenario, rec_state, i: int) -> pb.ShipState:
+def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: int
+                       ) -> pb.ShipState:
     st = SurfaceState(int(rec_state.surface_state[i]))
     p, v, q, w = (rec_state.pos_m[i], rec_state.vel_mps[i], rec_state.quat[i],
                   rec_state.omega_body_radps[i])
@@ -85,8 +99,8 @@ def ship_state_message(scn: Scenario, rec_state, i: int) -> pb.ShipState:
                    1 - 2 * (q[1] ** 2 + q[2] ** 2)])
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
     return pb.ShipState(
-        ship_id=scn.params.ships.ship_id[i], player_id=scn.params.ships.player_id[i],
-        landed_body_name="" if st is SurfaceState.FLYING else scn.params.body.name,
+        ship_id=ship_id, player_id=player_id,
+        landed_body_name="" if st is SurfaceState.FLYING else body,
         position_m=pb.Vec3(x=p[0], y=p[1], z=p[2]), velocity_mps=pb.Vec3(x=v[0], y=v[1], z=v[2]),
         attitude=pb.Quaternion(w=q[0], x=q[1], y=q[2], z=q[3]),
         omega_body_radps=pb.Vec3(x=w[0], y=w[1], z=w[2]),
@@ -94,16 +108,22 @@ def ship_state_message(scn: Scenario, rec_state, i: int) -> pb.ShipState:
         tilt_deg=tilt, surface_contact_state=st.seed_string)
 
 
-def event_message(scn: Scenario, state: State, ev) -> pb.TransitionEvent:
+def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
+                  ) -> pb.TransitionEvent:
+    """A transition as the log and the event stream carry it (its ship named by ``ev.ship_id``,
+    or by its place in ``ships``' tick-0 order where the event has none)."""
+    ship_id = ev.ship_id or ships.ids[ev.ship]
+    player_id = ships.players[ships.key(ship_id)]
     return pb.TransitionEvent(
-        event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * scn.params.sim.dt_s,
-        ship_id=scn.params.ships.ship_id[ev.ship], player_id=scn.params.ships.player_id[ev.ship],
-        body=scn.params.body.name, from_state=ev.from_state, to_state=ev.to_state,
-        ship=ship_state_message(scn, state, ev.ship), v_radial_mps=ev.v_radial_mps)
+        event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * dt_s, ship_id=ship_id,
+        player_id=player_id, body=body, from_state=ev.from_state, to_state=ev.to_state,
+        ship=ship_state_message(ship_id, player_id, body, state, ev.ship),
+        v_radial_mps=ev.v_radial_mps)
 
 
 def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
                      ) -> pb.ScenarioRecord:
+    """The log's header: the resolved scenario and the ships present at tick 0."""
     return pb.ScenarioRecord(
         log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=scn.name,
         description=scn.description, resolved_json=json.dumps(scn.resolved, sort_keys=True),
@@ -111,6 +131,40 @@ def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
         ship_ids=list(scn.params.ships.ship_id), player_ids=list(scn.params.ships.player_id),
         body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks,
         keyframe_interval=keyframe_interval)
+
+
+class ShipTable:
+    """Every ship of a log by key: the header's ships (keys 0, 1, ...), then each that joined, in
+    the order they joined. ``specs[k]``: the table a joining ship came with (None for the
+    header's, whose tables are in the resolved scenario)."""
+
+    def __init__(self, ids=(), players=()):
+        self.ids: list[str] = list(ids)
+        self.players: list[str] = list(players)
+        self.specs: list[dict | None] = [None] * len(self.ids)
+        self.joined: list[int] = [0] * len(self.ids)
+        self._key = {sid: k for k, sid in enumerate(self.ids)}
+
+    def add(self, tick: int, spec: dict) -> int:
+        key = len(self.ids)
+        self.ids.append(spec["id"])
+        self.players.append(spec.get("player_id") or "player-" + spec["id"])
+        self.specs.append(spec)
+        self.joined.append(tick)
+        self._key[spec["id"]] = key
+        return key
+
+    def key(self, ship_id: str) -> int:
+        return self._key[ship_id]
+
+    def keys(self, ship_ids) -> np.ndarray:
+        return np.fromiter((self._key[s] for s in ship_ids), np.int64, len(ship_ids))
+
+    def __contains__(self, ship_id: str) -> bool:
+        return ship_id in self._key
+
+    def __len__(self) -> int:
+        return len(self.ids)
 
 
 #: encoded blocks waiting for the writer's thread, at most (each about a megabyte or one tick)
@@ -126,13 +180,15 @@ class LogWriter:
     QUEUE_BLOCKS blocks. An error on the writer's thread (a full disk) is raised by the next call
     from the caller (write, close)."""
 
-    def __init__(self, path: str | os.PathLike, scn: Scenario, source: str,
-                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
-                 keyframe_interval: int = 1):
+    def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
-        self.scn = scn
-        self._dt_ns = int(round(scn.params.sim.dt_s * 1e9))
+        self.header = header
+        self.ships = ShipTable(header.ship_ids, header.player_ids)
+        self._keys_of: tuple[tuple[str, ...], np.ndarray] = ((), np.zeros(0, np.int64))
+        self._dt_ns = int(round(header.dt_s * 1e9))
+        keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
         self._stream = open(self.partial, "wb")
         try:
@@ -141,20 +197,18 @@ class LogWriter:
             self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
             self._channels = {}
             for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
-                               (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary)):
+                               (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary),
+                               (TOPIC_FLEET, pb.FleetChange), (TOPIC_COMMANDS, pb.CommandBatch)):
                 schema_id = register_schema(self._mcap, cls)
                 self._channels[topic] = self._mcap.register_channel(topic, "protobuf", schema_id)
             self._seq = {t: 0 for t in self._channels}
             self._mcap.add_metadata("touchdown", {
                 "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
-                "scenario": scn.name, "integrator": scn.params.sim.integrator,
-                "dt_s": repr(scn.params.sim.dt_s)})
-            if keyframe_interval < 1:
-                raise ValueError("keyframe_interval must be at least 1")
+                "scenario": header.name, "integrator": header.integrator,
+                "dt_s": repr(header.dt_s)})
             self.keyframe_interval = keyframe_interval
-            self._encoder = BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, keyframe_interval)
-            self._put(TOPIC_SCENARIO, 0,
-                      scenario_message(scn, source, keyframe_interval).SerializeToString())
+            self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval)
+            self._put(TOPIC_SCENARIO, 0, header.SerializeToString())
         except BaseException:  # nothing half-written: no .partial without a writer
             self._discard()
             raise
@@ -181,7 +235,10 @@ class LogWriter:
                 self._error = exc
 
     def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
-                       events: dict[int, list[bytes]]) -> None:
+                       events: dict[int, list[bytes]], inputs: list[tuple[str, int, bytes]]
+                       ) -> None:
+        for topic, tick, message in inputs:  # joins, leaves and commands: before their ticks
+            self._put(topic, tick, message)
         view = memoryview(data)
         for k in range(offsets.shape[0] - 1):
             tick = first_tick + k
@@ -207,27 +264,54 @@ class LogWriter:
                                publish_time=t_ns, sequence=self._seq[topic])
         self._seq[topic] += 1
 
-    def write(self, rec: TickRecord) -> list[pb.TransitionEvent]:
-        """Append one tick; returns its events as messages (for publishing elsewhere too)."""
-        return self.write_block(Block(rec.tick, rec.state.rows[None, :], rec.outputs.rows[None, :],
-                                      rec.inputs.rows[None, :], list(rec.events)))
-
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
-        """Append a block of ticks (sim.run.Block); returns its events as messages."""
+        """Append a block of ticks (sim.world.Block): its joins and leaves, its commands, its
+        ticks and its events. Returns the events as messages (for publishing elsewhere too)."""
         self._check()
+        inputs = self._inputs(block)
+        if self._keys_of[0] is not block.ship_ids:  # the same tuple while the fleet is the same
+            self._keys_of = (block.ship_ids, self.ships.keys(block.ship_ids))
         data, offsets = self._encoder.encode(block.first_tick, block.states, block.outputs,
-                                             block.inputs)
+                                             block.inputs, self._keys_of[1],
+                                             first_keyframe=self.last_tick < 0)
         msgs = []
         events: dict[int, list[bytes]] = {}
+        body = self.header.body
         for ev in block.events:
             state = State(rows=block.states[ev.tick - block.first_tick], tick=ev.tick)
-            m = event_message(self.scn, state, ev)
+            m = event_message(self.ships, body, self.header.dt_s, state, ev)
             events.setdefault(ev.tick, []).append(m.SerializeToString())
             msgs.append(m)
-        self._queue.put((block.first_tick, data, offsets, events))
+        self._queue.put((block.first_tick, data, offsets, events, inputs))
         self.event_count += len(msgs)
         self.last_tick = block.last_tick
         return msgs
+
+    def _inputs(self, block: Block) -> list[tuple[str, int, bytes]]:
+        """The block's joins, leaves and commands as FleetChange and CommandBatch messages."""
+        out = []
+        if block.spawned or block.retired:
+            change = pb.FleetChange(tick=block.first_tick)
+            for r in block.retired:
+                change.left_ship_key.append(self.ships.key(r.ship_id))
+                change.left_ship_id.append(r.ship_id)
+            for sp in block.spawned:
+                key = self.ships.add(block.first_tick, sp.spec)
+                change.joined.add(ship_key=key, ship_id=sp.ship_id,
+                                  player_id=self.ships.players[key],
+                                  spec_json=json.dumps(sp.spec, sort_keys=True))
+            out.append((TOPIC_FLEET, block.first_tick, change.SerializeToString()))
+        batch = None
+        for c in block.commands:
+            if batch is None or batch.tick != c.tick:
+                if batch is not None:
+                    out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
+                batch = pb.CommandBatch(tick=c.tick)
+            batch.commands.add(tick=c.tick, ship_id=c.ship_id, throttle=c.throttle,
+                               rcs=list(c.rcs), hold=c.hold)
+        if batch is not None:
+            out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
+        return out
 
     def close(self, complete: bool = True, reason: str = "") -> None:
         """Write the summary and the MCAP footer, then move the file to its final name. If that
@@ -284,12 +368,14 @@ class TickData:
     (a verification that finds the bytes identical never decodes them)."""
 
     def __init__(self, raw: bytes, tick_from_time: int, where: str = "", ships: int = 0,
-                 old_format: bool = False):
+                 log_format: int = LOG_FORMAT_VERSION, table_size: int = 0):
         self.raw = raw
         self.tick_from_time = tick_from_time
         self._where = where
-        self._ships = ships
-        self._old_format = old_format
+        self._ships = ships if log_format < 3 else 0  # format 3: the fleet changes
+        self._format = log_format
+        self._old_format = log_format < 2
+        self._table_size = table_size
         self._decoded: tuple[int, float, int, dict[str, np.ndarray]] | None = None
 
     def _decode(self) -> tuple[int, float, int, dict[str, np.ndarray]]:
@@ -310,8 +396,10 @@ class TickData:
             raise LogError(f"{where}: the record says tick {tick}")
         if self._ships and count != self._ships:
             raise LogError(f"{where}: {count} ships where the scenario has {self._ships}")
-        for name in (EVERY_TICK_V1 if self._old_format else EVERY_TICK):
-            if name not in arrays:
+        every = EVERY_TICK_V1 if self._format < 2 else EVERY_TICK_V2 if self._format < 3 \
+            else EVERY_TICK
+        for name in every:
+            if name not in arrays and count:
                 raise LogError(f"{where}: field {name} is missing")
         keyframe = [name in arrays for name in KEYFRAME_ONLY]
         if any(keyframe) and not all(keyframe):
@@ -320,8 +408,14 @@ class TickData:
             width = 1 if (name == "sliding" and self._old_format) else WIDTH.get(name, 1)
             if a.size != count * width:
                 raise LogError(f"{where}: field {name} holds {a.size} numbers for {count} ships")
-        if (arrays["surface_state"] > 4).any():
+        if count and (arrays["surface_state"] > 4).any():
             raise LogError(f"{where}: a surface state out of range")
+        keys = arrays.get("ship_key")
+        if keys is not None and keys.size and (
+                keys.min() < 0 or keys.max() >= self._table_size
+                or np.unique(keys).size != keys.size):
+            raise LogError(f"{where}: ship keys outside the log's {self._table_size} ships, or "
+                           f"a ship twice")
 
     @property
     def tick(self) -> int:
@@ -343,14 +437,24 @@ class TickData:
         return self.arrays[name].reshape(self.ship_count, width)
 
     @property
+    def keys(self) -> np.ndarray:
+        """The ships of this tick by key (format 3); before it, the header's ships in order."""
+        keys = self.arrays.get("ship_key")
+        if keys is None:
+            return np.arange(self.ship_count, dtype=np.int64)
+        return keys
+
+    @property
     def is_keyframe(self) -> bool:
-        return all(name in self.arrays for name in KEYFRAME_ONLY)
+        return all(name in self.arrays for name in KEYFRAME_ONLY) or self.ship_count == 0
 
     def state(self) -> State:
         """The full state recorded at this tick (a keyframe)."""
         a = self.arrays
         if not self.is_keyframe:
             raise LogError(f"tick {self.tick} is not a keyframe")
+        if self.ship_count == 0:
+            return State.zeros(0, tick=self.tick)
         try:
             return State.of(
                 self.ship_count, tick=self.tick, surface_state=a["surface_state"],
@@ -371,6 +475,8 @@ class TickData:
 
     def inputs(self) -> Inputs:
         """The commands applied during the step into this tick."""
+        if self.ship_count == 0:
+            return Inputs.zeros(0)
         return Inputs.of(self.ship_count, throttle=self.arrays["input_throttle"],
                          rcs=self.vec("input_rcs", 3), hold=self.arrays["input_hold"])
 
@@ -406,7 +512,8 @@ class LogReader:
                            f"({PROJECT_VERSION}) reads formats 1 to {LOG_FORMAT_VERSION}")
         if not (math.isfinite(sr.dt_s) and MIN_DT_S <= sr.dt_s <= MAX_DT_S):
             raise LogError(f"{where}: dt_s {sr.dt_s!r} is out of range ({MIN_DT_S:g}..{MAX_DT_S:g} s)")
-        if not 0 < len(sr.ship_ids) <= MAX_SHIPS or len(sr.player_ids) != len(sr.ship_ids):
+        least = 1 if sr.log_format_version < 3 else 0  # format 3: ships may all join later
+        if not least <= len(sr.ship_ids) <= MAX_SHIPS or len(sr.player_ids) != len(sr.ship_ids):
             raise LogError(f"{where}: {len(sr.ship_ids)} ships, {len(sr.player_ids)} players")
         if sr.keyframe_interval > max(1, sr.n_ticks):
             raise LogError(f"{where}: keyframe_interval {sr.keyframe_interval} exceeds its "
@@ -441,12 +548,60 @@ class LogReader:
         end = None if last is None else self.tick_time_ns(last)
         dt_ns = self.tick_time_ns(1)
         ships = len(self.scenario.ship_ids)
-        old = self.scenario.log_format_version < LOG_FORMAT_VERSION
+        fmt = self.scenario.log_format_version
+        table = len(self.ship_table()) if fmt >= 3 else ships
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
                                                 end, self.status):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
-            yield TickData(data, t_ns // dt_ns, str(self.path), ships, old)
+            yield TickData(data, t_ns // dt_ns, str(self.path), ships, fmt, table)
+
+    @property
+    def log_format(self) -> int:
+        return int(self.scenario.log_format_version)
+
+    def ship_table(self) -> ShipTable:
+        """Every ship of the log by key: the header's, then each that joined (format 3)."""
+        if getattr(self, "_table", None) is None:
+            table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
+            self._fleet: list[pb.FleetChange] = []
+            if self.log_format >= 3:
+                for _topic, data in self._iter({TOPIC_FLEET}):
+                    change = _parse(pb.FleetChange, data, f"{self.path}: damaged fleet record")
+                    for j in change.joined:
+                        try:
+                            spec = json.loads(j.spec_json)
+                        except (ValueError, RecursionError):
+                            spec = None
+                        if (not isinstance(spec, dict) or spec.get("id") != j.ship_id
+                                or j.ship_id in table or j.ship_key != len(table)):
+                            raise LogError(f"{self.path}: tick {change.tick}: a joining ship's "
+                                           f"record is damaged (ship {j.ship_id!r})")
+                        table.add(int(change.tick), spec)
+                    self._fleet.append(change)
+            self._table = table
+        return self._table
+
+    def timeline(self) -> Timeline:
+        """The run's recorded input: the ships that joined and left, and every command
+        (format 3)."""
+        table = self.ship_table()
+        spawns, retires = [], []
+        for change in self._fleet:
+            for j in change.joined:
+                spawns.append(Spawn(int(change.tick), table.specs[j.ship_key]))
+            for sid in change.left_ship_id:
+                retires.append(Retire(int(change.tick), sid))
+        commands = []
+        for _topic, data in self._iter({TOPIC_COMMANDS}):
+            batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
+            for c in batch.commands:
+                try:
+                    commands.append(Command(int(c.tick), c.ship_id, c.throttle, tuple(c.rcs),
+                                            int(c.hold)).check())
+                except CommandError as exc:
+                    raise LogError(f"{self.path}: {exc}") from None
+        return Timeline.of(spawns, retires, commands)
 
     def events(self) -> Iterator[pb.TransitionEvent]:
         for _topic, data in self._iter({TOPIC_EVENTS}):
@@ -471,6 +626,26 @@ class LogReader:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def fleet_params(reader: LogReader, scn: Scenario) -> Params:
+    """The log's scene with every ship it ever held, in key order (row k: ship key k): the
+    header's from its scenario, each joined one from the table it joined with."""
+    table = reader.ship_table()
+    ships = [scn.params.ships]
+    for k in range(len(scn.params.ships.ship_id), len(table)):
+        try:
+            ships.append(scn.scene.ship(table.specs[k])[0])
+        except ScenarioError as exc:
+            raise LogError(f"{reader.path}: ship {table.ids[k]!r}: {exc}") from None
+    return scn.params.with_ships(concatenate(ships))
+
+
+def _parse(cls, data: bytes, what: str):
+    try:
+        return cls.FromString(data)
+    except Exception as exc:  # protobuf's DecodeError and friends
+        raise LogError(f"{what} ({type(exc).__name__})") from None
 
 
 def scenario_of(reader: LogReader, ship_id: str | None = None,
@@ -514,4 +689,5 @@ def scenario_of(reader: LogReader, ship_id: str | None = None,
         raise LogError(str(exc)) from None
 
 
-__all__ = ["LogWriter", "LogReader", "TickData", "STATE_ARRAY_FIELDS", "tick_arrays", "scenario_of"]
+__all__ = ["LogWriter", "LogReader", "TickData", "ShipTable", "STATE_ARRAY_FIELDS", "tick_arrays",
+           "scenario_of", "scenario_message", "fleet_params"]

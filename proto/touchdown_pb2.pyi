@@ -110,7 +110,7 @@ class ScenarioRecord(_message.Message):
     def __init__(self, log_format_version: _Optional[int] = ..., project_version: _Optional[str] = ..., name: _Optional[str] = ..., description: _Optional[str] = ..., resolved_json: _Optional[str] = ..., integrator: _Optional[str] = ..., dt_s: _Optional[float] = ..., ship_ids: _Optional[_Iterable[str]] = ..., player_ids: _Optional[_Iterable[str]] = ..., body: _Optional[str] = ..., source: _Optional[str] = ..., n_ticks: _Optional[int] = ..., keyframe_interval: _Optional[int] = ...) -> None: ...
 
 class TickBatch(_message.Message):
-    __slots__ = ("tick", "t_s", "ship_count", "surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg", "absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m", "altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm", "peak_penetration_m", "energy_guard_j", "input_throttle", "input_rcs", "input_hold")
+    __slots__ = ("tick", "t_s", "ship_count", "surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg", "absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m", "altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm", "peak_penetration_m", "energy_guard_j", "input_throttle", "input_rcs", "input_hold", "ship_key")
     TICK_FIELD_NUMBER: _ClassVar[int]
     T_S_FIELD_NUMBER: _ClassVar[int]
     SHIP_COUNT_FIELD_NUMBER: _ClassVar[int]
@@ -142,6 +142,7 @@ class TickBatch(_message.Message):
     INPUT_THROTTLE_FIELD_NUMBER: _ClassVar[int]
     INPUT_RCS_FIELD_NUMBER: _ClassVar[int]
     INPUT_HOLD_FIELD_NUMBER: _ClassVar[int]
+    SHIP_KEY_FIELD_NUMBER: _ClassVar[int]
     tick: int
     t_s: float
     ship_count: int
@@ -173,7 +174,54 @@ class TickBatch(_message.Message):
     input_throttle: _containers.RepeatedScalarFieldContainer[float]
     input_rcs: _containers.RepeatedScalarFieldContainer[float]
     input_hold: _containers.RepeatedScalarFieldContainer[HoldMode]
-    def __init__(self, tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_count: _Optional[int] = ..., surface_state: _Optional[_Iterable[_Union[SurfaceState, str]]] = ..., pos_m: _Optional[_Iterable[float]] = ..., vel_mps: _Optional[_Iterable[float]] = ..., quat: _Optional[_Iterable[float]] = ..., omega_body_radps: _Optional[_Iterable[float]] = ..., mass_kg: _Optional[_Iterable[float]] = ..., fuel_kg: _Optional[_Iterable[float]] = ..., absorbing: _Optional[_Iterable[bool]] = ..., sliding: _Optional[_Iterable[bool]] = ..., settle_ticks: _Optional[_Iterable[int]] = ..., pivot_rate_radps: _Optional[_Iterable[float]] = ..., pin_pos_bf_m: _Optional[_Iterable[float]] = ..., pin_quat_bf: _Optional[_Iterable[float]] = ..., pin_pivot_bf_m: _Optional[_Iterable[float]] = ..., altitude_m: _Optional[_Iterable[float]] = ..., penetration_m: _Optional[_Iterable[float]] = ..., cos_tilt: _Optional[_Iterable[float]] = ..., v_radial_mps: _Optional[_Iterable[float]] = ..., v_tangential_mps: _Optional[_Iterable[float]] = ..., normal_force_n: _Optional[_Iterable[float]] = ..., friction_force_n: _Optional[_Iterable[float]] = ..., throttle: _Optional[_Iterable[float]] = ..., rcs_torque_body_nm: _Optional[_Iterable[float]] = ..., peak_penetration_m: _Optional[_Iterable[float]] = ..., energy_guard_j: _Optional[_Iterable[float]] = ..., input_throttle: _Optional[_Iterable[float]] = ..., input_rcs: _Optional[_Iterable[float]] = ..., input_hold: _Optional[_Iterable[_Union[HoldMode, str]]] = ...) -> None: ...
+    ship_key: _containers.RepeatedScalarFieldContainer[int]
+    def __init__(self, tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_count: _Optional[int] = ..., surface_state: _Optional[_Iterable[_Union[SurfaceState, str]]] = ..., pos_m: _Optional[_Iterable[float]] = ..., vel_mps: _Optional[_Iterable[float]] = ..., quat: _Optional[_Iterable[float]] = ..., omega_body_radps: _Optional[_Iterable[float]] = ..., mass_kg: _Optional[_Iterable[float]] = ..., fuel_kg: _Optional[_Iterable[float]] = ..., absorbing: _Optional[_Iterable[bool]] = ..., sliding: _Optional[_Iterable[bool]] = ..., settle_ticks: _Optional[_Iterable[int]] = ..., pivot_rate_radps: _Optional[_Iterable[float]] = ..., pin_pos_bf_m: _Optional[_Iterable[float]] = ..., pin_quat_bf: _Optional[_Iterable[float]] = ..., pin_pivot_bf_m: _Optional[_Iterable[float]] = ..., altitude_m: _Optional[_Iterable[float]] = ..., penetration_m: _Optional[_Iterable[float]] = ..., cos_tilt: _Optional[_Iterable[float]] = ..., v_radial_mps: _Optional[_Iterable[float]] = ..., v_tangential_mps: _Optional[_Iterable[float]] = ..., normal_force_n: _Optional[_Iterable[float]] = ..., friction_force_n: _Optional[_Iterable[float]] = ..., throttle: _Optional[_Iterable[float]] = ..., rcs_torque_body_nm: _Optional[_Iterable[float]] = ..., peak_penetration_m: _Optional[_Iterable[float]] = ..., energy_guard_j: _Optional[_Iterable[float]] = ..., input_throttle: _Optional[_Iterable[float]] = ..., input_rcs: _Optional[_Iterable[float]] = ..., input_hold: _Optional[_Iterable[_Union[HoldMode, str]]] = ..., ship_key: _Optional[_Iterable[int]] = ...) -> None: ...
+
+class ShipJoined(_message.Message):
+    __slots__ = ("ship_key", "ship_id", "player_id", "spec_json")
+    SHIP_KEY_FIELD_NUMBER: _ClassVar[int]
+    SHIP_ID_FIELD_NUMBER: _ClassVar[int]
+    PLAYER_ID_FIELD_NUMBER: _ClassVar[int]
+    SPEC_JSON_FIELD_NUMBER: _ClassVar[int]
+    ship_key: int
+    ship_id: str
+    player_id: str
+    spec_json: str
+    def __init__(self, ship_key: _Optional[int] = ..., ship_id: _Optional[str] = ..., player_id: _Optional[str] = ..., spec_json: _Optional[str] = ...) -> None: ...
+
+class FleetChange(_message.Message):
+    __slots__ = ("tick", "joined", "left_ship_key", "left_ship_id")
+    TICK_FIELD_NUMBER: _ClassVar[int]
+    JOINED_FIELD_NUMBER: _ClassVar[int]
+    LEFT_SHIP_KEY_FIELD_NUMBER: _ClassVar[int]
+    LEFT_SHIP_ID_FIELD_NUMBER: _ClassVar[int]
+    tick: int
+    joined: _containers.RepeatedCompositeFieldContainer[ShipJoined]
+    left_ship_key: _containers.RepeatedScalarFieldContainer[int]
+    left_ship_id: _containers.RepeatedScalarFieldContainer[str]
+    def __init__(self, tick: _Optional[int] = ..., joined: _Optional[_Iterable[_Union[ShipJoined, _Mapping]]] = ..., left_ship_key: _Optional[_Iterable[int]] = ..., left_ship_id: _Optional[_Iterable[str]] = ...) -> None: ...
+
+class Command(_message.Message):
+    __slots__ = ("tick", "ship_id", "throttle", "rcs", "hold")
+    TICK_FIELD_NUMBER: _ClassVar[int]
+    SHIP_ID_FIELD_NUMBER: _ClassVar[int]
+    THROTTLE_FIELD_NUMBER: _ClassVar[int]
+    RCS_FIELD_NUMBER: _ClassVar[int]
+    HOLD_FIELD_NUMBER: _ClassVar[int]
+    tick: int
+    ship_id: str
+    throttle: float
+    rcs: _containers.RepeatedScalarFieldContainer[float]
+    hold: HoldMode
+    def __init__(self, tick: _Optional[int] = ..., ship_id: _Optional[str] = ..., throttle: _Optional[float] = ..., rcs: _Optional[_Iterable[float]] = ..., hold: _Optional[_Union[HoldMode, str]] = ...) -> None: ...
+
+class CommandBatch(_message.Message):
+    __slots__ = ("tick", "commands")
+    TICK_FIELD_NUMBER: _ClassVar[int]
+    COMMANDS_FIELD_NUMBER: _ClassVar[int]
+    tick: int
+    commands: _containers.RepeatedCompositeFieldContainer[Command]
+    def __init__(self, tick: _Optional[int] = ..., commands: _Optional[_Iterable[_Union[Command, _Mapping]]] = ...) -> None: ...
 
 class TransitionEvent(_message.Message):
     __slots__ = ("event", "tick", "t_s", "ship_id", "player_id", "body", "from_state", "to_state", "ship", "v_radial_mps")

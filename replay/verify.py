@@ -1,6 +1,11 @@
-"""``touchdown replay LOG --verify``: re-run a log from its recorded scenario and compare everything
-it can re-derive, bit for bit, with today's code: every tick's numbers, every transition event
+"""``touchdown replay LOG --verify``: re-run a log from what it recorded and compare everything it
+can re-derive, bit for bit, with today's code: every tick's numbers, every transition event
 (re-encoded as the writer encodes it) and, when the whole run is checked, the summary.
+
+The re-run is a fold of the step over the log's own records (sim.world): the ships of its header,
+the ships that joined and left, and the commands, wherever they came from (a scenario, the Python
+API, a live service). The scenario is only where they came from. A log of format 1 or 2, which
+recorded no commands, replays its scenario's inputs instead, with a notice.
 
 The log is self-sufficient: its ScenarioRecord holds the resolved scenario (every default filled in),
 so no other file is read. A window ``first..last`` starts from the keyframe at or before ``first``.
@@ -9,6 +14,7 @@ less than the run (a cut log, a stopped run, a window) says so in its report.
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,10 +22,13 @@ import numpy as np
 from logs import LogError
 from logs.codec import PACKED, BlockEncoder
 from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                           WIDTH as _WIDTH, LogReader, event_message, scenario_of, tick_arrays)
+                           WIDTH as _WIDTH, LogReader, ShipTable, event_message, fleet_params,
+                           scenario_of, tick_arrays)
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
-from sim.run import run_blocks
+from sim.scenario import Scenario, ScenarioError
+from sim.timeline import CommandError
+from sim.world import World
 
 #: per-ship width of each packed field
 WIDTH = {name: _WIDTH.get(name, 1) for _, name, _ in PACKED}
@@ -53,6 +62,8 @@ class VerifyResult:
     summary_compared: bool = False
     #: why less than the whole run was checked ("" when all of it was)
     partial_note: str = ""
+    #: how the inputs were found, when not from the log's own records (an older format)
+    inputs_note: str = ""
 
     @property
     def identical(self) -> bool:
@@ -67,6 +78,8 @@ class VerifyResult:
                          f"differs from {PROJECT_VERSION}'s (docs/MODEL-NOTES.md), so a divergence is "
                          f"expected; `touchdown replay LOG -o NEW.mcap` re-runs its scenario and "
                          f"inputs under today's physics")
+        if self.inputs_note:
+            lines.append(self.inputs_note)
         if self.recovered_note:
             lines.append(self.recovered_note)
         if self.divergence is None:
@@ -134,15 +147,24 @@ def verify(path: str, first: int | None = None, last: int | None = None,
     ticks, the transition events, the summary. The first difference found is the divergence."""
     with LogReader(path) as reader:
         sr = reader.scenario
-        scn, index = scenario_of(reader, ship_id)
+        scn, _ = scenario_of(reader)
+        table = reader.ship_table()
+        if ship_id is not None and ship_id not in table:
+            raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
+                           f"{', '.join(table.ids[:20])}{', ...' if len(table) > 20 else ''})")
+        index = None if ship_id is None else table.key(ship_id)
         if first:  # start from the nearest keyframe at or before ``first``
             first -= first % reader.keyframe_interval
         n_ticks = int(sr.n_ticks)
         res = VerifyResult(sr.project_version, sr.integrator, sr.dt_s, first or 0,
                            min(last, n_ticks) if last is not None else n_ticks,
-                           list(scn.params.ships.ship_id), n_ticks=n_ticks)
+                           [ship_id] if ship_id is not None else list(table.ids),
+                           n_ticks=n_ticks)
+        if reader.log_format < 3:
+            res.inputs_note = (f"note: log format {reader.log_format} recorded inputs per tick, "
+                               f"not commands: its scenario's inputs were replayed")
         target = res.last_tick
-        replayed = _compare_ticks(reader, scn, index, res, first)
+        replayed = _compare_ticks(reader, scn, table, ship_id, res, first)
         # a cut log may have lost the events of its last tick with the next chunk
         events_to = res.last_tick if reader.status.complete else res.last_tick - 1
         if res.divergence is None:
@@ -154,66 +176,70 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         return res
 
 
-def _compare_ticks(reader: LogReader, scn, index: int | None, res: VerifyResult,
-                   first: int | None) -> list[tuple[int, str, bytes]]:
+def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | None,
+                   res: VerifyResult, first: int | None) -> list[tuple[int, str, bytes]]:
     """Compare every recorded tick with its re-run; returns the re-run's events, each as
     (tick, ship id, the TransitionEvent as the writer encodes it)."""
     path, sr = reader.path, reader.scenario
-    ids = res.ships
     ticks = reader.ticks(first, res.last_tick)
-    start = None
+    keyframe = None
     if first:
         try:
-            key = next(ticks)
+            keyframe = next(ticks)
         except StopIteration:
             raise LogError(f"{path}: no tick {first} in this log") from None
-        start = key.state()
-        if index is not None:
-            start = start.take(np.array([index]))
         res.ticks_compared += 1
+    world = _world(reader, scn, table, ship_id, keyframe)
     interval = reader.keyframe_interval
-    encoder = BlockEncoder(sr.dt_s, KEYFRAME_ONLY, interval)
-    sim = _replayed(scn, start, res.last_tick, encoder)
+    with_keys = reader.log_format >= 3
+    encoder = BlockEncoder(sr.dt_s, KEYFRAME_ONLY, interval, with_keys=with_keys)
+    sim = _replayed(world, res.last_tick, encoder, table if with_keys else None)
     events: list[tuple[int, str, bytes]] = []
     compared_to = first or 0
+    mine_key = None if ship_id is None else table.key(ship_id)
     for recorded in ticks:
         # driven by the recorded ticks: the re-run does no more ticks than the log holds
         step = next(sim, None)
         if step is None:
             raise LogError(f"{path}: a tick record at tick {recorded.tick_from_time}, after the "
                            f"run's last tick {res.last_tick}")
-        mine, new = step
+        mine, new, keys = step
         if new.tick != recorded.tick_from_time:
             raise LogError(f"{path}: tick records out of order (expected {new.tick}, "
                            f"found {recorded.tick_from_time})")
         res.ticks_compared += 1
         compared_to = new.tick
-        events += [(new.tick, ids[ev.ship], event_message(scn, new.state, ev).SerializeToString())
+        events += [(new.tick, ev.ship_id,
+                    event_message(table, sr.body, sr.dt_s, new.state, ev).SerializeToString())
                    for ev in new.events]
-        if index is None:
+        if ship_id is None:
             # the whole batch: the replayed tick, encoded as the writer encodes it, must be
             # the recorded message byte for byte; only a mismatch is decoded and diagnosed
             res.numbers_compared += _numbers_in(new.state.n, new.tick % interval == 0)
             if mine == recorded.raw:
                 continue
-            arrays = tick_arrays(new)
+            arrays = tick_arrays(new, keys)
             if new.tick % interval:
                 for name in KEYFRAME_ONLY:
                     arrays[name] = _EMPTY
+            rows = None
         else:
-            arrays = tick_arrays(new)
+            arrays = tick_arrays(new, keys)
+            rows = np.flatnonzero(recorded.keys == mine_key)
             res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
-        hit = _first_difference(recorded.arrays, arrays, index, new.state.n,
+        hit = _first_difference(recorded.arrays, arrays, rows, new.state.n,
                                 sr.log_format_version < LOG_FORMAT_VERSION)
-        if hit is None and index is None:  # same numbers, different bytes
+        if hit is None and ship_id is None:  # same numbers, different bytes
             hit = (0, "tick", 0, float(recorded.tick), float(new.tick))
         if hit is not None:
             ship, name, comp, a, b = hit
             fld = f"{name}[{comp}]" if WIDTH.get(name, 1) > 1 else name
-            res.divergence = Divergence(recorded.tick, recorded.t_s, ids[ship], fld, a, b)
+            who = ship_id if ship_id is not None else (
+                table.ids[int(recorded.keys[ship])] if ship < recorded.keys.size else "(log)")
+            res.divergence = Divergence(recorded.tick, recorded.t_s, who, fld, a, b)
             res.recent_events = [
                 f"tick {e.tick}: {e.event} {_label(e.from_state)} -> {_label(e.to_state)}"
-                for e in reader.events() if e.ship_id == ids[ship] and e.tick <= recorded.tick
+                for e in reader.events() if e.ship_id == who and e.tick <= recorded.tick
             ][-3:]
             break
     res.last_tick = compared_to
@@ -224,13 +250,46 @@ def _compare_ticks(reader: LogReader, scn, index: int | None, res: VerifyResult,
     return events
 
 
-def _replayed(scn, start, last_tick: int, encoder: BlockEncoder):
-    """The re-run, tick by tick: (the tick encoded as the writer encodes it, its record)."""
-    for block in run_blocks(scn, start=start, last_tick=last_tick, ramp=True):
-        data, offsets = encoder.encode(block.first_tick, block.states, block.outputs, block.inputs)
-        view = memoryview(data)
-        for k, rec in enumerate(block.records()):
-            yield bytes(view[offsets[k]:offsets[k + 1]]), rec
+def _world(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | None,
+           keyframe) -> World:
+    """The world to re-run: the log's recorded joins, leaves and commands (format 3; before it,
+    the scenario's), from tick 0 or from ``keyframe``'s state, all ships or ``ship_id`` alone."""
+    world = World.of(scn)
+    if reader.log_format >= 3:
+        world.timeline = reader.timeline()
+    for sid, spec in zip(table.ids, table.specs):
+        if spec is not None:
+            world.known[sid] = spec
+    if keyframe is not None:
+        state = keyframe.state()
+        keys = keyframe.keys
+        world.params = fleet_params(reader, scn).take(keys)
+        world.state, world.inputs = state, keyframe.inputs()
+        world.timeline = world.timeline.from_tick(state.tick)
+    if ship_id is not None:
+        keep = np.array([sid == ship_id for sid in world.ship_ids], dtype=bool)
+        world.params = world.params.take(keep)
+        world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
+        world.timeline = world.timeline.for_ship(ship_id)
+    return world
+
+
+def _replayed(world: World, last_tick: int, encoder: BlockEncoder, table: ShipTable | None):
+    """The re-run, tick by tick: (the tick encoded as the writer encodes it, its record, the
+    ships' keys)."""
+    blocks = world.blocks(last_tick, ramp=True)
+    if world.tick == 0:  # from the start: the tick-0 record is replayed too
+        blocks = itertools.chain([world.first_block()], blocks)
+    try:
+        for block in blocks:
+            keys = None if table is None else table.keys(block.ship_ids)
+            data, offsets = encoder.encode(block.first_tick, block.states, block.outputs,
+                                           block.inputs, keys)
+            view = memoryview(data)
+            for k, rec in enumerate(block.records()):
+                yield bytes(view[offsets[k]:offsets[k + 1]]), rec, keys
+    except (CommandError, ScenarioError) as exc:
+        raise LogError(f"the log's recorded input cannot be replayed: {exc}") from None
 
 
 def _numbers_in(n_ships: int, keyframe: bool) -> int:

@@ -3,15 +3,19 @@ settings, and how far the new run departs from the recording."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import zip_longest
 
 import numpy as np
 
-from logs.mcap_log import LogReader, LogWriter, scenario_of
+from logs import LogError
+from logs.mcap_log import LogReader, LogWriter, scenario_message, scenario_of
+from service.driver import drive
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
-from sim.run import run
+from sim.scenario import Scenario
+from sim.timeline import Timeline
+from sim.world import World
 
 
 @dataclass
@@ -49,53 +53,93 @@ def _fmt(t: float, event: str, a: int, b: int) -> str:
 
 def what_if(path: str, overrides: dict, out_path: str | None = None,
             ship_id: str | None = None) -> WhatIf:
+    """Re-run the log's recorded input (its ships, joins, leaves and commands; format 1 and 2: its
+    scenario's inputs) under ``overrides``, and compare with the recording at their common
+    instants. A recorded tick is moved to the new tick's grid by its time when ``sim.dt``
+    changes."""
     res = WhatIf()
     with LogReader(path) as reader:
         res.log_version = reader.scenario.project_version
-        scn, index = scenario_of(reader, ship_id, overrides)
-        ids = list(scn.params.ships.ship_id)
+        scn = _scenario(reader, overrides, ship_id)
+        world = World.of(scn)
         old_dt = reader.scenario.dt_s
         new_dt = scn.params.sim.dt_s
-        old_ticks = {}
-        for td in reader.ticks():
-            old_ticks[td.tick] = td
+        table = reader.ship_table()
+        if reader.log_format >= 3:
+            recorded = reader.timeline()
+            if ship_id is not None:
+                recorded = recorded.for_ship(ship_id)
+            world.timeline = _regrid(recorded, old_dt, new_dt)
+            for sid, spec in zip(table.ids, table.specs):
+                if spec is not None:
+                    world.known[sid] = spec
+        old_ticks = {td.tick: td for td in reader.ticks()}
+        ids = [ship_id] if ship_id is not None else list(table.ids)
         old_events = {sid: [] for sid in ids}
         for ev in reader.events():
             if ev.ship_id in old_events:
                 old_events[ev.ship_id].append(_fmt(ev.t_s, ev.event, ev.from_state, ev.to_state))
         new_events = {sid: [] for sid in ids}
-        writer = LogWriter(out_path, scn, f"{path} (what-if)") if out_path else None
-        try:
-            for rec in run(scn):
-                if writer is not None:
-                    writer.write(rec)
+
+        def compare(block, _msgs) -> None:
+            for rec in block.records():
                 for ev in rec.events:
-                    new_events[ids[ev.ship]].append(
-                        _fmt(ev.tick * new_dt, EventKind(ev.kind).topic, ev.from_state, ev.to_state))
+                    new_events.setdefault(ev.ship_id, []).append(
+                        _fmt(ev.tick * new_dt, EventKind(ev.kind).topic, ev.from_state,
+                             ev.to_state))
                 t = rec.tick * new_dt
                 old_tick = t / old_dt
                 k = round(old_tick)
-                if abs(old_tick - k) > 1e-6 or k not in old_ticks:
+                if abs(old_tick - k) > 1e-6 or k not in old_ticks or rec.state.n == 0:
                     continue
-                old_pos, old_quat = old_ticks[k].vec("pos_m", 3), old_ticks[k].vec("quat", 4)
-                if index is not None:
-                    old_pos, old_quat = old_pos[index:index + 1], old_quat[index:index + 1]
-                dp = np.linalg.norm(old_pos - rec.state.pos_m, axis=1)
-                dots = np.abs(np.sum(old_quat * rec.state.quat, axis=1)).clip(0.0, 1.0)
+                old = old_ticks[k]
+                where = {table.ids[int(key)]: j for j, key in enumerate(old.keys)}
+                mine = [j for j, sid in enumerate(rec.ship_ids) if sid in where]
+                if not mine:
+                    continue
+                theirs = [where[rec.ship_ids[j]] for j in mine]
+                old_pos, old_quat = old.vec("pos_m", 3)[theirs], old.vec("quat", 4)[theirs]
+                dp = np.linalg.norm(old_pos - rec.state.pos_m[mine], axis=1)
+                dots = np.abs(np.sum(old_quat * rec.state.quat[mine], axis=1)).clip(0.0, 1.0)
                 dang = np.degrees(2.0 * np.arccos(dots))
                 i, j = int(np.argmax(dp)), int(np.argmax(dang))
                 if dp[i] > res.max_position_diff_m:
-                    res.max_position_diff_m, res.max_position_at = float(dp[i]), (ids[i], t)
+                    res.max_position_diff_m = float(dp[i])
+                    res.max_position_at = (rec.ship_ids[mine[i]], t)
                 if dang[j] > res.max_attitude_diff_deg:
-                    res.max_attitude_diff_deg, res.max_attitude_at = float(dang[j]), (ids[j], t)
+                    res.max_attitude_diff_deg = float(dang[j])
+                    res.max_attitude_at = (rec.ship_ids[mine[j]], t)
                 res.samples += 1
-        except BaseException:
-            if writer is not None:
-                writer.abandon()
-            raise
-        if writer is not None:
-            writer.close()
-    res.timelines = {sid: (old_events[sid], new_events[sid]) for sid in ids}
+
+        writer = LogWriter(out_path, scenario_message(scn, f"{path} (what-if)")) \
+            if out_path else None
+        outcome = drive(world, scn.params.sim.n_ticks, writer, [compare])
+        if outcome.how != "done":
+            raise KeyboardInterrupt
+    res.timelines = {sid: (old_events.get(sid, []), new_events.get(sid, [])) for sid in ids}
     if not math.isfinite(res.max_position_diff_m):
         res.max_position_diff_m = float("inf")
     return res
+
+
+def _scenario(reader: LogReader, overrides: dict, ship_id: str | None) -> Scenario:
+    """The log's scenario under ``overrides`` (with ``ship_id``: that ship alone)."""
+    if ship_id is None:
+        return scenario_of(reader, overrides=overrides)[0]
+    table = reader.ship_table()
+    if ship_id not in table:
+        raise LogError(f"{reader.path}: no ship {ship_id!r} in this log")
+    if table.specs[table.key(ship_id)] is not None:
+        raise LogError(f"{reader.path}: ship {ship_id!r} joined by command; a what-if of it "
+                       f"alone is not supported: replay the whole log with --set")
+    return scenario_of(reader, ship_id, overrides)[0]
+
+
+def _regrid(timeline: Timeline, old_dt: float, new_dt: float) -> Timeline:
+    """The same joins, leaves and commands at the same times on another tick's grid."""
+    if old_dt == new_dt:
+        return timeline
+    at = lambda tick: int(math.ceil(tick * old_dt / new_dt - 1e-9))  # noqa: E731
+    return Timeline.of([replace(s, tick=max(1, at(s.tick))) for s in timeline.spawns],
+                       [replace(r, tick=max(1, at(r.tick))) for r in timeline.retires],
+                       [replace(c, tick=at(c.tick)) for c in timeline.commands])

@@ -174,14 +174,7 @@ class ShipParams(Batch):
     ship_id: tuple[str, ...] = ()
     player_id: tuple[str, ...] = ()
     DTYPE: ClassVar[np.dtype] = SHIP_DTYPE
-
-    def take(self, idx, with_ids: bool = True) -> "ShipParams":
-        """The ships at ``idx``, as a batch of their own (their names only if asked)."""
-        idx = np.asarray(idx)
-        ids = [int(i) for i in (np.flatnonzero(idx) if idx.dtype == bool else idx.ravel())] \
-            if with_ids and self.ship_id else []
-        return replace(self, rows=self.rows[idx], ship_id=tuple(self.ship_id[i] for i in ids),
-                       player_id=tuple(self.player_id[i] for i in ids))
+    LABELS: ClassVar[tuple[str, ...]] = ("ship_id", "player_id")
 
 
 @dataclass(frozen=True)
@@ -217,9 +210,16 @@ class Params:
     ships: ShipParams
     controller: ControllerParams = field(default_factory=ControllerParams)
 
-    def take(self, idx, with_ids: bool = True) -> "Params":
-        return Params(self.sim, self.contact, self.body, self.ships.take(idx, with_ids),
-                      self.controller)
+    def take(self, idx) -> "Params":
+        return self.with_ships(self.ships.take(idx))
+
+    def with_ships(self, ships: ShipParams) -> "Params":
+        """The same scene with another fleet (the scene's derived records carried over)."""
+        out = Params(self.sim, self.contact, self.body, ships, self.controller)
+        for name in ("scene", "terrain"):  # cached, and the same for any fleet
+            if name in self.__dict__:
+                out.__dict__[name] = self.__dict__[name]
+        return out
 
     @cached_property
     def scene(self) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Running a scenario: replay as a fold of the step over the commands. Pure: no I/O, no clock.
+"""Running a scenario: a fold of the step over its ships' joins, leaves and commands (sim.world).
+Pure: no I/O, no clock.
 
 The ticks are stepped in blocks by the compiled loop (sim.step.step_ticks): a block holds every
 state, telemetry and command of its ticks as record arrays, so a long run of one ship pays the
@@ -7,116 +8,37 @@ at a time. :func:`run` gives the same ticks one record at a time.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Iterator
 
-import numpy as np
-
 from sim.scenario import Scenario
-from sim.state import (INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, Event, Inputs,
-                       Outputs, State)
-from sim.step import outputs_at, rotations, step_ticks, tick_capacity, transitions
-
-#: A block holds about this many bytes of records: long enough that the interpreter's share of a
-#: lone ship's tick is small, short enough to stay in cache.
-BLOCK_BYTES = 1 << 20
-MAX_BLOCK_TICKS = 1024
+from sim.state import State
+from sim.world import Block, TickRecord, World, block_ticks  # noqa: F401 - re-exported
 
 
-@dataclass(frozen=True)
-class TickRecord:
-    """The state at ``tick`` (time tick * dt), what the tick reported, the transitions that led to
-    it, and the commands that were applied during the step into it (tick 0: none yet)."""
-
-    tick: int
-    state: State
-    outputs: Outputs
-    events: list[Event]
-    inputs: Inputs
-
-
-@dataclass(frozen=True)
-class Block:
-    """Consecutive ticks of a run: row k of each array is tick ``first_tick + k``."""
-
-    first_tick: int
-    states: np.ndarray  # (K, N) STATE_DTYPE: the state at the end of each tick
-    outputs: np.ndarray  # (K, N) OUTPUTS_DTYPE: what each tick reported
-    inputs: np.ndarray  # (K, N) INPUTS_DTYPE: the commands applied in the step into each tick
-    events: list[Event]  # the transitions, in order
-
-    def __len__(self) -> int:
-        return int(self.states.shape[0])
-
-    @property
-    def last_tick(self) -> int:
-        return self.first_tick + len(self) - 1
-
-    def records(self) -> Iterator[TickRecord]:
-        by_tick: dict[int, list[Event]] = {}
-        for ev in self.events:
-            by_tick.setdefault(ev.tick, []).append(ev)
-        for k in range(len(self)):
-            tick = self.first_tick + k
-            yield TickRecord(tick, State(rows=self.states[k], tick=tick),
-                             Outputs(rows=self.outputs[k]), by_tick.get(tick, []),
-                             Inputs(rows=self.inputs[k]))
-
-
-def initial_record(scn: Scenario) -> TickRecord:
-    st = scn.initial
-    return TickRecord(0, st, outputs_at(scn.params, st), [], Inputs.zeros(st.n))
-
-
-def block_ticks(n_ships: int) -> int:
-    per_tick = n_ships * (STATE_DTYPE.itemsize + OUTPUTS_DTYPE.itemsize + INPUTS_DTYPE.itemsize)
-    return max(1, min(MAX_BLOCK_TICKS, BLOCK_BYTES // max(per_tick, 1)))
+def world_at(scn: Scenario, start: State | None = None) -> World:
+    """The scenario's world at tick 0, or at ``start`` (a state of its tick-0 ships, or of some of
+    them, at tick ``start.tick``: those ships' commands before it in force, what comes later
+    still to come)."""
+    world = World.of(scn)
+    if start is None:
+        return world
+    if start.n != world.state.n:  # some of the ships: which ones, by their places at tick 0
+        raise ValueError("run from a state: give World a fleet of its own for a subset of ships")
+    world.state = start
+    world.inputs = scn.inputs_at(start.tick - 1)
+    world.timeline = world.timeline.from_tick(start.tick)
+    return world
 
 
 def run_blocks(scn: Scenario, start: State | None = None, last_tick: int | None = None,
                max_ticks: int | None = None, ramp: bool = False) -> Iterator[Block]:
-    """The run as blocks: the tick-0 record first (unless ``start`` is given), then blocks of at
-    most ``max_ticks`` (default: about a megabyte of records) until ``last_tick`` (default: the
-    scenario's duration). ``ramp``: the first blocks are short and each twice the last, so a
-    consumer that stops early (a cut log's replay) has stepped at most twice what it used.
-    Commands come from the scenario; from ``start`` at tick T, those of ticks before T are in
-    force."""
-    params = scn.params
-    last = params.sim.n_ticks if last_tick is None else last_tick
+    """The run as blocks: the tick-0 record first (unless ``start`` is given), then blocks until
+    ``last_tick`` (default: the scenario's duration); see World.blocks."""
+    world = world_at(scn, start)
     if start is None:
-        rec0 = initial_record(scn)
-        yield Block(0, rec0.state.rows[None, :].copy(), rec0.outputs.rows[None, :].copy(),
-                    rec0.inputs.rows[None, :].copy(), [])
-        start = rec0.state
-    commands = scn.commands
-    c = int(np.searchsorted(commands["tick"], start.tick, side="left"))
-    inputs = scn.inputs_at(start.tick - 1).rows.copy() if start.tick > 0 \
-        else Inputs.zeros(start.n).rows
-    state = start.rows.copy()
-    n = start.n
-    size = max_ticks or block_ticks(n)
-    cap = tick_capacity(params)
-    tick = start.tick
-    ramp_size = 1
-    while tick < last:
-        k_max = min(size, last - tick)
-        if ramp:
-            k_max = min(k_max, ramp_size)
-            ramp_size *= 2
-        states = np.empty((k_max, n), STATE_DTYPE)
-        outputs = np.empty((k_max, n), OUTPUTS_DTYPE)
-        ins = np.empty((k_max, n), INPUTS_DTYPE)
-        # a block's transitions: room for its first tick's worst case, and more as it goes
-        events = np.empty(cap * min(k_max, 8), TRANSITION_DTYPE)
-        event_ticks = np.empty(events.shape[0], np.int64)
-        count = np.zeros(1, np.int64)
-        done, c = step_ticks(params.scene, params.terrain, params.ships.rows, state, inputs,
-                             commands, c, rotations(params, tick, k_max), states, outputs, ins,
-                             events, event_ticks, count, tick, cap)
-        m = int(count[0])
-        yield Block(tick + 1, states[:done], outputs[:done], ins[:done],
-                    transitions(events[:m], event_ticks[:m]))
-        tick += done
+        yield world.first_block()
+    last = scn.params.sim.n_ticks if last_tick is None else last_tick
+    yield from world.blocks(last, max_ticks, ramp)
 
 
 def run(scn: Scenario, start: State | None = None, last_tick: int | None = None

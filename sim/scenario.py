@@ -7,7 +7,6 @@ names the file and the key (``bounce.toml: ships[0].initial.tilt_deg: ...``).
 """
 from __future__ import annotations
 
-import bisect
 import math
 import tomllib
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
                         Terrain)
 from sim.state import COMMAND_DTYPE, Inputs, State
+from sim.timeline import Command, Retire, Spawn, Timeline
 
 
 class ScenarioError(ValueError):
@@ -104,6 +104,8 @@ SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),
         "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, _range(1.0, 1e5)),
         "rcs_arm": ("float", 2.0, _range(1e-3, 1e3)),
         "stiffness_per_kg": ("float", None, _range(1e-2, 1e6)),  # default: contact's
+        "spawn_t": ("float", 0.0, _range(0.0, 1e7)),  # s: joins the scene (sim.timeline)
+        "retire_t": ("float?", None, _range(0.0, 1e7, lo_open=True)),  # s: leaves it (None: never)
         "initial": ("table", None, None), "inputs": ("list", [], None)}
 INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "tipped"})),
            "altitude": ("float", None, _range(-100.0, 1e7)),  # default: 10 flying, else 0
@@ -142,7 +144,7 @@ class _Reader:
                 out[key] = default
                 continue
             val = self.value(raw[key], kind, full)
-            if check is not None:
+            if check is not None and val is not None:
                 for x in (val if kind == "vec3" else [val]):
                     problem = check(x)
                     if problem:
@@ -151,6 +153,8 @@ class _Reader:
         return out
 
     def value(self, x: Any, kind: str, key: str):
+        if kind == "float?":  # a number, or None (JSON's null: a resolved "never")
+            return None if x is None else self.value(x, "float", key)
         if kind == "float":
             if isinstance(x, bool) or not isinstance(x, (int, float)):
                 self.fail(key, f"must be a number, got {type(x).__name__}")
@@ -185,53 +189,66 @@ class _Reader:
         raise AssertionError(kind)
 
 
+#: the keys of a ship's table that place it in time rather than describe it (Scene.ship drops them)
+TIMING_KEYS = ("spawn_t", "retire_t", "inputs")
+
+
 @dataclass(frozen=True)
-class InputChange:
-    tick: int
-    ship: int
-    throttle: float
-    rcs: tuple[float, float, float]
-    hold: int
+class Scene:
+    """Everything of a scenario but its ships (``doc``: the resolved document without ``ships``),
+    with which a ship's table becomes that ship's parameters and start."""
+
+    doc: dict
+    source: str
+
+    def ship(self, spec: dict) -> tuple[ShipParams, State]:
+        """One ship's parameters and its state at tick 0 (sim.world turns it to the tick it joins
+        at), by the same rules, checks and messages as a scenario's ``[[ships]]`` table."""
+        table = {k: v for k, v in spec.items() if k not in TIMING_KEYS}
+        scn = parse({**self.doc, "ships": [table]}, self.source)
+        return scn.params.ships, scn.initial
 
 
 @dataclass(frozen=True)
 class Scenario:
     """A resolved scenario: ``resolved`` is the document with every default filled in (what logs
-    store, and what re-parses to the same scenario)."""
+    store, and what re-parses to the same scenario). ``params`` and ``initial`` hold the ships
+    present at tick 0; ``timeline`` those that join later, those that leave, and every ship's
+    commands."""
 
     name: str
     description: str
     resolved: dict
     params: Params
     initial: State
-    input_changes: tuple[InputChange, ...]  # sorted by (tick, ship)
+    timeline: Timeline
 
-    def inputs_at(self, tick: int, base: Inputs | None = None, from_tick: int = 0) -> Inputs:
-        """The commands in force during ``tick``: a fold of the changes over (from_tick, tick]
-        onto ``base`` (the commands in force at ``from_tick``; none given: everything off)."""
-        if base is None:
-            base = Inputs.zeros(self.initial.n)
-            from_tick = -1
-        ticks = self._change_ticks
-        lo = bisect.bisect_right(ticks, from_tick)
-        hi = bisect.bisect_right(ticks, tick)
-        if lo == hi:
-            return base  # nothing changes: the same commands (Inputs is never mutated)
-        rows = base.rows.copy()
-        for ch in self.input_changes[lo:hi]:
-            rows[ch.ship] = (ch.throttle, ch.rcs, ch.hold)
+    @cached_property
+    def scene(self) -> Scene:
+        return Scene({k: v for k, v in self.resolved.items() if k != "ships"},
+                     self.resolved.get("name", ""))
+
+    def inputs_at(self, tick: int) -> Inputs:
+        """The commands in force during ``tick`` for the ships of tick 0 (a fold of their
+        commands up to it)."""
+        index = {sid: i for i, sid in enumerate(self.params.ships.ship_id)}
+        rows = Inputs.zeros(self.initial.n).rows
+        for c in self.timeline.commands:
+            if c.tick > tick:
+                break
+            if c.ship_id in index:
+                rows[index[c.ship_id]] = (c.throttle, c.rcs, c.hold)
         return Inputs(rows=rows)
 
     @cached_property
-    def _change_ticks(self) -> list[int]:
-        return [ch.tick for ch in self.input_changes]
-
-    @cached_property
     def commands(self) -> np.ndarray:
-        """The input changes as the step's commands (sim.state.COMMAND_DTYPE), in order."""
-        out = np.zeros(len(self.input_changes), COMMAND_DTYPE)
-        for k, ch in enumerate(self.input_changes):
-            out[k] = (ch.tick, ch.ship, ch.throttle, ch.rcs, ch.hold)
+        """The commands of the ships of tick 0 as the step takes them (sim.state.COMMAND_DTYPE,
+        ``ship`` their index at tick 0), in order."""
+        index = {sid: i for i, sid in enumerate(self.params.ships.ship_id)}
+        mine = [c for c in self.timeline.commands if c.ship_id in index]
+        out = np.zeros(len(mine), COMMAND_DTYPE)
+        for k, c in enumerate(mine):
+            out[k] = (c.tick, index[c.ship_id], c.throttle, c.rcs, c.hold)
         return out
 
 
@@ -380,6 +397,17 @@ def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario
         ts = [x["t"] for x in sh["inputs"]]
         if ts != sorted(ts):
             rd.fail(pre + "inputs", "entries must be in order of t")
+        if sh["retire_t"] is not None and (_tick_of(sh["retire_t"], sim["dt"])
+                                           <= _tick_of(sh["spawn_t"], sim["dt"])):
+            rd.fail(pre + "retire_t", f"must be at least a tick after spawn_t "
+                                      f"({sh['spawn_t']:g} s)")
+        for j, x in enumerate(sh["inputs"]):
+            if x["t"] < sh["spawn_t"]:
+                rd.fail(f"{pre}inputs[{j}].t", f"{x['t']:g} s is before the ship joins "
+                                               f"(spawn_t {sh['spawn_t']:g} s)")
+            if sh["retire_t"] is not None and x["t"] >= sh["retire_t"]:
+                rd.fail(f"{pre}inputs[{j}].t", f"{x['t']:g} s is after the ship leaves "
+                                               f"(retire_t {sh['retire_t']:g} s)")
         _check_initial(rd, sh, con, pre + "initial.")
         ships.append(sh)
     resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
@@ -562,14 +590,30 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
         n_substeps=n_substeps)
     params = Params(spar, cp, bp, shp, ControllerParams(res["controller"]["bandwidth"]))
     initial = _initial_state(params, ships)
-    changes = []
+    spawns, retires, commands = [], [], []
+    at_start = []
     for i, s in enumerate(ships):
+        joins = _tick_of(s["spawn_t"], spar.dt_s)
+        if joins == 0:
+            at_start.append(i)
+        else:
+            spawns.append(Spawn(joins, {k: v for k, v in s.items() if k not in TIMING_KEYS}))
+        if s["retire_t"] is not None:
+            retires.append(Retire(_tick_of(s["retire_t"], spar.dt_s), s["id"]))
         for x in s["inputs"]:
-            tick = int(math.ceil(x["t"] / spar.dt_s - 1e-9))
-            changes.append(InputChange(tick, i, x["throttle"], tuple(x["rcs"]),
-                                       int(HoldMode.from_label(x["hold"]))))
-    changes.sort(key=lambda c: (c.tick, c.ship))
-    return Scenario(res["name"], res["description"], res, params, initial, tuple(changes))
+            commands.append(Command(_tick_of(x["t"], spar.dt_s), s["id"], x["throttle"],
+                                    tuple(x["rcs"]), int(HoldMode.from_label(x["hold"]))))
+    # commands in order of tick, then of the ships' order in the scenario (a stable sort)
+    timeline = Timeline.of(spawns, retires, commands)
+    if len(at_start) < len(ships):
+        params, initial = params.take(at_start), initial.take(at_start)
+    return Scenario(res["name"], res["description"], res, params, initial, timeline)
+
+
+def _tick_of(t_s: float, dt_s: float) -> int:
+    """The first tick at or after ``t_s`` (a time a hair past a tick, from rounding, is that
+    tick)."""
+    return int(math.ceil(t_s / dt_s - 1e-9))
 
 
 #: Iterations placing a ship by its lowest foot (each moves it by the remaining error; the feet's

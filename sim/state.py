@@ -96,9 +96,25 @@ class Batch:
     def n(self) -> int:
         return int(self.rows.shape[0])
 
+    #: names of tuple attributes that hold one entry per ship (labels such as ship ids), which
+    #: take, select and concatenate carry along with the rows
+    LABELS: ClassVar[tuple[str, ...]] = ()
+
     def take(self: B, idx) -> B:
         """The ships at ``idx`` (indices or a mask), as a batch of their own."""
-        return replace(self, rows=self.rows[np.asarray(idx)])
+        idx = np.asarray(idx)
+        if idx.dtype != bool:
+            idx = idx.astype(np.intp, copy=False)  # an empty list is a float array
+        labels = {}
+        if self.LABELS:
+            picked = np.flatnonzero(idx) if idx.dtype == bool else idx.ravel()
+            labels = {name: tuple(getattr(self, name)[int(i)] for i in picked)
+                      for name in self.LABELS}
+        return replace(self, rows=self.rows[idx], **labels)
+
+    def select(self: B, mask) -> B:
+        """The ships where ``mask`` holds (:meth:`take` of a boolean mask)."""
+        return self.take(np.asarray(mask, dtype=bool))
 
     def with_fields(self: B, **arrays) -> B:
         """A copy with the named fields set (arrays over the batch, or one value for all)."""
@@ -132,8 +148,11 @@ class Batch:
 
 
 def concatenate(parts: Sequence[B]) -> B:
-    """One batch of the ships of ``parts``, in order (the first part's other attributes)."""
-    return replace(parts[0], rows=np.concatenate([p.rows for p in parts]))
+    """One batch of the ships of ``parts``, in order: rows and labels joined, the first part's
+    other attributes."""
+    first = parts[0]
+    labels = {name: tuple(x for p in parts for x in getattr(p, name)) for name in first.LABELS}
+    return replace(first, rows=np.concatenate([p.rows for p in parts]), **labels)
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,13 +180,16 @@ class Outputs(Batch):
 
 @dataclass(frozen=True)
 class Event:
-    """One state transition. ``ship`` indexes the batch; ``tick`` is the tick whose step made it."""
+    """One state transition of ship ``ship_id`` (``ship``: its index in that tick's batch);
+    ``tick`` is the tick whose step made it."""
 
     tick: int
-    ship: int
+    ship: int  # index in the tick's batch
     kind: int  # EventKind
     from_state: int  # SurfaceState
     to_state: int  # SurfaceState
     #: radial speed (+ up, relative to the surface) at the sub-step of the transition: the impact
     #: speed of a contact, the separation speed of a liftoff
     v_radial_mps: float = 0.0
+    #: the originating ship's id (what names it across joins and leaves; sim.world)
+    ship_id: str = ""

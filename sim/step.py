@@ -23,7 +23,7 @@ compare cosines and squared speeds, never angles.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -873,14 +873,15 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
             transitions(events[:count[0]], event_ticks[:count[0]]))
 
 
-def transitions(events: np.ndarray, ticks: np.ndarray) -> list[Event]:
+def transitions(events: np.ndarray, ticks: np.ndarray, ship_ids: Sequence[str] = ()
+                ) -> list[Event]:
     """The kernel's transitions as Events (by tick, then ship, each ship's in the order they
-    happened)."""
+    happened), each named by its ship's id where ``ship_ids`` (the batch's, in order) are given."""
     out = []
     for e, tick in zip(events.tolist(), ticks.tolist()):
         ship, a, b, v = e
         kind = TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]
-        out.append(Event(tick, ship, int(kind), a, b, v))
+        out.append(Event(tick, ship, int(kind), a, b, v, ship_ids[ship] if ship_ids else ""))
     return out
 
 

@@ -145,31 +145,25 @@ def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
     import sys
     from pathlib import Path
 
-    from logs.mcap_log import LogWriter
     from replay.verify import verify
-    from sim.run import run_blocks
+    from service.driver import record
 
     doc = {"name": "generic", "duration": 1.5, "body": BODY, "ships": varied_fleet(120)}
     (tmp_path / "fleet.json").write_text(json.dumps(doc))
     host = scene(ships=doc["ships"], body=BODY, duration=1.5)
-    with LogWriter(tmp_path / "host.mcap", host, "test") as w:
-        for block in run_blocks(host):
-            w.write_block(block)
+    record(host, tmp_path / "host.mcap", "test")
     script = f"""
 import json, sys
 import numba
 assert numba.config.CPU_NAME == "generic", numba.config.CPU_NAME
-from logs.mcap_log import LogWriter
 from replay.verify import verify
-from sim.run import run_blocks
+from service.driver import record
 from sim.scenario import parse
 res = verify({str(tmp_path / "host.mcap")!r})
 print(res.report())
 assert res.identical
 scn = parse(json.load(open({str(tmp_path / "fleet.json")!r})), "test")
-with LogWriter({str(tmp_path / "generic.mcap")!r}, scn, "test") as w:
-    for block in run_blocks(scn):
-        w.write_block(block)
+record(scn, {str(tmp_path / "generic.mcap")!r}, "test")
 """
     root = Path(__file__).resolve().parents[1]
     env = dict(os.environ, NUMBA_CPU_NAME="generic")

@@ -17,7 +17,7 @@ from cli import main
 from logs import LogError
 from logs.codec import PACKED, decode_tick, encode_tick
 from logs.mcap_log import (TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, LogReader,
-                           LogWriter)
+                           LogWriter, scenario_message)
 from proto import touchdown_pb2 as pb
 from sim.scenario import parse, parse_text
 import scenarios
@@ -134,13 +134,13 @@ def test_the_recorded_scenario_reparses_to_the_same_scenario(fleet_log):
 def test_writer_close_is_idempotent_and_failure_leaves_no_log(tmp_path):
     scn = parse_text(scenarios.text("bounce"), "bounce", {"duration": 1})
     path = tmp_path / "w.mcap"
-    w = LogWriter(path, scn, "bounce")
+    w = LogWriter(path, scenario_message(scn, "bounce"))
     w.close()
     w.close()
     assert path.exists()
     bad = tmp_path / "bad.mcap"
     with pytest.raises(RuntimeError):
-        with LogWriter(bad, scn, "bounce"):
+        with LogWriter(bad, scenario_message(scn, "bounce")):
             raise RuntimeError("boom")
     assert not bad.exists() and not Path(str(bad) + ".partial").exists()
 
@@ -157,9 +157,11 @@ def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
     enc = BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, interval)
     checked = 0
     for block in run_blocks(scn, max_ticks=7):
-        data, offsets = enc.encode(block.first_tick, block.states, block.outputs, block.inputs)
+        keys = np.arange(len(block.ship_ids))
+        data, offsets = enc.encode(block.first_tick, block.states, block.outputs, block.inputs,
+                                   keys)
         for k, rec in enumerate(block.records()):
-            arrays = tick_arrays(rec)
+            arrays = tick_arrays(rec, keys)
             keyframe = rec.tick % interval == 0
             msg = pb.TickBatch(
                 tick=rec.tick, t_s=rec.tick * scn.params.sim.dt_s, ship_count=rec.state.n,

@@ -33,8 +33,8 @@ def logs(tmp_path_factory):
     return out
 
 
-def rewrite(src: Path, dst: Path, tick: int, field: str, index: int, delta_ulps: int = 1):
-    """Copy a log, nudging one number of one tick record by a few units in the last place."""
+def rewrite_topic(src: Path, dst: Path, topic: str, edit) -> None:
+    """Copy a log, passing each message of ``topic`` through ``edit(bytes) -> bytes``."""
     with open(src, "rb") as f, open(dst, "wb") as g:
         w = Writer(g)
         w.start()
@@ -45,17 +45,23 @@ def rewrite(src: Path, dst: Path, tick: int, field: str, index: int, delta_ulps:
             if channel.id not in channels:
                 channels[channel.id] = w.register_channel(channel.topic, channel.message_encoding,
                                                           schemas[schema.id])
-            data = message.data
-            if channel.topic == TOPIC_TICKS:
-                t, t_s, n, arrays = decode_tick(data)
-                if t == tick:
-                    a = arrays[field].copy()
-                    a[index] = np.nextafter(a[index], np.inf) if delta_ulps == 1 else a[index] + 1
-                    arrays[field] = a
-                    data = encode_tick(t, t_s, n, arrays)
+            data = edit(message.data) if channel.topic == topic else message.data
             w.add_message(channels[channel.id], message.log_time, data, message.publish_time,
                           message.sequence)
         w.finish()
+
+
+def rewrite(src: Path, dst: Path, tick: int, field: str, index: int, delta_ulps: int = 1):
+    """Copy a log, nudging one number of one tick record by a few units in the last place."""
+    def edit(data: bytes) -> bytes:
+        t, t_s, n, arrays = decode_tick(data)
+        if t != tick:
+            return data
+        a = arrays[field].copy()
+        a[index] = np.nextafter(a[index], np.inf) if delta_ulps == 1 else a[index] + 1
+        arrays[field] = a
+        return encode_tick(t, t_s, n, arrays)
+    rewrite_topic(src, dst, TOPIC_TICKS, edit)
 
 
 def test_identical_rerun_verifies(logs):

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, scenario_of
+from logs.mcap_log import LogReader, fleet_params, scenario_of
 from sim import measure
 from sim.measure import ENERGY_PARTS
 from sim.params import Params
@@ -94,28 +94,29 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
     path = Path(path)
     with LogReader(path) as reader:
         scn, _ = scenario_of(reader)
-        params = scn.params
-        ids = list(reader.scenario.ship_ids)
+        params = fleet_params(reader, scn)  # every ship the log held, in key order
+        ids = reader.ship_table().ids
         if ship_id is not None and ship_id not in ids:
             raise LogError(f"{path}: no ship {ship_id!r} (ships: {', '.join(ids[:10])}"
                            f"{', ...' if len(ids) > 10 else ''})")
-        keep = [ids.index(ship_id)] if ship_id is not None else list(range(len(ids)))
         cols: dict[str, list[np.ndarray]] = {}
         ticks: list[int] = []
+        keys: list[np.ndarray] = []
         names = ("surface_state", "pos_m", "quat", "vel_mps", "omega_body_radps", "mass_kg",
                  "fuel_kg", "altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt",
                  "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n",
                  "throttle", "energy_guard_j")
-        n_ships = len(ids)
         width = {"pos_m": 3, "vel_mps": 3, "omega_body_radps": 3, "quat": 4}
         for td in reader.ticks():
             a = td.arrays
+            n = td.ship_count
             ticks.append(td.tick)
+            keys.append(td.keys)
             for name in names:
                 arr = a.get(name)
                 if arr is None:  # a format-1 log: velocities on keyframes only, no guard
-                    arr = np.full(n_ships * width.get(name, 1), np.nan)
-                cols.setdefault(name, []).append(arr)
+                    arr = np.full(n * width.get(name, 1), np.nan)
+                cols.setdefault(name, []).append(np.asarray(arr, float).reshape(n, -1))
         if not ticks:
             raise LogError(f"{path}: the log holds no tick")
         from logs.export import what_was_read
@@ -124,24 +125,34 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
             RunEvent(ev.tick, ev.t_s, ev.ship_id, ev.event, ev.from_state, ev.to_state,
                      ev.v_radial_mps, ev.ship.tilt_deg)
             for ev in reader.events() if ship_id is None or ev.ship_id == ship_id)
-    # (T, S, w) per field, the kept ships only: one concatenation, not one reshape per tick
-    stacked = {k: np.concatenate(v).reshape(len(ticks), n_ships, -1)[:, keep, :]
-               for k, v in cols.items()}
-    tick = np.asarray(ticks, dtype=np.int64)
+    # every ship-tick in one array per field, then each ship's rows (its ticks: it may join late
+    # or leave early) by one stable sort on the key
+    per_tick = np.array([k.size for k in keys])
+    all_keys = np.concatenate(keys)
+    all_ticks = np.repeat(np.asarray(ticks, dtype=np.int64), per_tick)
+    flat = {k: np.concatenate(v) for k, v in cols.items()}
+    order = np.argsort(all_keys, kind="stable")
+    bounds = np.searchsorted(all_keys[order], np.arange(len(ids) + 1))
+    wanted = [ids.index(ship_id)] if ship_id is not None else range(len(ids))
     dt = params.sim.dt_s
-    t_s = tick * dt
-    c, s = measure.body_angles(params, t_s, tick.shape[0])
     tracks = []
-    for j, i in enumerate(keep):
-        tracks.append(_track(params, i, stacked, j, tick, t_s, c, s))
+    for key in wanted:
+        rows = order[bounds[key]:bounds[key + 1]]
+        if rows.size == 0:
+            continue  # joined after the part of the log that was read
+        tick = all_ticks[rows]
+        t_s = tick * dt
+        c, s = measure.body_angles(params, t_s, tick.shape[0])
+        col = {k: v[rows, 0] if v.shape[1] == 1 else v[rows] for k, v in flat.items()}
+        tracks.append(_track(params, key, col, tick, t_s, c, s))
     return Run(label or path.stem, path, params, dt, tuple(tracks), events, note)
 
 
-def _track(params: Params, i: int, cols: dict[str, np.ndarray], j: int, tick: np.ndarray,
+def _track(params: Params, i: int, col: dict[str, np.ndarray], tick: np.ndarray,
            t_s: np.ndarray, c: np.ndarray, s: np.ndarray) -> ShipTrack:
+    """Ship ``i`` of ``params`` (its key), from its own columns over the ticks ``tick``."""
     sh, body = params.ships, params.body
     T = tick.shape[0]
-    col = {k: v[:, j, 0] if v.shape[2] == 1 else v[:, j, :] for k, v in cols.items()}
     p, q, v, w = col["pos_m"], col["quat"], col["vel_mps"], col["omega_body_radps"]
     mass = col["mass_kg"]
     a = float(sh.leg_radius_m[i])
