@@ -18,6 +18,7 @@ import struct
 import numpy as np
 
 from sim.compiled import kernel
+from sim.fields import BY_LOG_NAME
 from sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
 
 from logs import LogError
@@ -147,7 +148,6 @@ def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
 # -- blocks of ticks from the run's records --------------------------------------------------------
 #: Where each packed field's numbers come from: (record kind, field in that record).
 SOURCES = {"state": 0, "outputs": 1, "inputs": 2, "keys": 3}  # _encode_ticks's src
-_INPUT_FIELDS = {"input_throttle": "throttle", "input_rcs": "rcs", "input_hold": "hold"}
 
 
 def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.ndarray:
@@ -162,12 +162,9 @@ def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.n
                 rows.append((SOURCES["keys"], 0, 1, 8, 8, key[0], key[1] if len(key) > 1 else 0,
                              len(key), False))
             continue
-        if name in _INPUT_FIELDS:
-            src, dtype, fname = SOURCES["inputs"], INPUTS_DTYPE, _INPUT_FIELDS[name]
-        elif name in STATE_DTYPE.names:
-            src, dtype, fname = SOURCES["state"], STATE_DTYPE, name
-        else:
-            src, dtype, fname = SOURCES["outputs"], OUTPUTS_DTYPE, name
+        f = BY_LOG_NAME[name]  # the quantity's record and name there (sim.fields)
+        src, fname = SOURCES[f.record], f.name
+        dtype = {"state": STATE_DTYPE, "outputs": OUTPUTS_DTYPE, "inputs": INPUTS_DTYPE}[f.record]
         ftype, offset = dtype.fields[fname][:2]
         count = int(np.prod(ftype.shape)) if ftype.shape else 1
         size = ftype.base.itemsize

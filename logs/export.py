@@ -16,15 +16,23 @@ import numpy as np
 from logs import LogError
 from logs.mcap_log import LogReader, TickData, fleet_params, scenario_of
 from proto import touchdown_pb2 as pb
-from sim import measure
+from sim import fields, measure
 from sim.enums import SurfaceState
 
 _STATE = {int(s): s.label for s in SurfaceState}
 
 
+#: the log's quantities that export names as they are (sim.fields), the state as its label
+EXPORTED = tuple(f for f in fields.FIELDS if f.export)
+#: what export derives from the logged state: (key, quantity, component)
+DERIVED = (("east", "pos", 0), ("north", "pos", 1), ("up", "pos", 2), ("v_east", "vel", 0),
+           ("v_north", "vel", 1), ("v_up", "vel", 2), ("omega_x", "omega", 0),
+           ("omega_y", "omega", 1), ("omega_z", "omega", 2))
+
+
 def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
-    """(``params``: every ship of the log in key order; sim.mcap_log.fleet_params.)"""
-    """Site-frame position and velocity, body rates and energy of every ship at one tick."""
+    """Site-frame position and velocity, body rates and energy of every ship at one tick
+    (``params``: every ship of the log in key order, logs.mcap_log.fleet_params)."""
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
         return None
@@ -48,29 +56,16 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
         a = td.arrays
         d = _derived(params, td)
         for i, key in enumerate(td.keys.tolist()):
-            ship_id = ids[key]
             c = max(-1.0, min(1.0, float(a["cos_tilt"][i])))
-            row = {
-                "tick": td.tick, "t": td.t_s, "ship_id": ship_id,
-                "state": _STATE[int(a["surface_state"][i])],
-                "altitude": float(a["altitude_m"][i]), "penetration": float(a["penetration_m"][i]),
-                "peak_penetration": float(a["peak_penetration_m"][i]),
-                "tilt_deg": math.degrees(math.acos(c)),
-                "v_radial": float(a["v_radial_mps"][i]),
-                "v_tangential": float(a["v_tangential_mps"][i]),
-                "normal_force": float(a["normal_force_n"][i]),
-                "friction_force": float(a["friction_force_n"][i]),
-                "fuel_mass": float(a["fuel_kg"][i]), "mass": float(a["mass_kg"][i]),
-                "throttle": float(a["throttle"][i]),
-            }
-            for key, arr, k in (("east", "pos", 0), ("north", "pos", 1), ("up", "pos", 2),
-                                ("v_east", "vel", 0), ("v_north", "vel", 1), ("v_up", "vel", 2),
-                                ("omega_x", "omega", 0), ("omega_y", "omega", 1),
-                                ("omega_z", "omega", 2)):
-                row[key] = None if d is None else float(d[arr][i, k])
+            row = {"tick": td.tick, "t": td.t_s, "ship_id": ids[key],
+                   "tilt_deg": math.degrees(math.acos(c))}
+            for f in EXPORTED:
+                x = a.get(f.in_log)  # a format-1 log has no energy_guard_j
+                row[f.export] = None if x is None else (
+                    _STATE[int(x[i])] if f.name == "surface_state" else float(x[i]))
+            for name, arr, k in DERIVED:
+                row[name] = None if d is None else float(d[arr][i, k])
             row["energy_j"] = None if d is None else float(d["energy"][i])
-            row["energy_guard_j"] = (float(a["energy_guard_j"][i]) if "energy_guard_j" in a
-                                     else None)
             yield row
 
 

@@ -29,6 +29,7 @@ from logs.codec import BlockEncoder, decode_tick
 from logs.safe_read import ReadStatus, iter_messages
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
+from sim import fields
 from sim.enums import EventKind, SurfaceState
 from sim.world import Block, TickRecord
 from sim.scenario import Scenario, ScenarioError, parse
@@ -54,16 +55,10 @@ TOPIC_SUMMARY = "/touchdown/summary"
 TOPIC_FLEET = "/touchdown/fleet"
 TOPIC_COMMANDS = "/touchdown/commands"
 #: state fields written only on keyframe ticks; the rest (positions, velocities, attitudes, angular
-#: velocities, masses, states, telemetry, commands) are on every tick
-KEYFRAME_ONLY = ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m",
-                 "pin_quat_bf", "pin_pivot_bf_m")
+#: velocities, masses, states, telemetry, commands) are on every tick (sim.fields)
+KEYFRAME_ONLY = fields.keyframe_only()
 #: numbers per ship of each TickBatch array (1 where not listed)
-WIDTH = {"pos_m": 3, "vel_mps": 3, "quat": 4, "omega_body_radps": 3, "sliding": 4,
-         "pin_pos_bf_m": 3, "pin_quat_bf": 4, "pin_pivot_bf_m": 3, "rcs_torque_body_nm": 3,
-         "input_rcs": 3}
-OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
-                 "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
-                 "rcs_torque_body_nm", "energy_guard_j")
+WIDTH = {f.in_log: f.per_ship for f in fields.FIELDS if f.per_ship > 1}
 #: fields on every tick of a format-1 log (which lacks energy_guard_j, and wrote velocities on
 #: keyframes only) ...
 EVERY_TICK_V1 = ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitude_m",
@@ -71,21 +66,17 @@ EVERY_TICK_V1 = ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitu
                  "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
                  "rcs_torque_body_nm", "input_throttle", "input_rcs", "input_hold")
 #: ... of format 2 ...
-EVERY_TICK_V2 = EVERY_TICK_V1 + ("vel_mps", "omega_body_radps", "energy_guard_j")
+EVERY_TICK_V2 = tuple(f.in_log for f in fields.FIELDS if not f.keyframe_only)
 #: ... and of today's
 EVERY_TICK = EVERY_TICK_V2 + ("ship_key",)
 
 
 def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Every per-ship array of a TickBatch, by field name (``keys``: the ships' keys)."""
-    arrays = rec.state.arrays()
+    records = {"state": rec.state, "outputs": rec.outputs, "inputs": rec.inputs}
+    arrays = {f.in_log: records[f.record].rows[f.name] for f in fields.FIELDS}
     if keys is not None:
         arrays["ship_key"] = keys
-    for name in OUTPUT_FIELDS:
-        arrays[name] = getattr(rec.outputs, name)
-    arrays["input_throttle"] = rec.inputs.throttle
-    arrays["input_rcs"] = rec.inputs.rcs
-    arrays["input_hold"] = rec.inputs.hold
     return arrays
 
 
@@ -456,14 +447,10 @@ class TickData:
         if self.ship_count == 0:
             return State.zeros(0, tick=self.tick)
         try:
-            return State.of(
-                self.ship_count, tick=self.tick, surface_state=a["surface_state"],
-                pos_m=self.vec("pos_m", 3), vel_mps=self.vec("vel_mps", 3),
-                quat=self.vec("quat", 4), omega_body_radps=self.vec("omega_body_radps", 3),
-                mass_kg=a["mass_kg"], fuel_kg=a["fuel_kg"], absorbing=a["absorbing"] != 0,
-                sliding=self._sliding(), settle_ticks=a["settle_ticks"],
-                pivot_rate_radps=a["pivot_rate_radps"], pin_pos_bf_m=self.vec("pin_pos_bf_m", 3),
-                pin_quat_bf=self.vec("pin_quat_bf", 4), pin_pivot_bf_m=self.vec("pin_pivot_bf_m", 3))
+            values = {f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else a[f.in_log]
+                      for f in fields.of_record("state") if f.name != "sliding"}
+            values["absorbing"] = values["absorbing"] != 0
+            return State.of(self.ship_count, tick=self.tick, sliding=self._sliding(), **values)
         except (KeyError, ValueError) as exc:
             raise LogError(f"tick {self.tick}: incomplete state record ({exc})") from None
 
@@ -477,8 +464,9 @@ class TickData:
         """The commands applied during the step into this tick."""
         if self.ship_count == 0:
             return Inputs.zeros(0)
-        return Inputs.of(self.ship_count, throttle=self.arrays["input_throttle"],
-                         rcs=self.vec("input_rcs", 3), hold=self.arrays["input_hold"])
+        return Inputs.of(self.ship_count, **{
+            f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else self.arrays[f.in_log]
+            for f in fields.of_record("inputs")})
 
 
 class LogReader:

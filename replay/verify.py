@@ -22,16 +22,17 @@ import numpy as np
 from logs import LogError
 from logs.codec import PACKED, BlockEncoder
 from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                           WIDTH as _WIDTH, LogReader, ShipTable, event_message, fleet_params,
-                           scenario_of, tick_arrays)
+                           LogReader, ShipTable, event_message, fleet_params, scenario_of,
+                           tick_arrays)
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
+from sim import fields
 from sim.scenario import Scenario, ScenarioError
 from sim.timeline import CommandError
 from sim.world import World
 
 #: per-ship width of each packed field
-WIDTH = {name: _WIDTH.get(name, 1) for _, name, _ in PACKED}
+WIDTH = {name: fields.per_ship(name) for _, name, _ in PACKED}
 
 
 @dataclass

@@ -18,42 +18,13 @@ from typing import ClassVar, Sequence, TypeVar
 
 import numpy as np
 
-STATE_DTYPE = np.dtype([
-    ("surface_state", "i1"),  # SurfaceState values
-    ("pos_m", "f8", (3,)),  # centre of mass, inertial
-    ("vel_mps", "f8", (3,)),  # inertial
-    ("quat", "f8", (4,)),  # (w, x, y, z), body -> inertial
-    ("omega_body_radps", "f8", (3,)),  # angular velocity in the body frame (inertial rate)
-    ("mass_kg", "f8"),  # wet mass
-    ("fuel_kg", "f8"),
-    ("absorbing", "?"),  # this contact began slower than bounce_speed (SEED-NOTES 1)
-    ("sliding", "u1", (4,)),  # 1 where a foot's friction was kinetic at the last sub-step's end
-    ("settle_ticks", "i8"),  # consecutive ticks the settle thresholds have held
-    ("pivot_rate_radps", "f8"),  # tipped only: rate of turn about the pivot (+ = toppling)
-    ("pin_pos_bf_m", "f8", (3,)),  # pinned ships: centre of mass, body-fixed frame
-    ("pin_quat_bf", "f8", (4,)),  # pinned ships: attitude relative to the body-fixed frame
-    ("pin_pivot_bf_m", "f8", (3,)),  # tipped only: the pivot (lowest foot), body-fixed frame
-], align=True)
+from sim.fields import record_dtype
 
-INPUTS_DTYPE = np.dtype([
-    ("throttle", "f8"),  # 0..1 of max_thrust
-    ("rcs", "f8", (3,)),  # -1..1 of max_rcs_torque per body axis; 0 leaves the axis to the hold
-    ("hold", "i1"),  # HoldMode values
-], align=True)
-
-OUTPUTS_DTYPE = np.dtype([
-    ("altitude_m", "f8"),  # lowest foot above the terrain under it (negative = penetrating)
-    ("penetration_m", "f8"),  # max(0, -altitude)
-    ("peak_penetration_m", "f8"),  # deepest penetration at any sub-step of the tick (>= 0)
-    ("cos_tilt", "f8"),  # cosine of the long axis' angle from local up
-    ("v_radial_mps", "f8"),  # + = up, relative to the surface
-    ("v_tangential_mps", "f8"),  # speed along the surface, relative to it
-    ("normal_force_n", "f8"),
-    ("friction_force_n", "f8"),
-    ("throttle", "f8"),  # applied (0 without fuel)
-    ("rcs_torque_body_nm", "f8", (3,)),  # applied
-    ("energy_guard_j", "f8"),  # energy the passivity guard removed this tick (sim.step)
-], align=True)
+#: The records of the state, the commands in force and what a tick reports: built from the one
+#: table of per-ship quantities (sim.fields), where each field's unit and meaning are declared.
+STATE_DTYPE = record_dtype("state")
+INPUTS_DTYPE = record_dtype("inputs")
+OUTPUTS_DTYPE = record_dtype("outputs")
 
 #: One state transition as the compiled step writes it (sim.step).
 TRANSITION_DTYPE = np.dtype([

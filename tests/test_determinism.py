@@ -4,12 +4,10 @@ from fractions import Fraction
 import numpy as np
 
 from scenes import records, scene
-from sim.state import STATE_ARRAY_FIELDS
+from sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS
 from sim.step import step
 
-OUTPUT_FIELDS = ("altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
-                 "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
-                 "rcs_torque_body_nm", "energy_guard_j")
+OUTPUT_FIELDS = OUTPUTS_DTYPE.names
 
 
 def varied_fleet(n, seed=20261122):

@@ -170,3 +170,30 @@ def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
             assert data[offsets[k]:offsets[k + 1]].tobytes() == msg.SerializeToString(), rec.tick
             checked += 1
     assert checked == scn.params.sim.n_ticks + 1
+
+
+def test_the_field_registry_and_the_proto_schema_agree_field_by_field():
+    """sim.fields declares each per-ship quantity once; the TickBatch schema (written
+    schema-first) holds exactly those, plus the ships' keys, each with the wire type its record
+    type needs, and the step's records are built from the registry."""
+    from google.protobuf.descriptor import FieldDescriptor as FD
+
+    from sim import fields
+    from sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
+
+    packed = {f.name: f for f in pb.TickBatch.DESCRIPTOR.fields
+              if f.name not in ("tick", "t_s", "ship_count")}
+    assert set(packed) == set(fields.BY_LOG_NAME) | {"ship_key"}
+    wire = {"f8": FD.TYPE_DOUBLE, "i8": FD.TYPE_SFIXED64, "?": FD.TYPE_BOOL}
+    for f in fields.FIELDS:
+        d = packed[f.in_log]
+        assert d.is_repeated, f.name
+        if f.dtype in wire:
+            assert d.type == wire[f.dtype], f.name
+        else:  # one-byte enums and flags
+            assert d.type in (FD.TYPE_ENUM, FD.TYPE_BOOL, FD.TYPE_UINT32), f.name
+        assert f.unit == "" or f.name.endswith(("_m", "_mps", "_radps", "_kg", "_n", "_nm", "_j")), \
+            f"{f.name}: a quantity with a unit names it"
+    for record, dtype in (("state", STATE_DTYPE), ("outputs", OUTPUTS_DTYPE),
+                          ("inputs", INPUTS_DTYPE)):
+        assert dtype.names == tuple(f.name for f in fields.of_record(record))

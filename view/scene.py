@@ -17,7 +17,7 @@ import numpy as np
 
 from logs import LogError
 from logs.mcap_log import LogReader, fleet_params, scenario_of
-from sim import measure
+from sim import fields, measure
 from sim.measure import ENERGY_PARTS
 from sim.params import Params
 
@@ -102,11 +102,10 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
         cols: dict[str, list[np.ndarray]] = {}
         ticks: list[int] = []
         keys: list[np.ndarray] = []
-        names = ("surface_state", "pos_m", "quat", "vel_mps", "omega_body_radps", "mass_kg",
-                 "fuel_kg", "altitude_m", "penetration_m", "peak_penetration_m", "cos_tilt",
-                 "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n",
-                 "throttle", "energy_guard_j")
-        width = {"pos_m": 3, "vel_mps": 3, "omega_body_radps": 3, "quat": 4}
+        # what a log holds on every tick (sim.fields), bar the commands
+        drawn = [f for f in fields.FIELDS if not f.keyframe_only and f.record != "inputs"]
+        names = tuple(f.in_log for f in drawn)
+        width = {f.in_log: f.per_ship for f in drawn}
         for td in reader.ticks():
             a = td.arrays
             n = td.ship_count
