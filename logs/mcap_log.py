@@ -31,7 +31,7 @@ from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
 from sim.enums import EventKind, SurfaceState
-from sim.world import Block, TickRecord
+from sim.world import Block, TickRecord, World
 from sim.scenario import Scenario, ScenarioError, parse
 from sim.params import Params
 from sim.state import STATE_ARRAY_FIELDS, Inputs, State, concatenate
@@ -101,9 +101,8 @@ def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: in
 
 def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
                   ) -> pb.TransitionEvent:
-    """A transition as the log and the event stream carry it (its ship named by ``ev.ship_id``,
-    or by its place in ``ships``' tick-0 order where the event has none)."""
-    ship_id = ev.ship_id or ships.ids[ev.ship]
+    """A transition as the log and the event stream carry it."""
+    ship_id = ev.ship_id
     player_id = ships.players[ships.key(ship_id)]
     return pb.TransitionEvent(
         event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * dt_s, ship_id=ship_id,
@@ -365,7 +364,6 @@ class TickData:
         self._where = where
         self._ships = ships if log_format < 3 else 0  # format 3: the fleet changes
         self._format = log_format
-        self._old_format = log_format < 2
         self._table_size = table_size
         self._decoded: tuple[int, float, int, dict[str, np.ndarray]] | None = None
 
@@ -396,7 +394,7 @@ class TickData:
         if any(keyframe) and not all(keyframe):
             raise LogError(f"{where}: a keyframe with some of its fields missing")
         for name, a in arrays.items():
-            width = 1 if (name == "sliding" and self._old_format) else WIDTH.get(name, 1)
+            width = 1 if (name == "sliding" and self._format < 2) else WIDTH.get(name, 1)
             if a.size != count * width:
                 raise LogError(f"{where}: field {name} holds {a.size} numbers for {count} ships")
         if count and (arrays["surface_state"] > 4).any():
@@ -629,6 +627,20 @@ def fleet_params(reader: LogReader, scn: Scenario) -> Params:
     return scn.params.with_ships(concatenate(ships))
 
 
+def recorded_world(reader: LogReader, scn: Scenario) -> World:
+    """The world a replay folds over: ``scn``'s ships at tick 0 (the log's scenario, perhaps
+    changed by a what-if), with the log's recorded joins, leaves and commands (format 3; before
+    it, the scenario's own inputs)."""
+    world = World.of(scn)
+    if reader.log_format >= 3:
+        world.timeline = reader.timeline()
+        table = reader.ship_table()
+        for sid, spec in zip(table.ids, table.specs):
+            if spec is not None:
+                world.known[sid] = spec
+    return world
+
+
 def _parse(cls, data: bytes, what: str):
     try:
         return cls.FromString(data)
@@ -678,4 +690,4 @@ def scenario_of(reader: LogReader, ship_id: str | None = None,
 
 
 __all__ = ["LogWriter", "LogReader", "TickData", "ShipTable", "STATE_ARRAY_FIELDS", "tick_arrays",
-           "scenario_of", "scenario_message", "fleet_params"]
+           "scenario_of", "scenario_message", "fleet_params", "recorded_world"]

@@ -22,8 +22,8 @@ import numpy as np
 from logs import LogError
 from logs.codec import PACKED, BlockEncoder
 from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                           LogReader, ShipTable, event_message, fleet_params, scenario_of,
-                           tick_arrays)
+                           LogReader, ShipTable, event_message, fleet_params, recorded_world,
+                           scenario_of, tick_arrays)
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -255,12 +255,7 @@ def _world(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | No
            keyframe) -> World:
     """The world to re-run: the log's recorded joins, leaves and commands (format 3; before it,
     the scenario's), from tick 0 or from ``keyframe``'s state, all ships or ``ship_id`` alone."""
-    world = World.of(scn)
-    if reader.log_format >= 3:
-        world.timeline = reader.timeline()
-    for sid, spec in zip(table.ids, table.specs):
-        if spec is not None:
-            world.known[sid] = spec
+    world = recorded_world(reader, scn)
     if keyframe is not None:
         state = keyframe.state()
         keys = keyframe.keys

@@ -9,13 +9,12 @@ from itertools import zip_longest
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, LogWriter, scenario_message, scenario_of
+from logs.mcap_log import LogReader, LogWriter, recorded_world, scenario_message, scenario_of
 from service.driver import drive
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
 from sim.scenario import Scenario
 from sim.timeline import Timeline
-from sim.world import World
 
 
 @dataclass
@@ -61,18 +60,15 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
     with LogReader(path) as reader:
         res.log_version = reader.scenario.project_version
         scn = _scenario(reader, overrides, ship_id)
-        world = World.of(scn)
+        world = recorded_world(reader, scn)
         old_dt = reader.scenario.dt_s
         new_dt = scn.params.sim.dt_s
         table = reader.ship_table()
         if reader.log_format >= 3:
-            recorded = reader.timeline()
+            recorded = world.timeline
             if ship_id is not None:
                 recorded = recorded.for_ship(ship_id)
             world.timeline = _regrid(recorded, old_dt, new_dt)
-            for sid, spec in zip(table.ids, table.specs):
-                if spec is not None:
-                    world.known[sid] = spec
         old_ticks = {td.tick: td for td in reader.ticks()}
         ids = [ship_id] if ship_id is not None else list(table.ids)
         old_events = {sid: [] for sid in ids}

@@ -10,6 +10,7 @@ never a footerless ``.partial``.
 """
 from __future__ import annotations
 
+import itertools
 import signal
 import sys
 import threading
@@ -53,24 +54,24 @@ def drive(world: World, last_tick: int, log: LogWriter | None = None,
     how = "done"
     last = world.tick
     try:
-        with stop:
-            blocks = world.blocks(last_tick)
-            if first_block:
-                blocks = _chain(world.first_block(), blocks)
-            for block in blocks:
-                msgs = log.write_block(block) if log is not None else []
-                events += len(msgs)
-                for sink in sinks:
-                    sink(block, msgs)
-                last = block.last_tick
-                if prog is not None:
-                    prog.update(prog.task_ids[0], completed=block.last_tick)
-                if stop.asked:
-                    how = "interrupted"
-                    break
-            stop.busy = True
-            if log is not None:
-                log.close(complete=how == "done", reason="" if how == "done" else "interrupted")
+        stop.install()
+        blocks = world.blocks(last_tick)
+        if first_block:
+            blocks = itertools.chain([world.first_block()], blocks)
+        for block in blocks:
+            msgs = log.write_block(block) if log is not None else []
+            events += len(msgs)
+            for sink in sinks:
+                sink(block, msgs)
+            last = block.last_tick
+            if prog is not None:
+                prog.update(prog.task_ids[0], completed=block.last_tick)
+            if stop.asked:
+                how = "interrupted"
+                break
+        stop.busy = True
+        if log is not None:
+            log.close(complete=how == "done", reason="" if how == "done" else "interrupted")
     except KeyboardInterrupt:  # the second Ctrl-C
         how = "abandoned"
         if log is not None:
@@ -87,11 +88,6 @@ def drive(world: World, last_tick: int, log: LogWriter | None = None,
             on_close()
         stop.restore(exiting=how != "done")
     return Outcome(how, last, events)
-
-
-def _chain(first, rest):
-    yield first
-    yield from rest
 
 
 class _Interrupts:
@@ -113,13 +109,9 @@ class _Interrupts:
             self.busy = True
             raise KeyboardInterrupt
 
-    def __enter__(self) -> "_Interrupts":
+    def install(self) -> None:
         if threading.current_thread() is threading.main_thread():
             self._previous = signal.signal(signal.SIGINT, self._on_sigint)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        return None
 
     def restore(self, exiting: bool) -> None:
         if self._previous is None:

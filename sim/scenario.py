@@ -23,7 +23,7 @@ from sim.enums import HoldMode, SurfaceState
 from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
                         Terrain)
-from sim.state import COMMAND_DTYPE, Inputs, State
+from sim.state import Inputs, State
 from sim.timeline import Command, Retire, Spawn, Timeline
 
 
@@ -239,17 +239,6 @@ class Scenario:
             if c.ship_id in index:
                 rows[index[c.ship_id]] = (c.throttle, c.rcs, c.hold)
         return Inputs(rows=rows)
-
-    @cached_property
-    def commands(self) -> np.ndarray:
-        """The commands of the ships of tick 0 as the step takes them (sim.state.COMMAND_DTYPE,
-        ``ship`` their index at tick 0), in order."""
-        index = {sid: i for i, sid in enumerate(self.params.ships.ship_id)}
-        mine = [c for c in self.timeline.commands if c.ship_id in index]
-        out = np.zeros(len(mine), COMMAND_DTYPE)
-        for k, c in enumerate(mine):
-            out[k] = (c.tick, index[c.ship_id], c.throttle, c.rcs, c.hold)
-        return out
 
 
 def parse_text(text: str, source: str, overrides: dict[str, Any] | None = None) -> Scenario:

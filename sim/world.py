@@ -104,6 +104,7 @@ class World:
     #: ship id -> its table, for every ship that has been in this world (a spawned id is never
     #: reused: it names one ship in a log)
     known: dict[str, dict] = field(default_factory=dict)
+    _index: tuple = field(default=((), {}), repr=False)  # ship ids -> rows, for the fleet of now
 
     @classmethod
     def of(cls, scn: Scenario) -> "World":
@@ -228,8 +229,13 @@ class World:
         return cmds[:k], cmds[k:]
 
     def _command_table(self, commands: tuple[Command, ...]) -> np.ndarray:
-        index = {sid: i for i, sid in enumerate(self.ship_ids)}
         table = np.zeros(len(commands), COMMAND_DTYPE)
+        if not commands:  # most blocks: no index of the fleet built
+            return table
+        ids = self.ship_ids
+        if self._index[0] is not ids:  # the same tuple while the fleet is the same
+            self._index = (ids, {sid: i for i, sid in enumerate(ids)})
+        index = self._index[1]
         for k, c in enumerate(commands):
             if c.ship_id not in index:  # accepted only for present ships: a bad timeline
                 raise CommandError(f"command for ship {c.ship_id!r} at tick {c.tick}: the ship "
