@@ -94,6 +94,7 @@ class World:
     next tick, a command holds from the step that begins at this tick. Each is checked when given
     (CommandError, one line naming the ship and the field), so that nothing that was accepted can
     fail later, and is recorded in the blocks, which is what a log keeps and a replay folds over.
+    The world steps its own state in place (``state`` is the world now; the blocks hold copies).
     """
 
     scene: Scene
@@ -105,6 +106,7 @@ class World:
     #: reused: it names one ship in a log)
     known: dict[str, dict] = field(default_factory=dict)
     _index: tuple = field(default=((), {}), repr=False)  # ship ids -> rows, for the fleet of now
+    _own: tuple = field(default=(None, None), repr=False)  # the state and inputs it stepped
 
     @classmethod
     def of(cls, scn: Scenario) -> "World":
@@ -198,7 +200,14 @@ class World:
         params, n, first = self.params, self.state.n, self.tick
         commands, rest = self._commands_until(first + k_max)
         table = self._command_table(commands)
-        state, inputs = self.state.rows.copy(), self.inputs.rows.copy()
+        # the world's own arrays are stepped in place; any others (a scenario's initial state,
+        # a keyframe's) are copied once, the first time
+        state, inputs = self.state.rows, self.inputs.rows
+        if state is not self._own[0]:
+            state = state.copy()
+        if inputs is not self._own[1]:
+            inputs = inputs.copy()
+        self._own = (state, inputs)
         states = np.empty((k_max, n), STATE_DTYPE)
         outputs = np.empty((k_max, n), OUTPUTS_DTYPE)
         ins = np.empty((k_max, n), INPUTS_DTYPE)
