@@ -2,9 +2,11 @@
 2 bad usage or bad input (one line on stderr naming the file, key or field; no traceback)."""
 from __future__ import annotations
 
+import json
 import re
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import click
@@ -288,8 +290,60 @@ def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: st
 
 
 @main.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path())
+@click.option("--ship", "ship_id", default=None, metavar="ID", help="the ship to cut (required)")
+@click.option("--around", default=None, metavar="TICK", help="the incident's tick (required)")
+@click.option("--before", default="5", show_default=True, metavar="SECONDS",
+              help="how long before TICK the cut starts (from the keyframe at or before it)")
+@click.option("--after", default="5", show_default=True, metavar="SECONDS",
+              help="how long after TICK the cut ends")
+@click.option("-o", "--output", default=None, metavar="OUT.mcap", help="the cut log (required)")
+def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, before: str,
+             after: str, output: str | None) -> None:
+    """Cut a standalone log of one ship around an incident from LOG (several files, or a
+    directory of rotated files, of one run): ticks TICK - before .. TICK + after, clipped to what
+    the logs hold, from the keyframe at or before the start. The cut is re-run from the logs' own
+    records and checked against them tick by tick as it is written (exit 1, nothing written, if
+    they differ); `touchdown replay OUT --verify` passes on it."""
+    from replay.incident import Diverged, incident as cut
+
+    if not ship_id:
+        raise UserError("--ship: the ship to cut is required (--ship ID)")
+    if around is None:
+        raise UserError("--around: the incident's tick is required (--around TICK)")
+    if not output:
+        raise UserError("-o: the output file is required (-o OUT.mcap)")
+    if not output.endswith(".mcap"):
+        raise UserError(f"-o {output}: the cut is an .mcap file")
+    try:
+        tick = int(around)
+    except ValueError:
+        tick = -1
+    if tick < 0:
+        raise UserError(f"--around {around!r}: must be a tick, a whole number >= 0")
+    seconds = {}
+    for flag, raw in (("--before", before), ("--after", after)):
+        try:
+            seconds[flag] = float(raw)
+        except ValueError:
+            seconds[flag] = float("nan")
+        if not (seconds[flag] >= 0.0 and seconds[flag] < 1e7):
+            raise UserError(f"{flag} {raw!r}: must be seconds, a number >= 0")
+    try:
+        res = cut(list(logs), ship_id, tick, seconds["--before"], seconds["--after"], output)
+    except LogError as exc:
+        raise UserError(str(exc)) from None
+    except Diverged as exc:
+        raise WorkFailed(f"{str(exc)} (no {output})") from None
+    except OSError as exc:
+        raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
+                         f"(no {output})") from None
+    click.echo(res.report())
+
+
+@main.command()
 @click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz"]))
+                                           "fuzz", "serve"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -309,7 +363,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     `physics`: scenes off the well-walked paths (turning bodies, tumbles, falls onto the side,
     spins, hills, slopes, impossible starts), each figure beside what physics says; `fuzz`: a
     campaign of generated hostile logs and scenarios against verify, export and record, counted
-    per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result)."""
+    per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
+    `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
+    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1)."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
@@ -325,12 +381,83 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     elif what == "physics":
         from bench import physics
         physics.main(quick=quick)
+    elif what == "serve":
+        from bench import serve as bench_serve
+        bench_serve.main(quick=quick)
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)
     else:
         from bench import replay_speed
         replay_speed.main(quick=quick)
+
+
+@main.command()
+@click.option("--redis", "redis_url", default="redis://127.0.0.1:6379/0", show_default=True,
+              metavar="URL", help="the Redis the service works through")
+@click.option("--scenario", "scenario", default=None, metavar="FILE",
+              help="start with this scenario's ships (a .toml file or a built-in name)")
+@click.option("--ticks", type=click.IntRange(min=1), default=None,
+              help="stop after N ticks (default: when stopped by SIGTERM or Ctrl-C)")
+@click.option("--rate", type=click.FloatRange(min=0.0), default=None,
+              help="ticks per wall-clock second (default 1/dt: real time; 0: as fast as it can)")
+@click.option("--log-dir", default="flight", show_default=True, type=click.Path(file_okay=False),
+              help="where the flight logs go (rotating MCAP files, one folder per shard)")
+@click.option("--prefix", default="galaxy", show_default=True,
+              help="the service's Redis keys begin with this (PREFIX:ships, PREFIX:commands, ...)")
+@click.option("--stream", "events_stream", default=None,
+              help="the event stream (default PREFIX:ships)")
+@click.option("--commands", "commands_stream", default=None,
+              help="the command stream (default PREFIX:commands)")
+@click.option("--shards", type=click.IntRange(min=1, max=4096), default=4, show_default=True,
+              help="how the ships are divided among workers (every worker must agree)")
+@click.option("--lease", "lease_s", type=click.FloatRange(min=0.1), default=2.0,
+              show_default=True, help="seconds before a dead worker's shards are taken over")
+@click.option("--checkpoint-every", type=click.IntRange(min=1), default=20, show_default=True,
+              help="ticks between a shard's checkpoints in Redis")
+@click.option("--telemetry-hz", type=click.FloatRange(min=0.0), default=1.0, show_default=True,
+              help="telemetry samples per simulated second (0: none)")
+@click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=64.0, show_default=True,
+              help="a flight log file is closed and the next begun past this size")
+@click.option("--max-shards", type=click.IntRange(min=1), default=None,
+              help="own at most this many shards (default: a fair share of the live workers)")
+@click.option("--worker-id", default="", help="this worker's name (default HOST-PID)")
+@click.option("--stats-json", default=None, hidden=True, type=click.Path(dir_okay=False),
+              help="(bench serve) write each tick's working time and the counts here at exit")
+def serve(redis_url: str, scenario: str | None, ticks: int | None, rate: float | None,
+          log_dir: str, prefix: str, events_stream: str | None, commands_stream: str | None,
+          shards: int, lease_s: float, checkpoint_every: int, telemetry_hz: float,
+          log_max_mb: float, max_shards: int | None, worker_id: str,
+          stats_json: str | None) -> None:
+    """The live service: step the ships of a scenario and those spawned by commands, read
+    commands from Redis, publish events, keep each ship's state in Redis, write flight logs
+    (SPEC.md section 5)."""
+    from service.serve import ServeConfig, ServeError, Worker, install_stop
+
+    scn, source = load_scenario(scenario) if scenario else (None, "")
+    cfg = ServeConfig(url=redis_url, scenario=scn, source=source, ticks=ticks, rate_hz=rate,
+                      log_dir=Path(log_dir), prefix=prefix, events_stream=events_stream,
+                      commands_stream=commands_stream, shards=shards, lease_s=lease_s,
+                      checkpoint_every=checkpoint_every, telemetry_hz=telemetry_hz,
+                      log_max_bytes=int(log_max_mb * (1 << 20)), worker_id=worker_id,
+                      max_shards=max_shards)
+    try:
+        worker = Worker(cfg)
+    except ServeError as exc:
+        raise UserError(str(exc)) from None
+    install_stop(worker)
+    t0 = time.perf_counter()
+    stats = worker.run()
+    if stats_json:
+        Path(stats_json).write_text(json.dumps({
+            "tick_s": stats.tick_s, "late": stats.late, "entries_sent": stats.entries_sent,
+            "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0}))
+    times = sorted(stats.tick_s) or [0.0]
+    pct = lambda q: times[min(len(times) - 1, int(q * len(times)))] * 1e3  # noqa: E731
+    click.echo(f"touchdown serve: {stats.ticks} ticks; tick time p50 {pct(0.5):.2f} ms, "
+               f"p99 {pct(0.99):.2f} ms, max {times[-1] * 1e3:.2f} ms; {stats.entries_sent:,} "
+               f"entries delivered, {stats.entries_dropped:,} dropped; {stats.commands_read:,} "
+               f"commands read; {stats.late} tick(s) late; logs in {log_dir}", err=True)
 
 
 if __name__ == "__main__":

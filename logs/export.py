@@ -102,15 +102,20 @@ def what_was_read(reader: LogReader, last_tick: int | None, events: bool = False
     if not reader.status.complete:
         held = ("the events recorded before the cut" if events else
                 "no tick" if last_tick is None else
-                f"ticks 0..{last_tick} of {reader.scenario.n_ticks}")
+                f"ticks {reader.start_tick}..{last_tick}{_of(reader)}")
         damage = f"; {reader.status.damage}" if reader.status.damage else ""
         return (f"{reader.path}: read only part of the log: it ends without a footer (cut, or its "
                 f"writer was killed{damage}); exported {held}")
     summary = reader.read_summary()
     if summary is not None and not summary.complete:
         return (f"{reader.path}: the run was stopped ({summary.reason or 'no reason given'}): "
-                f"the log holds ticks 0..{summary.last_tick} of {reader.scenario.n_ticks}")
+                f"the log holds ticks {reader.start_tick}..{summary.last_tick}{_of(reader)}")
     return ""
+
+
+def _of(reader: LogReader) -> str:
+    """" of N" (the run's last tick), or nothing for a run without a set end (a live service)."""
+    return "" if reader.open_ended else f" of {reader.scenario.n_ticks}"
 
 
 __all__ = ["tick_rows", "event_rows", "write_jsonl", "what_was_read", "pb"]

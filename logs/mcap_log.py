@@ -12,6 +12,8 @@ written: a file under the final name is always a finished MCAP. A writer that is
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
 import json
 import math
 import os
@@ -32,17 +34,23 @@ from sim import __version__ as PROJECT_VERSION
 from sim import fields
 from sim.enums import EventKind, SurfaceState
 from sim.world import Block, TickRecord, World
-from sim.scenario import Scenario, ScenarioError, parse
+from sim.scenario import TIMING_KEYS, Scenario, ScenarioError, parse
 from sim.params import Params
-from sim.state import STATE_ARRAY_FIELDS, Inputs, State, concatenate
+from sim.state import STATE_ARRAY_FIELDS, Inputs, Outputs, State, concatenate
 from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: 2 (touchdown 0.3): per-foot ``sliding`` (4 per ship); velocities and angular velocities on every
 #: tick. A format-1 log still reads (``sliding`` per ship is given to all four feet).
 #: 3 (touchdown 0.5): ships join and leave (FleetChange), each tick names its ships by key
 #: (TickBatch.ship_key), commands are recorded as commands (CommandBatch), and a replay folds over
-#: those; formats 1 and 2 replay from their scenario's inputs, with a notice.
+#: those; formats 1 and 2 replay from their scenario's inputs, with a notice. Later in 3, with
+#: fields that default to what every earlier log of format 3 is: a log may start at any tick
+#: (ScenarioRecord.start_tick: its first tick record is a keyframe of the header's ships, which
+#: the replay starts from) and a run may have no set end (ScenarioRecord.open_ended: the summary's
+#: last tick is its end). A reader from before refuses such a log (its first tick is not 0).
 LOG_FORMAT_VERSION = 3
+#: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
+MAX_START_TICK = 1 << 53
 #: the tick, s: what a scenario may set (sim.scenario), and so what a log may hold
 MIN_DT_S, MAX_DT_S = 1e-4, 1.0
 MAX_SHIPS = 10_000_000
@@ -123,6 +131,50 @@ def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
         keyframe_interval=keyframe_interval)
 
 
+def world_header(world: World, name: str, source: str, keyframe_interval: int = 1,
+                 open_ended: bool = False, description: str = "", end_tick: int | None = None,
+                 tables: dict[str, dict] | None = None) -> pb.ScenarioRecord:
+    """The header of a log of ``world`` from its current tick (``start_tick``): the resolved scene
+    with ``ships`` the tables of the ships present now (their timing keys removed: when they join,
+    leave and what they are commanded is the log's own record; their ``initial`` tables are
+    irrelevant, as the state comes from the log's first tick record, a keyframe). The world may
+    have no ships. ``open_ended``: the run has no set end (a live service); ``end_tick``: the
+    run's last tick when not the scene's ``duration`` (a cut: n_ticks is set to it);
+    ``tables``: ship id -> its resolved table, a cache kept across the headers of one world
+    (each ship is resolved once: 10,000 ships take about half a second)."""
+    doc = copy.deepcopy(world.scene.doc)
+    doc.pop("ships", None)
+    doc["name"] = name
+    if description:
+        doc["description"] = description
+    sim = world.params.sim
+    if end_tick is not None:
+        doc["duration"] = end_tick * sim.dt_s
+        if dataclasses.replace(sim, duration_s=doc["duration"]).n_ticks != end_tick:
+            raise ValueError(f"end_tick {end_tick}: not a whole number of ticks of {sim.dt_s!r} s")
+        sim = dataclasses.replace(sim, duration_s=doc["duration"])
+    ids = list(world.ship_ids)
+    cache = {} if tables is None else tables
+    missing = [sid for sid in ids if sid not in cache]
+    if missing:  # resolved by the scenario's rules, with its messages
+        scn = parse({**doc, "ships": [{k: v for k, v in world.known[sid].items()
+                                       if k not in TIMING_KEYS} for sid in missing]},
+                    source or name)
+        if list(scn.params.ships.ship_id) != missing:
+            raise ValueError(f"the world's ships {missing[:5]} resolve to "
+                             f"{list(scn.params.ships.ship_id)[:5]}")
+        cache.update(zip(missing, scn.resolved["ships"]))
+    # no ships (yet): the scene alone, which the log's reader accepts (scenario_of)
+    resolved = {**doc, "ships": [cache[sid] for sid in ids]}
+    return pb.ScenarioRecord(
+        log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=name,
+        description=resolved.get("description", ""),
+        resolved_json=json.dumps(resolved, sort_keys=True), integrator=sim.integrator,
+        dt_s=sim.dt_s, ship_ids=ids, player_ids=list(world.params.ships.player_id),
+        body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
+        keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended)
+
+
 class ShipTable:
     """Every ship of a log by key: the header's ships (keys 0, 1, ...), then each that joined, in
     the order they joined. ``specs[k]``: the table a joining ship came with (None for the
@@ -198,7 +250,7 @@ class LogWriter:
                 "dt_s": repr(header.dt_s)})
             self.keyframe_interval = keyframe_interval
             self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval)
-            self._put(TOPIC_SCENARIO, 0, header.SerializeToString())
+            self._put(TOPIC_SCENARIO, int(header.start_tick), header.SerializeToString())
         except BaseException:  # nothing half-written: no .partial without a writer
             self._discard()
             raise
@@ -217,6 +269,15 @@ class LogWriter:
             item = self._queue.get()
             if item is None:
                 return
+            if isinstance(item, threading.Event):  # flush(): all before it is written
+                try:
+                    if self._error is None and not self._abort:
+                        self._mcap.flush()  # ends the chunk being filled
+                        self._stream.flush()
+                except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                    self._error = exc
+                item.set()
+                continue
             if self._error is not None or self._abort:
                 continue  # drop the rest; the caller hears of the error
             try:
@@ -256,8 +317,22 @@ class LogWriter:
 
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
         """Append a block of ticks (sim.world.Block): its joins and leaves, its commands, its
-        ticks and its events. Returns the events as messages (for publishing elsewhere too)."""
+        ticks and its events. Returns the events as messages (for publishing elsewhere too).
+
+        The first block is the record of the header's ``start_tick`` with the header's ships (a
+        run's tick 0: ``world.first_block()``; later, a keyframe of the fleet as it is then), and
+        is written as a keyframe; each next block follows the last."""
         self._check()
+        expected = int(self.header.start_tick) if self.last_tick < 0 else self.last_tick + 1
+        if block.first_tick != expected:
+            raise ValueError(f"{self.path}: a block of ticks {block.first_tick}.."
+                             f"{block.last_tick} where the log's next tick is {expected}")
+        if self.last_tick < 0 and (len(block) != 1 or tuple(block.ship_ids) != tuple(
+                self.header.ship_ids) or block.spawned or block.retired or block.commands
+                                   or block.events):
+            raise ValueError(f"{self.path}: the first block must be the one tick {expected} with "
+                             f"the header's ships and nothing that led to it (no joins, leaves, "
+                             f"commands or events): world.first_block()")
         inputs = self._inputs(block)
         if self._keys_of[0] is not block.ship_ids:  # the same tuple while the fleet is the same
             self._keys_of = (block.ship_ids, self.ships.keys(block.ship_ids))
@@ -313,9 +388,10 @@ class LogWriter:
         try:
             self._stop_thread()
             self._check()
-            summary = pb.LogSummary(last_tick=max(self.last_tick, 0), complete=complete,
-                                    reason=reason, event_count=self.event_count)
-            self._put(TOPIC_SUMMARY, max(self.last_tick, 0), summary.SerializeToString())
+            last = max(self.last_tick, int(self.header.start_tick))
+            summary = pb.LogSummary(last_tick=last, complete=complete, reason=reason,
+                                    event_count=self.event_count)
+            self._put(TOPIC_SUMMARY, last, summary.SerializeToString())
             self._mcap.finish()
             self._stream.close()
             os.replace(self.partial, self.path)
@@ -324,6 +400,27 @@ class LogWriter:
             self._stop_thread()
             self._discard()
             raise
+
+    def flush(self) -> None:
+        """Wait until every block written so far is in the file (its chunk ended, the file's
+        buffer handed to the operating system): a reader of the partial file, or one that
+        recovers it after the writer is killed, finds every tick up to the last one written."""
+        self._check()
+        if self._closed:
+            return
+        done = threading.Event()
+        self._queue.put(done)
+        done.wait()
+        self._check()
+
+    @property
+    def size(self) -> int:
+        """Bytes written to the file so far (the blocks still queued for the writer's thread,
+        and the chunk it is filling, are not in it yet)."""
+        try:
+            return self._stream.tell()
+        except (OSError, ValueError):  # closed
+            return 0
 
     def abandon(self) -> None:
         """Drop the partial file (an error before anything worth keeping)."""
@@ -458,6 +555,14 @@ class TickData:
             return np.repeat(a[:, None], 4, axis=1)
         return a.reshape(self.ship_count, 4)
 
+    def outputs(self) -> Outputs:
+        """What this tick reported (on every tick)."""
+        if self.ship_count == 0:
+            return Outputs.zeros(0)
+        return Outputs.of(self.ship_count, **{
+            f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else self.arrays[f.in_log]
+            for f in fields.of_record("outputs")})
+
     def inputs(self) -> Inputs:
         """The commands applied during the step into this tick."""
         if self.ship_count == 0:
@@ -501,9 +606,15 @@ class LogReader:
         least = 1 if sr.log_format_version < 3 else 0  # format 3: ships may all join later
         if not least <= len(sr.ship_ids) <= MAX_SHIPS or len(sr.player_ids) != len(sr.ship_ids):
             raise LogError(f"{where}: {len(sr.ship_ids)} ships, {len(sr.player_ids)} players")
-        if sr.keyframe_interval > max(1, sr.n_ticks):
+        if sr.keyframe_interval > max(1, sr.n_ticks) and not sr.open_ended:
             raise LogError(f"{where}: keyframe_interval {sr.keyframe_interval} exceeds its "
                            f"{sr.n_ticks} ticks")
+        if (sr.start_tick or sr.open_ended) and sr.log_format_version < 3:
+            raise LogError(f"{where}: start_tick or open_ended in a log of format "
+                           f"{sr.log_format_version} (they are of format 3)")
+        if sr.start_tick >= MAX_START_TICK or (sr.start_tick > sr.n_ticks and not sr.open_ended):
+            raise LogError(f"{where}: start_tick {sr.start_tick} is past its run's "
+                           f"{'limit' if sr.open_ended else f'last tick {sr.n_ticks}'}")
         if len(sr.resolved_json) > MAX_SCENARIO_CHARS:
             raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
                            f"(limit {MAX_SCENARIO_CHARS:,})")
@@ -523,6 +634,26 @@ class LogReader:
     @property
     def keyframe_interval(self) -> int:
         return max(1, int(self.scenario.keyframe_interval))
+
+    @property
+    def start_tick(self) -> int:
+        """The first tick the log holds (a keyframe): 0, or later for a log that starts with the
+        fleet as it is at a later tick (a rotated segment, a worker's takeover, a cut)."""
+        return int(self.scenario.start_tick)
+
+    @property
+    def open_ended(self) -> bool:
+        """The run had no set end (a live service): its end is the summary's last tick."""
+        return bool(self.scenario.open_ended)
+
+    def is_keyframe_tick(self, tick: int) -> bool:
+        """Whether the writer made ``tick`` a keyframe (its multiples of the interval, and the
+        log's first tick)."""
+        return tick == self.start_tick or tick % self.keyframe_interval == 0
+
+    def keyframe_at_or_before(self, tick: int) -> int:
+        """The keyframe a replay of ``tick`` starts from (never before the log's first tick)."""
+        return max(self.start_tick, tick - tick % self.keyframe_interval)
 
     def tick_time_ns(self, tick: int) -> int:
         return tick * int(round(self.scenario.dt_s * 1e9))
@@ -570,7 +701,13 @@ class LogReader:
 
     def timeline(self) -> Timeline:
         """The run's recorded input: the ships that joined and left, and every command
-        (format 3)."""
+        (format 3). Read once (a later call, e.g. while the ticks are being read, reads nothing:
+        a file whose footer is missing is read in one pass at a time)."""
+        if getattr(self, "_timeline", None) is None:
+            self._timeline = self._read_timeline()
+        return self._timeline
+
+    def _read_timeline(self) -> Timeline:
         table = self.ship_table()
         spawns, retires = [], []
         for change in self._fleet:
@@ -627,6 +764,18 @@ def fleet_params(reader: LogReader, scn: Scenario) -> Params:
     return scn.params.with_ships(concatenate(ships))
 
 
+def keyframe_world(reader: LogReader, scn: Scenario, keyframe: "TickData") -> World:
+    """The world a replay folds over from ``keyframe``'s tick (a log that starts later than tick
+    0, or a window): its ships in the state recorded there (their parameters from ``scn``, the
+    log's scenario, perhaps changed by a what-if, and the tables ships joined with), the commands
+    in force then, and the log's joins, leaves and commands after it."""
+    world = recorded_world(reader, scn)
+    world.params = fleet_params(reader, scn).take(keyframe.keys)
+    world.state, world.inputs = keyframe.state(), keyframe.inputs()
+    world.timeline = world.timeline.from_tick(keyframe.tick)
+    return world
+
+
 def recorded_world(reader: LogReader, scn: Scenario) -> World:
     """The world a replay folds over: ``scn``'s ships at tick 0 (the log's scenario, perhaps
     changed by a what-if), with the log's recorded joins, leaves and commands (format 3; before
@@ -665,7 +814,10 @@ def scenario_of(reader: LogReader, ship_id: str | None = None,
     if not isinstance(doc, dict) or not isinstance(doc.get("ships"), list):
         raise LogError(f"{reader.path}: the recorded scenario is not a scenario")
     try:
-        whole = parse(doc, str(reader.path))
+        if not doc["ships"] and reader.log_format >= 3:  # no ships at its first tick
+            whole = _without_ships(doc, str(reader.path))
+        else:
+            whole = parse(doc, str(reader.path))
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
     sim = whole.params.sim
@@ -684,10 +836,39 @@ def scenario_of(reader: LogReader, ship_id: str | None = None,
     if index is None and not overrides:
         return whole, None
     try:
+        if not doc["ships"]:
+            return _without_ships(doc, str(reader.path), overrides), index
         return parse(doc, str(reader.path), overrides), index
     except ScenarioError as exc:
         raise LogError(str(exc)) from None
 
 
+_ON_UNSTABLE = ("substep", "error", "allow")
+
+
+def _without_ships(doc: dict, source: str, overrides: dict | None = None) -> Scenario:
+    """A scenario with no ships (a log whose fleet is empty at its first tick: a live service
+    before anything is spawned), which sim.scenario.parse refuses: the scene is checked and
+    resolved by the same rules, with a stand-in ship that is then dropped (its own stability is
+    allowed, as it never runs); ``resolved`` is the scene with ``ships = []``."""
+    from sim.timeline import Timeline
+    if overrides:
+        from sim.scenario import apply_overrides
+        doc = apply_overrides(doc, overrides, source)
+    sim = doc.get("sim", {})
+    own = sim.get("on_unstable", "substep") if isinstance(sim, dict) else None
+    stand_in = {**doc, "ships": [{"id": "(none)"}]}
+    if own in _ON_UNSTABLE:
+        stand_in["sim"] = {**sim, "on_unstable": "allow"}
+    scn = parse(stand_in, source)
+    if scn.params.ships.n != 1:  # the stand-in joins later (a spawn time of its own): impossible
+        raise ScenarioError(source, "ships", "no ships, and a scene that places none")
+    resolved = {**scn.resolved, "sim": {**scn.resolved["sim"], "on_unstable": own}, "ships": []}
+    none = np.zeros(1, dtype=bool)
+    return Scenario(scn.name, scn.description, resolved, scn.params.take(none),
+                    State(rows=scn.initial.select(none).rows, tick=0), Timeline())
+
+
 __all__ = ["LogWriter", "LogReader", "TickData", "ShipTable", "STATE_ARRAY_FIELDS", "tick_arrays",
-           "scenario_of", "scenario_message", "fleet_params", "recorded_world"]
+           "scenario_of", "scenario_message", "world_header", "fleet_params", "recorded_world",
+           "keyframe_world"]

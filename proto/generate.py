@@ -1,4 +1,5 @@
-"""Regenerate proto/touchdown_pb2.py and .pyi from proto/touchdown.proto.
+"""Regenerate proto/*_pb2.py and .pyi from proto/*.proto (touchdown.proto: the log; service.proto:
+the live service's checkpoints and telemetry).
 
     python proto/generate.py            # writes next to the .proto
     python proto/generate.py OUT_DIR    # writes into OUT_DIR (the freshness test uses this)
@@ -18,7 +19,7 @@ def generate(out_dir: Path) -> None:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     args = ["protoc", f"-I{HERE}", f"--python_out={out_dir}", f"--pyi_out={out_dir}",
-            str(HERE / "touchdown.proto")]
+            *(str(p) for p in sorted(HERE.glob("*.proto")))]
     if protoc.main(args) != 0:
         raise SystemExit("protoc failed")
 

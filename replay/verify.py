@@ -11,6 +11,16 @@ The log is self-sufficient: its ScenarioRecord holds the resolved scenario (ever
 so no other file is read. A window ``first..last`` starts from the keyframe at or before ``first``.
 The re-run is driven by the recorded ticks, so it does no more ticks than the log holds; a check of
 less than the run (a cut log, a stopped run, a window) says so in its report.
+
+A log that starts at a tick T > 0 (ScenarioRecord.start_tick: a rotated segment of a longer run,
+a worker that took ships over, a cut around an incident) is re-run from its first tick record, a
+keyframe of the header's ships, as a window is from its keyframe: that record is the start (its
+state, and the commands in force), not re-derived; ticks T + 1 on, their events and the summary
+are compared. A whole log's summary must say where the file ends and why: ``complete`` with reason
+"" at the run's last tick (``n_ticks``; for an open-ended run, the last tick recorded), "rotated"
+(the run goes on in the next file), "stopped" (a live run stopped), "handed over" or "lost" (a
+live run goes on in another worker's log) at the last tick recorded; ``complete = false`` with
+"interrupted" or "stopped" (REASONS).
 """
 from __future__ import annotations
 
@@ -22,7 +32,7 @@ import numpy as np
 from logs import LogError
 from logs.codec import PACKED, BlockEncoder
 from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                           LogReader, ShipTable, event_message, fleet_params, recorded_world,
+                           LogReader, ShipTable, event_message, keyframe_world, recorded_world,
                            scenario_of, tick_arrays)
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
@@ -154,9 +164,15 @@ def verify(path: str, first: int | None = None, last: int | None = None,
             raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
                            f"{', '.join(table.ids[:20])}{', ...' if len(table) > 20 else ''})")
         index = None if ship_id is None else table.key(ship_id)
-        if first:  # start from the nearest keyframe at or before ``first``
-            first -= first % reader.keyframe_interval
-        n_ticks = int(sr.n_ticks)
+        if reader.log_format >= 3:
+            reader.timeline()  # read now, not between the tick records (a cut file: one pass)
+        start = reader.start_tick
+        window = first is not None and first > start
+        # from the log's first tick (0, or its keyframe at start_tick), or from the nearest
+        # keyframe at or before ``first``
+        first = reader.keyframe_at_or_before(first) if window else (start or None)
+        window = window and first > start
+        n_ticks = _run_end(reader)
         res = VerifyResult(sr.project_version, sr.integrator, sr.dt_s, first or 0,
                            min(last, n_ticks) if last is not None else n_ticks,
                            [ship_id] if ship_id is not None else list(table.ids),
@@ -170,11 +186,24 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         events_to = res.last_tick if reader.status.complete else res.last_tick - 1
         if res.divergence is None:
             _compare_events(reader, res, replayed, first, events_to, index)
-        whole = not first and index is None and last is None and reader.status.complete
+        whole = not window and index is None and last is None and reader.status.complete
         if res.divergence is None and whole:
             _compare_summary(reader, res, len(replayed))
         _say_what_was_checked(reader, res, target, events_to)
         return res
+
+
+#: an open-ended run cut before its summary: the re-run goes as far as the recorded ticks
+UNBOUNDED = 1 << 62
+
+
+def _run_end(reader: LogReader) -> int:
+    """The run's last tick: its scenario's (n_ticks), or for an open-ended run (a live service)
+    the summary's last tick (none: as far as the log goes)."""
+    if not reader.open_ended:
+        return int(reader.scenario.n_ticks)
+    summary = reader.read_summary() if reader.status.complete else None
+    return int(summary.last_tick) if summary is not None else UNBOUNDED
 
 
 def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | None,
@@ -189,6 +218,14 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
             keyframe = next(ticks)
         except StopIteration:
             raise LogError(f"{path}: no tick {first} in this log") from None
+        if keyframe.tick_from_time != first or not keyframe.is_keyframe:
+            raise LogError(f"{path}: no keyframe at tick {first} (the log's "
+                           f"{'first tick' if first == reader.start_tick else 'keyframes'} "
+                           f"should be one); found tick {keyframe.tick_from_time}")
+        if first == reader.start_tick and not np.array_equal(
+                keyframe.keys, np.arange(len(sr.ship_ids))):
+            raise LogError(f"{path}: tick {first}, the log's first, does not hold its header's "
+                           f"{len(sr.ship_ids)} ship(s) in order")
         res.ticks_compared += 1
     world = _world(reader, scn, table, ship_id, keyframe)
     interval = reader.keyframe_interval
@@ -255,13 +292,8 @@ def _world(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | No
            keyframe) -> World:
     """The world to re-run: the log's recorded joins, leaves and commands (format 3; before it,
     the scenario's), from tick 0 or from ``keyframe``'s state, all ships or ``ship_id`` alone."""
-    world = recorded_world(reader, scn)
-    if keyframe is not None:
-        state = keyframe.state()
-        keys = keyframe.keys
-        world.params = fleet_params(reader, scn).take(keys)
-        world.state, world.inputs = state, keyframe.inputs()
-        world.timeline = world.timeline.from_tick(state.tick)
+    world = recorded_world(reader, scn) if keyframe is None else \
+        keyframe_world(reader, scn, keyframe)
     if ship_id is not None:
         keep = np.array([sid == ship_id for sid in world.ship_ids], dtype=bool)
         world.params = world.params.take(keep)
@@ -316,10 +348,18 @@ def _compare_events(reader: LogReader, res: VerifyResult, replayed: list[tuple[i
     res.events_compared = k
 
 
+#: why a file ends where it does (LogSummary.reason), by its ``complete``: "" the run's end;
+#: "rotated" the run goes on in the next file; "stopped" a live run was stopped (finished, or
+#: not); "handed over", "lost" a live run's ships go on in another worker's log (touchdown
+#: serve); "interrupted" Ctrl-C before the end
+REASONS = {True: ("", "rotated", "stopped", "handed over", "lost"),
+           False: ("interrupted", "stopped")}
+
+
 def _compare_summary(reader: LogReader, res: VerifyResult, n_events: int) -> None:
-    """The summary of a whole run: its last tick is the last tick recorded, its event count the
-    re-run's, it says ``complete`` only if the run reached its last tick, and otherwise gives
-    the one reason the writer gives (``interrupted``)."""
+    """The summary of a whole log: its last tick is the last tick recorded, its event count the
+    re-run's, and its reason one the writers give for its ``complete`` (REASONS); ``complete``
+    with no reason only at the run's last tick (an open-ended run's is the summary's own)."""
     where = lambda f, a, b: Divergence(res.last_tick, res.last_tick * res.log_dt_s, "(log)",  # noqa: E731
                                        f"summary.{f}" if f else "summary", a, b)
     found = [data for _t, data in reader.raw(TOPIC_SUMMARY)]
@@ -327,9 +367,11 @@ def _compare_summary(reader: LogReader, res: VerifyResult, n_events: int) -> Non
         res.divergence = where("", f"{len(found)} summary records", "one")
         return
     rec = _decode(reader, pb.LogSummary, found[0], "summary")
+    known = REASONS[rec.complete]
     mine = pb.LogSummary(last_tick=res.last_tick, complete=rec.complete,
-                         reason="" if rec.complete else "interrupted", event_count=n_events)
-    if rec.complete and res.last_tick != res.n_ticks:
+                         reason=rec.reason if rec.reason in known else known[0],
+                         event_count=n_events)
+    if rec.complete and not rec.reason and res.last_tick != res.n_ticks:
         res.divergence = where("complete", "true", f"false (the log ends at tick {res.last_tick} "
                                                    f"of {res.n_ticks})")
     elif mine.SerializeToString() != found[0]:
@@ -350,12 +392,17 @@ def _say_what_was_checked(reader: LogReader, res: VerifyResult, target: int, eve
         return
     gaps = []
     if res.last_tick < target:
-        stopped = reader.status.complete and reader.read_summary() is not None \
-            and not reader.summary.complete
+        summary = reader.read_summary() if reader.status.complete else None
+        stopped = summary is not None and (not summary.complete or summary.reason in (
+            "stopped", "handed over", "lost"))
+        rotated = summary is not None and summary.complete and summary.reason == "rotated"
         why = ("it was cut" if not reader.status.complete else
-               f"its run was stopped: {reader.summary.reason or 'no reason given'}" if stopped
+               "it is one file of a longer run: the run goes on in the next file (rotated)"
+               if rotated else
+               f"its run was stopped: {summary.reason or 'no reason given'}" if stopped
                else "it holds no more")
-        gaps.append(f"the log ends at tick {res.last_tick} of {target} ({why})")
+        of = "" if target >= UNBOUNDED else f" of {target}"
+        gaps.append(f"the log ends at tick {res.last_tick}{of} ({why})")
     if events_to < res.last_tick:
         gaps.append(f"the events of tick {res.last_tick} may have been lost with the cut and were "
                     f"not compared")

@@ -9,7 +9,8 @@ from itertools import zip_longest
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, LogWriter, recorded_world, scenario_message, scenario_of
+from logs.mcap_log import (LogReader, LogWriter, keyframe_world, recorded_world, scenario_message,
+                           scenario_of, world_header)
 from service.driver import drive
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState
@@ -55,21 +56,38 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
     """Re-run the log's recorded input (its ships, joins, leaves and commands; format 1 and 2: its
     scenario's inputs) under ``overrides``, and compare with the recording at their common
     instants. A recorded tick is moved to the new tick's grid by its time when ``sim.dt``
-    changes."""
+    changes. A log that starts later than tick 0 (ScenarioRecord.start_tick) is re-run from its
+    first tick record, a keyframe, on the same tick (``sim.dt`` cannot change)."""
     res = WhatIf()
     with LogReader(path) as reader:
         res.log_version = reader.scenario.project_version
-        scn = _scenario(reader, overrides, ship_id)
-        world = recorded_world(reader, scn)
+        start = reader.start_tick
+        # from a keyframe, the whole fleet's scenario (ship keys are its rows); then one ship
+        scn = _scenario(reader, overrides, None if start else ship_id)
         old_dt = reader.scenario.dt_s
         new_dt = scn.params.sim.dt_s
+        if start and new_dt != old_dt:
+            raise LogError(f"{reader.path}: starts at tick {start} (its state there is a "
+                           f"keyframe on its own tick): a what-if of it cannot change sim.dt")
+        old_ticks = {td.tick: td for td in reader.ticks()}
+        if start:
+            if start not in old_ticks:
+                raise LogError(f"{reader.path}: no tick record at its first tick {start}")
+            world = keyframe_world(reader, scn, old_ticks[start])
+            if ship_id is not None and ship_id not in reader.ship_table():
+                raise LogError(f"{reader.path}: no ship {ship_id!r} in this log")
+            if ship_id is not None:
+                keep = np.array([sid == ship_id for sid in world.ship_ids], dtype=bool)
+                world.params = world.params.take(keep)
+                world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
+        else:
+            world = recorded_world(reader, scn)
         table = reader.ship_table()
         if reader.log_format >= 3:
             recorded = world.timeline
             if ship_id is not None:
                 recorded = recorded.for_ship(ship_id)
             world.timeline = _regrid(recorded, old_dt, new_dt)
-        old_ticks = {td.tick: td for td in reader.ticks()}
         ids = [ship_id] if ship_id is not None else list(table.ids)
         old_events = {sid: [] for sid in ids}
         for ev in reader.events():
@@ -107,9 +125,17 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
                     res.max_attitude_at = (rec.ship_ids[mine[j]], t)
                 res.samples += 1
 
-        writer = LogWriter(out_path, scenario_message(scn, f"{path} (what-if)")) \
-            if out_path else None
-        outcome = drive(world, scn.params.sim.n_ticks, writer, [compare])
+        end = scn.params.sim.n_ticks
+        if reader.open_ended:  # no set end: as far as the recording goes
+            end = max(old_ticks) if old_ticks else start
+        header = None
+        if out_path:
+            header = scenario_message(scn, f"{path} (what-if)") if not (
+                start or reader.open_ended) else world_header(
+                world, scn.name, f"{path} (what-if)", reader.keyframe_interval,
+                reader.open_ended, scn.description)
+        writer = LogWriter(out_path, header) if out_path else None
+        outcome = drive(world, end, writer, [compare])
         if outcome.how != "done":
             raise KeyboardInterrupt
     res.timelines = {sid: (old_events.get(sid, []), new_events.get(sid, [])) for sid in ids}

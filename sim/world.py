@@ -21,7 +21,7 @@ import numpy as np
 from sim import vec
 from sim.compiled import kernel, separate
 from sim.params import Params, ShipParams
-from sim.scenario import Scenario, Scene, quat_from_axes
+from sim.scenario import Scenario, Scene, parse, quat_from_axes
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
                        Event, Inputs, Outputs, State, concatenate)
 from sim.step import outputs_at, rotations, step_ticks, tick_capacity, transitions
@@ -115,6 +115,22 @@ class World:
         return cls(scn.scene, scn.params, scn.initial, Inputs.zeros(scn.initial.n), scn.timeline,
                    known)
 
+    @classmethod
+    def empty(cls, scene: Scene, tick: int = 0) -> "World":
+        """No ships yet, at ``tick``: a live service's world before anything is spawned."""
+        placeholder = parse({**scene.doc, "ships": [{"id": "_"}]}, scene.source)
+        none = np.zeros(1, dtype=bool)
+        state = State(rows=placeholder.initial.select(none).rows, tick=tick)
+        return cls(scene, placeholder.params.take(none), state, Inputs.zeros(0))
+
+    @classmethod
+    def restore(cls, scene: Scene, ships: ShipParams, state: State, inputs: Inputs,
+                known: dict[str, dict]) -> "World":
+        """The world of ``ships`` in ``state`` with ``inputs`` in force (a checkpoint's), with
+        nothing to come; ``known``: the tables of every ship that has been in it."""
+        base = cls.empty(scene, state.tick)
+        return cls(scene, base.params.with_ships(ships), state, inputs, Timeline(), dict(known))
+
     @property
     def tick(self) -> int:
         return self.state.tick
@@ -146,11 +162,33 @@ class World:
     def command(self, ship_id: str, throttle: float = 0.0,
                 rcs: tuple[float, float, float] = (0.0, 0.0, 0.0), hold: int = 0) -> Command:
         """Inputs for ship ``ship_id`` from the step that begins at this tick."""
-        cmd = Command(self.tick, ship_id, throttle, tuple(rcs), int(hold)).check()
-        if ship_id not in self.ship_ids:
-            raise CommandError(f"command: no ship {ship_id!r} in the fleet at tick {self.tick}")
-        self._add(commands=[cmd])
-        return cmd
+        return self.commands([(ship_id, throttle, rcs, hold)])[0]
+
+    def commands(self, given) -> list[Command]:
+        """Many ships' inputs at once, each ``(ship_id, throttle, rcs, hold)``: as many calls of
+        :meth:`command`, in one pass (a live service gives thousands a tick). All are checked
+        before any is taken."""
+        index = self._fleet_index()
+        cmds = []
+        for ship_id, throttle, rcs, hold in given:
+            cmd = Command(self.tick, ship_id, throttle, tuple(rcs), int(hold)).check()
+            if ship_id not in index:
+                raise CommandError(f"command: no ship {ship_id!r} in the fleet at tick "
+                                   f"{self.tick}")
+            cmds.append(cmd)
+        self._add(commands=cmds)
+        return cmds
+
+    def row(self, ship_id: str) -> int | None:
+        """The row of ship ``ship_id`` in the fleet of now, or None."""
+        return self._fleet_index().get(ship_id)
+
+    def _fleet_index(self) -> dict[str, int]:
+        """Ship id -> row, for the fleet of now (built again only when the fleet changes)."""
+        ids = self.ship_ids
+        if self._index[0] is not ids:  # the same tuple while the fleet is the same
+            self._index = (ids, {sid: i for i, sid in enumerate(ids)})
+        return self._index[1]
 
     def _present_next(self) -> set[str]:
         ids = set(self.ship_ids)
@@ -241,10 +279,7 @@ class World:
         table = np.zeros(len(commands), COMMAND_DTYPE)
         if not commands:  # most blocks: no index of the fleet built
             return table
-        ids = self.ship_ids
-        if self._index[0] is not ids:  # the same tuple while the fleet is the same
-            self._index = (ids, {sid: i for i, sid in enumerate(ids)})
-        index = self._index[1]
+        index = self._fleet_index()
         for k, c in enumerate(commands):
             if c.ship_id not in index:  # accepted only for present ships: a bad timeline
                 raise CommandError(f"command for ship {c.ship_id!r} at tick {c.tick}: the ship "

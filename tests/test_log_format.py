@@ -116,9 +116,9 @@ def test_generated_protobuf_code_is_up_to_date(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "proto" / "generate.py"), str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
-    for name in ("touchdown_pb2.py", "touchdown_pb2.pyi"):
+    for name in ("touchdown_pb2.py", "touchdown_pb2.pyi", "service_pb2.py", "service_pb2.pyi"):
         assert filecmp.cmp(tmp_path / name, ROOT / "proto" / name, shallow=False), \
-            f"proto/{name} is out of date with proto/touchdown.proto: run `python proto/generate.py`"
+            f"proto/{name} is out of date with proto/*.proto: run `python proto/generate.py`"
 
 
 def test_the_recorded_scenario_reparses_to_the_same_scenario(fleet_log):

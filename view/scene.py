@@ -115,7 +115,8 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
                 arr = a.get(name)
                 if arr is None:  # a format-1 log: velocities on keyframes only, no guard
                     arr = np.full(n * width.get(name, 1), np.nan)
-                cols.setdefault(name, []).append(np.asarray(arr, float).reshape(n, -1))
+                cols.setdefault(name, []).append(
+                    np.asarray(arr, float).reshape(n, width.get(name, 1)))  # n may be 0
         if not ticks:
             raise LogError(f"{path}: the log holds no tick")
         from logs.export import what_was_read

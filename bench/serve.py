@@ -1,0 +1,151 @@
+"""``touchdown bench serve``: how many ships one ``touchdown serve`` worker keeps at a 10 Hz tick in
+real time, with everything on (events to Redis, 1 Hz telemetry, the flight log, checkpoints).
+
+Each trial starts a fresh service (a Redis key prefix of its own) on the Redis at ``--redis``
+(default 127.0.0.1:6379): the bench writes the service's config (its scenario: N ships, tick
+0.1 s so that 10 ticks a second is real time), then runs ``touchdown serve --rate 10`` in a
+subprocess pinned to one CPU for ``seconds``; the worker reports each tick's working time (its
+time in the loop, sleeping excluded) and the entries it delivered. A load is kept when the
+worker's p99 tick time is under the 100 ms period and no more than 1% of ticks started late.
+The first 2 s (taking the shards, writing every ship's hash) are left out of the percentiles.
+
+The fleet is bench.speed's mix: 40% flying high, 40% landed, 10% tipped, 10% arriving at 2-49
+m/s (touchdowns, bounces and crashes: events). Redis runs on the same 2-core machine: with one
+worker, Redis has the other core; with two workers (pinned one to each core), Redis shares them.
+
+No figure here is asserted anywhere: the machines are shared and noisy; read the ratio of two
+figures from the same run (two workers against one) rather than an absolute.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+
+import redis
+
+from bench.speed import fleet_doc, machine
+from sim.scenario import parse
+
+ROOT = Path(__file__).resolve().parents[1]
+RATE_HZ = 10.0
+DT_S = 0.1
+
+
+def _config(url: str, prefix: str, n_ships: int, shards: int) -> None:
+    doc = fleet_doc(n_ships, 3600.0)
+    doc["sim"] = {"dt": DT_S}
+    scn = parse(doc, "bench-serve")
+    client = redis.Redis.from_url(url)
+    client.hset(f"{prefix}:service:config", mapping={
+        "shards": shards, "scenario_json": json.dumps(scn.resolved, sort_keys=True)})
+    client.close()
+
+
+def _cleanup(url: str, prefix: str) -> None:
+    client = redis.Redis.from_url(url)
+    keys = list(client.scan_iter(f"{prefix}:*", count=10_000))
+    for i in range(0, len(keys), 1000):
+        client.delete(*keys[i:i + 1000])
+    client.close()
+
+
+def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int = 4,
+          warmup_s: float = 2.0) -> dict:
+    """One service of ``n_ships`` run for ``seconds`` with ``workers`` workers (each pinned to
+    its own CPU); returns tick-time percentiles (ms) over the workers' ticks after warm-up, the
+    late fraction and the entries delivered per second."""
+    prefix = f"bench:serve:{uuid.uuid4().hex[:8]}"
+    _config(url, prefix, n_ships, shards)
+    cpus = sorted(os.sched_getaffinity(0))
+    ticks = int(seconds * RATE_HZ)
+    procs = []
+    with tempfile.TemporaryDirectory(prefix="touchdown-bench-serve-") as tmp:
+        try:
+            for w in range(workers):
+                stats = Path(tmp) / f"stats-{w}.json"
+                cpu = cpus[w % len(cpus)]
+                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", "--redis", url,
+                       "--prefix", prefix, "--rate", str(RATE_HZ), "--ticks", str(ticks),
+                       "--log-dir", str(Path(tmp) / "flight"), "--shards", str(shards),
+                       "--worker-id", f"w{w}", "--stats-json", str(stats)]
+                if workers > 1:
+                    cmd += ["--max-shards", str(shards // workers)]
+                procs.append((subprocess.Popen(
+                    cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                    preexec_fn=lambda c=cpu: os.sched_setaffinity(0, {c})), stats))
+            results = []
+            for proc, stats in procs:
+                _out, err = proc.communicate(timeout=seconds * 4 + 300)
+                if proc.returncode != 0:
+                    raise RuntimeError(f"serve failed: {err.strip().splitlines()[-1:]}")
+                results.append(json.loads(stats.read_text()))
+        finally:
+            for proc, _ in procs:
+                proc.kill()
+            _cleanup(url, prefix)
+    skip = int(warmup_s * RATE_HZ)
+    times = sorted(t for r in results for t in r["tick_s"][skip:])
+    late = sum(r["late"] for r in results) / max(1, sum(len(r["tick_s"]) for r in results))
+    sent = sum(r["entries_sent"] for r in results)
+    wall = max(r["wall_s"] for r in results)
+
+    def pct(q: float) -> float:
+        return times[min(len(times) - 1, int(q * len(times)))] * 1e3 if times else float("nan")
+    return {"ships": n_ships, "workers": workers, "p50_ms": pct(0.5), "p99_ms": pct(0.99),
+            "max_ms": times[-1] * 1e3 if times else float("nan"), "late": late,
+            "entries_per_s": sent / wall if wall else 0.0,
+            "keeps_up": bool(times) and pct(0.99) < 1e3 / RATE_HZ and late <= 0.01}
+
+
+def _line(r: dict) -> str:
+    return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s): tick p50 {r['p50_ms']:6.1f} ms, "
+            f"p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; late {r['late']:.1%}; "
+            f"{r['entries_per_s']:,.0f} entries/s to Redis  "
+            f"{'keeps 10 Hz' if r['keeps_up'] else 'FALLS BEHIND'}")
+
+
+def largest(url: str, workers: int, start: int, seconds: float, limit: int) -> tuple[int, list]:
+    """Double the fleet until a trial falls behind, then bisect twice: the largest kept."""
+    rows, good, bad = [], 0, None
+    n = start
+    while n <= limit:
+        r = trial(url, n, seconds, workers)
+        rows.append(r)
+        print(_line(r), flush=True)
+        if not r["keeps_up"]:
+            bad = n
+            break
+        good = n
+        n *= 2
+    for _ in range(2 if bad else 0):
+        mid = (good + bad) // 2
+        r = trial(url, mid, seconds, workers)
+        rows.append(r)
+        print(_line(r), flush=True)
+        if r["keeps_up"]:
+            good = mid
+        else:
+            bad = mid
+    return good, rows
+
+
+def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0") -> None:
+    print(f"machine: {machine()}")
+    print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
+          f"flight logs, checkpoints every 2 s; Redis at {url}")
+    seconds = 6.0 if quick else 20.0
+    start, limit = (1000, 4000) if quick else (12_500, 400_000)
+    t0 = time.perf_counter()
+    print("one worker (one CPU):")
+    one, _ = largest(url, 1, start, seconds, limit)
+    print(f"=> one worker keeps {one:,} ships at 10 Hz [aim: 50,000]")
+    print("two workers (one CPU each, two shards each):")
+    two, _ = largest(url, 2, start, seconds, limit)
+    print(f"=> two workers keep {two:,} ships at 10 Hz ({two / max(one, 1):.2f}x one worker)")
+    print(f"(bench took {time.perf_counter() - t0:.0f} s)")

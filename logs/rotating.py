@@ -1,0 +1,187 @@
+"""A flight log as rotating files of bounded size, each a log that verifies on its own.
+
+:class:`RotatingLog` takes a world's blocks as a :class:`logs.mcap_log.LogWriter` does (the
+driver loop's ``log``: ``write_block``, ``close``, ``abandon``) and writes them to
+``DIR/{prefix}-{first_tick:010d}.mcap``. Once the file being written is past ``max_bytes`` (the
+bytes written to it, checked at block boundaries: a file overshoots by what its writer still
+holds, at most QUEUE_BLOCKS blocks and a chunk of ``max_bytes / 8``), the file is closed at the
+end of the block in hand (summary ``complete``, reason ``rotated``) and the next begins at that
+block's last tick T:
+
+- its header is :func:`logs.mcap_log.world_header` of the world at T (the ships present then,
+  their tables; ``start_tick = T``);
+- its first tick record is the run's own record of T (the block's last row, as recorded in the
+  file before: state, telemetry, the commands in force), written as a keyframe;
+- what led to T (the joins and leaves at T, the commands applied in the step into T, the events of
+  T) stays in the file before: everything in the new file is after its keyframe.
+
+So the files overlap by one tick (T is the last tick of one file and the first of the next, the
+same numbers in both) and each holds a whole fold: ``touchdown replay FILE --verify`` passes on
+each alone. The world must be at the block's last tick when the block is handed in (as
+``world.blocks`` leaves it: the driver loop's case); a block handed in later does not end a file
+(the next one that is will).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Callable
+
+from logs.mcap_log import LogWriter, world_header
+from proto import touchdown_pb2 as pb
+from sim.world import Block, World
+
+#: the default bound on a file's size: 64 MiB
+MAX_BYTES = 64 << 20
+
+
+class RotatingLog:
+    """Write a world's blocks to rotating files in ``directory`` (created if missing).
+
+    ``world``: the World whose blocks are written, or a function returning it (a world that is
+    replaced, e.g. rebuilt from a checkpoint). ``name``: the logs' scenario name (default: the
+    scene's); ``open_ended``: the run has no set end (a live service: each file's end is its
+    summary's last tick). The first block must be the world's own tick (``world.first_block()``,
+    which the driver loop writes first); the first file starts there.
+
+    ``files``: every file's final path, in order; the last is being written (as
+    ``PATH.partial``) until :meth:`close`.
+    """
+
+    def __init__(self, directory: str | os.PathLike, world: World | Callable[[], World],
+                 prefix: str = "flight", keyframe_interval: int = 1, max_bytes: int = MAX_BYTES,
+                 name: str | None = None, source: str = "", open_ended: bool = False,
+                 description: str = "", chunk_size: int | None = None,
+                 flush_every_ticks: int = 200):
+        if max_bytes <= 0:
+            raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
+        if not prefix or "/" in prefix or os.sep in prefix:
+            raise ValueError(f"prefix {prefix!r}: a file name's start, not a path")
+        self.directory = Path(directory)
+        self.prefix = prefix
+        self._world = world if callable(world) else (lambda: world)
+        self.keyframe_interval = max(1, keyframe_interval)
+        self.max_bytes = max_bytes
+        self.name = name
+        self.source = source
+        self.open_ended = open_ended
+        self.description = description
+        # chunks well under the bound, so that a file's size on disk follows what it holds
+        self.chunk_size = chunk_size or max(4096, min(1 << 20, max_bytes // 8))
+        self.flush_every_ticks = flush_every_ticks
+        self.files: list[Path] = []
+        self.writer: LogWriter | None = None
+        self._tables: dict[str, dict] = {}  # ship id -> its resolved table (world_header)
+        self.event_count = 0
+        self._closed = False
+
+    # -- the sink --------------------------------------------------------------------------------
+    def write_block(self, block: Block) -> list[pb.TransitionEvent]:
+        """Append a block (as LogWriter.write_block: returns its events as messages); then, if
+        the file is past ``max_bytes`` and the world is at the block's last tick, close it and
+        begin the next at that tick."""
+        if self._closed:
+            raise ValueError("write_block on a closed RotatingLog")
+        if self.writer is None:
+            world = self._world()
+            if block.first_tick != world.tick or len(block) != 1:
+                raise ValueError(f"the first block of a rotating log must be the world's own tick "
+                                 f"{world.tick} (world.first_block()), not ticks "
+                                 f"{block.first_tick}..{block.last_tick}")
+            self._open(world, block)
+            return []
+        msgs = self.writer.write_block(block)
+        self.event_count += len(msgs)
+        if self.writer.size >= self.max_bytes and block.last_tick > self.writer.header.start_tick:
+            world = self._world()
+            if world.tick == block.last_tick and tuple(world.ship_ids) == tuple(block.ship_ids):
+                self._rotate(world, block)
+        return msgs
+
+    def flush(self) -> None:
+        """Every block written so far is in the file being written (LogWriter.flush)."""
+        if self.writer is not None and not self._closed:
+            self.writer.flush()
+
+    def close(self, complete: bool = True, reason: str = "") -> None:
+        """Finish the file being written (summary ``complete`` with ``reason``: "" the run's end,
+        "stopped" a live run stopped, "handed over" or "lost" a live run going on elsewhere,
+        "interrupted"; replay.verify.REASONS). Safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        if self.writer is not None:
+            try:
+                self.writer.close(complete=complete, reason=reason)
+            except BaseException:  # the file is gone (LogWriter.close removes it)
+                self.files.pop()
+                raise
+
+    def abandon(self) -> None:
+        """Drop the file being written (no half-written file); the finished ones stay."""
+        if self._closed:
+            return
+        self._closed = True
+        if self.writer is not None:
+            self.writer.abandon()
+            self.files.pop()
+
+    @property
+    def last_tick(self) -> int:
+        return -1 if self.writer is None else self.writer.last_tick
+
+    def __enter__(self) -> "RotatingLog":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close(complete=False, reason="interrupted")
+        else:
+            self.abandon()
+
+    # -- files -----------------------------------------------------------------------------------
+    def _open(self, world: World, first: Block) -> None:
+        """Begin a file at ``world``'s tick with ``first`` (that tick's record) as its keyframe."""
+        header = world_header(world, self.name or world.scene.doc.get("name", self.prefix),
+                              self.source, self.keyframe_interval, self.open_ended,
+                              self.description, tables=self._tables)
+        path = self._path(world.tick)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        writer = LogWriter(path, header, chunk_size=self.chunk_size,
+                           flush_every_ticks=self.flush_every_ticks)
+        try:
+            writer.write_block(first)
+        except BaseException:
+            writer.abandon()
+            raise
+        self.writer = writer
+        self.files.append(path)
+
+    def _rotate(self, world: World, block: Block) -> None:
+        """Close the file at ``block``'s last tick T and begin the next with T's record."""
+        k = len(block) - 1
+        keyframe = Block(block.last_tick, block.states[k:].copy(), block.outputs[k:].copy(),
+                         block.inputs[k:].copy(), [], block.ship_ids)
+        old, self.writer = self.writer, None
+        try:
+            old.close(complete=True, reason="rotated")
+        except BaseException:  # the file is gone (LogWriter.close removes it)
+            self.files.pop()
+            raise
+        self._open(world, keyframe)
+
+    def _path(self, tick: int) -> Path:
+        """``{prefix}-{tick:010d}.mcap``; never an existing file's name (a run resumed at the
+        same tick gets ``-1``, ``-2``, ...)."""
+        stem = f"{self.prefix}-{tick:010d}"
+        path = self.directory / f"{stem}.mcap"
+        n = 0
+        while path.exists() or path.with_name(path.name + ".partial").exists():
+            n += 1
+            path = self.directory / f"{stem}-{n}.mcap"
+        return path
+
+
+__all__ = ["RotatingLog", "MAX_BYTES"]

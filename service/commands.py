@@ -1,0 +1,172 @@
+"""Player commands as they arrive on the command stream (SPEC.md section 5), checked field by field.
+
+An entry is a flat map of strings: ``cmd`` and ``ship_id``, plus per command
+
+    throttle  value        0..1 of the ship's max thrust
+    rcs       x, y, z      -1..1 of its max RCS torque per body axis
+    hold      mode         off | kill_rotation | radial
+    spawn     ship         JSON of one [[ships]] table (section 3), ``initial`` included
+    retire    (nothing)
+    autoland  (nothing)    the landing autopilot (service.autopilot)
+
+:func:`parse` turns an entry into a :class:`Request` or a :class:`Rejected` with a one-line
+reason; it looks at nothing but the entry (what a ship is, or whether it exists, is the shard's
+question, service.shard). Whatever an entry holds (unknown fields, bytes that are not UTF-8, NaN,
+1e308, a megabyte of JSON), parsing it returns; it never raises.
+
+A parsed request is also what the shard's journal keeps (``as_json``): a worker that takes a
+shard over re-applies the journal's requests at their ticks and reaches the same decisions.
+"""
+from __future__ import annotations
+
+import json
+import math
+import zlib
+from dataclasses import dataclass, field
+
+from sim.enums import HoldMode
+
+#: fields each command may carry besides ``cmd`` and ``ship_id``
+FIELDS: dict[str, tuple[str, ...]] = {
+    "throttle": ("value",), "rcs": ("x", "y", "z"), "hold": ("mode",), "spawn": ("ship",),
+    "retire": (), "autoland": (),
+}
+MAX_SHIP_ID = 128  # characters
+MAX_VALUE = 64 * 1024  # bytes of any one field (a spawn's JSON is the largest)
+MAX_FIELDS = 16
+
+
+@dataclass(frozen=True)
+class Request:
+    """A well-formed command: ``values`` holds its numbers (throttle, rcs x/y/z), its hold mode
+    or its ship table, by field name."""
+
+    entry_id: str
+    cmd: str
+    ship_id: str
+    values: dict = field(default_factory=dict, hash=False)
+
+    def as_json(self) -> dict:
+        return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
+                "values": self.values}
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """An entry that is not a command; ``reason`` is one line naming the field."""
+
+    entry_id: str
+    ship_id: str
+    reason: str
+    cmd: str = ""
+
+    def as_json(self) -> dict:
+        return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
+                "reject": self.reason}
+
+
+def from_json(d: dict) -> Request | Rejected:
+    """A journal's record back to what :func:`parse` gave."""
+    if "reject" in d:
+        return Rejected(d["id"], d["ship_id"], d["reject"], d.get("cmd", ""))
+    return Request(d["id"], d["cmd"], d["ship_id"], d["values"])
+
+
+def shard_of(ship_id: str, shards: int) -> int:
+    """The shard that owns ``ship_id``: CRC-32 of its UTF-8 bytes modulo the shard count (the
+    same on every machine and every run, unlike Python's salted ``hash``)."""
+    return zlib.crc32(ship_id.encode("utf-8", "surrogateescape")) % shards
+
+
+def decode_entry(raw: dict) -> dict[str, str]:
+    """Redis gives bytes; undecodable bytes survive as surrogates (and are rejected by parse)."""
+    out = {}
+    for k, v in raw.items():
+        k = k.decode("utf-8", "surrogateescape") if isinstance(k, bytes) else str(k)
+        v = v.decode("utf-8", "surrogateescape") if isinstance(v, bytes) else str(v)
+        out[k] = v
+    return out
+
+
+def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
+    """Check one entry; see the module's docstring for what each command carries."""
+    ship_id = fields.get("ship_id", "")
+    cmd = fields.get("cmd", "")
+    shown_id = ship_id[:MAX_SHIP_ID]
+
+    def no(reason: str) -> Rejected:
+        return Rejected(entry_id, shown_id if _printable(shown_id) else "", reason,
+                        cmd if cmd in FIELDS else "")
+
+    if len(fields) > MAX_FIELDS:
+        return no(f"{len(fields)} fields (at most {MAX_FIELDS})")
+    for k, v in fields.items():
+        if len(v) > MAX_VALUE or len(k) > 64:
+            return no(f"field {_show(k)}: longer than {MAX_VALUE:,} characters")
+        if not _printable(k) or (k != "ship" and not _printable(v)):
+            return no(f"field {_show(k)}: not printable UTF-8 text")
+    if cmd not in FIELDS:
+        return no(f"cmd: unknown command {_show(cmd)} (one of {', '.join(FIELDS)})")
+    if not ship_id:
+        return no("ship_id: missing")
+    if len(ship_id) > MAX_SHIP_ID:
+        return no(f"ship_id: longer than {MAX_SHIP_ID} characters")
+    allowed = {"cmd", "ship_id", *FIELDS[cmd]}
+    extra = sorted(set(fields) - allowed)
+    if extra:
+        return no(f"{cmd}: unknown field {_show(extra[0])} (it takes "
+                  f"{', '.join(FIELDS[cmd]) or 'no fields'} besides cmd and ship_id)")
+    missing = [f for f in FIELDS[cmd] if f not in fields]
+    if missing:
+        return no(f"{cmd}: missing field {missing[0]!r}")
+    values: dict = {}
+    if cmd == "throttle":
+        x = _number(fields["value"])
+        if x is None or not 0.0 <= x <= 1.0:
+            return no(f"throttle: value must be a number in 0..1, got {_show(fields['value'])}")
+        values["value"] = x
+    elif cmd == "rcs":
+        for axis in ("x", "y", "z"):
+            x = _number(fields[axis])
+            if x is None or not -1.0 <= x <= 1.0:
+                return no(f"rcs: {axis} must be a number in -1..1, got {_show(fields[axis])}")
+            values[axis] = x
+    elif cmd == "hold":
+        mode = fields["mode"]
+        if mode not in {m.label for m in HoldMode}:
+            return no(f"hold: mode must be one of {', '.join(m.label for m in HoldMode)}, "
+                      f"got {_show(mode)}")
+        values["mode"] = mode
+    elif cmd == "spawn":
+        try:
+            spec = json.loads(fields["ship"])
+        except (ValueError, RecursionError):
+            return no("spawn: ship is not valid JSON")
+        if not isinstance(spec, dict):
+            return no("spawn: ship must be a JSON object (one [[ships]] table)")
+        if "id" in spec and spec["id"] != ship_id:
+            return no(f"spawn: the table's id {_show(str(spec['id']))} is not ship_id")
+        values["ship"] = {**spec, "id": ship_id}
+    return Request(entry_id, cmd, ship_id, values)
+
+
+def _number(text: str) -> float | None:
+    """A finite decimal number, or None. ``float`` alone would take 'nan', 'inf' and '1_0'."""
+    text = text.strip()
+    if not text or len(text) > 32 or any(c not in "0123456789+-.eE" for c in text):
+        return None
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _printable(s: str) -> bool:
+    return s.isprintable() and not any(0xD800 <= ord(c) <= 0xDFFF for c in s)
+
+
+def _show(s: str) -> str:
+    """A value as a message shows it: quoted, cut short, unprintable characters escaped."""
+    s = s if len(s) <= 40 else s[:40] + "..."
+    return ascii(s)

@@ -1,0 +1,206 @@
+"""One shard of a live service's ships: a World, the autopilot's ships, the shard's flight log,
+and the numbered entries it has emitted. No Redis here (service.redis_io is the edge): a tick is
+
+    requests (parsed commands) -> the World's commands, joins and leaves  (or rejections)
+    autopilot -> commands for the ships it flies
+    step one tick -> the flight log -> transition events
+    -> the tick's entries for the event stream, numbered, and the ships whose hash changed
+
+Every entry the shard emits has a number, counting from the shard's creation, that is the same
+whichever worker re-derives it: the step is a pure function of the world and the journal's
+requests, so a worker that takes the shard over from a checkpoint re-emits the same entries with
+the same numbers, and the event stream keeps the first of each (service.redis_io.PUBLISH).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from proto import service_pb2 as spb
+from logs.redis_stream import entry_fields
+from service.autopilot import AutolandOutcome, autoland_commands
+from service.commands import Rejected, Request
+from sim.enums import HoldMode, SurfaceState
+from sim.scenario import ScenarioError
+from sim.timeline import CommandError
+from sim.world import Block, World
+
+REJECTED = "ship.command_rejected"
+AUTOLAND_DONE = "ship.autoland_complete"
+AUTOLAND_FAILED = "ship.autoland_failed"
+
+
+@dataclass
+class TickOut:
+    """What one tick of a shard gives the outside: ``entries`` for the event stream (each
+    ``(number, fields)``), ``hashes`` (ship id -> its hash's fields, None: the ship left), and
+    the block that was stepped (for telemetry)."""
+
+    entries: list[tuple[int, dict]] = field(default_factory=list)
+    hashes: dict[str, dict | None] = field(default_factory=dict)
+    blocks: list[Block] = field(default_factory=list)
+
+
+@dataclass
+class Shard:
+    index: int
+    world: World
+    log: object  # logs.rotating.RotatingLog (write_block, flush, close)
+    body: str
+    autoland: dict[str, None] = field(default_factory=dict)  # insertion-ordered set
+    published: int = 0  # entries emitted so far: the next one's number
+
+    @property
+    def tick(self) -> int:
+        return self.world.tick
+
+    def step(self, requests: list[Request | Rejected]) -> TickOut:
+        """Apply ``requests`` at this tick, fly the autopilot's ships, step one tick."""
+        out = TickOut()
+        t = self.world.tick
+        pending: dict[str, list] = {}
+        for req in requests:
+            reason = self._apply(req, pending) if isinstance(req, Request) else req.reason
+            if reason is not None:
+                self._emit(out, self._rejection(req, reason, t))
+        self._autopilot(out, pending, t)
+        self.world.commands((sid, *given) for sid, given in pending.items())
+        for block in self.world.blocks(t + 1):
+            msgs = self.log.write_block(block)
+            out.blocks.append(block)
+            for sp in block.spawned:
+                out.hashes[sp.ship_id] = ship_hash(SurfaceState(
+                    self._state_of(block, sp.ship_id)), self.body, block.first_tick,
+                    sp.spec.get("player_id") or "player-" + sp.ship_id, self.index)
+            for r in block.retired:
+                out.hashes[r.ship_id] = None
+                self.autoland.pop(r.ship_id, None)
+            for m in msgs:
+                fields = entry_fields(m)
+                self._emit(out, fields)
+                out.hashes[m.ship_id] = ship_hash(SurfaceState(m.to_state), self.body, m.tick,
+                                                  m.player_id, self.index)
+        return out
+
+    # -- requests ---------------------------------------------------------------------------
+    def _apply(self, req: Request, pending: dict[str, list]) -> str | None:
+        """Apply one request; the reason it cannot be applied, or None."""
+        w, sid = self.world, req.ship_id
+        try:
+            if req.cmd == "spawn":
+                w.spawn(req.values["ship"])
+                return None
+            if req.cmd == "retire":
+                w.retire(sid)
+                pending.pop(sid, None)
+                self.autoland.pop(sid, None)
+                return None
+        except ScenarioError as exc:  # the table, by the scenario's rules
+            return f"spawn: ship.{exc.key.removeprefix('ships[0].')}: {exc.problem}"
+        except CommandError as exc:
+            return str(exc).splitlines()[0]
+        i = self._row(sid)
+        if i is None:
+            return f"{req.cmd}: no ship {sid!r} in the fleet at tick {w.tick}"
+        if req.cmd == "autoland":
+            if SurfaceState(int(w.state.rows["surface_state"][i])) is SurfaceState.CRASHED:
+                return f"autoland: ship {sid!r} has crashed"
+            self.autoland[sid] = None
+            return None
+        # a player's hand on the controls takes them back from the autopilot
+        self.autoland.pop(sid, None)
+        cur = pending.get(sid) or self._in_force(i)
+        v = req.values
+        if req.cmd == "throttle":
+            cur = [v["value"], cur[1], cur[2]]
+        elif req.cmd == "rcs":
+            cur = [cur[0], (v["x"], v["y"], v["z"]), cur[2]]
+        else:
+            cur = [cur[0], cur[1], int(HoldMode.from_label(v["mode"]))]
+        pending[sid] = cur
+        return None
+
+    def _in_force(self, i: int) -> list:
+        rows = self.world.inputs.rows
+        rcs = rows["rcs"][i]
+        return [float(rows["throttle"][i]), (float(rcs[0]), float(rcs[1]), float(rcs[2])),
+                int(rows["hold"][i])]
+
+    def _row(self, sid: str) -> int | None:
+        return self.world.row(sid)
+
+    def _autopilot(self, out: TickOut, pending: dict[str, list], t: int) -> None:
+        present = set(self.world.ship_ids)
+        flying = sorted(s for s in self.autoland if s in present)
+        for gone in [s for s in self.autoland if s not in present]:
+            self.autoland.pop(gone)
+        if not flying:
+            return
+        commands, outcomes = autoland_commands(self.world, flying)
+        for c in commands:
+            pending[c.ship_id] = [c.throttle, (0.0, 0.0, 0.0), c.hold]
+        for sid in sorted(outcomes):
+            outcome = outcomes[sid]
+            self.autoland.pop(sid, None)
+            event = AUTOLAND_DONE if outcome is AutolandOutcome.LANDED else AUTOLAND_FAILED
+            self._emit(out, {"event": event, "ship_id": sid, "player_id": self._player(sid),
+                             "body": self.body, "tick": str(t), "result": outcome.label})
+
+    def _rejection(self, req, reason: str, t: int) -> dict:
+        return {"event": REJECTED, "ship_id": req.ship_id,
+                "player_id": self._player(req.ship_id), "body": self.body, "tick": str(t),
+                "cmd": req.cmd, "reason": reason, "entry_id": req.entry_id}
+
+    def _player(self, sid: str) -> str:
+        i = self._row(sid)
+        if i is not None:
+            return self.world.params.ships.player_id[i]
+        spec = self.world.known.get(sid)
+        return (spec.get("player_id") or "player-" + sid) if spec else ""
+
+    def _emit(self, out: TickOut, fields: dict) -> None:
+        fields["seq"] = f"{self.index}:{self.published}"
+        out.entries.append((self.published, fields))
+        self.published += 1
+
+    @staticmethod
+    def _state_of(block: Block, sid: str) -> int:
+        return int(block.states[0]["surface_state"][block.ship_ids.index(sid)])
+
+    # -- what other services read --------------------------------------------------------------
+    def hashes_of(self, rows: np.ndarray, tick: int) -> dict[str, dict]:
+        """The hash fields of the ships at ``rows`` (row numbers of the present fleet)."""
+        ids = self.world.ship_ids
+        players = self.world.params.ships.player_id
+        states = self.world.state.rows["surface_state"]
+        return {ids[i]: ship_hash(SurfaceState(int(states[i])), self.body, tick, players[i],
+                                  self.index) for i in rows}
+
+    def telemetry(self, rows: np.ndarray, dt_s: float) -> spb.Telemetry:
+        """A sample of the ships at ``rows``: where they are, how fast, how tilted."""
+        from sim.step import outputs_at
+        w = self.world
+        st = w.state.rows[rows]
+        ids = w.ship_ids
+        msg = spb.Telemetry(tick=w.tick, t_s=w.tick * dt_s, shard=self.index,
+                            ship_ids=[ids[i] for i in rows])
+        if not len(rows):
+            return msg
+        from sim.state import State
+        outs = outputs_at(w.params.take(rows), State(rows=st, tick=w.tick)).rows
+        msg.state.extend(st["surface_state"].astype(np.int32).tolist())
+        msg.pos_m.extend(st["pos_m"].ravel().tolist())
+        msg.vel_mps.extend(st["vel_mps"].ravel().tolist())
+        msg.altitude_m.extend(outs["altitude_m"].tolist())
+        msg.cos_tilt.extend(outs["cos_tilt"].tolist())
+        msg.fuel_kg.extend(st["fuel_kg"].tolist())
+        return msg
+
+
+def ship_hash(state: SurfaceState, body: str, tick: int, player_id: str, shard: int) -> dict:
+    """A ship's hash (SPEC.md section 5): its state, the seed's surface_contact_state and
+    landed_body_name, the tick they hold at."""
+    return {"state": state.label, "surface_contact_state": state.seed_string,
+            "landed_body_name": "" if state is SurfaceState.FLYING else body,
+            "tick": str(tick), "player_id": player_id, "shard": str(shard)}

@@ -1,0 +1,419 @@
+"""Logs that start at any tick with any fleet: rotating files (logs.rotating), each of which
+verifies alone and which together hold exactly the run's numbers; a log starting with no ships;
+and `touchdown incident`, a checked cut of one ship around an incident."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cli import main
+from logs.codec import decode_tick, encode_tick
+from logs.mcap_log import TOPIC_SUMMARY, TOPIC_TICKS, LogReader, LogWriter, world_header
+from logs.rotating import RotatingLog
+from proto import touchdown_pb2 as pb
+from replay.verify import verify
+from sim.scenario import parse_text
+from sim.world import World
+
+from tests.test_replay import rewrite_topic
+
+ROOT = Path(__file__).resolve().parents[1]
+
+SCENE = """
+name = "segments"
+duration = 20.0
+[[ships]]
+id = "a"
+[ships.initial]
+altitude = 30.0
+vertical_speed = -4.0
+[[ships]]
+id = "b"
+[ships.initial]
+state = "landed"
+east = 25.0
+[[ships]]
+id = "c"
+spawn_t = 2.0
+[ships.initial]
+altitude = 3.0
+vertical_speed = -12.0
+north = 20.0
+"""
+N_TICKS = 400
+KEYFRAMES = 25
+
+
+def _fly(make_log) -> None:
+    """The run: 3 ships of a scenario (one joining at tick 40 by its spawn_t), a ship spawned and
+    one retired through the API, and commands, stepped in blocks of at most 10 ticks into the
+    log ``make_log(world)`` (a LogWriter or a RotatingLog), which is closed at the end."""
+    world = World.of(parse_text(SCENE, "segments.toml"))
+    log = make_log(world)
+    log.write_block(world.first_block())
+    for t in range(0, N_TICKS, 10):
+        if t == 30:
+            world.command("a", throttle=0.25, hold=2)
+        if t == 100:
+            world.spawn({"id": "d", "initial": {"altitude": 3.0, "vertical_speed": -15.0,
+                                                 "east": -30.0}})
+        if t == 120:
+            world.command("d", rcs=(0.0, 0.4, 0.0))
+        if t == 150:
+            world.retire("b")
+        if t == 200:
+            world.command("a", throttle=0.0)
+        for block in world.blocks(t + 10, max_ticks=10):
+            log.write_block(block)
+    log.close()
+
+
+def _rotated(directory: Path, max_bytes: int) -> list[Path]:
+    logs = []
+    _fly(lambda world: logs.append(RotatingLog(directory, world, keyframe_interval=KEYFRAMES,
+                                               max_bytes=max_bytes)) or logs[0])
+    return logs[0].files
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("segments")
+    single = d / "single.mcap"
+    _fly(lambda world: LogWriter(single, world_header(world, "segments", "segments.toml",
+                                                      KEYFRAMES)))
+    return {"single": single, "files": _rotated(d / "flight", 20_000), "dir": d / "flight"}
+
+
+def _ticks(path: Path) -> dict[int, dict[str, dict[str, np.ndarray]]]:
+    """tick -> ship id -> field -> that ship's numbers."""
+    out = {}
+    with LogReader(path) as r:
+        ids = r.ship_table().ids
+        for td in r.ticks():
+            n = td.ship_count
+            out[td.tick] = {ids[k]: {name: a.reshape(n, -1)[i] for name, a in td.arrays.items()
+                                     if name != "ship_key"}
+                            for i, k in enumerate(td.keys.tolist())}
+    return out
+
+
+def _summary(path: Path) -> pb.LogSummary:
+    with LogReader(path) as r:
+        return r.read_summary()
+
+
+def test_rotated_files_each_verify_alone_and_tile_the_run(run):
+    files = run["files"]
+    assert len(files) >= 3, files
+    assert [f.name for f in files] == sorted(f.name for f in files)
+    ranges = []
+    for i, f in enumerate(files):
+        res = verify(str(f))
+        assert res.identical and res.summary_compared, res.report()
+        with LogReader(f) as r:
+            start = r.start_tick
+            assert f.name == f"flight-{start:010d}.mcap"
+            assert r.scenario.log_format_version == 3 and not r.open_ended
+            first = next(r.ticks())
+            assert first.tick == start and first.is_keyframe
+            assert list(r.scenario.ship_ids) == [r.ship_table().ids[k] for k in first.keys]
+        s = _summary(f)
+        last = i == len(files) - 1
+        assert s.complete and s.reason == ("" if last else "rotated"), s
+        ranges.append((start, s.last_tick))
+        if not last:
+            assert "the run goes on in the next file (rotated)" in res.report()
+    # the files tile the run: each starts at the tick the one before ends (that tick in both)
+    assert ranges[0][0] == 0 and ranges[-1][1] == N_TICKS
+    for (_, end), (start, _) in zip(ranges, ranges[1:]):
+        assert start == end, ranges
+    from view.scene import read_run
+    assert read_run(files[1]).ships[0].tick[0] == ranges[1][0]
+    # and the CLI says so of a file alone
+    r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(files[1]),
+                        "--verify"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0 and f"identical: ticks {ranges[1][0]}..{ranges[1][1]}" in r.stdout, \
+        (r.stdout, r.stderr)
+
+
+def test_rotated_files_hold_the_numbers_of_one_unrotated_log(run):
+    """Every number of every file, by ship id, is the single log's at that tick (the first tick
+    of a file is a keyframe: it holds more fields than the single log has there)."""
+    single = _ticks(run["single"])
+    seen = set()
+    for f in run["files"]:
+        for tick, ships in _ticks(f).items():
+            seen.add(tick)
+            assert ships.keys() == single[tick].keys(), (f, tick)
+            for sid, fields_ in ships.items():
+                theirs = single[tick][sid]
+                for name, a in fields_.items():
+                    if name in theirs:
+                        assert a.tobytes() == theirs[name].tobytes(), (f.name, tick, sid, name)
+    assert seen == set(range(N_TICKS + 1))
+    assert single[100].keys() == {"a", "b", "c"} and single[101].keys() == {"a", "b", "c", "d"}
+    assert single[151].keys() == {"a", "c", "d"}
+    # every event once, in the file of its tick (an event of a file's first tick is in the file
+    # before, with the step that led to it)
+    with LogReader(run["single"]) as r:
+        events = [e.SerializeToString() for e in r.events()]
+    rotated = []
+    for f in run["files"]:
+        with LogReader(f) as r:
+            rotated += [e.SerializeToString() for e in r.events()]
+    assert rotated == events and len(events) >= 3
+
+
+def test_every_block_boundary_can_end_a_file(tmp_path):
+    """max_bytes = 1: a file per block, so files end after ticks where ships join and leave and
+    begin with the ships that just joined; each verifies, whole, from a keyframe and per ship."""
+    files = _rotated(tmp_path, 1)
+    assert len(files) >= 40
+    starts = []
+    for f in files:
+        res = verify(str(f))
+        assert res.identical, (f.name, res.report())
+        with LogReader(f) as r:
+            starts.append((r.start_tick, list(r.scenario.ship_ids)))
+    by_start = dict(starts)
+    assert by_start[40] == ["a", "b", "c"]  # c joined at 40: a ship of the header there
+    assert by_start[101] == ["a", "b", "c", "d"] and by_start[151] == ["a", "c", "d"]
+    for f in files[10:13]:
+        with LogReader(f) as r:
+            sid = r.ship_table().ids[-1]
+            start = r.start_tick
+        assert verify(str(f), ship_id=sid).identical
+        assert verify(str(f), first=start + 3).identical
+
+
+def test_a_log_may_start_later_with_no_ships_and_ships_joining(tmp_path):
+    """A live service's log: the world has no ships at its first tick (60), ships join later
+    (by their scenario's spawn_t and by spawn), the run has no set end, and it is stopped."""
+    scn = parse_text('name = "empty"\nduration = 1.0\n[[ships]]\nid = "x"\nspawn_t = 4.0\n'
+                     '[ships.initial]\naltitude = 2.0\nvertical_speed = -6.0\n', "empty.toml")
+    world = World.of(scn)
+    for _ in world.blocks(60):
+        pass
+    assert world.ship_ids == () and world.tick == 60
+    header = world_header(world, "service", "test", keyframe_interval=10, open_ended=True)
+    assert header.start_tick == 60 and header.open_ended and list(header.ship_ids) == []
+    assert json.loads(header.resolved_json)["ships"] == []
+    path = tmp_path / "service.mcap"
+    writer = LogWriter(path, header)
+    writer.write_block(world.first_block())
+    for block in world.blocks(75):
+        writer.write_block(block)
+    world.spawn({"id": "y", "initial": {"state": "landed", "north": 12.0}})
+    for block in world.blocks(130):  # n_ticks is 20: an open-ended run goes past it
+        writer.write_block(block)
+    writer.close(complete=True, reason="stopped")
+    res = verify(str(path))
+    assert res.identical and res.summary_compared, res.report()
+    assert res.first_tick == 60 and res.last_tick == 130 and res.events_compared >= 1
+    with LogReader(path) as r:
+        assert r.ship_table().ids == ["y", "x"] and r.ship_table().joined == [76, 80]
+    for kwargs in ({"ship_id": "x"}, {"ship_id": "y"}, {"first": 95}, {"first": 10}):
+        assert verify(str(path), **kwargs).identical, kwargs
+    runner = CliRunner()
+    r = runner.invoke(main, ["replay", str(path), "--verify"])
+    assert r.exit_code == 0 and "identical: ticks 60..130" in r.output, r.output
+    rows = [json.loads(x) for x in runner.invoke(main, ["export", str(path)]).output.splitlines()]
+    assert {row["tick"] for row in rows} == set(range(76, 131))  # no ship before tick 76
+    assert rows[0]["ship_id"] == "y" and rows[0]["east"] is not None
+    # the view reads it from its first tick, the ships from the ticks they join
+    from view.scene import read_run
+    tracks = {t.ship_id: t for t in read_run(path).ships}
+    assert tracks["y"].tick[0] == 76 and tracks["x"].tick[0] == 80
+    assert tracks["y"].tick[-1] == 130 and np.isfinite(tracks["y"].pos_site_m).all()
+    # a what-if of it re-runs from its first tick; its new log verifies too
+    out = tmp_path / "whatif.mcap"
+    r = runner.invoke(main, ["replay", str(path), "--set", "sim.integrator=rk4", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert verify(str(out)).identical
+
+
+def test_summaries_say_where_and_why_a_file_ends(tmp_path, run):
+    """A summary must say why its file ends where it does: an unknown reason, or "complete" with
+    no reason short of the run's end, is a divergence."""
+    src = run["files"][0]
+    for reason, complete, ok in (("rotated", True, True), ("stopped", True, True),
+                                 ("stopped", False, True), ("interrupted", False, True),
+                                 ("handed over", True, True), ("lost", True, True),
+                                 ("", True, False), ("bogus", True, False),
+                                 ("rotated", False, False)):
+        def edit(data: bytes, reason=reason, complete=complete) -> bytes:
+            s = pb.LogSummary.FromString(data)
+            s.reason, s.complete = reason, complete
+            return s.SerializeToString()
+        bad = tmp_path / f"{reason or 'none'}-{complete}.mcap"
+        rewrite_topic(src, bad, TOPIC_SUMMARY, edit)
+        res = verify(str(bad))
+        assert res.identical == ok, (reason, complete, res.report())
+        if not ok:
+            assert res.divergence.field.startswith("summary"), res.report()
+
+
+def test_the_writer_refuses_a_first_block_that_is_not_the_headers_tick(tmp_path):
+    world = World.of(parse_text(SCENE, "segments.toml"))
+    for _ in world.blocks(30):
+        pass
+    header = world_header(world, "s", "t")
+    assert header.start_tick == 30 and list(header.ship_ids) == ["a", "b"]
+    assert all(k not in s for s in json.loads(header.resolved_json)["ships"]
+               for k in ("spawn_t", "retire_t", "inputs") if s.get(k))
+    with LogWriter(tmp_path / "x.mcap", header) as w:
+        with pytest.raises(ValueError, match="next tick is 30"):
+            w.write_block(next(world.blocks(40)))
+    log = RotatingLog(tmp_path / "rot", world)
+    with pytest.raises(ValueError, match="world.first_block"):
+        log.write_block(next(world.blocks(50)))
+    log.abandon()
+    assert log.files == [] and not list((tmp_path / "rot").glob("*"))
+
+
+def test_flush_puts_every_tick_written_so_far_in_the_file(tmp_path):
+    """A live service flushes its log before it checkpoints: the partial file then holds every
+    tick written, readable (and verifiable) as a log whose writer was killed."""
+    world = World.of(parse_text(SCENE, "segments.toml"))
+    log = RotatingLog(tmp_path, world, keyframe_interval=KEYFRAMES, open_ended=True)
+    log.write_block(world.first_block())
+    for block in world.blocks(57, max_ticks=10):
+        log.write_block(block)
+    log.flush()
+    partial = Path(str(log.files[-1]) + ".partial")
+    res = verify(str(partial))
+    assert res.identical and res.last_tick == 57, res.report()
+    for block in world.blocks(80, max_ticks=10):
+        log.write_block(block)
+    log.close(complete=True, reason="stopped")
+    assert not partial.exists() and verify(str(log.files[-1])).identical
+
+
+# -- touchdown incident -----------------------------------------------------------------------
+def _events(path: Path) -> list[pb.TransitionEvent]:
+    with LogReader(path) as r:
+        return list(r.events())
+
+
+def _incident(*args) -> "object":
+    return CliRunner().invoke(main, ["incident", *map(str, args)])
+
+
+@pytest.mark.parametrize("ship", ["a", "d"])
+def test_an_incident_cut_holds_one_ship_around_its_transition_and_verifies(run, tmp_path, ship):
+    ev = next(e for e in _events(run["single"]) if e.ship_id == ship)
+    out = tmp_path / f"cut-{ship}.mcap"
+    r = _incident(run["dir"], "--ship", ship, "--around", ev.tick, "--before", "1",
+                  "--after", "2", "-o", out)
+    assert r.exit_code == 0, r.output
+    lo, hi = ev.tick - 20, ev.tick + 40
+    res = verify(str(out))
+    assert res.identical and res.summary_compared, res.report()
+    with LogReader(out) as rd:
+        assert rd.ship_table().ids == [ship]
+        start = rd.start_tick
+        assert start <= lo and (start % KEYFRAMES == 0 or start in
+                                {f_start for f_start, _ in _file_ranges(run["files"])})
+        ticks = _ticks(out)
+        assert min(ticks) == start and max(ticks) == hi == rd.scenario.n_ticks
+        assert [e.SerializeToString() for e in rd.events()] == [
+            e.SerializeToString() for e in _events(run["single"])
+            if e.ship_id == ship and start < e.tick <= hi]
+    single = _ticks(run["single"])
+    for tick, ships in ticks.items():
+        assert set(ships) <= {ship}
+        for name, a in ships.get(ship, {}).items():
+            if name in single[tick][ship]:
+                assert a.tobytes() == single[tick][ship][name].tobytes(), (tick, name)
+    if ship == "d":  # it joins at tick 101, after the cut starts: the cut begins with no ship
+        assert ticks[start] == {} and "joins the fleet at tick 101" in r.output
+
+
+def _file_ranges(files):
+    out = []
+    for f in files:
+        with LogReader(f) as r:
+            out.append((r.start_tick, r.read_summary().last_tick))
+    return out
+
+
+def test_an_incident_window_across_two_files_is_cut_from_both(run, tmp_path):
+    (_, end), _ = _file_ranges(run["files"])[:2]
+    out = tmp_path / "across.mcap"
+    r = _incident(*run["files"], "--ship", "a", "--around", end, "--before", "0.5", "--after",
+                  "0.5", "-o", out)
+    assert r.exit_code == 0, r.output
+    assert "spans 2 files" in r.output
+    res = verify(str(out))
+    assert res.identical and res.last_tick == end + 10, res.report()
+
+
+def test_an_incident_cut_from_a_tampered_recording_is_refused(run, tmp_path):
+    """One number of the ship, one ulp off inside the window: the cut stops there, exit 1, one
+    line naming the file, tick and field; nothing is written."""
+    ev = next(e for e in _events(run["single"]) if e.ship_id == "a")
+    src = next(f for f, (s, e) in zip(run["files"], _file_ranges(run["files"]))
+               if s <= ev.tick <= e)
+    with LogReader(src) as r:
+        key = r.ship_table().key("a")
+
+    def edit(data: bytes) -> bytes:
+        t, t_s, n, arrays = decode_tick(data)
+        if t != ev.tick:
+            return data
+        i = int(np.flatnonzero(arrays["ship_key"] == key)[0])
+        a = arrays["altitude_m"].copy()
+        a[i] = np.nextafter(a[i], np.inf)
+        arrays["altitude_m"] = a
+        return encode_tick(t, t_s, n, arrays)
+    bad = tmp_path / "tampered.mcap"
+    rewrite_topic(src, bad, TOPIC_TICKS, edit)
+    out = tmp_path / "cut.mcap"
+    r = _incident(bad, "--ship", "a", "--around", ev.tick, "--before", "0.2", "--after", "0.2",
+                  "-o", out)
+    assert r.exit_code == 1, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.output
+    assert f"tick {ev.tick}" in lines[0] and "altitude_m" in lines[0] and "diverges" in lines[0]
+    assert not out.exists() and not Path(str(out) + ".partial").exists()
+    # the same window from the untouched file is cut
+    assert _incident(src, "--ship", "a", "--around", ev.tick, "--before", "0.2", "--after",
+                     "0.2", "-o", out).exit_code == 0
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--around", "100", "-o", "{out}"], "--ship"),
+    (["--ship", "a", "-o", "{out}"], "--around"),
+    (["--ship", "a", "--around", "100"], "-o"),
+    (["--ship", "a", "--around", "ten", "-o", "{out}"], "--around"),
+    (["--ship", "a", "--around", "-4", "-o", "{out}"], "--around"),
+    (["--ship", "a", "--around", "100", "--before", "-1", "-o", "{out}"], "--before"),
+    (["--ship", "a", "--around", "100", "--after", "nan", "-o", "{out}"], "--after"),
+    (["--ship", "a", "--around", "100", "-o", "{dir}/cut.txt"], "cut.txt"),
+    (["--ship", "nobody", "--around", "100", "-o", "{out}"], "nobody"),
+    (["--ship", "a", "--around", "99999", "-o", "{out}"], "--around 99999"),
+])
+def test_bad_incident_flags_exit_2_with_one_line(run, tmp_path, args, needle):
+    out = tmp_path / "cut.mcap"
+    args = [a.format(out=out, dir=tmp_path) for a in args]
+    r = _incident(run["dir"], *args)
+    assert r.exit_code == 2, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.output and needle in lines[0], r.output
+    assert not out.exists() and not Path(str(out) + ".partial").exists()
+
+
+def test_incident_of_a_missing_or_broken_log_exits_2(tmp_path):
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not a log" * 100)
+    for log in (tmp_path / "missing.mcap", junk, tmp_path):
+        r = _incident(log, "--ship", "a", "--around", "5", "-o", tmp_path / "o.mcap")
+        assert r.exit_code == 2, r.output
+        lines = r.output.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in r.output, r.output
