@@ -16,7 +16,7 @@ from sim.scenario import ScenarioError, parse
 from sim.timeline import CommandError
 from sim.world import World
 
-from tests.test_determinism import varied_fleet
+from test_determinism import varied_fleet
 
 TURNING = {"rotation_period": 20000.0}
 
@@ -188,7 +188,7 @@ def test_a_log_whose_recorded_command_was_changed_diverges(tmp_path):
     """The check above can fail: a log whose command record says another throttle than the one
     the recorded ticks show diverges at the first tick it changes."""
     from proto import touchdown_pb2 as pb
-    from tests.test_replay import rewrite_topic
+    from test_replay import rewrite_topic
 
     scn = parse({"name": "api", "duration": 2.0, "ships": [
         {"id": "a", "initial": {"altitude": 40.0}}]}, "api")

@@ -21,7 +21,7 @@ from replay.verify import verify
 from sim.scenario import parse_text
 from sim.world import World
 
-from tests.test_replay import rewrite_topic
+from test_replay import rewrite_topic
 
 ROOT = Path(__file__).resolve().parents[1]
 
