@@ -418,7 +418,9 @@ class LogWriter:
         """Bytes written to the file so far (the blocks still queued for the writer's thread,
         and the chunk it is filling, are not in it yet)."""
         try:
-            return self._stream.tell()
+            # the file's size on disk: tell() would wait for the writer's thread to finish
+            # its write (the buffer's lock), which cost a 12,500-ship service 7 ms a tick
+            return os.fstat(self._stream.fileno()).st_size
         except (OSError, ValueError):  # closed
             return 0
 

@@ -88,7 +88,7 @@ while i <= #ARGV do
   i = i + 2 + 2 * nf
 end
 redis.call('SET', KEYS[2], mark)
-redis.call('SET', KEYS[4], ARGV[2])
+if ARGV[2] ~= '-1' then redis.call('SET', KEYS[4], ARGV[2]) end
 return added
 """
 
@@ -106,10 +106,13 @@ if #ARGV > 4 then redis.call('XACK', KEYS[3], ARGV[2], unpack(ARGV, 5)) end
 return 1
 """
 
-#: KEYS owner, checkpoint, journal; ARGV worker, blob, the checkpoint's tick (journal entries
-#: before it are dropped: the checkpoint holds what they did)
+#: KEYS owner, checkpoint, journal, published mark; ARGV worker, blob, the checkpoint's tick
+#: (journal entries before it are dropped: the checkpoint holds what they did), the entries
+#: the shard has emitted (refused, -2, unless all of them are out: a successor starts counting
+#: there, and would never send the missing ones)
 CHECKPOINT = """
 if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
+if tonumber(redis.call('GET', KEYS[4]) or '-1') ~= tonumber(ARGV[4]) - 1 then return -2 end
 redis.call('SET', KEYS[2], ARGV[2])
 redis.call('XTRIM', KEYS[3], 'MINID', ARGV[3])
 return 1

@@ -82,7 +82,8 @@ class ServeConfig:
 class Stats:
     ticks: int = 0
     tick_s: list = field(default_factory=list)  # work time of each loop (no sleeping)
-    late: int = 0  # loops that began after their due time
+    late: int = 0  # loops that began a whole period or more after their due time
+    start_late_s: list = field(default_factory=list)  # how late each loop began (paced runs)
     entries_sent: int = 0
     entries_dropped: int = 0
     commands_read: int = 0
@@ -171,6 +172,7 @@ class Worker:
                         due = now
                     if now > due + period:
                         self.stats.late += 1
+                    self.stats.start_late_s.append(max(0.0, now - due))
                     due += period
                 t0 = time.perf_counter()
                 self.loop_once()
@@ -207,8 +209,9 @@ class Worker:
         if every and sh.world.state.n:
             # a rolling slice: each ship once per period, the work spread over its ticks
             rows = np.arange(sh.tick % every, sh.world.state.n, every)
-            if rows.size:
-                o.telemetry.append(sh.telemetry(rows, self.dt_s).SerializeToString())
+            if rows.size and out.blocks:
+                o.telemetry.append(sh.telemetry(out.blocks[-1], rows, self.dt_s, sh.index)
+                                   .SerializeToString())
                 del o.telemetry[:-4 * every]  # a sample: only the latest wait for Redis
 
     def _take(self, o: _Owned, out: TickOut) -> None:
@@ -293,59 +296,73 @@ class Worker:
                 raise
 
     def _flush(self) -> None:
-        """Journal, then publish, then hashes, specs and telemetry; then due checkpoints."""
-        lost = []
+        """Journal (rare: only ticks that had commands), then in one round trip: each shard's
+        entries, hashes, specs and telemetry, and its checkpoint when due."""
+        lost: set[int] = set()
         for k in sorted(self.owned):
             o = self.owned[k]
-            sh = o.shard
-            owner = self.keys.shard(k, "owner")
             while o.journal:
                 tick, reqs, ids = o.journal[0]
                 payload = json.dumps([r.as_json() for r in reqs]) if reqs else ""
                 ok = self._scripts["JOURNAL"](
-                    keys=[owner, self.keys.shard(k, "journal"), self.keys.commands],
+                    keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "journal"),
+                          self.keys.commands],
                     args=[self.id, rio.Keys.group(k), f"{tick}-1", payload, *ids])
                 if ok == -1:
+                    lost.add(k)
                     break
                 o.journal.popleft()
-            if o.journal:
-                lost.append(k)
-                continue
-            while True:  # at least once: the shard's tick is recorded with its entries
-                chunk = [o.unsent[i] for i in range(min(500, len(o.unsent)))]
-                added = self._scripts["PUBLISH"](
-                    keys=[owner, self.keys.shard(k, "published"), self.keys.events,
-                          self.keys.shard(k, "tick")],
-                    args=[self.id, sh.tick if len(chunk) == len(o.unsent) else -1, 0,
-                          *rio.flat_entries(chunk)])
-                if added == -1:
-                    break
-                self.stats.entries_sent += added
-                for _ in chunk:
-                    o.unsent.popleft()
-                if not o.unsent:
-                    break
-            if o.unsent:
-                lost.append(k)
-                continue
-            pipe = self.r.pipeline(transaction=False)
+        pipe = self.r.pipeline(transaction=False)
+        plan: list[tuple[str, int, int]] = []
+        for k in sorted(set(self.owned) - lost):
+            o = self.owned[k]
+            sh = o.shard
+            entries = list(o.unsent)
+            chunks = [entries[i:i + 500] for i in range(0, len(entries), 500)] or [[]]
+            for c, chunk in enumerate(chunks):  # the shard's tick goes with its last entries
+                self._scripts["PUBLISH"](
+                    keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "published"),
+                          self.keys.events, self.keys.shard(k, "tick")],
+                    args=[self.id, sh.tick if c == len(chunks) - 1 else -1, 0,
+                          *rio.flat_entries(chunk)], client=pipe)
+                plan.append(("publish", k, len(chunk)))
             for sid, fields in o.hashes.items():
                 if fields is None:
                     pipe.delete(self.keys.ship(sid))
                 else:
                     pipe.hset(self.keys.ship(sid), mapping=fields)
+                plan.append(("hash", k, 0))
             if o.specs:
                 pipe.hset(self.keys.shard(k, "specs"), mapping=o.specs)
+                plan.append(("specs", k, 0))
             for sample in o.telemetry:
                 pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
                                                 "proto": sample},
                           maxlen=self.cfg.telemetry_maxlen, approximate=True)
-            pipe.execute()
-            o.hashes, o.specs, o.telemetry = {}, {}, []
+                plan.append(("telemetry", k, 0))
             if self._checkpoint_due(k, sh.tick):
-                if self._checkpoint(k) == -1:
-                    lost.append(k)
-        for k in lost:
+                self._checkpoint(k, pipe)
+                plan.append(("checkpoint", k, 0))
+        if not plan:
+            return
+        replies = pipe.execute(raise_on_error=False)
+        for (what, k, n), reply in zip(plan, replies):
+            if isinstance(reply, REDIS_ERRORS):
+                raise reply
+            if isinstance(reply, Exception):
+                self.say(f"shard {k}: redis refused a {what}: {str(reply).splitlines()[0]}")
+                continue
+            if reply == -1 and what in ("publish", "checkpoint"):
+                lost.add(k)
+            elif what == "publish" and k not in lost:
+                o = self.owned[k]
+                for _ in range(n):
+                    o.unsent.popleft()
+                self.stats.entries_sent += reply
+        for k in sorted(set(self.owned) - lost):
+            o = self.owned[k]
+            o.hashes, o.specs, o.telemetry = {}, {}, []
+        for k in sorted(lost):
             self._lose(k, "its lease passed to another worker")
 
     def _checkpoint_due(self, k: int, tick: int) -> bool:
@@ -354,7 +371,8 @@ class Worker:
         every = self.cfg.checkpoint_every
         return (tick + k * every // self.cfg.shards) % every == 0
 
-    def _checkpoint(self, k: int) -> int:
+    def _checkpoint(self, k: int, client=None) -> int:
+        """Shard k's checkpoint (refused by the script unless every entry it counts is out)."""
         o = self.owned[k]
         sh = o.shard
         sh.log.flush()  # the log holds every tick up to the checkpoint before Redis does
@@ -362,8 +380,8 @@ class Worker:
                                    sh.autoland, sh.published)
         return self._scripts["CHECKPOINT"](
             keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "checkpoint"),
-                  self.keys.shard(k, "journal")],
-            args=[self.id, blob, f"{sh.tick}"])
+                  self.keys.shard(k, "journal"), self.keys.shard(k, "published")],
+            args=[self.id, blob, f"{sh.tick}", sh.published], client=client)
 
     # -- shards: leases, taking over, handing over --------------------------------------------
     def _new_world(self, k: int) -> World:
@@ -423,16 +441,7 @@ class Worker:
             world.timeline = self._new_world(k).timeline.from_tick(state.tick)
             autoland, published = list(cp.autoland), int(cp.published)
             how = f"from its checkpoint at tick {state.tick}"
-        log = RotatingLog(self.cfg.log_dir / f"shard-{k:03d}", world, prefix=self.id,
-                          keyframe_interval=self.cfg.keyframe_every,
-                          max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
-                          source=self.cfg.source or "serve", open_ended=True)
-        log.write_block(world.first_block())  # the file's first record: the state it starts at
-        shard = Shard(k, world, log, self.body, dict.fromkeys(autoland), published)
-        o = _Owned(shard)
-        o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
-        self.owned[k] = o
-        # the journal's requests, at their ticks, up to the last tick whose entries are out
+        # everything read from Redis first: a failure here leaves nothing half made
         journal: dict[int, list] = {}
         journaled: set[str] = set()
         for _id, fields in self.r.xrange(keys.shard(k, "journal"), f"{world.tick}-0", "+"):
@@ -442,22 +451,35 @@ class Worker:
             journaled.update(r.entry_id for r in reqs)
         last = int(self.r.get(keys.shard(k, "tick")) or -1)
         last = max([last] + [t + 1 for t in journal])
-        caught = 0
-        while shard.tick < last:
-            self._take(o, shard.step(journal.get(shard.tick, [])))
-            caught += 1
-        o.telemetry.clear()
         # what the last owner read but never journaled is new: this worker applies it next
-        reqs, ids = [], []
+        reqs, ids, acks = [], [], []
         for eid, raw in self._claim(k):
             if eid in journaled:
-                self.r.xack(keys.commands, rio.Keys.group(k), eid)
+                acks.append(eid)
                 continue
             ids.append(eid)
             req = parse(eid, decode_entry(raw))
             if shard_of(req.ship_id, self.cfg.shards) == k:
                 reqs.append(req)
+        if acks:
+            self.r.xack(keys.commands, rio.Keys.group(k), *acks)
+        log = RotatingLog(self.cfg.log_dir / f"shard-{k:03d}", world, prefix=self.id,
+                          keyframe_interval=self.cfg.keyframe_every,
+                          max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
+                          source=self.cfg.source or "serve", open_ended=True)
+        log.write_block(world.first_block())  # the file's first record: the state it starts at
+        shard = Shard(k, world, log, self.body, dict.fromkeys(autoland), published)
+        o = _Owned(shard)
+        o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
+        # the journal's requests, at their ticks, up to the last tick whose entries are out:
+        # the same entries, with the same numbers, as the last owner's (dropped by the mark)
+        caught = 0
+        while shard.tick < last:
+            self._take(o, shard.step(journal.get(shard.tick, [])))
+            caught += 1
+        o.telemetry.clear()
         o.claimed = (reqs, ids)
+        self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
         self.say(f"shard {k}: taken ({how}; {world.state.n} ships; re-stepped {caught} "
@@ -478,7 +500,7 @@ class Worker:
     def _hand_over(self, k: int) -> None:
         """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed."""
         o = self.owned[k]
-        if o.journal or o.unsent or self._checkpoint(k) == -1:
+        if o.journal or o.unsent or self._checkpoint(k) != 1:
             return  # try again at the next lease round
         self._scripts["RELEASE"](keys=[self.keys.shard(k, "owner")], args=[self.id])
         o.shard.log.close(complete=True, reason="handed over")
@@ -527,7 +549,7 @@ class Worker:
             o = self.owned[k]
             if o.journal or o.unsent:
                 return False
-            if self._checkpoint(k) != -1:
+            if self._checkpoint(k) == 1:
                 self._scripts["RELEASE"](keys=[self.keys.shard(k, "owner")], args=[self.id])
         return True
 

@@ -177,18 +177,19 @@ class Shard:
         return {ids[i]: ship_hash(SurfaceState(int(states[i])), self.body, tick, players[i],
                                   self.index) for i in rows}
 
-    def telemetry(self, rows: np.ndarray, dt_s: float) -> spb.Telemetry:
-        """A sample of the ships at ``rows``: where they are, how fast, how tilted."""
-        from sim.step import outputs_at
-        w = self.world
-        st = w.state.rows[rows]
-        ids = w.ship_ids
-        msg = spb.Telemetry(tick=w.tick, t_s=w.tick * dt_s, shard=self.index,
+    @staticmethod
+    def telemetry(block: Block, rows: np.ndarray, dt_s: float, index: int = 0
+                  ) -> spb.Telemetry:
+        """A sample of the ships at ``rows`` of ``block``'s last tick: where they are, how
+        fast, how tilted (the step's own outputs of that tick: nothing recomputed)."""
+        tick = block.last_tick
+        st = block.states[-1][rows]
+        outs = block.outputs[-1][rows]
+        ids = block.ship_ids
+        msg = spb.Telemetry(tick=tick, t_s=tick * dt_s, shard=index,
                             ship_ids=[ids[i] for i in rows])
         if not len(rows):
             return msg
-        from sim.state import State
-        outs = outputs_at(w.params.take(rows), State(rows=st, tick=w.tick)).rows
         msg.state.extend(st["surface_state"].astype(np.int32).tolist())
         msg.pos_m.extend(st["pos_m"].ravel().tolist())
         msg.vel_mps.extend(st["vel_mps"].ravel().tolist())
