@@ -447,7 +447,10 @@ def serve(redis_url: str, scenario: str | None, ticks: int | None, rate: float |
         raise UserError(str(exc)) from None
     install_stop(worker)
     t0 = time.perf_counter()
-    stats = worker.run()
+    try:
+        stats = worker.run()
+    except ServeError as exc:  # e.g. a shard's checkpoint written by another version
+        raise UserError(str(exc)) from None
     if stats_json:
         Path(stats_json).write_text(json.dumps({
             "tick_s": stats.tick_s, "start_late_s": stats.start_late_s, "late": stats.late,

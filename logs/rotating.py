@@ -24,6 +24,7 @@ each alone. The world must be at the block's last tick when the block is handed 
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 from typing import Callable
 
@@ -98,10 +99,14 @@ class RotatingLog:
                 self._rotate(world, block)
         return msgs
 
-    def flush(self) -> None:
-        """Every block written so far is in the file being written (LogWriter.flush)."""
+    def flush(self, wait: bool = True) -> threading.Event:
+        """Every block written so far in the files (LogWriter.flush; a file closed by a
+        rotation is wholly on disk already)."""
         if self.writer is not None and not self._closed:
-            self.writer.flush()
+            return self.writer.flush(wait)
+        done = threading.Event()
+        done.set()
+        return done
 
     def close(self, complete: bool = True, reason: str = "") -> None:
         """Finish the file being written (summary ``complete`` with ``reason``: "" the run's end,

@@ -112,7 +112,7 @@ return 1
 #: there, and would never send the missing ones)
 CHECKPOINT = """
 if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
-if tonumber(redis.call('GET', KEYS[4]) or '-1') ~= tonumber(ARGV[4]) - 1 then return -2 end
+if tonumber(redis.call('GET', KEYS[4]) or '-1') < tonumber(ARGV[4]) - 1 then return -2 end
 redis.call('SET', KEYS[2], ARGV[2])
 redis.call('XTRIM', KEYS[3], 'MINID', ARGV[3])
 return 1

@@ -100,6 +100,9 @@ class _Owned:
     telemetry: list = field(default_factory=list)  # serialized samples to add
     #: what a former owner read and never journaled: (requests, entry ids), for the next tick
     claimed: tuple = ((), ())
+    #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
+    #: the log's flush Event)
+    checkpoint: tuple | None = None
 
 
 class Worker:
@@ -340,8 +343,18 @@ class Worker:
                                                 "proto": sample},
                           maxlen=self.cfg.telemetry_maxlen, approximate=True)
                 plan.append(("telemetry", k, 0))
-            if self._checkpoint_due(k, sh.tick):
-                self._checkpoint(k, pipe)
+            if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
+                # taken now, sent once the log has this tick on disk (no waiting on the log's
+                # thread here: that was the slowest tick's time)
+                o.checkpoint = (rio.checkpoint_blob(k, self.cfg.shards, sh.world,
+                                                    self.scenario_json, sh.autoland,
+                                                    sh.published),
+                                sh.tick, sh.published, sh.log.flush(wait=False))
+            if o.checkpoint is not None and o.checkpoint[3].is_set():
+                blob, tick, published, _ = o.checkpoint
+                self._scripts["CHECKPOINT"](
+                    keys=self._checkpoint_keys(k), args=[self.id, blob, tick, published],
+                    client=pipe)
                 plan.append(("checkpoint", k, 0))
         if not plan:
             return
@@ -354,6 +367,8 @@ class Worker:
                 continue
             if reply == -1 and what in ("publish", "checkpoint"):
                 lost.add(k)
+            elif what == "checkpoint" and reply == 1:
+                self.owned[k].checkpoint = None
             elif what == "publish" and k not in lost:
                 o = self.owned[k]
                 for _ in range(n):
@@ -378,10 +393,12 @@ class Worker:
         sh.log.flush()  # the log holds every tick up to the checkpoint before Redis does
         blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, self.scenario_json,
                                    sh.autoland, sh.published)
-        return self._scripts["CHECKPOINT"](
-            keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "checkpoint"),
-                  self.keys.shard(k, "journal"), self.keys.shard(k, "published")],
-            args=[self.id, blob, f"{sh.tick}", sh.published], client=client)
+        return self._scripts["CHECKPOINT"](keys=self._checkpoint_keys(k),
+                                           args=[self.id, blob, sh.tick, sh.published],
+                                           client=client)
+
+    def _checkpoint_keys(self, k: int) -> list[str]:
+        return [self.keys.shard(k, w) for w in ("owner", "checkpoint", "journal", "published")]
 
     # -- shards: leases, taking over, handing over --------------------------------------------
     def _new_world(self, k: int) -> World:
