@@ -213,7 +213,23 @@ class ShipTable:
 QUEUE_BLOCKS = 4
 
 
-class LogWriter:
+class FinishedOrGone:
+    """A log writer as a context manager: closed when the block ends, marked incomplete on
+    Ctrl-C, abandoned (nothing kept) on any other error. Needs ``close`` and ``abandon``."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close(complete=False, reason="interrupted")
+        else:
+            self.abandon()
+
+
+class LogWriter(FinishedOrGone):
     """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice.
 
     The caller's thread encodes each block of ticks (compiled, without the GIL); a thread of the
@@ -443,16 +459,6 @@ class LogWriter:
             pass
         self.partial.unlink(missing_ok=True)
 
-    def __enter__(self) -> "LogWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        elif issubclass(exc_type, KeyboardInterrupt):
-            self.close(complete=False, reason="interrupted")
-        else:
-            self.abandon()
 
 
 class TickData:

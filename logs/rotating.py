@@ -28,7 +28,7 @@ import threading
 from pathlib import Path
 from typing import Callable
 
-from logs.mcap_log import LogWriter, world_header
+from logs.mcap_log import FinishedOrGone, LogWriter, world_header
 from proto import touchdown_pb2 as pb
 from sim.world import Block, World
 
@@ -36,7 +36,7 @@ from sim.world import Block, World
 MAX_BYTES = 64 << 20
 
 
-class RotatingLog:
+class RotatingLog(FinishedOrGone):
     """Write a world's blocks to rotating files in ``directory`` (created if missing).
 
     ``world``: the World whose blocks are written, or a function returning it (a world that is
@@ -134,17 +134,6 @@ class RotatingLog:
     @property
     def last_tick(self) -> int:
         return -1 if self.writer is None else self.writer.last_tick
-
-    def __enter__(self) -> "RotatingLog":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.close()
-        elif issubclass(exc_type, KeyboardInterrupt):
-            self.close(complete=False, reason="interrupted")
-        else:
-            self.abandon()
 
     # -- files -----------------------------------------------------------------------------------
     def _open(self, world: World, first: Block) -> None:
