@@ -47,6 +47,10 @@ MAX_BUMPS = 1000
 #: counting wherever a Ground goes).
 TERRAIN_DTYPE = np.dtype([
     ("base_height_m", "f8"),
+    # a uniform slope through the site: the height's gradient dh/d(east), dh/d(north) (SPEC.md 6)
+    ("slope_east", "f8"),
+    ("slope_north", "f8"),
+    ("level", "?"),  # no bumps and no slope: the ground is the sphere R + base_height
     ("n_bumps", "i8"),
     ("bumps", "f8", (MAX_BUMPS, 4)),  # rows: east, north, radius, height (m); the first n_bumps
 ], align=True)
@@ -56,9 +60,10 @@ class Ground(NamedTuple):
     """The body's surface at one instant, as one ship sees it.
 
     The terrain is a deterministic height field over the landing site, m:
-    h(e, n) = base_height + sum_j height_j (1 - d_j^2 / radius_j^2)^2 for d_j < radius_j, d_j the
-    distance from bump j's centre (east_j, north_j) in the site's tangent plane. The biweight bump is
-    smooth (C1) and needs only +, *. The site is the body-fixed +x axis; east is body-fixed +y,
+    h(e, n) = base_height + s_e e + s_n n + sum_j height_j (1 - d_j^2 / radius_j^2)^2 for
+    d_j < radius_j, d_j the distance from bump j's centre (east_j, north_j) in the site's tangent
+    plane, (s_e, s_n) a uniform slope's gradient. The biweight bump is smooth (C1) and needs only
+    +, *. The site is the body-fixed +x axis; east is body-fixed +y,
     north +z; the body has turned by theta = Omega t about the inertial +z axis."""
 
     radius_m: float
@@ -71,12 +76,12 @@ class Ground(NamedTuple):
 
 @kernel
 def height_and_slope(ground, east_m, north_m):
-    """(h, dh/de, dh/dn): the terrain's height and its gradient, analytically,
-    dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
+    """(h, dh/de, dh/dn): the terrain's height and its gradient, analytically: the slope's
+    (s_e, s_n), and dh/de = -4 height (1 - s) de / radius^2 inside each bump (likewise north)."""
     ter = ground.terrain
-    h = ter.base_height_m
-    dh_de = 0.0
-    dh_dn = 0.0
+    h = ter.base_height_m + ter.slope_east * east_m + ter.slope_north * north_m
+    dh_de = ter.slope_east
+    dh_dn = ter.slope_north
     for j in range(ter.n_bumps):
         hgt = ter.bumps[j, BUMP_HEIGHT]
         rad = ter.bumps[j, BUMP_RADIUS]
@@ -105,7 +110,7 @@ def under(ground, point):
     pushes it (unit radial on level ground or with ``radial``)."""
     r = norm(point)
     r_hat = (point[0] / r, point[1] / r, point[2] / r)
-    if ground.terrain.n_bumps == 0:
+    if ground.terrain.level:
         return ground.radius_m + ground.terrain.base_height_m - r, r_hat
     east, north = site_coords(ground, point)
     h, dh_de, dh_dn = height_and_slope(ground, east, north)

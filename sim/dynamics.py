@@ -73,7 +73,7 @@ def ground_at(fb, offset_s):
     om = fb.body_omega_radps
     if om == 0.0:
         return Ground(fb.body_radius_m, fb.terrain, 1.0, 0.0, 0.0, fb.radial)
-    if fb.terrain.n_bumps == 0:
+    if fb.terrain.level:
         return Ground(fb.body_radius_m, fb.terrain, fb.cos0, fb.sin0, om, fb.radial)
     c, s = turned(fb.cos0, fb.sin0, om, offset_s)
     return Ground(fb.body_radius_m, fb.terrain, c, s, om, fb.radial)

@@ -97,13 +97,19 @@ class ContactParams:
 class Terrain:
     """A deterministic height field over the landing site, m.
 
-    h(e, n) = base_height + sum_j height_j * (1 - d_j^2 / radius_j^2)^2 for d_j < radius_j, where d_j
-    is the distance from bump j's centre (east_j, north_j) in the site's tangent plane. The biweight
-    bump is smooth (C1) and needs only +, *, so heights are bit-identical everywhere.
+    h(e, n) = base_height - tan(slope) (e sin(az) + n cos(az))
+              + sum_j height_j * (1 - d_j^2 / radius_j^2)^2 for d_j < radius_j,
+
+    where d_j is the distance from bump j's centre (east_j, north_j) in the site's tangent plane,
+    and the uniform slope falls by tan(slope) per metre toward the azimuth az (the downhill
+    direction, from north toward east; SPEC.md section 6). The biweight bump is smooth (C1) and
+    needs only +, *, so heights are bit-identical everywhere.
     Coordinates: the site is the body-fixed +x axis; east is body-fixed +y, north +z.
     """
 
     base_height_m: float = 0.0
+    slope_deg: float = 0.0
+    slope_azimuth_deg: float = 0.0
     bump_east_m: tuple[float, ...] = ()
     bump_north_m: tuple[float, ...] = ()
     bump_radius_m: tuple[float, ...] = ()
@@ -115,6 +121,8 @@ class Terrain:
         rec = np.zeros(1, TERRAIN_DTYPE)
         n = len(self.bump_height_m)
         rec[0]["base_height_m"] = self.base_height_m
+        rec[0]["slope_east"], rec[0]["slope_north"] = self.gradient
+        rec[0]["level"] = self.flat
         rec[0]["n_bumps"] = n
         rec[0]["bumps"][:n] = np.array([self.bump_east_m, self.bump_north_m, self.bump_radius_m,
                                        self.bump_height_m], dtype=float).T.reshape(-1, 4)
@@ -126,8 +134,19 @@ class Terrain:
         return terrain_height(self, np.asarray(east_m, float), np.asarray(north_m, float))
 
     @property
+    def gradient(self) -> tuple[float, float]:
+        """(dh/d(east), dh/d(north)) of the uniform slope: -tan(slope) (sin(az), cos(az)) (libm,
+        once, when the scene is built)."""
+        if self.slope_deg == 0.0:
+            return 0.0, 0.0
+        t = math.tan(math.radians(self.slope_deg))
+        az = math.radians(self.slope_azimuth_deg)
+        return -t * math.sin(az), -t * math.cos(az)
+
+    @property
     def flat(self) -> bool:
-        return not self.bump_height_m
+        """No bumps and no slope: the ground is the sphere of radius R + base_height."""
+        return not self.bump_height_m and self.slope_deg == 0.0
 
 
 @dataclass(frozen=True)
@@ -197,6 +216,7 @@ SCENE_DTYPE = np.dtype([
     ("settle_need_ticks", "i8"), ("seed_friction", "?"), ("radial_normal", "?"),
     ("body_radius_m", "f8"), ("gm_m3ps2", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("base_height_m", "f8"), ("terrain_max_m", "f8"),
+    ("slope_tan", "f8"),
     ("bandwidth_radps", "f8"),
 ], align=True)
 """The scene's constants as the compiled step reads them (one record; derived from Params)."""
@@ -261,7 +281,10 @@ class Params:
         r["omega2"] = body.omega_radps ** 2
         r["surface_gravity_mps2"] = body.surface_gravity_mps2
         r["base_height_m"] = ter.base_height_m
+        # the highest the bumps raise the ground; a slope adds its plane's height under the ship
+        # (sim.step.near_ground)
         r["terrain_max_m"] = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
+        r["slope_tan"] = math.hypot(*ter.gradient)
         r["bandwidth_radps"] = self.controller.bandwidth_radps
         return rec
 

@@ -88,7 +88,11 @@ BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, _ran
         "gm": ("float", None, _range(0.0, 1e22, lo_open=True)),
         "surface_gravity": ("float", None, _range(1e-6, 1e4)),
         "rotation_period": ("float", 0.0, _range(-1e12, 1e12)), "terrain": ("table", None, None)}
-TERRAIN = {"base_height": ("float", 0.0, _range(-1e4, 1e4)), "bumps": ("list", [], None)}
+TERRAIN = {"base_height": ("float", 0.0, _range(-1e4, 1e4)), "bumps": ("list", [], None),
+           # a uniform slope through the site (SPEC.md 6): degrees, and the downhill direction
+           # in degrees from north toward east
+           "slope_deg": ("float", 0.0, _range(0.0, 60.0)),
+           "slope_azimuth_deg": ("float", 0.0, _range(-360.0, 360.0))}
 BUMP = {"east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6)),
         "radius": ("float", REQUIRED, _range(1e-2, 1e6)),
         "height": ("float", REQUIRED, _range(-1e4, 1e4))}
@@ -546,7 +550,8 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
     sim, con, body, ships = res["sim"], res["contact"], res["body"], res["ships"]
     ter = body["terrain"]
     terrain = Terrain(
-        base_height_m=ter["base_height"],
+        base_height_m=ter["base_height"], slope_deg=ter["slope_deg"],
+        slope_azimuth_deg=ter["slope_azimuth_deg"],
         bump_east_m=tuple(b["east"] for b in ter["bumps"]),
         bump_north_m=tuple(b["north"] for b in ter["bumps"]),
         bump_radius_m=tuple(b["radius"] for b in ter["bumps"]),

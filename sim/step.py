@@ -176,14 +176,21 @@ def commands(cfg, sp, s, inp):
 
 # -- 2. free flight ------------------------------------------------------------------------------
 @kernel
-def near_ground(cfg, sp, s, cmd):
-    """True for a ship that might touch the ground within this tick (conservative bound)."""
+def near_ground(cfg, terrain, sp, s, cmd, cos0, sin0):
+    """True for a ship that might touch the ground within this tick (conservative bound). On a
+    slope the ground's plane is taken under the ship, rising by tan(slope) over every metre the
+    feet and the tick's motion can reach sideways."""
     dt = cfg.dt_s
     reach_down = sp.com_height_m + sp.leg_radius_m
-    clearance = norm(s.p) - cfg.body_radius_m - cfg.terrain_max_m - reach_down
     speed = norm(s.v)
     accel = cfg.surface_gravity_mps2 + cmd.thrust_n / s.mass_kg
     reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
+    plane = 0.0
+    if cfg.slope_tan != 0.0:
+        east = -sin0 * s.p[0] + cos0 * s.p[1]
+        plane = (terrain.slope_east * east + terrain.slope_north * s.p[2]
+                 + cfg.slope_tan * (reach_down + reach))
+    clearance = norm(s.p) - cfg.body_radius_m - cfg.terrain_max_m - plane - reach_down
     return clearance < reach
 
 
@@ -193,7 +200,7 @@ def purely_vertical(cfg, terrain, sp, s, cmd):
     slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
     For it every kick of the exponential method is zero, so its one step per tick is already
     exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
-    if cfg.omega_radps != 0.0:
+    if cfg.omega_radps != 0.0 or cfg.slope_tan != 0.0:
         return False
     r_hat = unit(s.p)
     tilt = cross(quat_axis_z(s.q), r_hat)
@@ -775,7 +782,7 @@ def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_inde
     cmd = commands(cfg, sp, s, inp)
     friction_n = normal_n = peak = guard_j = 0.0
     if s.surface_state == FLYING or s.surface_state == CONTACT:
-        fine = s.surface_state == CONTACT or near_ground(cfg, sp, s, cmd)
+        fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
         n_sub = 1
         if fine and not (cfg.vertical_one_step and cfg.linear_model
                          and purely_vertical(cfg, terrain, sp, s, cmd)):

@@ -97,19 +97,24 @@ def test_a_long_fall_in_coarse_flight_matches_point_mass_gravity():
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(altitude=st.floats(0.0, 300.0), vertical=st.floats(-150.0, 30.0),
        horizontal=st.floats(0.0, 80.0), tilt=st.floats(0.0, 179.0),
-       throttle=st.floats(0.0, 1.0), dt=st.sampled_from([0.02, 0.05, 0.1, 0.5, 1.0]))
+       throttle=st.floats(0.0, 1.0), dt=st.sampled_from([0.02, 0.05, 0.1, 0.5, 1.0]),
+       slope=st.sampled_from([0.0, 0.0, 20.0, 55.0]), azimuth=st.floats(-180.0, 180.0),
+       heading=st.floats(-180.0, 180.0), east=st.floats(-500.0, 500.0))
 def test_coarse_flight_is_never_caught_below_the_ground(altitude, vertical, horizontal, tilt,
-                                                        throttle, dt):
+                                                        throttle, dt, slope, azimuth, heading,
+                                                        east):
     """A ship the step judges far from the ground (one step, no contact work) never ends the tick
-    with a foot below it: the near-ground test is conservative for any speed, attitude, thrust
-    and tick."""
+    with a foot below it: the near-ground test is conservative for any speed, attitude, thrust,
+    tick, slope and place on it."""
     scn = scene({"altitude": altitude, "vertical_speed": vertical, "horizontal_speed": horizontal,
-                 "tilt_deg": tilt}, inputs=[{"t": 0.0, "throttle": throttle}],
+                 "tilt_deg": tilt, "heading_deg": heading, "east": east},
+                inputs=[{"t": 0.0, "throttle": throttle}],
                 sim={"dt": dt, "on_unstable": "allow"}, contact={"align_on_touchdown": False},
+                body={"terrain": {"slope_deg": slope, "slope_azimuth_deg": azimuth}},
                 duration=dt)
     inp = scn.inputs_at(0)
-    cfg, _, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
-    far = not near_ground(cfg, sp, ship, commands(cfg, sp, ship, rec))
+    cfg, ter, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
+    far = not near_ground(cfg, ter, sp, ship, commands(cfg, sp, ship, rec), 1.0, 0.0)
     _, out, _ = step(scn.params, scn.initial, inp)
     if far:
         assert out.altitude_m[0] > 0.0

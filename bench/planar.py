@@ -1,0 +1,239 @@
+"""A planar rigid lander on four feet, with a spring-damper and a Coulomb law at each foot: the
+independent reference for Touchdown's tilted, sideways and sloped touchdowns. Nothing here imports
+the simulation.
+
+The scene is planar when the lander moves in the plane of two opposite feet (a tilt, sideways speed
+or slope toward a foot): the two side feet stay on the centre line, with the same slip. Ground
+frame: X along the ground (downhill +, on a slope of angle alpha), Z along its normal; gravity
+(g sin alpha, -g cos alpha). The lander: centre of mass (x, z), tilt theta of its long axis from the
+ground's normal (+ toward +X), rate omega; transverse moment I. A foot at body (b, -h) (b = a, 0, -a:
+the fore foot, the two side feet, the aft foot) sits at
+
+    r(theta) = (b cos theta - h sin theta, -b sin theta - h cos theta)
+
+from the centre of mass, moves at (vx + omega r_z, vz - omega r_x), and presses when its penetration
+x = -(z + r_z) > 0 with
+
+    N = s (k x + c x'),  clamped at 0 unless the contact is absorbed (then bilateral while x > 0),
+
+s its share (1/4; 1/2 for the pair of side feet), k = m w^2, c = 2 zeta w m, as Touchdown reads the
+seed (SEED-NOTES 1: an impact slower than bounce_speed is taken by the absorbers, zeta_absorb and
+bilateral; the choice is made when a foot first touches, from the centre of mass's speed along the
+normal, and holds until every foot has left the ground). Friction at each pressing foot opposes its
+own slip u:
+
+    F = -N mu(|u|) u / sqrt(u^2 + eps^2),  mu(u) = mu_k + (mu_s - mu_k) exp(-(u / v_s)^2),
+
+a regularised Coulomb law with static friction: held under any load below mu_s N (creeping at a
+slip of order eps), breaking away above it and sliding at mu_k N. As eps and v_s go to zero this is
+Coulomb's law per foot (the tests check the answer no longer moves when both are halved).
+
+The ODE is integrated by scipy's DOP853 (or Radau: the regularised friction is stiff) with events
+where a foot first touches, where the last foot leaves, and at the tipped angle.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+
+@dataclass(frozen=True)
+class Lander:
+    """The lander and the ground: SI units, angles in radians."""
+
+    mass_kg: float = 1e4
+    i_transverse_kgm2: float = 42768.15  # a uniform cylinder, radius a, length 2 h
+    com_height_m: float = 3.0
+    leg_radius_m: float = 2.26
+    omega_radps: float = 10.0  # sqrt(k / m)
+    zeta: float = 0.3
+    zeta_absorb: float = 1.0
+    bounce_speed_mps: float = 10.0
+    mu_s: float = 0.8
+    mu_k: float = 0.5
+    g_mps2: float = 1.62
+    slope_rad: float = 0.0
+    thrust_n: float = 0.0  # along the long axis
+    eps_mps: float = 1e-5  # friction's regularisation: the slip below which it is viscous
+
+
+@dataclass(frozen=True)
+class Start:
+    """The lander at t = 0: centre of mass (x, z), tilt, velocities, and whether it is already in
+    contact (and if so, absorbed)."""
+
+    x_m: float = 0.0
+    z_m: float = 10.0
+    theta_rad: float = 0.0
+    vx_mps: float = 0.0
+    vz_mps: float = 0.0
+    omega_radps: float = 0.0
+    in_contact: bool = False
+    absorbing: bool = False
+
+
+@dataclass
+class Path:
+    """The solution: samples, and the instants of its transitions."""
+
+    t: np.ndarray
+    y: np.ndarray  # rows: x, z, theta, vx, vz, omega
+    events: list = field(default_factory=list)  # (t, "contact" | "liftoff" | "tipped", state y)
+    tipped_t_s: float | None = None
+
+    def at(self, t: float) -> np.ndarray:
+        k = int(np.searchsorted(self.t, t))
+        k = min(max(k, 1), len(self.t) - 1)
+        f = (t - self.t[k - 1]) / (self.t[k] - self.t[k - 1])
+        return (1 - f) * self.y[:, k - 1] + f * self.y[:, k]
+
+    def contacts(self) -> list:
+        return [e for e in self.events if e[1] == "contact"]
+
+    def liftoffs(self) -> list:
+        return [e for e in self.events if e[1] == "liftoff"]
+
+
+FEET = ((1.0, 0.25), (0.0, 0.5), (-1.0, 0.25))  # (b / a, share of k and c)
+
+
+def foot_offsets(ld: Lander, theta: float):
+    s, c = math.sin(theta), math.cos(theta)
+    h = ld.com_height_m
+    return [((f * ld.leg_radius_m) * c - h * s, -(f * ld.leg_radius_m) * s - h * c, share)
+            for f, share in FEET]
+
+
+def lowest_foot_height(ld: Lander, y) -> float:
+    return min(y[1] + rz for _, rz, _ in foot_offsets(ld, y[2]))
+
+
+def forces(ld: Lander, y, absorbing: bool, sliding=(False, False, False)):
+    """(Fx, Fz, torque, each foot's normal force) of the ground on the lander; ``sliding``: each
+    foot's friction regime (kinetic mu_k, or static up to mu_s)."""
+    _, z, th, vx, vz, om = y
+    m, w = ld.mass_kg, ld.omega_radps
+    k = m * w * w
+    c = 2.0 * (ld.zeta_absorb if absorbing else ld.zeta) * w * m
+    fx = fz = tq = 0.0
+    normals = []
+    for (rx, rz, share), slides in zip(foot_offsets(ld, th), sliding):
+        pen = -(z + rz)
+        if pen <= 0.0:
+            normals.append(0.0)
+            continue
+        ux, uz = vx + om * rz, vz - om * rx
+        n = share * (k * pen - c * uz)
+        if not absorbing:
+            n = max(n, 0.0)
+        mu = ld.mu_k if slides else ld.mu_s
+        f = -max(n, 0.0) * mu * math.tanh(ux / ld.eps_mps)
+        fx, fz = fx + f, fz + n
+        tq += rz * f - rx * n
+        normals.append(n)
+    return fx, fz, tq, normals
+
+
+def foot_slips(ld: Lander, y):
+    """Each foot's slip along the ground, m/s."""
+    return [y[3] + y[5] * rz for _, rz, _ in foot_offsets(ld, y[2])]
+
+
+def rhs(ld: Lander, absorbing: bool, in_contact: bool, sliding):
+    sa, ca = math.sin(ld.slope_rad), math.cos(ld.slope_rad)
+    m, i_t = ld.mass_kg, ld.i_transverse_kgm2
+
+    def f(t, y):
+        fx, fz, tq = (forces(ld, y, absorbing, sliding)[:3] if in_contact else (0.0, 0.0, 0.0))
+        th = y[2]
+        tx, tz = ld.thrust_n * math.sin(th), ld.thrust_n * math.cos(th)
+        return [y[3], y[4], y[5], (fx + tx) / m + ld.g_mps2 * sa,
+                (fz + tz) / m - ld.g_mps2 * ca, tq / i_t]
+    return f
+
+
+#: a sticking foot breaks away when its slip passes BREAK_EPS regularisation widths (its friction
+#: then carries tanh(5) = 0.99991 of mu_s N); a sliding one sticks again below STICK_EPS widths
+BREAK_EPS, STICK_EPS = 5.0, 1.0
+
+
+def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.radians(80.0),
+          method: str = "Radau", rtol: float = 1e-10, atol: float = 1e-12,
+          max_step_s: float = 0.01, max_phases: int = 2000) -> Path:
+    """The lander from ``start`` until ``t_end_s`` or until it tips (tilt past ``tipped_rad``).
+    Phases (flight, contact, each foot's friction regime) are joined at located events; at most
+    ``max_phases`` of them."""
+    t, y = 0.0, np.array([start.x_m, start.z_m, start.theta_rad, start.vx_mps, start.vz_mps,
+                          start.omega_radps], float)
+    in_contact, absorbing = start.in_contact, start.absorbing
+    ts, ys, events = [np.array([t])], [y[:, None]], []
+    tipped_t = None
+    opts = dict(method=method, rtol=rtol, atol=atol, max_step=max_step_s)
+
+    def regimes(y_):
+        return tuple(abs(u) > BREAK_EPS * ld.eps_mps for u in foot_slips(ld, y_))
+
+    sliding = regimes(y)
+    tip = lambda t_, y_: abs(y_[2]) - tipped_rad  # noqa: E731
+    tip.terminal, tip.direction = True, 1
+    for _ in range(max_phases):
+        if t >= t_end_s:
+            break
+        ground = lambda t_, y_: lowest_foot_height(ld, y_)  # noqa: E731
+        ground.terminal, ground.direction = True, (1 if in_contact else -1)
+        evs = [ground, tip]
+        for i in range(3):
+            width = (STICK_EPS if sliding[i] else BREAK_EPS) * ld.eps_mps
+            ev = (lambda i_, w_: (lambda t_, y_: abs(foot_slips(ld, y_)[i_]) - w_))(i, width)
+            ev.terminal, ev.direction = True, (-1 if sliding[i] else 1)
+            evs.append(ev)
+        with np.errstate(over="ignore"):
+            sol = solve_ivp(rhs(ld, absorbing, in_contact, sliding), (t, t_end_s), y,
+                            events=evs, **opts)
+        ts.append(sol.t[1:])
+        ys.append(sol.y[:, 1:])
+        t, y = float(sol.t[-1]), sol.y[:, -1].copy()
+        if sol.status != 1:
+            break
+        if sol.t_events[1].size:
+            tipped_t = float(sol.t_events[1][0])
+            events.append((tipped_t, "tipped", y.copy()))
+            break
+        if sol.t_events[0].size:
+            if in_contact:
+                # a foot can leave and come back within one contact; it ends only when the lander
+                # rises clear (the centre of mass moving away from the ground)
+                if y[4] > 0.0:
+                    events.append((t, "liftoff", y.copy()))
+                    in_contact = False
+                else:
+                    y[1] += 1e-12  # past the grazing point; the contact goes on
+            else:
+                events.append((t, "contact", y.copy()))
+                in_contact = True
+                absorbing = -y[4] < ld.bounce_speed_mps
+        else:
+            hit = [i for i in range(3) if sol.t_events[2 + i].size]
+            sliding = tuple((not s) if i in hit else s for i, s in enumerate(sliding))
+    return Path(np.concatenate(ts), np.concatenate(ys, axis=1), events, tipped_t)
+
+
+def energy_j(ld: Lander, y, absorbing: bool = False) -> float:
+    """Kinetic + gravitational (uniform g, along the slope's frame) + the springs' k x^2 / 2."""
+    m = ld.mass_kg
+    sa, ca = math.sin(ld.slope_rad), math.cos(ld.slope_rad)
+    kin = 0.5 * m * (y[3] ** 2 + y[4] ** 2) + 0.5 * ld.i_transverse_kgm2 * y[5] ** 2
+    pot = m * ld.g_mps2 * (y[1] * ca - y[0] * sa)
+    k = m * ld.omega_radps ** 2
+    spring = sum(0.5 * share * k * max(-(y[1] + rz), 0.0) ** 2
+                 for _, rz, share in foot_offsets(ld, y[2]))
+    return kin + pot + spring
+
+
+def resting_height(ld: Lander, theta: float = 0.0) -> float:
+    """Centre-of-mass height at which an upright lander's four feet carry its weight's normal
+    component statically: x = g cos(alpha) / w^2."""
+    return ld.com_height_m - ld.g_mps2 * math.cos(ld.slope_rad) / ld.omega_radps ** 2
