@@ -22,11 +22,14 @@ bilateral; the choice is made when a foot first touches, from the centre of mass
 normal, and holds until every foot has left the ground). Friction at each pressing foot opposes its
 own slip u:
 
-    F = -N mu(|u|) u / sqrt(u^2 + eps^2),  mu(u) = mu_k + (mu_s - mu_k) exp(-(u / v_s)^2),
+    F = -mu N tanh(u / eps),  mu = mu_s while |u| < stick_speed, mu_k above it,
 
-a regularised Coulomb law with static friction: held under any load below mu_s N (creeping at a
-slip of order eps), breaking away above it and sliding at mu_k N. As eps and v_s go to zero this is
-Coulomb's law per foot (the tests check the answer no longer moves when both are halved).
+Coulomb's law per foot with a stick speed (the seed's 0.01 m/s): a foot slipping slower than it is
+held by static friction, up to mu_s N, creeping at a slip of order eps; one that the load drives
+faster slides at mu_k N until its slip falls back under it. (A foot of a rocking ship slips by its
+rate times its height over the others'; micrometres a second do not break static friction.) As eps
+goes to zero this is the law exactly (the tests check the answer no longer moves when it shrinks
+tenfold).
 
 The ODE is integrated by scipy's DOP853 (or Radau: the regularised friction is stiff) with events
 where a foot first touches, where the last foot leaves, and at the tipped angle.
@@ -57,7 +60,8 @@ class Lander:
     g_mps2: float = 1.62
     slope_rad: float = 0.0
     thrust_n: float = 0.0  # along the long axis
-    eps_mps: float = 1e-5  # friction's regularisation: the slip below which it is viscous
+    eps_mps: float = 1e-6  # friction's regularisation: the slip below which it is viscous
+    stick_speed_mps: float = 0.01  # a foot slipping slower is held by static friction (mu_s)
 
 
 @dataclass(frozen=True)
@@ -155,11 +159,6 @@ def rhs(ld: Lander, absorbing: bool, in_contact: bool, sliding):
     return f
 
 
-#: a sticking foot breaks away when its slip passes BREAK_EPS regularisation widths (its friction
-#: then carries tanh(5) = 0.99991 of mu_s N); a sliding one sticks again below STICK_EPS widths
-BREAK_EPS, STICK_EPS = 5.0, 1.0
-
-
 def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.radians(80.0),
           method: str = "Radau", rtol: float = 1e-10, atol: float = 1e-12,
           max_step_s: float = 0.01, max_phases: int = 2000) -> Path:
@@ -174,7 +173,7 @@ def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.rad
     opts = dict(method=method, rtol=rtol, atol=atol, max_step=max_step_s)
 
     def regimes(y_):
-        return tuple(abs(u) > BREAK_EPS * ld.eps_mps for u in foot_slips(ld, y_))
+        return tuple(abs(u) > ld.stick_speed_mps for u in foot_slips(ld, y_))
 
     sliding = regimes(y)
     tip = lambda t_, y_: abs(y_[2]) - tipped_rad  # noqa: E731
@@ -186,7 +185,7 @@ def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.rad
         ground.terminal, ground.direction = True, (1 if in_contact else -1)
         evs = [ground, tip]
         for i in range(3):
-            width = (STICK_EPS if sliding[i] else BREAK_EPS) * ld.eps_mps
+            width = ld.stick_speed_mps
             ev = (lambda i_, w_: (lambda t_, y_: abs(foot_slips(ld, y_)[i_]) - w_))(i, width)
             ev.terminal, ev.direction = True, (-1 if sliding[i] else 1)
             evs.append(ev)

@@ -72,7 +72,10 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
 def event_rows(reader: LogReader) -> Iterator[dict]:
     for ev in reader.events():
         yield {
-            "event": ev.event, "tick": ev.tick, "t": ev.t_s, "ship_id": ev.ship_id,
+            "event": ev.event, "tick": ev.tick, "t": ev.t_s,
+            # the instant it happened inside the tick (a log before 0.6: the tick's end)
+            "t_event": ev.t_event_s if ev.HasField("t_event_s") else ev.t_s,
+            "ship_id": ev.ship_id,
             "player_id": ev.player_id, "body": ev.body,
             "from_state": _STATE[ev.from_state], "to_state": _STATE[ev.to_state],
             "v_radial": ev.v_radial_mps, "tilt_deg": ev.ship.tilt_deg, "surface_contact_state": ev.ship.surface_contact_state,

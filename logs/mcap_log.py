@@ -39,16 +39,19 @@ from sim.params import Params
 from sim.state import STATE_ARRAY_FIELDS, Inputs, Outputs, State, concatenate
 from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
-#: 2 (touchdown 0.3): per-foot ``sliding`` (4 per ship); velocities and angular velocities on every
-#: tick. A format-1 log still reads (``sliding`` per ship is given to all four feet).
-#: 3 (touchdown 0.5): ships join and leave (FleetChange), each tick names its ships by key
-#: (TickBatch.ship_key), commands are recorded as commands (CommandBatch), and a replay folds over
-#: those; formats 1 and 2 replay from their scenario's inputs, with a notice. Later in 3, with
-#: fields that default to what every earlier log of format 3 is: a log may start at any tick
-#: (ScenarioRecord.start_tick: its first tick record is a keyframe of the header's ships, which
-#: the replay starts from) and a run may have no set end (ScenarioRecord.open_ended: the summary's
-#: last tick is its end). A reader from before refuses such a log (its first tick is not 0).
-LOG_FORMAT_VERSION = 3
+#: The log formats and their fields: sim.fields (LOG_FORMAT, EVERY_TICK_BY_FORMAT,
+#: KEYFRAME_BY_FORMAT), where the rule is written. 2 (touchdown 0.3): per-foot ``sliding`` (4 per
+#: ship); velocities and angular velocities on every tick. A format-1 log still reads (``sliding``
+#: per ship is given to all four feet). 3 (touchdown 0.5): ships join and leave (FleetChange), each
+#: tick names its ships by key (TickBatch.ship_key), commands are recorded as commands
+#: (CommandBatch), and a replay folds over those; formats 1 and 2 replay from their scenario's
+#: inputs, with a notice. Later in 3, with fields that default to what every earlier log of format
+#: 3 is: a log may start at any tick (ScenarioRecord.start_tick: its first tick record is a
+#: keyframe of the header's ships, which the replay starts from) and a run may have no set end
+#: (ScenarioRecord.open_ended: the summary's last tick is its end). A reader from before refuses
+#: such a log (its first tick is not 0). 4 (touchdown 0.6): keyframes hold how long the settle
+#: thresholds have held (settle_for_s, settle_margin); events carry their instant (t_event_s).
+LOG_FORMAT_VERSION = fields.LOG_FORMAT
 #: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
 MAX_START_TICK = 1 << 53
 #: the tick, s: what a scenario may set (sim.scenario), and so what a log may hold
@@ -62,21 +65,11 @@ TOPIC_EVENTS = "/touchdown/events"
 TOPIC_SUMMARY = "/touchdown/summary"
 TOPIC_FLEET = "/touchdown/fleet"
 TOPIC_COMMANDS = "/touchdown/commands"
-#: state fields written only on keyframe ticks; the rest (positions, velocities, attitudes, angular
-#: velocities, masses, states, telemetry, commands) are on every tick (sim.fields)
-KEYFRAME_ONLY = fields.keyframe_only()
+#: state fields written only on keyframe ticks (today's format); the rest (positions, velocities,
+#: attitudes, angular velocities, masses, states, telemetry, commands) are on every tick
+KEYFRAME_ONLY = fields.KEYFRAME_BY_FORMAT[LOG_FORMAT_VERSION]
 #: numbers per ship of each TickBatch array (1 where not listed)
 WIDTH = {f.in_log: f.per_ship for f in fields.FIELDS if f.per_ship > 1}
-#: fields on every tick of a format-1 log (which lacks energy_guard_j, and wrote velocities on
-#: keyframes only) ...
-EVERY_TICK_V1 = ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitude_m",
-                 "penetration_m", "peak_penetration_m", "cos_tilt", "v_radial_mps",
-                 "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle",
-                 "rcs_torque_body_nm", "input_throttle", "input_rcs", "input_hold")
-#: ... of format 2 ...
-EVERY_TICK_V2 = tuple(f.in_log for f in fields.FIELDS if not f.keyframe_only)
-#: ... and of today's
-EVERY_TICK = EVERY_TICK_V2 + ("ship_key",)
 
 
 def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -116,7 +109,7 @@ def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
         event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * dt_s, ship_id=ship_id,
         player_id=player_id, body=body, from_state=ev.from_state, to_state=ev.to_state,
         ship=ship_state_message(ship_id, player_id, body, state, ev.ship),
-        v_radial_mps=ev.v_radial_mps)
+        v_radial_mps=ev.v_radial_mps, t_event_s=ev.t_event_s)
 
 
 def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
@@ -493,12 +486,10 @@ class TickData:
             raise LogError(f"{where}: the record says tick {tick}")
         if self._ships and count != self._ships:
             raise LogError(f"{where}: {count} ships where the scenario has {self._ships}")
-        every = EVERY_TICK_V1 if self._format < 2 else EVERY_TICK_V2 if self._format < 3 \
-            else EVERY_TICK
-        for name in every:
+        for name in fields.EVERY_TICK_BY_FORMAT[self._format]:
             if name not in arrays and count:
                 raise LogError(f"{where}: field {name} is missing")
-        keyframe = [name in arrays for name in KEYFRAME_ONLY]
+        keyframe = [name in arrays for name in fields.KEYFRAME_BY_FORMAT[self._format]]
         if any(keyframe) and not all(keyframe):
             raise LogError(f"{where}: a keyframe with some of its fields missing")
         for name, a in arrays.items():
@@ -543,7 +534,8 @@ class TickData:
 
     @property
     def is_keyframe(self) -> bool:
-        return all(name in self.arrays for name in KEYFRAME_ONLY) or self.ship_count == 0
+        return all(name in self.arrays for name in fields.KEYFRAME_BY_FORMAT[self._format]) \
+            or self.ship_count == 0
 
     def state(self) -> State:
         """The full state recorded at this tick (a keyframe)."""
@@ -553,8 +545,12 @@ class TickData:
         if self.ship_count == 0:
             return State.zeros(0, tick=self.tick)
         try:
+            # a field its format does not have (settle_for_s before format 4) starts at zero
             values = {f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else a[f.in_log]
-                      for f in fields.of_record("state") if f.name != "sliding"}
+                      for f in fields.of_record("state")
+                      if f.name != "sliding" and (f.in_log in a or f.in_log in
+                                                  fields.EVERY_TICK_BY_FORMAT[self._format]
+                                                  + fields.KEYFRAME_BY_FORMAT[self._format])}
             values["absorbing"] = values["absorbing"] != 0
             return State.of(self.ship_count, tick=self.tick, sliding=self._sliding(), **values)
         except (KeyError, ValueError) as exc:

@@ -1,7 +1,8 @@
 """Publishing transition events to a Redis stream (SPEC.md section 5).
 
 Each entry carries ``event, ship_id, player_id, body`` as plain strings (as the seed shows), plus
-``tick``, ``from_state``, ``to_state`` and ``proto`` (the encoded TransitionEvent). One pipeline per
+``tick``, ``t_event`` (the instant it happened, s), ``from_state``, ``to_state`` and ``proto`` (the
+encoded TransitionEvent). One pipeline per
 tick keeps the round trips down.
 """
 from __future__ import annotations
@@ -18,9 +19,15 @@ DEFAULT_URL = "redis://127.0.0.1:6379/0"
 DEFAULT_STREAM = "galaxy:ships"
 
 
+def _instant(ev: pb.TransitionEvent) -> float:
+    """When it happened, s (a log from before 0.6 has no t_event_s: the tick's end)."""
+    return ev.t_event_s if ev.HasField("t_event_s") else ev.t_s
+
+
 def entry_fields(ev: pb.TransitionEvent) -> dict[str, str | bytes]:
     return {"event": ev.event, "ship_id": ev.ship_id, "player_id": ev.player_id, "body": ev.body,
-            "tick": str(ev.tick), "from_state": SurfaceState(ev.from_state).label,
+            "tick": str(ev.tick), "t_event": repr(_instant(ev)),
+            "from_state": SurfaceState(ev.from_state).label,
             "to_state": SurfaceState(ev.to_state).label, "proto": ev.SerializeToString()}
 
 

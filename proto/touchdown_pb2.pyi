@@ -114,7 +114,7 @@ class ScenarioRecord(_message.Message):
     def __init__(self, log_format_version: _Optional[int] = ..., project_version: _Optional[str] = ..., name: _Optional[str] = ..., description: _Optional[str] = ..., resolved_json: _Optional[str] = ..., integrator: _Optional[str] = ..., dt_s: _Optional[float] = ..., ship_ids: _Optional[_Iterable[str]] = ..., player_ids: _Optional[_Iterable[str]] = ..., body: _Optional[str] = ..., source: _Optional[str] = ..., n_ticks: _Optional[int] = ..., keyframe_interval: _Optional[int] = ..., start_tick: _Optional[int] = ..., open_ended: _Optional[bool] = ...) -> None: ...
 
 class TickBatch(_message.Message):
-    __slots__ = ("tick", "t_s", "ship_count", "surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg", "absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m", "altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm", "peak_penetration_m", "energy_guard_j", "input_throttle", "input_rcs", "input_hold", "ship_key")
+    __slots__ = ("tick", "t_s", "ship_count", "surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg", "absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m", "settle_for_s", "settle_margin", "hold_force_n", "altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm", "peak_penetration_m", "energy_guard_j", "input_throttle", "input_rcs", "input_hold", "ship_key")
     TICK_FIELD_NUMBER: _ClassVar[int]
     T_S_FIELD_NUMBER: _ClassVar[int]
     SHIP_COUNT_FIELD_NUMBER: _ClassVar[int]
@@ -132,6 +132,9 @@ class TickBatch(_message.Message):
     PIN_POS_BF_M_FIELD_NUMBER: _ClassVar[int]
     PIN_QUAT_BF_FIELD_NUMBER: _ClassVar[int]
     PIN_PIVOT_BF_M_FIELD_NUMBER: _ClassVar[int]
+    SETTLE_FOR_S_FIELD_NUMBER: _ClassVar[int]
+    SETTLE_MARGIN_FIELD_NUMBER: _ClassVar[int]
+    HOLD_FORCE_N_FIELD_NUMBER: _ClassVar[int]
     ALTITUDE_M_FIELD_NUMBER: _ClassVar[int]
     PENETRATION_M_FIELD_NUMBER: _ClassVar[int]
     COS_TILT_FIELD_NUMBER: _ClassVar[int]
@@ -164,6 +167,9 @@ class TickBatch(_message.Message):
     pin_pos_bf_m: _containers.RepeatedScalarFieldContainer[float]
     pin_quat_bf: _containers.RepeatedScalarFieldContainer[float]
     pin_pivot_bf_m: _containers.RepeatedScalarFieldContainer[float]
+    settle_for_s: _containers.RepeatedScalarFieldContainer[float]
+    settle_margin: _containers.RepeatedScalarFieldContainer[float]
+    hold_force_n: _containers.RepeatedScalarFieldContainer[float]
     altitude_m: _containers.RepeatedScalarFieldContainer[float]
     penetration_m: _containers.RepeatedScalarFieldContainer[float]
     cos_tilt: _containers.RepeatedScalarFieldContainer[float]
@@ -179,7 +185,7 @@ class TickBatch(_message.Message):
     input_rcs: _containers.RepeatedScalarFieldContainer[float]
     input_hold: _containers.RepeatedScalarFieldContainer[HoldMode]
     ship_key: _containers.RepeatedScalarFieldContainer[int]
-    def __init__(self, tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_count: _Optional[int] = ..., surface_state: _Optional[_Iterable[_Union[SurfaceState, str]]] = ..., pos_m: _Optional[_Iterable[float]] = ..., vel_mps: _Optional[_Iterable[float]] = ..., quat: _Optional[_Iterable[float]] = ..., omega_body_radps: _Optional[_Iterable[float]] = ..., mass_kg: _Optional[_Iterable[float]] = ..., fuel_kg: _Optional[_Iterable[float]] = ..., absorbing: _Optional[_Iterable[bool]] = ..., sliding: _Optional[_Iterable[bool]] = ..., settle_ticks: _Optional[_Iterable[int]] = ..., pivot_rate_radps: _Optional[_Iterable[float]] = ..., pin_pos_bf_m: _Optional[_Iterable[float]] = ..., pin_quat_bf: _Optional[_Iterable[float]] = ..., pin_pivot_bf_m: _Optional[_Iterable[float]] = ..., altitude_m: _Optional[_Iterable[float]] = ..., penetration_m: _Optional[_Iterable[float]] = ..., cos_tilt: _Optional[_Iterable[float]] = ..., v_radial_mps: _Optional[_Iterable[float]] = ..., v_tangential_mps: _Optional[_Iterable[float]] = ..., normal_force_n: _Optional[_Iterable[float]] = ..., friction_force_n: _Optional[_Iterable[float]] = ..., throttle: _Optional[_Iterable[float]] = ..., rcs_torque_body_nm: _Optional[_Iterable[float]] = ..., peak_penetration_m: _Optional[_Iterable[float]] = ..., energy_guard_j: _Optional[_Iterable[float]] = ..., input_throttle: _Optional[_Iterable[float]] = ..., input_rcs: _Optional[_Iterable[float]] = ..., input_hold: _Optional[_Iterable[_Union[HoldMode, str]]] = ..., ship_key: _Optional[_Iterable[int]] = ...) -> None: ...
+    def __init__(self, tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_count: _Optional[int] = ..., surface_state: _Optional[_Iterable[_Union[SurfaceState, str]]] = ..., pos_m: _Optional[_Iterable[float]] = ..., vel_mps: _Optional[_Iterable[float]] = ..., quat: _Optional[_Iterable[float]] = ..., omega_body_radps: _Optional[_Iterable[float]] = ..., mass_kg: _Optional[_Iterable[float]] = ..., fuel_kg: _Optional[_Iterable[float]] = ..., absorbing: _Optional[_Iterable[bool]] = ..., sliding: _Optional[_Iterable[bool]] = ..., settle_ticks: _Optional[_Iterable[int]] = ..., pivot_rate_radps: _Optional[_Iterable[float]] = ..., pin_pos_bf_m: _Optional[_Iterable[float]] = ..., pin_quat_bf: _Optional[_Iterable[float]] = ..., pin_pivot_bf_m: _Optional[_Iterable[float]] = ..., settle_for_s: _Optional[_Iterable[float]] = ..., settle_margin: _Optional[_Iterable[float]] = ..., hold_force_n: _Optional[_Iterable[float]] = ..., altitude_m: _Optional[_Iterable[float]] = ..., penetration_m: _Optional[_Iterable[float]] = ..., cos_tilt: _Optional[_Iterable[float]] = ..., v_radial_mps: _Optional[_Iterable[float]] = ..., v_tangential_mps: _Optional[_Iterable[float]] = ..., normal_force_n: _Optional[_Iterable[float]] = ..., friction_force_n: _Optional[_Iterable[float]] = ..., throttle: _Optional[_Iterable[float]] = ..., rcs_torque_body_nm: _Optional[_Iterable[float]] = ..., peak_penetration_m: _Optional[_Iterable[float]] = ..., energy_guard_j: _Optional[_Iterable[float]] = ..., input_throttle: _Optional[_Iterable[float]] = ..., input_rcs: _Optional[_Iterable[float]] = ..., input_hold: _Optional[_Iterable[_Union[HoldMode, str]]] = ..., ship_key: _Optional[_Iterable[int]] = ...) -> None: ...
 
 class ShipJoined(_message.Message):
     __slots__ = ("ship_key", "ship_id", "player_id", "spec_json")
@@ -228,7 +234,7 @@ class CommandBatch(_message.Message):
     def __init__(self, tick: _Optional[int] = ..., commands: _Optional[_Iterable[_Union[Command, _Mapping]]] = ...) -> None: ...
 
 class TransitionEvent(_message.Message):
-    __slots__ = ("event", "tick", "t_s", "ship_id", "player_id", "body", "from_state", "to_state", "ship", "v_radial_mps")
+    __slots__ = ("event", "tick", "t_s", "ship_id", "player_id", "body", "from_state", "to_state", "ship", "v_radial_mps", "t_event_s")
     EVENT_FIELD_NUMBER: _ClassVar[int]
     TICK_FIELD_NUMBER: _ClassVar[int]
     T_S_FIELD_NUMBER: _ClassVar[int]
@@ -239,6 +245,7 @@ class TransitionEvent(_message.Message):
     TO_STATE_FIELD_NUMBER: _ClassVar[int]
     SHIP_FIELD_NUMBER: _ClassVar[int]
     V_RADIAL_MPS_FIELD_NUMBER: _ClassVar[int]
+    T_EVENT_S_FIELD_NUMBER: _ClassVar[int]
     event: str
     tick: int
     t_s: float
@@ -249,7 +256,8 @@ class TransitionEvent(_message.Message):
     to_state: SurfaceState
     ship: ShipState
     v_radial_mps: float
-    def __init__(self, event: _Optional[str] = ..., tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_id: _Optional[str] = ..., player_id: _Optional[str] = ..., body: _Optional[str] = ..., from_state: _Optional[_Union[SurfaceState, str]] = ..., to_state: _Optional[_Union[SurfaceState, str]] = ..., ship: _Optional[_Union[ShipState, _Mapping]] = ..., v_radial_mps: _Optional[float] = ...) -> None: ...
+    t_event_s: float
+    def __init__(self, event: _Optional[str] = ..., tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_id: _Optional[str] = ..., player_id: _Optional[str] = ..., body: _Optional[str] = ..., from_state: _Optional[_Union[SurfaceState, str]] = ..., to_state: _Optional[_Union[SurfaceState, str]] = ..., ship: _Optional[_Union[ShipState, _Mapping]] = ..., v_radial_mps: _Optional[float] = ..., t_event_s: _Optional[float] = ...) -> None: ...
 
 class LogSummary(_message.Message):
     __slots__ = ("last_tick", "complete", "reason", "event_count")

@@ -186,27 +186,34 @@ class ContactEval(NamedTuple):
     """The ground's action on a ship at one instant."""
 
     touching: bool  # False: a ship known to be clear of the ground (no contact work done)
+    pen_m: tuple  # each foot's penetration (negative: its height above the ground)
+    pen_rate_mps: tuple  # x' of each foot (+ = going into the ground)
     foot_force_n: tuple  # k x + c x' of each foot (clamped at 0 unless absorbing)
     push_norm: tuple  # |g_i| of each foot: sec(slope), 1 on level ground
-    force_w: tuple  # total force, inertial
-    torque_w: tuple  # its moment about the centre of mass, inertial
+    force_w: tuple  # total force, inertial: the feet's push, and the sliding feet's friction
+    torque_w: tuple  # its moment about the centre of mass, inertial (with kinetic friction's)
     normal_n: float  # sum of the feet's force magnitudes (< 0 only while absorbing)
+    slip_w: tuple  # each foot's velocity over the ground, in its friction plane
+    friction_n: float  # the kinetic friction of the feet that slide, sum of magnitudes
     max_penetration_m: float  # deepest foot (negative: lowest foot's height above the ground)
     lowest_foot_w: tuple  # the deepest (or lowest) foot
     # The pressing feet (those whose force is not clamped away) as one linear spring-damper along
-    # the centre of mass's radial n, for the exact method (sim.integrators.exponential): with
-    # gamma_i = g_i . n, the sums of k_i gamma_i^2, c_i gamma_i^2, k_i gamma_i x_i and
-    # k_i gamma_i x_i' (zeros unless asked for: evaluate's linear_model).
+    # the axis n (sim.integrators.exponential; :func:`spring_axis`): with gamma_i = g_i . n, the
+    # sums of k_i gamma_i^2, c_i gamma_i^2, k_i gamma_i x_i and k_i gamma_i x_i' (zeros unless
+    # asked for: evaluate's linear_model), and gamma of the deepest foot.
+    axis: tuple
     stiffness_npm: float
     damping_nspm: float
     spring_load_n: float
     spring_load_rate_nps: float
+    lowest_gamma: float
 
 
 class FootForce(NamedTuple):
     """One foot's share of a contact evaluation."""
 
     force_n: float  # k x + c x', clamped as the contact requires
+    pen_rate_mps: float  # x'
     # its terms of the pressing feet's linear model (zeros when not pressing or not asked for)
     stiffness_npm: float
     damping_nspm: float
@@ -217,6 +224,7 @@ class FootForce(NamedTuple):
 @kernel
 def foot_force(ground, vel_mps, omega_w, offset, foot, pen, push, k_leg, c_leg, absorbing,
                engage_m, n_hat, linear_model):
+    # engage_m: this foot presses from penetration > -engage_m
     """One foot's spring-damper force k x + c x', its rate x' = -g . v_foot relative to the
     surface, and (``linear_model``) its terms of the pressing feet's linear model along n_hat."""
     v_foot = sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
@@ -235,37 +243,85 @@ def foot_force(ground, vel_mps, omega_w, offset, foot, pen, push, k_leg, c_leg, 
         f = fmax(f, 0.0)
     if not pen > -engage_m:
         f = 0.0
-    return FootForce(f, stiff, damp, load, load_rate)
+    return FootForce(f, pen_rate, stiff, damp, load, load_rate)
+
+
+@kernel
+def spring_axis(ground, pos_m, ft, engage_m):
+    """The direction along which the feet that touch push: the centre of mass's radial on level
+    ground (or with the seed's radial normal), else the mean of their pushes g_i (on a uniform
+    slope, the slope's normal exactly). The exact method solves the springs along it, so a force
+    that acts along it is integrated by one rule whole, not by one rule along the radial and
+    another across it (which gave a spring on a 39 degree slope a 0.6% pull along the slope)."""
+    if ground.terrain.level or ground.radial:
+        return unit(pos_m)
+    s = (0.0, 0.0, 0.0)
+    for i in range(4):
+        if ft.pen_m[i] > -engage_m[i]:
+            s = add(s, ft.push_w[i])
+    if not dot(s, s) > 0.0:
+        return unit(pos_m)
+    return unit(s)
+
+
+@kernel
+def friction_normal(pos_m, foot_pos_w, push_w):
+    """The normal of a foot's friction plane: the terrain's slope under it on the ship's local
+    vertical, unit(g_i - r_hat_i + up). The sphere's own curvature across the footprint (a / R,
+    1e-6 rad) is left out: it would make a straight descent slip every foot inwards."""
+    return unit(add(sub(push_w, unit(foot_pos_w)), unit(pos_m)))
+
+
+@kernel
+def foot_slip(ground, pos_m, vel_mps, omega_w, offset, foot, push):
+    """A foot's velocity over the ground under it, in its friction plane."""
+    u = sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
+    n = friction_normal(pos_m, foot, push)
+    return sub(u, scale(n, dot(u, n)))
 
 
 @separate
 def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, k_npm, c_nspm,
-             c_absorb_nspm, absorbing, engage_m, linear_model):
+             c_absorb_nspm, absorbing, engage_m, linear_model, mu_k, kinetic, hold_w):
     """Normal force, its moment, and penetration (see the module docstring).
 
-    ``engage_m``: a foot counts as touching from ``x > -engage_m``; a step that starts exactly
-    at the surface crossing passes a micrometre so that rounding cannot leave out the damper's
-    jump at its first stage. ``linear_model``: also sum the pressing feet's stiffness, damping,
-    load and load rate along the radial (zeros otherwise)."""
+    ``engage_m``: foot i counts as touching from ``x_i > -engage_m[i]`` (0 as a rule; a foot that
+    has just reached the ground gets a micrometre, so that rounding cannot leave out the damper's
+    jump at its first stage; -inf keeps a foot from pressing while a step is stepped up to the
+    instant it reaches the ground, sim.step). ``linear_model``: also sum the pressing feet's
+    stiffness, damping, load and load rate along the spring axis (zeros otherwise). ``kinetic``:
+    the feet whose friction is kinetic (sliding faster than the stick speed, sim.friction): each
+    of them that pushes is dragged by mu_k N_i against its slip, a force the method integrates as
+    it does the spring's (the feet that hold get theirs as an impulse after the step,
+    sim.friction.coulomb). ``hold_w``: the holding feet's static friction over the last step,
+    carried into this one as a force (each pressing foot that is not kinetic; in its friction
+    plane), so that a ship held on its feet feels its friction throughout the step: the impulse
+    after it only corrects it (sim.friction.coulomb)."""
     k_leg = 0.25 * k_npm
     c_leg = 0.25 * c_absorb_nspm if absorbing else 0.25 * c_nspm
     ft = feet(ground, pos_m, quat, leg_radius_m, com_height_m)
-    n_hat = unit(pos_m) if linear_model else (0.0, 0.0, 0.0)
+    n_hat = spring_axis(ground, pos_m, ft, engage_m) if linear_model else unit(pos_m)
     ff = (foot_force(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0], ft.pen_m[0],
-                     ft.push_w[0], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+                     ft.push_w[0], k_leg, c_leg, absorbing, engage_m[0], n_hat, linear_model),
           foot_force(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1], ft.pen_m[1],
-                     ft.push_w[1], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+                     ft.push_w[1], k_leg, c_leg, absorbing, engage_m[1], n_hat, linear_model),
           foot_force(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2], ft.pen_m[2],
-                     ft.push_w[2], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model),
+                     ft.push_w[2], k_leg, c_leg, absorbing, engage_m[2], n_hat, linear_model),
           foot_force(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3], ft.pen_m[3],
-                     ft.push_w[3], k_leg, c_leg, absorbing, engage_m, n_hat, linear_model))
+                     ft.push_w[3], k_leg, c_leg, absorbing, engage_m[3], n_hat, linear_model))
     force = (0.0, 0.0, 0.0)
     torque = (0.0, 0.0, 0.0)
     g = (norm(ft.push_w[0]), norm(ft.push_w[1]), norm(ft.push_w[2]), norm(ft.push_w[3]))
     normal = 0.0
     max_pen = -math.inf
     lowest = (0.0, 0.0, 0.0)
+    lowest_gamma = 1.0
     stiff = damp = load = load_rate = 0.0
+    slips = (foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0], ft.push_w[0]),
+             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1], ft.push_w[1]),
+             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2], ft.push_w[2]),
+             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3], ft.push_w[3]))
+    friction = 0.0
     for i in range(4):  # sums in foot order: the same bits on every machine
         f = ff[i]
         stiff += f.stiffness_npm
@@ -273,19 +329,35 @@ def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, 
         load += f.spring_load_n
         load_rate += f.spring_load_rate_nps
         f_vec = scale(ft.push_w[i], f.force_n)
+        speed = norm(slips[i])
+        if kinetic[i] and f.force_n > 0.0 and speed > 0.0:
+            drag = mu_k * f.force_n * g[i]
+            f_vec = sub(f_vec, scale(slips[i], drag / speed))
+            friction += drag
+        elif f.force_n > 0.0 and not kinetic[i]:
+            n_f = friction_normal(pos_m, ft.pos_w[i], ft.push_w[i])
+            held = sub(hold_w[i], scale(n_f, dot(hold_w[i], n_f)))
+            f_vec = add(f_vec, held)
+            friction += norm(held)
         force = add(force, f_vec)
         torque = add(torque, cross(ft.offset_w[i], f_vec))
         normal += f.force_n * g[i]
         if ft.pen_m[i] > max_pen:
             lowest = ft.pos_w[i]
             max_pen = ft.pen_m[i]
-    return ContactEval(True, (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
-                       force, torque, normal, max_pen, lowest, stiff, damp, load, load_rate)
+            lowest_gamma = dot(ft.push_w[i], n_hat)
+    return ContactEval(True, ft.pen_m, (ff[0].pen_rate_mps, ff[1].pen_rate_mps,
+                                        ff[2].pen_rate_mps, ff[3].pen_rate_mps),
+                       (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
+                       force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
+                       damp, load, load_rate, lowest_gamma)
 
 
 @kernel
 def no_contact(pos_m):
     """The evaluation of a ship known to be clear of the ground for the whole step."""
     z = (0.0, 0.0, 0.0)
-    return ContactEval(False, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), z, z, 0.0, -math.inf,
-                       pos_m, 0.0, 0.0, 0.0, 0.0)
+    far = (-math.inf, -math.inf, -math.inf, -math.inf)
+    return ContactEval(False, far, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
+                       (0.0, 0.0, 0.0, 0.0), z, z, 0.0, (z, z, z, z), 0.0, -math.inf,
+                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0)

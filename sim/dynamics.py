@@ -49,21 +49,40 @@ class FreeBody(NamedTuple):
     sin0: float
     #: False: this ship cannot reach the ground this tick; skip the contact work
     touching: bool
-    #: a foot presses from penetration > -engage_m; negative while the ship is stepped up to the
-    #: instant its feet reach the ground (sim.step.free_flight)
-    engage_m: float
+    #: foot i presses from penetration > -engage_m[i] (sim.contact.evaluate): -inf while the ship
+    #: is stepped up to the instant that foot reaches the ground (sim.step.free_flight)
+    engage_m: tuple
     #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums)
     linear_model: bool
+    #: the method this ship is stepped with this tick (sim.integrators.sub_method)
+    method: int
+    #: kinetic friction (0 under the seed's law, which acts after the step)
+    mu_k: float
+    #: the feet whose friction is kinetic over this step: a force (sim.contact.evaluate)
+    kinetic: tuple
+    #: the holding feet's static friction carried into this step as a force, inertial
+    hold_w: tuple
 
 
 @constructor
-def with_engage(fb, engage_m):
-    """``fb`` whose feet press from penetration > -engage_m."""
+def with_feet(fb, engage_m, kinetic):
+    """``fb`` whose foot i presses from penetration > -engage_m[i], its friction kinetic where
+    ``kinetic`` says."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
                     fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
-                    engage_m, fb.linear_model)
+                    engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w)
+
+
+@constructor
+def with_hold(fb, hold_w):
+    """``fb`` with the holding feet's friction ``hold_w`` carried in."""
+    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
+                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
+                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
+                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w)
 
 
 @constructor
@@ -96,7 +115,8 @@ def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
         return no_contact(p)
     omega_w = quat_rotate(q, w_b)
     return evaluate(ground, p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm,
-                    fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model)
+                    fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model, fb.mu_k,
+                    fb.kinetic, fb.hold_w)
 
 
 @kernel

@@ -46,6 +46,15 @@ FIELDS: tuple[Field, ...] = (
           "1 where a foot's friction was kinetic at the last sub-step's end", keyframe_only=True),
     Field("settle_ticks", "state", "i8", 1, "",
           "consecutive ticks the settle thresholds have held", keyframe_only=True),
+    Field("settle_for_s", "state", "f8", 1, "s",
+          "how long the settle thresholds have held, from the instant they began to",
+          keyframe_only=True),
+    Field("settle_margin", "state", "f8", 1, "",
+          "the settle thresholds' smallest margin at the tick's end (> 0: all hold)",
+          keyframe_only=True),
+    Field("hold_force_n", "state", "f8", 12, "N",
+          "each holding foot's static friction over the last step, inertial (x, y, z per foot)",
+          keyframe_only=True),
     Field("pivot_rate_radps", "state", "f8", 1, "rad/s",
           "tipped only: rate of turn about the pivot (+ = toppling)", keyframe_only=True),
     Field("pin_pos_bf_m", "state", "f8", 3, "m",
@@ -84,6 +93,54 @@ FIELDS: tuple[Field, ...] = (
 
 #: the quantities of the log's TickBatch by their field name there
 BY_LOG_NAME: dict[str, Field] = {f.in_log: f for f in FIELDS}
+
+# -- the log's formats ------------------------------------------------------------------------------
+# THE RULE: a new per-tick field (a row above) bumps LOG_FORMAT, and its format's field lists are
+# added below as literals, frozen from then on. Every older format stays readable: a log holds
+# exactly its own format's fields, and a reader checks a tick against that format's lists, never
+# against today's table (tests/test_log_format.py: one test per format, and one that today's lists
+# are what the table derives).
+
+#: the format today's logs are written in (logs.mcap_log)
+LOG_FORMAT = 4
+
+#: the fields on every tick of a log, by format
+EVERY_TICK_BY_FORMAT: dict[int, tuple[str, ...]] = {
+    # touchdown 0.2: velocities on keyframes only; no energy_guard_j
+    1: ("surface_state", "pos_m", "quat", "mass_kg", "fuel_kg", "altitude_m", "penetration_m",
+        "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
+        "friction_force_n", "throttle", "rcs_torque_body_nm", "input_throttle", "input_rcs",
+        "input_hold"),
+    # touchdown 0.3: velocities and the guard's energy on every tick; sliding per foot
+    2: ("surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg",
+        "input_throttle", "input_rcs", "input_hold", "altitude_m", "penetration_m",
+        "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
+        "friction_force_n", "throttle", "rcs_torque_body_nm", "energy_guard_j"),
+    # touchdown 0.5: ships named by key (they join and leave)
+    3: ("surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg",
+        "input_throttle", "input_rcs", "input_hold", "altitude_m", "penetration_m",
+        "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
+        "friction_force_n", "throttle", "rcs_torque_body_nm", "energy_guard_j", "ship_key"),
+    # touchdown 0.6: as 3 (its new fields are on keyframes)
+    4: ("surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg",
+        "input_throttle", "input_rcs", "input_hold", "altitude_m", "penetration_m",
+        "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
+        "friction_force_n", "throttle", "rcs_torque_body_nm", "energy_guard_j", "ship_key"),
+}
+
+#: the fields on keyframe ticks only, by format (all of them or none on a tick)
+KEYFRAME_BY_FORMAT: dict[int, tuple[str, ...]] = {
+    1: ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf",
+        "pin_pivot_bf_m"),
+    2: ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf",
+        "pin_pivot_bf_m"),
+    3: ("absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf",
+        "pin_pivot_bf_m"),
+    # touchdown 0.6: how long the settle thresholds have held, and their margin (the landing's
+    # instant inside its tick); the holding feet's friction (carried into the next step)
+    4: ("absorbing", "sliding", "settle_ticks", "settle_for_s", "settle_margin", "hold_force_n",
+        "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m"),
+}
 
 
 def of_record(record: str) -> tuple[Field, ...]:

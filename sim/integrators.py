@@ -7,7 +7,9 @@ method shares one friction law.
 
 ``semi_implicit_euler`` is the seed's (``velocity += accel dt; position += velocity dt``).
 ``exponential`` is built for the stiff contact: it solves the pressing feet's linear spring-damper
-exactly over the step. An unknown name is an error, never a silent fallback. One ship, compiled.
+exactly over the step. ``hybrid`` (the default) steps a purely vertical ship by ``exponential`` and
+any other ship by ``rk4`` (:func:`sub_method`). An unknown name is an error, never a silent
+fallback. One ship, compiled.
 """
 from __future__ import annotations
 
@@ -30,8 +32,21 @@ METHODS: dict[str, int] = {
     "velocity_verlet": 2,
     "rk4": 3,
     "exponential": 4,
+    "hybrid": 5,
 }
-EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL = range(5)
+EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL, HYBRID = range(6)
+
+
+@kernel
+def sub_method(method, rough):
+    """The method a ship is stepped with: ``hybrid`` is ``rk4`` for a ship near the ground that is
+    not purely vertical (``rough``): its rotation and friction carry its motion, which rk4 follows
+    at the sub-step the exponential method needs five times smaller for; and ``exponential``
+    otherwise (exact for a vertical bounce, one step a tick); every other name is itself
+    (MODEL-NOTES 38)."""
+    if method == HYBRID:
+        return RK4 if rough else EXPONENTIAL
+    return method
 
 
 class Stepped(NamedTuple):
@@ -162,19 +177,33 @@ def _turn(fb, q, w, tau_b, h):
 
 
 @kernel
+def pressed(ce):
+    """Some foot pushes at this evaluation (its force then depends on the velocities)."""
+    f = ce.foot_force_n
+    return ce.touching and (f[0] != 0.0 or f[1] != 0.0 or f[2] != 0.0 or f[3] != 0.0)
+
+
+@kernel
 def velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0):
     """Kick-drift-kick (second order, symplectic for position-only forces). The closing kick
-    evaluates the force at the new position with the half-step velocity, the usual explicit form
-    when the force also depends on velocity (the damper). The rotation's drift is the exact
-    torque-free flow (Dullweber, Leimkuhler & McLachlan, J. Chem. Phys. 107, 1997)."""
+    needs the force at the end, whose dampers depend on the end's velocities: it is evaluated with
+    the half-step velocities, then once more with the velocities that gives (one fixed-point pass;
+    with the half-step ones alone, the usual explicit form, a tilted touchdown's rotation is only
+    first order in the step). The rotation's drift is the exact torque-free flow (Dullweber,
+    Leimkuhler & McLachlan, J. Chem. Phys. 107, 1997)."""
     a0 = acceleration(fb, ce, p, q)
     v_half = add(v, scale(a0, 0.5 * h))
     p1 = add(p, scale(v_half, h))
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
     w_pre = div(l_pre, fb.inertia_kgm2)
-    ce1 = contact_at(fb, ground_at(fb, t0 + h), p1, v_half, q1, w_pre, absorbing, fb.engage_m)
+    ground1 = ground_at(fb, t0 + h)
+    ce1 = contact_at(fb, ground1, p1, v_half, q1, w_pre, absorbing, fb.engage_m)
     v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    if pressed(ce1):  # the dampers at the end, at the end's velocities (see _damped_end)
+        ce1 = contact_at(fb, ground1, p1, v1, q1, w1, absorbing, fb.engage_m)
+        v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
 
 
@@ -192,9 +221,10 @@ class Released(NamedTuple):
 def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
-    Along n, the local vertical at the step's start (held fixed over the step), the pressing feet
-    are one linear spring-damper, fitted at the start from the contact evaluation: with x the
-    height gained since the start,
+    Along n, the direction the touching feet push at the step's start (the local vertical on level
+    ground, the slope's normal on a slope: sim.contact.spring_axis; held fixed over the step), the
+    pressing feet are one linear spring-damper, fitted at the start from the contact evaluation:
+    with x the distance gained along n since the start,
 
         m x'' = m a_free + N0 + C v0 - K x - C x' - (K U) t
 
@@ -213,7 +243,7 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
     sim.stability)."""
-    n_hat = unit(p)
+    n_hat = ce.axis
     m = fb.mass_kg
     a0 = acceleration(fb, ce, p, q)
     a0_n = dot(a0, n_hat)
@@ -235,11 +265,17 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     v_across = sub(v_half, scale(n_hat, v_n0))
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
-    ce1 = contact_at(fb, ground_at(fb, t0 + h), p1, v_pre, q1, w_pre, absorbing, fb.engage_m)
+    ground1 = ground_at(fb, t0 + h)
+    ce1 = contact_at(fb, ground1, p1, v_pre, q1, w_pre, absorbing, fb.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
+        ce1 = contact_at(fb, ground1, p1, v1, q1, w1, absorbing, fb.engage_m)
+        a1 = acceleration(fb, ce1, p1, q1)
+        v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     return Stepped(p1, v1, q1, w1,
                    exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep,
                                        rel.a_mps2, a_free),
@@ -314,7 +350,7 @@ def deepest(flow, ce, k_u, v_n0, t_act, v_act):
         return -math.inf
     t_pk = bracketed_root(flow, speed, lo, hi, g_lo, g_hi)
     x_pk = flow_at(flow, t_pk)[0]
-    return ce.max_penetration_m - x_pk - (k_u / ce.stiffness_npm) * t_pk
+    return ce.max_penetration_m - ce.lowest_gamma * x_pk - (k_u / ce.stiffness_npm) * t_pk
 
 
 @kernel

@@ -11,7 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from sim.constants import CONTACT_STIFFNESS_PER_KG
+from sim.constants import CONTACT_STIFFNESS_PER_KG, STICK_SPEED_MPS
 from sim.state import Batch
 
 
@@ -26,8 +26,13 @@ class SimParams:
     """
 
     dt_s: float = 0.05
-    integrator: str = "exponential"
+    integrator: str = "hybrid"
     max_substep_s: float = 0.025
+    #: a ship that is not purely vertical takes sub-steps of at most this while it strikes the
+    #: ground or rebounds (sim.step.striking): friction's turns between holding and sliding,
+    #: first order in the sub-step, happen there (0 = max_substep everywhere; max_substep = 0, the seed's plain step, turns it
+    #: off too)
+    impact_substep_s: float = 0.005
     duration_s: float = 30.0
     #: with a method exact on the spring, purely vertical ships take one step per tick
     #: (sim.step.purely_vertical); False sub-steps them like every other ship near the ground
@@ -60,6 +65,8 @@ class ContactParams:
     damping_ratio: float = 0.3
     friction_static: float = 0.8
     friction_kinetic: float = 0.5
+    #: a foot slipping slower than this is held by static friction (the seed's 0.01 m/s)
+    stick_speed_mps: float = STICK_SPEED_MPS
     align_on_touchdown: bool = True
     #: SEED-NOTES 3: the settle thresholds must hold this long before contact -> landed.
     settle_time_s: float = 0.5
@@ -208,12 +215,14 @@ class ControllerParams:
 
 SCENE_DTYPE = np.dtype([
     ("dt_s", "f8"), ("method", "i8"), ("vertical_one_step", "?"), ("energy_guard", "?"),
+    ("impact_substeps", "i8"),
     ("linear_model", "?"),
     ("crash_speed_mps", "f8"), ("crash_speed2", "f8"), ("bounce_speed_mps", "f8"),
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
     ("tipped_rest_rad", "f8"), ("damping_ratio", "f8"), ("absorb_damping_ratio", "f8"),
-    ("friction_static", "f8"), ("friction_kinetic", "f8"), ("align_on_touchdown", "?"),
-    ("settle_need_ticks", "i8"), ("seed_friction", "?"), ("radial_normal", "?"),
+    ("friction_static", "f8"), ("friction_kinetic", "f8"), ("stick_speed_mps", "f8"),
+    ("align_on_touchdown", "?"),
+    ("settle_time_s", "f8"), ("seed_friction", "?"), ("radial_normal", "?"),
     ("body_radius_m", "f8"), ("gm_m3ps2", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("base_height_m", "f8"), ("terrain_max_m", "f8"),
     ("slope_tan", "f8"),
@@ -253,6 +262,9 @@ class Params:
         rec = np.zeros(1, SCENE_DTYPE)
         r = rec[0]
         r["dt_s"] = sim.dt_s
+        # max_substep = 0 is the seed's plain step: no sub-steps at all, striking or not
+        r["impact_substeps"] = (0 if sim.impact_substep_s <= 0.0 or sim.max_substep_s <= 0.0
+                                else max(1, int(math.ceil(sim.dt_s / sim.impact_substep_s - 1e-9))))
         r["method"] = METHODS[sim.integrator]
         r["vertical_one_step"] = sim.vertical_one_step
         r["energy_guard"] = sim.energy_guard
@@ -269,10 +281,10 @@ class Params:
         r["absorb_damping_ratio"] = cp.absorb_damping_ratio
         r["friction_static"] = cp.friction_static
         r["friction_kinetic"] = cp.friction_kinetic
+        r["stick_speed_mps"] = cp.stick_speed_mps
         r["align_on_touchdown"] = cp.align_on_touchdown
-        # samples at n consecutive tick ends span (n - 1) dt: landing needs them to span
-        # settle_time (settle_time = 0, the seed's instantaneous rule: the first tick they hold)
-        r["settle_need_ticks"] = int(math.ceil(cp.settle_time_s / sim.dt_s - 1e-9))
+        # settle_time = 0 is the seed's instantaneous rule: the first tick they hold
+        r["settle_time_s"] = cp.settle_time_s
         r["seed_friction"] = cp.friction_model == "seed"
         r["radial_normal"] = cp.surface_normal == "radial"
         r["body_radius_m"] = body.radius_m

@@ -66,6 +66,8 @@ TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0
 SIM = {"dt": ("float", 0.05, _range(1e-4, 1.0)),
        "integrator": ("str", SimParams.integrator, _choice(METHODS)),
        "max_substep": ("float", 0.025, _range(0.0, 1.0)),
+       # a tilted, turning or sliding ship's sub-step while it strikes the ground (0: as any)
+       "impact_substep": ("float", 0.005, _range(0.0, 1.0)),
        "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
        "vertical_one_step": ("bool", True, None), "energy_guard": ("bool", True, None)}
 CONTACT = {
@@ -78,6 +80,7 @@ CONTACT = {
     "damping_ratio": ("float", 0.3, _range(0.0, 100.0)),
     "friction_static": ("float", 0.8, _range(0.0, 10.0)),
     "friction_kinetic": ("float", 0.5, _range(0.0, 10.0)),
+    "stick_speed": ("float", C.STICK_SPEED_MPS, _range(0.0, 10.0)),
     "align_on_touchdown": ("bool", True, None), "settle_time": ("float", 0.5, _range(0.0, 1e4)),
     "absorb_damping_ratio": ("float", 1.0, _range(0.0, 100.0)),
     "friction_model": ("str", "coulomb", _choice({"coulomb", "seed"})),
@@ -450,7 +453,10 @@ def _substeps(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> list[int]
                                                                    - 1e-9))
     h = sim["dt"] / n_scene
     kicks = sim["integrator"] in KICKS
-    limiting = KICKS[sim["integrator"]] if kicks else sim["integrator"]
+    # hybrid: the ships its sub-steps carry are stepped by rk4 (its vertical ships' one exact step
+    # is stable at any tick)
+    limiting = KICKS[sim["integrator"]] if kicks else (
+        "rk4" if sim["integrator"] == "hybrid" else sim["integrator"])
     bound = min(largest_stable_wh(limiting, z)
                 for z in (con["damping_ratio"], con["absorb_damping_ratio"]))
     out = []
@@ -563,11 +569,13 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
         settle_tilt_deg=con["settle_tilt_deg"], settle_angular_vel_radps=con["settle_angular_vel"],
         settle_linear_vel_mps=con["settle_linear_vel"], tipped_angle_deg=con["tipped_angle_deg"],
         damping_ratio=con["damping_ratio"], friction_static=con["friction_static"],
-        friction_kinetic=con["friction_kinetic"], align_on_touchdown=con["align_on_touchdown"],
+        friction_kinetic=con["friction_kinetic"],
+        stick_speed_mps=con["stick_speed"], align_on_touchdown=con["align_on_touchdown"],
         settle_time_s=con["settle_time"], absorb_damping_ratio=con["absorb_damping_ratio"],
         friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
         stiffness_per_kg=con["stiffness_per_kg"], surface_normal=con["surface_normal"])
     spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
+                     impact_substep_s=sim["impact_substep"],
                      duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"],
                      energy_guard=sim["energy_guard"])
 

@@ -44,10 +44,14 @@ def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
         drift = np.array([[1.0, h], [0.0, 1.0]])
         return drift @ kick
     if method == "velocity_verlet":
-        # v_half = v + h/2 a(x, v); x1 = x + h v_half; v1 = v_half + h/2 a(x1, v_half)
+        # v_half = v + h/2 a(x, v); x1 = x + h v_half; the closing kick's damper at the end's own
+        # velocity, by one fixed-point pass (sim.integrators.velocity_verlet):
+        # v1' = v_half + h/2 a(x1, v_half); v1 = v_half + h/2 a(x1, v1')
         half_kick = np.array([[1.0, 0.0], [-h / 2, 1.0 - zeta * h]])
         drift = np.array([[1.0, h], [0.0, 1.0]])
-        return half_kick @ drift @ half_kick
+        closing = np.array([[1.0, 0.0],
+                            [-h / 2 + zeta * h * h / 2, 1.0 - zeta * h + zeta * zeta * h * h]])
+        return closing @ drift @ half_kick
     if method == "rk4":
         ha = h * a
         return eye + ha + ha @ ha / 2 + ha @ ha @ ha / 6 + ha @ ha @ ha @ ha / 24

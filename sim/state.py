@@ -32,6 +32,7 @@ TRANSITION_DTYPE = np.dtype([
     ("from_state", "i1"),
     ("to_state", "i1"),
     ("v_radial_mps", "f8"),
+    ("t_offset_s", "f8"),  # when it happened, after the start of the tick whose step made it
 ], align=True)
 
 #: A command: from ``tick`` on, ship ``ship`` (its index in the batch) is given these inputs.
@@ -164,3 +165,7 @@ class Event:
     v_radial_mps: float = 0.0
     #: the originating ship's id (what names it across joins and leaves; sim.world)
     ship_id: str = ""
+    #: the instant it happened, s: inside the tick, where the step located it (a touchdown where
+    #: the first foot reached the ground, a liftoff where the last left it; a landing is decided
+    #: at the tick's end, and happens there)
+    t_event_s: float = 0.0

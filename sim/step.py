@@ -11,8 +11,9 @@ inside it, one ship's tick is a chain of phases, in order, each a function below
                     one step with no contact work
 3. ``settle``       contact -> landed once the settle thresholds have held for ``settle_time``
                     with the centre of mass over the footprint
-4. ``pinned``       landed, tipped and crashed ships turn with the body; liftoff; tipped ships'
-                    pivot model (sim.pivot) and righting
+4. ``pinned``       landed, tipped and crashed ships turn with the body; tipped ships' pivot
+                    model (sim.pivot) and righting. (A landed or tipped ship whose engine beats
+                    its weight lifts off at the tick's start, ``lift_off``, and flies the tick.)
 5. ``burn``         fuel and mass
 6. ``observe``      the tick's telemetry
 
@@ -29,20 +30,19 @@ import numpy as np
 
 from sim.compiled import constructor, kernel, separate
 from sim.constants import G0_MPS2
-from sim.contact import lowest_foot_penetration
-from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_engage
+from sim.contact import Ground, feet, foot_offsets_w, lowest_foot_penetration, under
+from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_feet, with_hold
 from sim.energy import mechanical, rotation, total, translation
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, inertia,
                         pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from sim.friction import coulomb, hold_footprint, seed, spread_over_step
-from sim.contact import Ground, feet
-from sim.integrators import advance
+from sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
 from sim.params import Params
 from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
                        Event, Inputs, Outputs, State)
-from sim.vec import add, cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, \
+from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, quat_rotate, \
     quat_normalize, quat_rotate_inv, scale, sub, unit
 
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
@@ -59,6 +59,12 @@ VERTICAL_TOL2 = 1e-16
 #: of it (ulp(|p|) ~ 2e-10 m on the Moon): the feet count as clear before that instant and as
 #: pressing from it, within this margin, so that all of an upright ship's feet engage together.
 ONSET_MARGIN_M = 1e-6
+
+#: no foot holds (sim.friction.coulomb's carried friction)
+NO_HOLD = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+#: every foot presses from the ground down (sim.contact.evaluate's engage_m)
+ENGAGE_AT_GROUND = (0.0, 0.0, 0.0, 0.0)
 
 #: an empty list of commands (sim.state.COMMAND_DTYPE)
 NO_COMMANDS = np.zeros(0, COMMAND_DTYPE)
@@ -77,6 +83,9 @@ class Ship(NamedTuple):
     absorbing: bool
     sliding: tuple  # each foot's friction regime
     settle_ticks: int
+    settle_for_s: float  # how long the settle thresholds have held (sim.fields)
+    settle_margin: float
+    hold_w: tuple  # each holding foot's static friction over the last step (sim.fields)
     pivot_rate_radps: float
     pin_pos_bf_m: tuple
     pin_quat_bf: tuple
@@ -93,7 +102,12 @@ def load(rec):
                 rec.mass_kg, rec.fuel_kg, bool(rec.absorbing),
                 (rec.sliding[0] != 0, rec.sliding[1] != 0, rec.sliding[2] != 0,
                  rec.sliding[3] != 0),
-                np.int64(rec.settle_ticks), rec.pivot_rate_radps,
+                np.int64(rec.settle_ticks), rec.settle_for_s, rec.settle_margin,
+                ((rec.hold_force_n[0], rec.hold_force_n[1], rec.hold_force_n[2]),
+                 (rec.hold_force_n[3], rec.hold_force_n[4], rec.hold_force_n[5]),
+                 (rec.hold_force_n[6], rec.hold_force_n[7], rec.hold_force_n[8]),
+                 (rec.hold_force_n[9], rec.hold_force_n[10], rec.hold_force_n[11])),
+                rec.pivot_rate_radps,
                 (rec.pin_pos_bf_m[0], rec.pin_pos_bf_m[1], rec.pin_pos_bf_m[2]),
                 (rec.pin_quat_bf[0], rec.pin_quat_bf[1], rec.pin_quat_bf[2], rec.pin_quat_bf[3]),
                 (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
@@ -117,13 +131,18 @@ def store(s, rec):
     rec.fuel_kg = s.fuel_kg
     rec.absorbing = s.absorbing
     rec.settle_ticks = s.settle_ticks
+    rec.settle_for_s = s.settle_for_s
+    rec.settle_margin = s.settle_margin
+    for i in range(4):
+        for k in range(3):
+            rec.hold_force_n[3 * i + k] = s.hold_w[i][k]
     rec.pivot_rate_radps = s.pivot_rate_radps
 
 
 @kernel
-def emit(events, count, ship, from_state, to_state, v_radial_mps):
-    """Append a transition to ``events``; ``count[0]`` is how many there are (those past the
-    array's end are counted, not written)."""
+def emit(events, count, ship, from_state, to_state, v_radial_mps, t_offset_s):
+    """Append a transition to ``events``, ``t_offset_s`` after the tick's start; ``count[0]`` is
+    how many there are (those past the array's end are counted, not written)."""
     n = count[0]
     if n < events.shape[0]:
         e = events[n]
@@ -131,6 +150,7 @@ def emit(events, count, ship, from_state, to_state, v_radial_mps):
         e.from_state = from_state
         e.to_state = to_state
         e.v_radial_mps = v_radial_mps
+        e.t_offset_s = t_offset_s
     count[0] = n + 1
 
 
@@ -221,8 +241,29 @@ def purely_vertical(cfg, terrain, sp, s, cmd):
     return True
 
 
+#: A ship moving along local up faster than this near the ground strikes it, or rebounds from it
+#: (sim.impact_substep), m/s; so does one pressed deeper than IMPACT_SAGS times its static sag.
+IMPACT_SPEED_MPS = 1.0
+IMPACT_SAGS = 10.0
+
+
+@kernel
+def striking(cfg, terrain, sp, s, cos0, sin0):
+    """A ship near the ground that strikes it, or rebounds, at the tick's start: moving along
+    local up faster than IMPACT_SPEED_MPS, or its deepest foot pressed deeper than IMPACT_SAGS
+    times its static sag g / w^2 (a ship at rest, even on a slope that loads its downhill feet
+    more, is far from either)."""
+    r_hat = unit(s.p)
+    v_rad = dot(sub(s.v, surface_velocity(cfg.omega_radps, s.p)), r_hat)
+    if abs(v_rad) > IMPACT_SPEED_MPS:
+        return True
+    ground = Ground(cfg.body_radius_m, terrain, cos0, sin0, cfg.omega_radps, cfg.radial_normal)
+    pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
+    return pen > IMPACT_SAGS * cfg.surface_gravity_mps2 / sp.stiffness_per_kg
+
+
 @constructor
-def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0):
+def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
     m = s.mass_kg
     two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
     return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
@@ -231,7 +272,9 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0):
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
                     cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, terrain,
-                    cfg.radial_normal, cos0, sin0, touching, 0.0, cfg.linear_model)
+                    cfg.radial_normal, cos0, sin0, touching, ENGAGE_AT_GROUND,
+                    method == EXPONENTIAL, method,
+                    0.0 if cfg.seed_friction else cfg.friction_kinetic, s.sliding, s.hold_w)
 
 
 @kernel
@@ -393,50 +436,308 @@ class SubStep(NamedTuple):
     peak_penetration_m: float  # the method's own deepest penetration inside the step
     located: bool  # whether the method located it
     pressed: bool  # whether any foot pressed during the step
+    hold_w: tuple  # each holding foot's static friction over it (sim.friction.Friction)
 
 
 @separate
-def substep(cfg, fb, bodies, h, p, v, q, w, ce_start, sliding, absorbing, t_start):
-    """One step of the method (with ``bodies``, which may differ from ``fb`` in where its feet
-    engage), then Coulomb friction (or the seed's) at the feet that pressed, spread over the
-    step, and a held footprint kept where the ground carried it."""
+def substep(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t_start):
+    """One step of the method, the feet pressing from ``engage`` and those of ``dragged`` dragged
+    by kinetic friction as a force (``ce_start`` evaluated so); then Coulomb's impulses at the
+    other pressing feet (or the seed's law), spread over the step, and a held footprint kept
+    where the ground carried it. ``sliding``: each foot's regime."""
     z4 = (False, False, False, False)
-    res = advance(cfg.method, bodies, h, p, v, q, w, ce_start, absorbing, t_start)
+    body = with_feet(fb, engage, dragged)
+    res = advance(fb.method, body, h, p, v, q, w, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
     if not fb.touching:
         return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
-                       res.located, pressed)
+                       res.located, pressed, NO_HOLD)
     if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
-                       pressed)
+                       pressed, NO_HOLD)
     ground_end = ground_at(fb, t_start + h)
     if cfg.seed_friction:
         j_n = j[0] + j[1] + j[2] + j[3]
-        fr = seed(cfg.friction_static, cfg.friction_kinetic, fb.mass_kg, res.p, res.v, res.w,
-                  j_n, ground_end)
+        fr = seed(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
+                  res.p, res.v, res.w, j_n, ground_end)
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
-                       res.peak_penetration_m, res.located, pressed)
+                       res.peak_penetration_m, res.located, pressed, NO_HOLD)
     ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
-    fr = coulomb(cfg.friction_static, cfg.friction_kinetic, fb.mass_kg, fb.inertia_kgm2, res.p,
-                 res.v, res.q, res.w, ft, j, sliding, ground_end)
+    fr = coulomb(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
+                 fb.inertia_kgm2, res.p, res.v, res.q, res.w, ft, j, sliding, dragged, ground_end,
+                 fb.hold_w, h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
-    held = not (sliding[0] or sliding[1] or sliding[2] or sliding[3] or fr.sliding[0]
-                or fr.sliding[1] or fr.sliding[2] or fr.sliding[3]) and fr.impulse_ns > 0.0
-    if held:
+    if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
         ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
         # the feet where the step began (what ce_start was evaluated on)
         ft0 = feet(ground_at(fb, t_start), p, q, fb.leg_radius_m, fb.com_height_m)
         p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
     return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
-                   res.peak_penetration_m, res.located, pressed)
+                   res.peak_penetration_m, res.located, pressed, fr.hold_w)
 
 
 @kernel
 def _a_down(fb, p, q, r_hat):
     """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
     return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
+
+
+#: Most contact events one sub-step is split at: a foot starting to press (its onset) or ceasing
+#: to (its release), each located and stepped to.
+MAX_PIECES = 8
+#: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
+#: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
+#: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
+MAX_EVENT_ITERATIONS = 40
+EVENT_TOL_M = 1e-9
+EVENT_TOL_S = 1e-12
+#: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
+NEVER = -math.inf
+#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs,
+#: while its own friction could not stop it within DRAG_REACH times the step; nearer its stop, its
+#: friction is an impulse of mu_k J_i after the step, which stops it without overshoot (a force of
+#: fixed size against a slip that reaches zero inside the step would turn round there).
+DRAG_REACH = 1.0
+
+
+class FootEvents(NamedTuple):
+    """Which feet change over a step: those that start to press (``onset``: not pressing at its
+    start, in the ground at its end) and those that stop (``release``: pressing at its start, their
+    spring-damper no longer pushing at its end, or, absorbed, out of the ground)."""
+
+    onset: tuple
+    release: tuple
+    any: bool
+
+
+@kernel
+def _pressing(ce, absorbing, engage):
+    """The feet that press at an evaluation: touching and pushing (or touching, absorbed)."""
+    f, pen = ce.foot_force_n, ce.pen_m
+    return ((pen[0] > -engage[0]) and (absorbing or f[0] > 0.0),
+            (pen[1] > -engage[1]) and (absorbing or f[1] > 0.0),
+            (pen[2] > -engage[2]) and (absorbing or f[2] > 0.0),
+            (pen[3] > -engage[3]) and (absorbing or f[3] > 0.0))
+
+
+@kernel
+def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
+    """How far each foot of ``ev`` is past its event, m: positive once it has happened. Onset:
+    its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the largest."""
+    ce = contact_at(fb, ground_at(fb, t_s), p, v, q, w, absorbing, ENGAGE_AT_GROUND)
+    c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
+    out = -math.inf
+    for i in range(4):
+        if ev.onset[i]:
+            out = fmax(out, ce.pen_m[i])
+        if ev.release[i]:
+            if absorbing:
+                out = fmax(out, -ce.pen_m[i])
+            else:
+                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+    return out
+
+
+@kernel
+def foot_events(fb, t_end, st, ce_start, absorbing, engage):
+    """The feet that start or stop pressing between a step's start (``ce_start``) and its end
+    (``st``)."""
+    before = _pressing(ce_start, absorbing, engage)
+    ce = contact_at(fb, ground_at(fb, t_end), st.p, st.v, st.q, st.w, absorbing, engage)
+    after = _pressing(ce, absorbing, engage)
+    pen = ce.pen_m
+    onset = ((not before[0]) and pen[0] > 0.0 and not ce_start.pen_m[0] > -engage[0],
+             (not before[1]) and pen[1] > 0.0 and not ce_start.pen_m[1] > -engage[1],
+             (not before[2]) and pen[2] > 0.0 and not ce_start.pen_m[2] > -engage[2],
+             (not before[3]) and pen[3] > 0.0 and not ce_start.pen_m[3] > -engage[3])
+    release = (before[0] and not after[0], before[1] and not after[1],
+               before[2] and not after[2], before[3] and not after[3])
+    found = False
+    for i in range(4):
+        found = found or onset[i] or release[i]
+    return FootEvents(onset, release, found)
+
+
+class Piece(NamedTuple):
+    """A stretch of a sub-step stepped up to the instant a foot starts or stops pressing."""
+
+    tau_s: float  # its length
+    step: SubStep
+    found: bool  # False: none of the feet asked changes within the stretch
+
+
+@separate
+def to_event(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0, ev):
+    """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
+    pressing, and the step to it (the feet about to press kept from pressing): regula falsi
+    (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
+    starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
+    the first), and happens where it does, not at the step's end. The step returned ends just
+    past the event (its gap within EVENT_TOL_M above zero)."""
+    on = ev.onset
+    held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
+                NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
+    body = with_feet(fb, held_off, dragged)
+    t_lo = 0.0
+    g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
+    st_hi = substep(cfg, fb, held_off, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+    g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
+    if not (g_hi > 0.0 and g_lo < 0.0):
+        return Piece(h, st_hi, False)
+    t_hi = h
+    side = 0
+    for _ in range(MAX_EVENT_ITERATIONS):
+        t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
+        if not (t > t_lo and t < t_hi):
+            t = 0.5 * (t_lo + t_hi)
+        st = substep(cfg, fb, held_off, t, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+        g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
+        if g > 0.0:
+            t_hi, g_hi, st_hi = t, g, st
+            if side == 1:
+                g_lo = 0.5 * g_lo
+            side = 1
+        else:
+            t_lo, g_lo = t, g
+            if side == -1:
+                g_hi = 0.5 * g_hi
+            side = -1
+        if g_hi <= EVENT_TOL_M or t_hi - t_lo <= EVENT_TOL_S:
+            break
+    return Piece(t_hi, st_hi, True)
+
+
+@kernel
+def _could_stop(cfg, fb, ce0, ce1, q, i, h):
+    """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
+    within DRAG_REACH h: (|s| - stick) m_eff / (mu_k N) < DRAG_REACH h, N the larger of the foot's
+    normal forces at the step's ends (``ce0``, ``ce1``: an impact's grows fast), m_eff the ship's
+    mass as the foot feels it along its slip, 1 / m_eff = 1 / m + (r x s_hat) . I^-1 (r x s_hat)."""
+    s0 = ce0.slip_w[i]
+    speed = norm(s0)
+    if not speed > cfg.stick_speed_mps:
+        return True
+    drag = fb.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
+                          ce1.foot_force_n[i] * ce1.push_norm[i])
+    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
+    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+    return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
+
+
+@kernel
+def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
+    """The sliding feet dragged by their friction as a force over a step of h: those that could
+    not stop within it (:func:`_could_stop`; none under the seed's law)."""
+    out = (False, False, False, False)
+    if fb.mu_k > 0.0:
+        for i in range(4):
+            d = sliding[i] and not _could_stop(cfg, fb, ce0, ce1, q, i, h)
+            out = (out[0] or (d and i == 0), out[1] or (d and i == 1),
+                   out[2] or (d and i == 2), out[3] or (d and i == 3))
+    return out
+
+
+@kernel
+def regimes_on_touch(cfg, ce, sliding, fresh):
+    """Each foot's friction regime as it starts to press (``fresh``): kinetic if it meets the
+    ground slipping faster than the stick speed."""
+    out = sliding
+    for i in range(4):
+        now = sliding[i]
+        if fresh[i]:
+            s = ce.slip_w[i]
+            now = dot(s, s) > cfg.stick_speed_mps * cfg.stick_speed_mps
+        out = (now if i == 0 else out[0], now if i == 1 else out[1],
+               now if i == 2 else out[2], now if i == 3 else out[3])
+    return out
+
+
+@kernel
+def at_ground(ce, engage, a_down):
+    """The feet at the ground now (within ONSET_MARGIN_M of it) and going into it (or at rest on
+    it while the ship accelerates down, ``a_down`` > 0): they press from this instant (their
+    engage threshold becomes the margin). Returns the new thresholds and whether any foot is at
+    the ground."""
+    out = engage
+    reach = False
+    for i in range(4):
+        rate = ce.pen_rate_mps[i]
+        if abs(ce.pen_m[i]) < ONSET_MARGIN_M and (rate > 0.0 or (rate == 0.0 and a_down > 0.0)):
+            reach = True
+            if not ce.pen_m[i] > -engage[i]:
+                out = (ONSET_MARGIN_M if i == 0 else out[0], ONSET_MARGIN_M if i == 1 else out[1],
+                       ONSET_MARGIN_M if i == 2 else out[2], ONSET_MARGIN_M if i == 3 else out[3])
+    return out, reach
+
+
+@kernel
+def engaged_near(ce):
+    """Every foot within ONSET_MARGIN_M of the ground presses (after a touchdown's alignment has
+    moved them all)."""
+    pen = ce.pen_m
+    return (ONSET_MARGIN_M if pen[0] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[1] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[2] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[3] > -ONSET_MARGIN_M else 0.0)
+
+
+class Touchdown(NamedTuple):
+    """The seed's Flying -> Contact rules applied at the instant the first foot reaches the
+    ground."""
+
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    impact_mps: float  # the centre of mass's descent speed there, relative to the surface
+    absorbing: bool
+    aligned: bool
+
+
+@kernel
+def touchdown(cfg, fb, ground, p, v, q, w):
+    """An impact slower than bounce_speed is taken by the absorbers from its first instant
+    (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18)."""
+    r_hat = unit(p)
+    impact = -dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    aligned = False
+    if cfg.align_on_touchdown:
+        al = align_at_touchdown(fb, ground, p, v, q, w)
+        p, v, q, w, aligned = al.p, al.v, al.q, al.w, al.aligned
+    return Touchdown(p, v, q, w, impact, impact < cfg.bounce_speed_mps, aligned)
+
+
+@kernel
+def clear_instant(fb, ce, p, v, q, w, h):
+    """How long before the end of a (sub-)step the last foot left the ground, for a ship whose
+    feet are all clear at its end: the lowest foot's flight back to the ground, at its own speed
+    along local up under g - T cos(tilt) / m (exact for a vertical bounce under uniform gravity;
+    the spring had let go before). Clamped to the step."""
+    r_hat = unit(p)
+    z = -ce.max_penetration_m
+    om = fb.body_omega_radps
+    foot_v = add(sub(v, surface_velocity(om, ce.lowest_foot_w)),
+                 cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p)))
+    u = dot(foot_v, r_hat)
+    a_dn = _a_down(fb, p, q, r_hat)
+    disc = u * u + 2.0 * a_dn * z
+    denom = u + math.sqrt(fmax(disc, 0.0))
+    if not (z > 0.0 and disc >= 0.0 and denom > 0.0):
+        return 0.0
+    return fmin(2.0 * z / denom, h)
+
+
+@kernel
+def crossed_at(a0, a1, level, t0, t1):
+    """The instant a quantity going from a0 (at t0) to a1 (at t1) passed ``level``, linearly."""
+    d = a1 - a0
+    if d == 0.0:
+        return t1
+    f = fmin(fmax((level - a0) / d, 0.0), 1.0)
+    return t0 + f * (t1 - t0)
 
 
 class Flight(NamedTuple):
@@ -450,9 +751,13 @@ class Flight(NamedTuple):
 
 
 @separate
-def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
-    """Advance a free ship by one tick in ``n_sub`` equal sub-steps; transitions are emitted in
-    the order they happen."""
+def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, ship_index, events, count):
+    """Advance a free ship by one tick in ``n_sub`` equal sub-steps. Inside each, every foot that
+    starts or stops pressing is located and stepped to (:func:`to_event`), the seed's touchdown
+    rules applied where the first foot reaches the ground; the in-flight transitions (liftoff, tipped,
+    crash) are decided on each sub-step's end state. Transitions are emitted in the order they
+    happen, each with the instant it happened. ``carry``: the holding feet's friction is carried
+    from step to step as a force (sim.friction.coulomb); without it, impulses alone."""
     dt = cfg.dt_s
     h = dt / n_sub
     touching = fb.touching
@@ -462,74 +767,130 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
     absorbing = s.absorbing
     sliding = s.sliding
     settle = s.settle_ticks
+    settle_for, settle_margin = s.settle_for_s, s.settle_margin
+    hold = s.hold_w
     pin_p, pin_q, pin_pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
     pivot_rate = s.pivot_rate_radps
     friction_n = 0.0
     peak = 0.0
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
-    ce = contact_at(fb, ground0, p, v, q, w, absorbing, fb.engage_m)
+    ce = contact_at(fb, ground0, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(v, unit(p))
     guard = cfg.energy_guard
     passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
                and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
     e_ref = energy_ref(ship_energy(fb, ground0, p, v, q, w)) if guard else EnergyRef(0.0, 0.0, 0.0)
+    stop = False  # tipped or crashed: pinned for the rest of the tick
 
     for j in range(n_sub):
         t_off = j * h  # this sub-step's start, from the tick's start
         pen_before, v_rad_before = ce.max_penetration_m, v_rad
-        crossing = False
-        v_cross = 0.0
-        tau = 0.0
-        if touching:
-            # Contact onset inside the sub-step: the damper's force jumps to c v at the surface,
-            # so step exactly to the crossing (ballistic time of flight of the lowest foot,
-            # tau = 2 z / (v + sqrt(v^2 + 2 a z))) and from there to the sub-step's end.
-            z = -pen_before
-            v_down = -v_rad
-            a_dn = _a_down(fb, p, q, unit(p))
-            disc = v_down * v_down + 2.0 * a_dn * (z if z > 0.0 else 0.0)
-            denom = v_down + math.sqrt(fmax(disc, 0.0))
-            tau = 2.0 * z / (denom if denom > 0.0 else 1.0)
-            crossing = (surf == FLYING and z > 0.0 and v_down > 0.0 and disc >= 0.0
-                        and denom > 0.0 and tau < h)
-            v_cross = math.sqrt(fmax(disc, 0.0))  # speed of the lowest foot at the surface
+        cos_before = dot(quat_axis_z(q), unit(p))
+        engage = ENGAGE_AT_GROUND
+        t_in = 0.0  # how far into the sub-step the ship has been stepped
+        touched = False
+        inner_peak = -math.inf
+        located = True
+        touch_here = False  # a touchdown was located inside this sub-step
         aligned = False
-        if crossing:
-            # Up to the crossing the motion is ballistic by construction. Its last stage ends with
-            # the feet at the surface to within rounding, where some feet would press (with the
-            # damper's full jump c v) and others not: a spurious torque. They must not press there.
-            st1 = substep(cfg, fb, with_engage(fb, -ONSET_MARGIN_M), tau, p, v, q, w, ce, sliding,
-                          absorbing, t_off)
-            # At the crossing itself: an impact slower than bounce_speed is taken by the
-            # absorbers from its first instant, and the seed's touchdown alignment happens here
-            absorbing = v_cross < cfg.bounce_speed_mps
-            t_cross = t_off + tau
-            ground_x = ground_at(fb, t_cross)
-            p1, v1, q1, w1 = st1.p, st1.v, st1.q, st1.w
-            if cfg.align_on_touchdown:
-                al = align_at_touchdown(fb, ground_x, p1, v1, q1, w1)
-                p1, v1, q1, w1, aligned = al.p, al.v, al.q, al.w, al.aligned
-            ce_mid = contact_at(fb, ground_x, p1, v1, q1, w1, absorbing, ONSET_MARGIN_M)
-            st2 = substep(cfg, fb, fb, h - tau, p1, v1, q1, w1, ce_mid, st1.sliding, absorbing,
-                          t_cross)
-            touched = st1.pressed or st2.pressed
-            inner_peak = fmax(st1.peak_penetration_m, st2.peak_penetration_m)
-            located = st2.located
-            p, v, q, w = st2.p, st2.v, st2.q, st2.w
-            sliding = st2.sliding
-            friction_n = st2.friction_n
-        else:
-            st = substep(cfg, fb, fb, h, p, v, q, w, ce, sliding, absorbing, t_off)
-            touched = st.pressed
-            inner_peak = st.peak_penetration_m
-            located = st.located
-            p, v, q, w = st.p, st.v, st.q, st.w
-            sliding = st.sliding
+        ce_y = ce
+        onset_now = (False, False, False, False)  # the feet the last located event touched
+        for k in range(MAX_PIECES + 1):
+            t_abs = t_off + t_in
+            fb = with_hold(fb, hold if carry else NO_HOLD)
+            ground_y = ground_at(fb, t_abs)
+            drag = sliding
+            if touching:
+                ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w, absorbing,
+                                  engage)
+                was = engage
+                engage, reach = at_ground(ce_y, engage, _a_down(fb, p, q, unit(p)))
+                if reach and surf == FLYING:
+                    # the first foot is at the ground: the seed's touchdown, here and now
+                    td = touchdown(cfg, fb, ground_y, p, v, q, w)
+                    p, v, q, w = td.p, td.v, td.q, td.w
+                    absorbing, aligned, touch_here = td.absorbing, td.aligned, True
+                    sliding = drag = (False, False, False, False)
+                    settle, settle_for, settle_margin = 0, 0.0, -1.0
+                    hold = NO_HOLD
+                    fb = with_hold(fb, NO_HOLD)
+                    ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, p, v,
+                                      q, w, absorbing, ENGAGE_AT_GROUND)
+                    engage = engaged_near(ce_y)
+                    was = ENGAGE_AT_GROUND
+                    if td.impact_mps > cfg.crash_speed_mps:
+                        surf = CRASHED
+                        emit(events, count, ship_index, FLYING, CRASHED, -td.impact_mps, t_abs)
+                    else:
+                        surf = CONTACT
+                        emit(events, count, ship_index, FLYING, CONTACT, -td.impact_mps, t_abs)
+                        if not aligned and dot(quat_axis_z(q), unit(p)) < cfg.cos_tipped:
+                            # lying down already: its hull, which the model does not have, is what
+                            # touches (MODEL-NOTES 12)
+                            v_rel = sub(v, surface_velocity(om, p))
+                            surf = CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED
+                            emit(events, count, ship_index, CONTACT, surf, -td.impact_mps, t_abs)
+                    if surf != CONTACT:
+                        c, s_ = turned(fb.cos0, fb.sin0, om, t_abs)
+                        pin_p, pin_q = pin_pose(p, q, c, s_)
+                        if surf == TIPPED:
+                            pin_pivot = rotate_z(ce_y.lowest_foot_w, c, -s_)
+                            pivot_rate = rate_from_momentum(om, fb.mass_kg, fb.inertia_kgm2, p,
+                                                            v, q, w, ce_y.lowest_foot_w)
+                        stop = True
+                        break
+                    if guard and aligned:  # the snap never adds energy; measure from after it
+                        e_ref = energy_ref(ship_energy(fb, ground_y, p, v, q, w))
+                if not cfg.seed_friction:  # a foot meets the ground sliding or holding
+                    fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
+                             engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
+                    sliding = drag = regimes_on_touch(cfg, ce_y, sliding, fresh)
+                ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w, absorbing,
+                                  engage)
+            rem = h - t_in
+            st = substep(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag, absorbing, t_abs)
+            if touching and (drag[0] or drag[1] or drag[2] or drag[3]):
+                # a sliding foot that could stop within the step takes its friction as an impulse
+                ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p,
+                                  st.v, st.q, st.w, absorbing, engage)
+                near = dragged_feet(cfg, with_feet(fb, engage, drag), drag, ce_y, ce_e, q, rem)
+                if (near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2]
+                        or near[3] != drag[3]):
+                    drag = near
+                    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w,
+                                      absorbing, engage)
+                    st = substep(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag,
+                                 absorbing, t_abs)
+            if touching and k < MAX_PIECES:
+                ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, absorbing,
+                                 engage)
+                if ev.any:
+                    pc = to_event(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag,
+                                  absorbing, t_abs, ev)
+                    if pc.found and pc.tau_s < rem:
+                        st = pc.step
+                        p, v, q, w, sliding, hold = st.p, st.v, st.q, st.w, st.sliding, st.hold_w
+                        onset_now = ev.onset
+                        touched = touched or st.pressed
+                        friction_n = st.friction_n
+                        inner_peak = fmax(inner_peak, st.peak_penetration_m)
+                        located = located and st.located
+                        t_in = t_in + pc.tau_s
+                        continue  # from the event, with the feet that press there
+            p, v, q, w, sliding, hold = st.p, st.v, st.q, st.w, st.sliding, st.hold_w
+            touched = touched or st.pressed
             friction_n = st.friction_n
+            inner_peak = fmax(inner_peak, st.peak_penetration_m)
+            located = located and st.located
+            break
+        if stop:
+            break
+
         t_end_off = (j + 1) * h
         ground = ground_at(fb, t_end_off)
-        ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
+        fb_now = with_feet(fb, ENGAGE_AT_GROUND, sliding)
+        ce = contact_at(fb_now, ground, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
         if guard:
             # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
             # absorber's pull passes no positive impulse, yet trades translation for rotation)
@@ -538,7 +899,7 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
             v, w, e_ref = gd.v, gd.w, gd.ref
             guard_j = guard_j + gd.removed_j
             if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
-                ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
+                ce = contact_at(fb_now, ground, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
 
         # in-flight transitions, decided on this sub-step's end state
         r_hat = unit(p)
@@ -551,38 +912,36 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
                 step_peak = hermite_peak(pen_before, -v_rad_before, pen, -v_rad, h)
             peak = fmax(peak, step_peak)
         was = surf
-        # a located crossing is a touchdown even if the ship is already rebounding at the end
-        touch = was == FLYING and ((pen > 0.0 and v_rad < 0.0) or crossing)
-        # Speeds at the surface crossing, from the ballistic motion on the clear side of it (the
-        # damper acts from the first millimetre, so the sub-step's end speed is already lower):
-        # v_cross^2 = v^2 + 2 a_down height, a_down = g - T cos(tilt) / m.
+        cos_tilt = dot(quat_axis_z(q), r_hat)
+        # a touchdown the onsets did not locate (the method's last resort): at the step's end
+        touch = was == FLYING and pen > 0.0 and v_rad < 0.0
         a_down = _a_down(fb, p, q, r_hat)
-        if crossing:
-            impact = v_cross
-        elif v_rad_before < 0.0:
+        impact = -v_rad
+        if touch and v_rad_before < 0.0:
+            # the speed at the crossing, from the ballistic motion on the clear side of it
             above_before = fmax(-pen_before, 0.0)
-            impact = math.sqrt(fmax(v_rad_before * v_rad_before
-                                    + 2.0 * a_down * above_before, 0.0))
-        else:
-            impact = -v_rad
+            impact = math.sqrt(fmax(v_rad_before * v_rad_before + 2.0 * a_down * above_before,
+                                    0.0))
         separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
         # in contact: descending faster than crash_speed at either end of the sub-step (the
         # damper may already have slowed it by the end)
-        crash = (touch and impact > cfg.crash_speed_mps) or (
-            was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
+        crash_in_contact = was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps
+        crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
         touch_ok = touch and not crash
         if touch_ok:
             absorbing = impact < cfg.bounce_speed_mps
             sliding = (False, False, False, False)
-            settle = 0
-            if cfg.align_on_touchdown and not crossing:  # a located crossing was aligned there
+            settle, settle_for, settle_margin = 0, 0.0, -1.0
+            hold = NO_HOLD
+            if cfg.align_on_touchdown:
                 al = align_at_touchdown(fb, ground, p, v, q, w)
                 p, v, q, w = al.p, al.v, al.q, al.w
-                aligned = aligned or al.aligned
-                ce = contact_at(fb, ground, p, v, q, w, absorbing, fb.engage_m)
+                aligned = al.aligned
+                ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, sliding), ground, p, v, q, w,
+                                absorbing, ENGAGE_AT_GROUND)
                 if guard and al.aligned:  # the snap never adds energy; measure from after it
                     e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
-        cos_tilt = dot(quat_axis_z(q), r_hat)
+            cos_tilt = dot(quat_axis_z(q), r_hat)
         # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
         # lift a foot clear while the ship still descends; that is not a liftoff)
         lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
@@ -610,8 +969,17 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
             surf = TIPPED
         if crash:
             surf = CRASHED
+        # when each happened inside the sub-step
+        if touch:
+            t_ev = t_end_off
+        elif lift:
+            t_ev = t_end_off - clear_instant(fb, ce, p, v, q, w, h)
+        elif crash_in_contact:
+            t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, t_off, t_end_off)
+        else:  # tipped (or its crash): the tilt passing tipped_angle
+            t_ev = crossed_at(cos_before, cos_tilt, cfg.cos_tipped, t_off, t_end_off)
         if touch_ok and tip:  # two transitions in one sub-step
-            emit(events, count, ship_index, FLYING, CONTACT, -impact)
+            emit(events, count, ship_index, FLYING, CONTACT, -impact, t_end_off)
             was = CONTACT
         if surf != was:
             if was == FLYING:
@@ -620,7 +988,7 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
                 speed = separation
             else:
                 speed = v_rad
-            emit(events, count, ship_index, was, surf, speed)
+            emit(events, count, ship_index, was, surf, speed, t_ev)
         if tip or crash:
             break
     if surf == CRASHED or surf == TIPPED:
@@ -629,8 +997,12 @@ def free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count):
         q = quat_mul(quat_z(cos1, sin1), pin_q)
         v, w = pinned_motion(om, p, q, rotate_z(pin_pivot, cos1, sin1),
                              pivot_rate if surf == TIPPED else 0.0)
-    out = Ship(surf, p, v, q, w, s.mass_kg, s.fuel_kg, absorbing, sliding, settle, pivot_rate,
-               pin_p, pin_q, pin_pivot)
+        ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, sliding), ground_at(fb, dt), p, v, q, w,
+                        absorbing, ENGAGE_AT_GROUND)
+    if surf != CONTACT:  # flying, tipped or crashed: no foot holds
+        hold = NO_HOLD
+    out = Ship(surf, p, v, q, w, s.mass_kg, s.fuel_kg, absorbing, sliding, settle, settle_for,
+               settle_margin, hold, pivot_rate, pin_p, pin_q, pin_pivot)
     return Flight(out, friction_n, abs(ce.normal_n), peak, guard_j)
 
 
@@ -652,41 +1024,77 @@ def over_footprint(cfg, sp, p, q):
 
 
 @kernel
-def settle(cfg, sp, s, cos1, sin1, ship_index, events, count):
-    """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
-    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
-    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26)."""
+def settle_margin(cfg, terrain, sp, s, cos1, sin1):
+    """The settle thresholds' smallest margin, each as a fraction of its threshold (> 0: all
+    hold): radial and tangential speed and angular speed against theirs (on their squares), the
+    tilt's cosine against cos(settle_tilt), the centre of mass over the footprint and every foot
+    held by its static friction (each +1 or -1; the seed's friction law lands on the speeds alone).
+
+    The settle tilt is measured from the ground's normal under the centre of mass (the contact
+    model's: the terrain's, or radial with ``contact.surface_normal = "radial"``), so a ship
+    standing square on a slope lands; on level ground it is local vertical, the seed's
+    (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
     om = cfg.omega_radps
     r_hat = unit(s.p)
+    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
+    up_ground = unit(under(ground, s.p)[1])
     v_rel = sub(s.v, surface_velocity(om, s.p))
     v_rad = dot(v_rel, r_hat)
     v_tan = sub(v_rel, scale(r_hat, v_rad))
     omega_rel = sub(s.w, body_spin_in_body_frame(om, s.q))
-    ez = quat_axis_z(s.q)
-    lin2 = cfg.settle_lin2
-    ok = (s.surface_state == CONTACT and v_rad * v_rad < lin2 and dot(v_tan, v_tan) < lin2
-          and dot(omega_rel, omega_rel) < cfg.settle_ang2 and dot(ez, r_hat) > cfg.cos_settle_tilt
-          and over_footprint(cfg, sp, s.p, s.q))
+    lin2, ang2 = cfg.settle_lin2, cfg.settle_ang2
+    m = fmin((lin2 - v_rad * v_rad) / lin2, (lin2 - dot(v_tan, v_tan)) / lin2)
+    m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
+    m = fmin(m, (dot(quat_axis_z(s.q), up_ground) - cfg.cos_settle_tilt)
+             / (1.0 - cfg.cos_settle_tilt))
+    slides = not cfg.seed_friction and (s.sliding[0] or s.sliding[1] or s.sliding[2]
+                                        or s.sliding[3])
+    # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
+    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44)
+    return m if over_footprint(cfg, sp, s.p, s.q) and not slides else fmin(m, -1.0)
+
+
+@kernel
+def settle(cfg, terrain, sp, s, cos1, sin1, ship_index, events, count):
+    """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
+    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
+    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
+    instant the thresholds began to hold is interpolated inside the tick of their first sample
+    (linearly in their smallest margin, :func:`settle_margin`), so the ship lands, at a tick's
+    end, once they have held for settle_time in continuous time, and the event carries the instant
+    they had (MODEL-NOTES 20)."""
+    margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
+    ok = s.surface_state == CONTACT and margin > 0.0
+    dt = cfg.dt_s
+    if not ok:
+        held = 0.0
+    elif s.settle_ticks > 0:
+        held = s.settle_for_s + dt
+    else:  # they began to hold inside this tick: where the margin crossed zero
+        prev = s.settle_margin
+        f = prev / (prev - margin) if prev < 0.0 else 0.0
+        held = (1.0 - fmin(fmax(f, 0.0), 1.0)) * dt
     ticks = s.settle_ticks + 1 if ok else 0
-    if not (ok and ticks > cfg.settle_need_ticks):
+    if not (ok and held >= cfg.settle_time_s - 1e-9 * dt):
         return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, s.absorbing,
-                    s.sliding, ticks, s.pivot_rate_radps, s.pin_pos_bf_m, s.pin_quat_bf,
-                    s.pin_pivot_bf_m)
+                    s.sliding, ticks, held, margin, s.hold_w, s.pivot_rate_radps, s.pin_pos_bf_m,
+                    s.pin_quat_bf, s.pin_pivot_bf_m)
     pp, pq = pin_pose(s.p, s.q, cos1, sin1)
-    emit(events, count, ship_index, CONTACT, LANDED, 0.0)
+    om = cfg.omega_radps
+    emit(events, count, ship_index, CONTACT, LANDED, 0.0,
+         fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
     return Ship(LANDED, s.p, surface_velocity(om, s.p), s.q, body_spin_in_body_frame(om, s.q),
-                s.mass_kg, s.fuel_kg, s.absorbing, s.sliding, 0, s.pivot_rate_radps, pp, pq,
-                s.pin_pivot_bf_m)
+                s.mass_kg, s.fuel_kg, s.absorbing, s.sliding, 0, 0.0, margin, NO_HOLD,
+                s.pivot_rate_radps, pp, pq, s.pin_pivot_bf_m)
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 @kernel
 def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
     """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
-    tick's end; liftoff when the engine's push along local up beats the weight in the effective
-    gravity (MODEL-NOTES 25); tipped ships turn about their pivot foot (sim.pivot.pivot_step),
-    righted (back to contact) when tilt < tipped_angle while turning upright. Velocities are
-    those of the pinned motion (a tipped ship's turn included)."""
+    tick's end; tipped ships turn about their pivot foot (sim.pivot.pivot_step), righted (back to
+    contact) when tilt < tipped_angle while turning upright. Velocities are those of the pinned
+    motion (a tipped ship's turn included). (Liftoff: :func:`lift_off`, at the tick's start.)"""
     om = cfg.omega_radps
     surf = s.surface_state
     p_bf, q_bf, pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
@@ -704,12 +1112,6 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
             surf = CRASHED
         elif ps.righted:
             surf = CONTACT
-    up = unit(p_bf)
-    ez = quat_axis_z(q_bf)
-    weight = -m * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, p_bf), up)
-    lift = (surf == LANDED or surf == TIPPED) and cmd.thrust_n * dot(ez, up) > weight
-    if lift:
-        surf = FLYING
     if om == 0.0:  # the body-fixed frame is the inertial one
         c, s_ = 1.0, 0.0
         p, q = p_bf, q_bf
@@ -721,12 +1123,32 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
     v, w = pinned_motion(om, p, q, rotate_z(pivot, c, s_), rate if turning else 0.0)
     if surf != s.surface_state:
         v_rad = dot(sub(v, surface_velocity(om, p)), unit(p))
-        emit(events, count, ship_index, s.surface_state, surf, v_rad)
-    freed = righted or lift
-    return Ship(surf, p, v, q, w, m, s.fuel_kg, True if freed else s.absorbing,
-                (False, False, False, False) if freed else s.sliding,
-                0 if freed else s.settle_ticks,
-                0.0 if (freed or surf == CRASHED) else rate, p_bf, q_bf, pivot)
+        # the tilt passing tipped_angle (righted) inside the tick; a hull crash at its end
+        t_ev = cfg.dt_s
+        if righted:
+            t_ev = crossed_at(dot(quat_axis_z(s.pin_quat_bf), unit(s.pin_pos_bf_m)),
+                              dot(quat_axis_z(q_bf), unit(p_bf)), cfg.cos_tipped, 0.0, cfg.dt_s)
+        emit(events, count, ship_index, s.surface_state, surf, v_rad, t_ev)
+    return Ship(surf, p, v, q, w, m, s.fuel_kg, True if righted else s.absorbing,
+                (False, False, False, False) if righted else s.sliding,
+                0 if righted else s.settle_ticks, 0.0 if righted else s.settle_for_s,
+                -1.0 if righted else s.settle_margin, NO_HOLD,
+                0.0 if (righted or surf == CRASHED) else rate, p_bf, q_bf, pivot)
+
+
+@kernel
+def lift_off(cfg, s, cmd, ship_index, events, count):
+    """Landed or tipped -> flying at the tick's start, when the engine's push along local up beats
+    the weight in the effective gravity (MODEL-NOTES 25): the tick is then flown with its thrust
+    (its fuel buys its motion), from the pinned pose and motion at that instant."""
+    up = unit(s.p)
+    weight = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.p), up)
+    if not cmd.thrust_n * dot(quat_axis_z(s.q), up) > weight:
+        return s
+    emit(events, count, ship_index, s.surface_state, FLYING, 0.0, 0.0)
+    return Ship(FLYING, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, True,
+                (False, False, False, False), 0, 0.0, -1.0, NO_HOLD, 0.0, s.pin_pos_bf_m,
+                s.pin_quat_bf, s.pin_pivot_bf_m)
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
@@ -738,7 +1160,8 @@ def burn(cfg, sp, s, cmd):
     flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
     used = fmin(flow * cfg.dt_s, s.fuel_kg)
     return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg - used, s.fuel_kg - used,
-                s.absorbing, s.sliding, s.settle_ticks, s.pivot_rate_radps, s.pin_pos_bf_m,
+                s.absorbing, s.sliding, s.settle_ticks, s.settle_for_s, s.settle_margin,
+                s.hold_w, s.pivot_rate_radps, s.pin_pos_bf_m,
                 s.pin_quat_bf, s.pin_pivot_bf_m)
 
 
@@ -781,19 +1204,26 @@ def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_inde
     s = load(rec)
     cmd = commands(cfg, sp, s, inp)
     friction_n = normal_n = peak = guard_j = 0.0
+    if s.surface_state == LANDED or s.surface_state == TIPPED:
+        s = lift_off(cfg, s, cmd, ship_index, events, count)
     if s.surface_state == FLYING or s.surface_state == CONTACT:
         fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
-        n_sub = 1
-        if fine and not (cfg.vertical_one_step and cfg.linear_model
-                         and purely_vertical(cfg, terrain, sp, s, cmd)):
-            n_sub = sp.n_substeps
-        fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0)
-        fl = free_flight(cfg, fb, s, n_sub, cos1, sin1, ship_index, events, count)
+        exact_one = (fine and cfg.vertical_one_step
+                     and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
+                     and purely_vertical(cfg, terrain, sp, s, cmd))
+        n_sub = sp.n_substeps if fine and not exact_one else 1
+        strikes = fine and not exact_one and striking(cfg, terrain, sp, s, cos0, sin0)
+        if strikes and cfg.impact_substeps > n_sub:
+            n_sub = cfg.impact_substeps
+        method = sub_method(cfg.method, fine and not exact_one)
+        fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
+        # an impact's static friction changes too fast to be carried over: impulses alone
+        fl = free_flight(cfg, fb, s, n_sub, not strikes, cos1, sin1, ship_index, events, count)
         s = fl.ship
         friction_n, normal_n, peak, guard_j = (fl.friction_n, fl.normal_n, fl.peak_penetration_m,
                                                fl.guard_j)
         if fine:
-            s = settle(cfg, sp, s, cos1, sin1, ship_index, events, count)
+            s = settle(cfg, terrain, sp, s, cos1, sin1, ship_index, events, count)
     else:
         s = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count)
     s = burn(cfg, sp, s, cmd)
@@ -846,9 +1276,10 @@ def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rot
 
 
 def tick_capacity(params: Params) -> int:
-    """Transitions a batch can make in a tick: per ship, two in a sub-step (a touchdown already
-    past tipped_angle), none after a tip or crash, and landing after that."""
-    return int(np.sum(2 * params.ships.n_substeps + 2))
+    """Transitions a batch can make in a tick: per ship, a liftoff at its start, then per sub-step
+    a located touchdown and the transition at its end (or a touchdown already past tipped_angle:
+    two at once), none after a tip or crash, and landing after that."""
+    return int(np.sum(2 * params.ships.n_substeps + 3))
 
 
 def rotations(params: Params, first_tick: int, n_ticks: int) -> np.ndarray:
@@ -877,18 +1308,21 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
                event_ticks, count, state.tick, cap)
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
-            transitions(events[:count[0]], event_ticks[:count[0]]))
+            transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))
 
 
-def transitions(events: np.ndarray, ticks: np.ndarray, ship_ids: Sequence[str] = ()
-                ) -> list[Event]:
+def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
+                ship_ids: Sequence[str] = ()) -> list[Event]:
     """The kernel's transitions as Events (by tick, then ship, each ship's in the order they
-    happened), each named by its ship's id where ``ship_ids`` (the batch's, in order) are given."""
+    happened), each named by its ship's id where ``ship_ids`` (the batch's, in order) are given.
+    An event of the step into tick n happened t_offset after that step's start: at
+    n dt - (dt - t_offset) (exactly n dt for one at the tick's end)."""
     out = []
     for e, tick in zip(events.tolist(), ticks.tolist()):
-        ship, a, b, v = e
+        ship, a, b, v, t_offset = e
         kind = TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]
-        out.append(Event(tick, ship, int(kind), a, b, v, ship_ids[ship] if ship_ids else ""))
+        out.append(Event(tick, ship, int(kind), a, b, v, ship_ids[ship] if ship_ids else "",
+                         tick * dt_s - (dt_s - t_offset)))
     return out
 
 

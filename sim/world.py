@@ -264,7 +264,7 @@ class World:
         self.state = State(rows=state, tick=first + done)
         self.inputs = Inputs(rows=inputs)
         return Block(first + 1, states[:done], outputs[:done], ins[:done],
-                     transitions(events[:m], event_ticks[:m], ids), ids, tuple(spawned),
+                     transitions(events[:m], event_ticks[:m], self.params.sim.dt_s, ids), ids, tuple(spawned),
                      tuple(retired), applied)
 
     def _commands_until(self, tick: int) -> tuple[tuple[Command, ...], tuple[Command, ...]]:

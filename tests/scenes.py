@@ -61,3 +61,13 @@ def one_ship(params, state, inputs=None, i: int = 0):
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
     return (params.scene[0], params.terrain[0], params.ships.rows[i], load(state.rows[i]),
             inputs.rows[i])
+
+
+def footprint_centre(scn: Scenario, rec, i: int = 0) -> np.ndarray:
+    """The mean of ship i's four feet at a record, inertial, m."""
+    from sim.contact import foot_offsets_w
+    sp = scn.params.ships
+    p = rec.state.pos_m[i]
+    offs = foot_offsets_w(tuple(map(float, rec.state.quat[i])), float(sp.leg_radius_m[i]),
+                          float(sp.com_height_m[i]))
+    return p + np.mean(np.array(offs), axis=0)

@@ -127,7 +127,7 @@ def test_the_recorded_scenario_reparses_to_the_same_scenario(fleet_log):
     original = parse_text(scenarios.text("fleet"), "fleet", {"duration": 5})
     again = parse(json.loads(rec.resolved_json), "log")
     assert again.resolved == original.resolved
-    assert rec.project_version and rec.integrator == "exponential" and rec.dt_s == 0.05
+    assert rec.project_version and rec.integrator == "hybrid" and rec.dt_s == 0.05
     assert list(rec.ship_ids) == list(original.params.ships.ship_id)
 
 
@@ -192,7 +192,7 @@ def test_the_field_registry_and_the_proto_schema_agree_field_by_field():
             assert d.type == wire[f.dtype], f.name
         else:  # one-byte enums and flags
             assert d.type in (FD.TYPE_ENUM, FD.TYPE_BOOL, FD.TYPE_UINT32), f.name
-        assert f.unit == "" or f.name.endswith(("_m", "_mps", "_radps", "_kg", "_n", "_nm", "_j")), \
+        assert f.unit == "" or f.name.endswith(("_m", "_mps", "_radps", "_kg", "_n", "_nm", "_j", "_s")), \
             f"{f.name}: a quantity with a unit names it"
     for record, dtype in (("state", STATE_DTYPE), ("outputs", OUTPUTS_DTYPE),
                           ("inputs", INPUTS_DTYPE)):

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from cli import main
 from logs.codec import decode_tick, encode_tick
-from logs.mcap_log import TOPIC_SUMMARY, TOPIC_TICKS, LogReader, LogWriter, world_header
+from logs.mcap_log import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, LogReader, LogWriter, world_header
 from logs.rotating import RotatingLog
 from proto import touchdown_pb2 as pb
 from replay.verify import verify
@@ -119,7 +119,7 @@ def test_rotated_files_each_verify_alone_and_tile_the_run(run):
         with LogReader(f) as r:
             start = r.start_tick
             assert f.name == f"flight-{start:010d}.mcap"
-            assert r.scenario.log_format_version == 3 and not r.open_ended
+            assert r.scenario.log_format_version == LOG_FORMAT_VERSION and not r.open_ended
             first = next(r.ticks())
             assert first.tick == start and first.is_keyframe
             assert list(r.scenario.ship_ids) == [r.ship_table().ids[k] for k in first.keys]

@@ -104,8 +104,8 @@ def _settles(params, st, ticks=1):
 
 
 def _spanning_samples(params):
-    """Tick-end samples that span settle_time: n samples span (n - 1) dt."""
-    return math.ceil(params.contact.settle_time_s / params.sim.dt_s) + 1
+    """Ticks after which thresholds that held from the start of the first have held settle_time."""
+    return math.ceil(params.contact.settle_time_s / params.sim.dt_s - 1e-9)
 
 
 def _with_velocity(st, radial=0.0, tangential=0.0):
@@ -136,12 +136,37 @@ def test_settle_tilt(tilt, lands):
 
 
 def test_settle_time_must_pass_in_full():
-    """Landed once the thresholds have held at tick ends spanning settle_time (0.5 s at a 0.05 s
-    tick: 11 samples), not one tick sooner."""
+    """Landed once the thresholds have held for settle_time in continuous time: a ship at rest in
+    contact from t = 0 has held them 0.5 s at the end of its tenth 0.05 s tick, not one tick
+    sooner."""
     params, st = _contact_state()
-    assert _spanning_samples(params) == 11
-    assert not _settles(params, st, 10)
-    assert _settles(params, st, 11)
+    assert _spanning_samples(params) == 10
+    assert not _settles(params, st, 9)
+    assert _settles(params, st, 10)
+
+
+def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
+    """The thresholds begin to hold inside a tick (interpolated on their smallest margin between
+    its two ends); the landing is decided at the tick end by which they have held settle_time,
+    and happens, as its event says, settle_time after they began. Here the radial speed falls
+    from 0.55 to 0.45 m/s across the third tick: its margin on the squares, (0.25 - v^2) / 0.25,
+    goes from -0.21 to +0.19, so they began 0.525 of the way through it."""
+    params, st = _contact_state()
+    cfg, _, sp, ship, _ = one_ship(params, st)
+    r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
+    events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
+    dt = params.sim.dt_s
+    speeds = [0.6, 0.55, 0.45]  # at the ends of the first three ticks; then 0.45 on
+    for k in range(40):
+        v = -speeds[min(k, 2)] * r_hat
+        ship = settle(cfg, sp, ship._replace(v=(v[0], v[1], v[2])), 1.0, 0.0, 0, events, count)
+        if ship.surface_state == SurfaceState.LANDED:
+            break
+    began = 2 * dt + 0.525 * dt
+    landed_tick = k + 1
+    t_event = landed_tick * dt - (dt - float(events[0]["t_offset_s"]))
+    assert (landed_tick - 1) * dt < began + 0.5 <= landed_tick * dt
+    assert t_event == pytest.approx(began + 0.5, abs=1e-12)
 
 
 def test_settle_time_zero_is_the_seeds_instantaneous_rule():
