@@ -2,7 +2,8 @@
 
 Each scene is one a user might try off the well-walked paths (a slide on a rotating body, a free
 tumble, a fall onto the side, a spin in contact, a hill, a start on a slope, an impossible start, a
-liftoff where the body's spin lightens the ship, a ship on a single point) and prints the figure
+liftoff where the body's spin lightens the ship, a ship on a single point; and the edges of
+bench.edges: tilted and sideways touchdowns, slopes, starts on the ground, event instants) and prints the figure
 a user would check, beside what physics says it should be. The energy here is computed by this
 file from the recorded state (its own bookkeeping, not sim.energy), with the kinetic energy of a
 tipped ship taken as I_p theta'^2 / 2 about its pivot, so that the same script measures a version
@@ -313,12 +314,21 @@ SCENES = (rotating_slides, held_creep, free_rotation, fall_onto_side, yaw_spin, 
           slope_start, impossible_starts, effective_gravity_liftoff, point_foot, edge_angle)
 
 
+def _edges():
+    """The scenes of the edges (bench.edges), where this version has them."""
+    try:
+        from bench import edges
+    except ImportError:  # a version before them
+        return ()
+    return edges.SCENES
+
+
 def main(quick: bool = False) -> None:
     from sim import __version__
 
     from bench.speed import machine
     print(f"touchdown {__version__}; {machine()}")
-    for fn in SCENES:
+    for fn in SCENES + _edges():
         rows: list[tuple[str, str, str]] = []
         t0 = time.perf_counter()
         try:

@@ -1,26 +1,28 @@
 """Coulomb friction at the feet that press, applied as impulses after each (sub)step.
 
-Touchdown's law (``friction_model = "coulomb"``, SEED-NOTES 4, MODEL-NOTES 23). Each foot that
-pressed during the step has its own Coulomb cone: with J_i its normal impulse over the step (what
-the integrator applied), its friction impulse lies in the ground's tangent plane there, bounded by
-mu J_i. The feet are coupled through the rigid ship, and they are solved together as the
-footprint's three tangential freedoms (its slip at the centre of pressure, and its spin about the
-ground's normal; the contact patch of Howe & Cutkosky, Int. J. Robotics Research 15, 1996):
+Touchdown's law (``friction_model = "coulomb"``, SEED-NOTES 4, MODEL-NOTES 23 and 38). Each foot
+that pressed during the step has its own Coulomb cone: with J_i its normal impulse over the step
+(what the integrator applied), its friction impulse lambda_i lies in the ground's tangent plane
+there, in the disk |lambda_i| <= mu J_i. The feet are coupled through the rigid ship: a foot's
+slip after the impulses is  u_i = u0_i + sum_j A_ij lambda_j,  A the 8 x 8 Delassus matrix of the
+four feet's tangent planes (translation and rotation through the ship's mass and inertia). The
+impulses are those of maximum dissipation,
 
-* stick: the impulse that stops the footprint (translation and spin) exactly, through the ship's
-  3 x 3 effective-mass matrix there, if its share at every foot (the force in proportion to the
-  foot's load, the moment in proportion to load times lever) fits that foot's disk mu_s J_i;
-* slide: otherwise each foot carries mu_k J_i against its own slip: a slide decelerates at
-  mu_k g, four feet damp a spin about the long axis at mu_k m g a / I_z, and a sliding, spinning
-  footprint couples the two as four feet do;
-* a sliding footprint whose stop impulse fits the mu_k disks stops (never overshooting zero);
-  a sticking one that needs more than mu_s J breaks away.
+    minimise  lambda.A lambda / 2 + u0.lambda   over  |lambda_i| <= mu_i J_i,  i = 1..4,
 
-Why not four rigid feet each held to zero slip: on a tilted ship that is eight conditions on six
-velocities, two of them all but redundant (the fore and aft feet differ in height by a sin(tilt),
-so only a pitch rate can make their slips differ: eigenvalues 1e-7 of the others, measured), and
-stopping that differential slip takes internal impulses of 1e5 N s. The footprint's freedoms are
-what friction can hold; the rest is compliance the rigid model does not have.
+whose optimality conditions are Coulomb's law at every foot at once: a foot inside its disk ends
+with no slip (it sticks), a foot on its rim slides, its impulse against its own slip (Stewart,
+"Rigid-body dynamics with friction and impact", SIAM Review 42, 2000; the per-contact cone of
+MuJoCo and Bullet). mu_i is mu_s for a foot that held at the step's start, mu_k for one that slid;
+a holding foot whose solution sits on its mu_s rim breaks away and the solve is repeated with it
+kinetic (MAX_ROUNDS rounds). Solved by projected block Gauss-Seidel (each foot's 2 x 2 disk
+problem exactly, :func:`_disk_step`), and where that crawls, on the near-redundant slips of four
+feet under a tilted ship, by a barrier method; both with fixed maximum counts.
+
+Slow slips are a tolerance: a foot slipping slower than ``stick_speed_mps`` (the seed's 0.01 m/s
+threshold, a scenario key) after the impulses keeps mu_s. The rigid model has no leg compliance, so
+four feet a micrometre apart in height under a rocking ship must slip against each other by a
+hair; the stick speed lets them, as the legs would.
 
 Everything is evaluated at the step's end state: the feet where they are, their slip relative to
 the surface under them (Omega z x foot on a rotating body), in the tangent plane of the terrain
@@ -30,7 +32,12 @@ is left out of the friction planes). A ship held on a slope does not creep.
 The impulse stands for a force that acted throughout the step, so the step's drift is corrected for
 it (:func:`spread_over_step`): without that, the drift uses the speed from before the impulse, a
 slide overshoots by mu_k g h T / 2 (first order in the step h) and a ship held on a slope creeps
-by a h^2 / 2 a step.
+by a h^2 / 2 a step. Two refinements keep the impulse's errors out of the places they show:
+a foot that was sliding at the step's start is dragged by mu_k N_i as a force inside the
+integrator (sim.contact.evaluate), so a long slide's friction moment meets the feet's restoring
+moment at the same instant; and a held footprint's static friction is carried into the next step
+as a force (``hold_w``), so a ship held on a slope feels its hold while it integrates, not half a
+step late.
 
 The seed's law (``"seed"``): kinetic above 0.01 m/s with no stopping test, else reset the centre of
 mass's tangential velocity, falling back to kinetic friction beyond mu_s N; it acts at the centre

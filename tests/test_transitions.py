@@ -94,10 +94,10 @@ def _contact_state():
 
 
 def _settles(params, st, ticks=1):
-    cfg, _, sp, ship, _ = one_ship(params, st)
+    cfg, terrain, sp, ship, _ = one_ship(params, st)
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship = settle(cfg, sp, ship, 1.0, 0.0, 0, events, count)
+        ship = settle(cfg, terrain, sp, ship, 1.0, 0.0, 0, events, count)
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
@@ -152,14 +152,14 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     from 0.55 to 0.45 m/s across the third tick: its margin on the squares, (0.25 - v^2) / 0.25,
     goes from -0.21 to +0.19, so they began 0.525 of the way through it."""
     params, st = _contact_state()
-    cfg, _, sp, ship, _ = one_ship(params, st)
+    cfg, terrain, sp, ship, _ = one_ship(params, st)
     r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     dt = params.sim.dt_s
     speeds = [0.6, 0.55, 0.45]  # at the ends of the first three ticks; then 0.45 on
     for k in range(40):
         v = -speeds[min(k, 2)] * r_hat
-        ship = settle(cfg, sp, ship._replace(v=(v[0], v[1], v[2])), 1.0, 0.0, 0, events, count)
+        ship = settle(cfg, terrain, sp, ship._replace(v=(v[0], v[1], v[2])), 1.0, 0.0, 0, events, count)
         if ship.surface_state == SurfaceState.LANDED:
             break
     began = 2 * dt + 0.525 * dt
@@ -233,3 +233,25 @@ def test_align_on_touchdown(align):
         assert tilt < 0.05
     else:
         assert tilt > 9.0
+
+
+# -- landing on a slope (MODEL-NOTES 44) ----------------------------------------------------------
+def _on_slope(slope_deg, ship=None, **contact):
+    alt = -G * math.cos(math.radians(slope_deg)) ** 2 / 100.0
+    return records(scene({"state": "contact", "altitude": alt, "tilt_deg": slope_deg}, ship=ship,
+                         contact=contact or None,
+                         body={"terrain": {"slope_deg": slope_deg, "slope_azimuth_deg": 0.0}},
+                         duration=8.0))
+
+
+def test_a_ship_standing_square_on_a_slope_lands_and_one_sliding_does_not():
+    """The settle tilt is measured from the ground's normal: a ship at rest on its four feet on a
+    30 degree slope lands; with the seed's radial normal its 30 degrees from local vertical never
+    settle. On 40 degrees (above atan(mu_s) = 38.66) it slides off from rest, slower than
+    settle_linear_vel for its first second, and does not land while its feet slide (a squat ship:
+    the default one would tip, 40 degrees being past its atan(a / h) = 37)."""
+    assert final_state(_on_slope(30.0)) is SurfaceState.LANDED
+    assert final_state(_on_slope(30.0, surface_normal="radial")) is SurfaceState.CONTACT
+    recs = _on_slope(40.0, ship={"com_height": 0.5, "leg_radius": 3.0})
+    assert topics(recs) == []
+    assert np.linalg.norm(recs[-1].state.vel_mps[0]) > 2.0  # g (sin a - mu_k cos a) t: 3.4 m/s
