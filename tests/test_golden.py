@@ -1,0 +1,136 @@
+"""Golden logs: today's bits and today's log format, pinned.
+
+tests/data/golden holds logs of five scenes recorded by this version (log format 4): the bounce and
+the trip (built-in scenarios), a 10-degree tilted touchdown, a ship held and a ship sliding on a
+30-degree slope, and a fleet with a join, a leave and commands. Two checks, as Box2D's determinism
+test does:
+
+- each committed log verifies bit for bit against a re-run (`replay --verify`, exit 0);
+- a digest of every tick's state, outputs and events of each scene equals the committed literal.
+
+A change that alters bits fails both, says why in its commit message, and regenerates the logs and
+the digests in a commit of its own (``python tests/test_golden.py`` prints the new digests and
+rewrites the logs). Older formats stay readable: one test per format (1: 0.2.0, 2: 0.4.0, 3: 0.5.0)
+replays, verifies with a version notice, and exports the logs those versions wrote.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from cli import main  # noqa: E402
+from logs.mcap_log import LOG_FORMAT_VERSION, LogReader  # noqa: E402
+from sim.run import run  # noqa: E402
+from sim.scenario import parse_text  # noqa: E402
+
+DATA = ROOT / "tests" / "data"
+GOLDEN = DATA / "golden"
+
+#: scene -> its scenario file; the log is tests/data/golden/<scene>.mcap
+SCENES = {
+    "bounce": ROOT / "scenarios" / "bounce.toml",
+    "trip": ROOT / "scenarios" / "trip.toml",
+    "tilted": GOLDEN / "tilted.toml",
+    "slope": GOLDEN / "slope.toml",
+    "fleet": GOLDEN / "fleet.toml",
+}
+
+#: sha256 of every tick's state rows, outputs and events (digest() below), at log format 4
+EXPECTED = {
+    "bounce": "d3c125955ee5dcb0964f600288cd17d38d5d1006999a392bd451a70a7c9b6e1b",
+    "trip": "9dd2d0df1c4beddb8515b3b0981fc248232b3e5a923a68e37d8a3c45e8a6e40d",
+    "tilted": "5f6e86580520af4f3f990aaeb940e686115973e689ccaa926ad93014e3103958",
+    "slope": "5c4635e171d2f96faa4101e830f0884306ecb075cbff3dc3df7396dada0edbd0",
+    "fleet": "40ce1f314b18b43ce7ef6e3bdc2e548d2a4e2c8555ebf114ddf23028ea7b7234",
+}
+
+
+def digest(path: Path) -> str:
+    """The run's bits: per tick, the ship ids, the state and output rows as stored, and each
+    event's fields (its instant's float bits included)."""
+    h = hashlib.sha256()
+    for rec in run(parse_text(path.read_text(), str(path))):
+        h.update(rec.tick.to_bytes(8, "little"))
+        h.update("\0".join(rec.ship_ids).encode())
+        for rows in (rec.state.rows, rec.outputs.rows):
+            for name in rows.dtype.names:  # field by field: an aligned record's padding is junk
+                h.update(np.ascontiguousarray(rows[name]).tobytes())
+        for ev in rec.events:
+            h.update(repr((ev.tick, ev.ship_id, ev.kind, ev.from_state, ev.to_state,
+                           ev.v_radial_mps.hex(), ev.t_event_s.hex())).encode())
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_the_run_gives_the_committed_bits(scene):
+    assert digest(SCENES[scene]) == EXPECTED[scene], (
+        f"{scene}: the bits changed; if that is intended, say why and regenerate "
+        "(python tests/test_golden.py) in a commit of its own")
+
+
+@pytest.mark.parametrize("scene", sorted(SCENES))
+def test_the_golden_log_verifies_bit_for_bit(scene):
+    log = GOLDEN / f"{scene}.mcap"
+    with LogReader(str(log)) as reader:
+        assert reader.scenario.log_format_version == LOG_FORMAT_VERSION
+    r = CliRunner().invoke(main, ["replay", str(log), "--verify"])
+    assert r.exit_code == 0, r.output
+    assert "identical" in r.output
+
+
+OLD = {  # format: (log, project version that wrote it, ships, ticks)
+    1: ("bounce-0.2.0.mcap", "0.2.0", 1, None),
+    2: ("bounce-0.4.0.mcap", "0.4.0", 1, 601),
+    3: ("fleet-0.5.0.mcap", "0.5.0", 3, 41),
+}
+
+
+@pytest.mark.parametrize("fmt", sorted(OLD))
+def test_every_older_format_stays_readable(fmt, tmp_path):
+    """A log of each older format opens, verifies against today's physics with a notice that a
+    divergence is expected (the physics changed since), replays into a today's-format log that
+    verifies, and exports every tick."""
+    name, version, n_ships, n_ticks = OLD[fmt]
+    log = DATA / name
+    with LogReader(str(log)) as reader:
+        assert reader.scenario.log_format_version == fmt
+    r = CliRunner().invoke(main, ["replay", str(log), "--verify"])
+    assert f"written by touchdown {version}" in r.output, r.output
+    assert r.exit_code in (0, 1) and "Traceback" not in r.output
+    if r.exit_code == 1:
+        assert "divergence is expected" in r.output
+    again = tmp_path / "again.mcap"
+    r = CliRunner().invoke(main, ["replay", str(log), "-o", str(again)])
+    assert r.exit_code == 0, r.output
+    assert CliRunner().invoke(main, ["replay", str(again), "--verify"]).exit_code == 0
+    r = CliRunner().invoke(main, ["export", str(log)])
+    assert r.exit_code == 0, r.output
+    rows = [json.loads(line) for line in r.output.splitlines()]
+    assert {row["ship_id"] for row in rows} and len({row["ship_id"] for row in rows}) == n_ships
+    if n_ticks is not None:
+        assert len({row["tick"] for row in rows}) == n_ticks
+    assert all(row["altitude"] is not None for row in rows)
+
+
+def test_format_3_bounce_log_stays_readable_too():
+    r = CliRunner().invoke(main, ["export", "--events", str(DATA / "bounce-0.5.0.mcap")])
+    assert r.exit_code == 0, r.output
+    kinds = [json.loads(line)["event"] for line in r.output.splitlines()]
+    assert kinds[0] == "ship.contact" and "ship.liftoff" in kinds
+
+
+if __name__ == "__main__":  # regenerate: the logs and the digests to paste into EXPECTED
+    for scene, path in SCENES.items():
+        out = GOLDEN / f"{scene}.mcap"
+        res = CliRunner().invoke(main, ["record", str(path), "-o", str(out)])
+        assert res.exit_code == 0, res.output
+        print(f'    "{scene}": "{digest(path)}",')
