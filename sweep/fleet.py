@@ -23,7 +23,7 @@ from sim.energy import mechanical, total
 from sim.frames import body_rotation
 from sim.params import SCENE_DTYPE
 from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import CONTACT, observe_ships, step_ship
+from sim.step import CONTACT, observe_ships, step_ships
 from sim.vec import quat_axis_z
 from sweep.cases import Sweep
 
@@ -95,7 +95,8 @@ def _footprint_bf(p, q, h, c, s):
 
 @separate
 def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, commands,
-                next_command, first_tick, n_ticks, dt_s, outs, events, count, acc):
+                next_command, first_tick, n_ticks, dt_s, outs, events, count, acc, raw, scratch,
+                still, last_command, frozen):
     """Ticks ``first_tick`` .. ``first_tick + n_ticks - 1`` of the fleet, each ship's by
     sim.step.step_ship with its group's scene and terrain and its rotation group's body angle
     (``rot[r, k]``: (cos, sin) at the start of the k-th tick), reduced into ``acc``. Commands
@@ -114,9 +115,14 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
             c += 1
         t_end = (tick + 1) * dt_s
         for i in range(state.shape[0]):
+            if frozen[i]:
+                continue
             g = group[i]
             r = rot_index[i]
             rec = state[i]
+            row = raw[i]
+            for b in range(row.shape[0]):
+                scratch[b] = row[b]
             sp = ships[i]
             before = rec.surface_state
             c0, s0, c1, s1 = rot[r, k, 0], rot[r, k, 1], rot[r, k + 1, 0], rot[r, k + 1, 1]
@@ -124,8 +130,10 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
                                (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
                                sp.com_height_m, c0, s0)
             count[0] = 0
-            step_ship(scenes[g], terrains[g], sp, rec, inputs[i], outs[i], c0, s0, c1, s1, i,
-                      events, count)
+            # the tick of record and replay (sim.step.step_ships, already compiled for them),
+            # on this one ship with its own scene
+            step_ships(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1], state[i:i + 1],
+                       inputs[i:i + 1], outs[i:i + 1], c0, s0, c1, s1, events, count)
             a = acc[i]
             o = outs[i]
             if o.cos_tilt < a.min_cos_tilt:
@@ -149,6 +157,17 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
                 # sim.step.transitions: at n dt - (dt - t_offset) for the step into tick n
                 a.t_last_s = t_end - (dt_s - ev.t_offset_s)
                 a.last_to = ev.to_state
+            # a fixed point: the state came back bit for bit, on a body that does not turn,
+            # with no command to come: every later tick is this one again (the same state,
+            # telemetry and no transition), so the reductions have seen all they will see
+            if count[0] == 0 and still[r] and last_command[i] <= tick:
+                same = True
+                for b in range(row.shape[0]):
+                    if row[b] != scratch[b]:
+                        same = False
+                        break
+                if same:
+                    frozen[i] = True
     return c
 
 
@@ -263,6 +282,13 @@ class Fleet:
         count = np.zeros(1, np.int64)
         outs = np.zeros(n, OUTPUTS_DTYPE)
         block = max(1, min(self.n_ticks, BLOCK_SHIP_TICKS // n))
+        raw = self.state.view(np.uint8).reshape(n, self.state.dtype.itemsize)
+        scratch = np.empty(self.state.dtype.itemsize, np.uint8)
+        still = self.omegas == 0.0
+        last_command = np.full(n, -1, np.int64)
+        if len(self.commands):
+            np.maximum.at(last_command, self.commands["ship"], self.commands["tick"])
+        frozen = np.zeros(n, bool)
         tick, c = 0, 0
         while tick < self.n_ticks:
             if stop is not None and stop():
@@ -271,7 +297,8 @@ class Fleet:
             rot = self.rotations(tick, k)
             c = sweep_ticks(self.scenes, self.terrains, self.group, self.rot_index, rot,
                             self.ships, self.state, self.inputs, self.commands, c, tick, k,
-                            self.dt_s, outs, events, count, self.acc)
+                            self.dt_s, outs, events, count, self.acc, raw, scratch, still,
+                            last_command, frozen)
             tick += k
             if progress is not None:
                 progress(k * n)
@@ -279,6 +306,7 @@ class Fleet:
         _energy_into(self.scenes, self.terrains, self.group, self.rot_index, rot[:, 0, :],
                      self.ships, self.state, self.acc, True)
         self.last_tick = tick
+        self.frozen = frozen
         return tick
 
     def columns(self) -> dict[str, np.ndarray]:

@@ -195,7 +195,8 @@ def _run_processes(sw, parts, workers, stop, bar):
             while futures:
                 finished, futures = wait(futures, timeout=0.2, return_when=FIRST_COMPLETED)
                 for f in finished:
-                    results.append(f.result())
+                    if not f.cancelled():
+                        results.append(f.result())
                 if bar is not None:
                     bar.set(done.value)
                 if stop.asked and not flag.is_set():
@@ -210,7 +211,7 @@ def _run_processes(sw, parts, workers, stop, bar):
 def _run_dask(sw, parts, address, stop, bar):
     from distributed import Client, as_completed
     results = []
-    with Client(address, set_as_default=False) as client:
+    with Client(address) as client:
         futures = client.map(run_chunk, [sw] * len(parts), parts, pure=False)
         n_workers = len(client.scheduler_info().get("workers", {}))
         done_ticks = 0
@@ -222,7 +223,7 @@ def _run_dask(sw, parts, address, stop, bar):
                 for g in futures:
                     g.cancel()
                 break
-            results.append(f.result())
+            results.append(client.gather(f))
             if bar is not None:
                 done_ticks += per[f.key] * n_ticks
                 bar.set(done_ticks)
