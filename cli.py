@@ -349,7 +349,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 
 @main.command()
 @click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve"]))
+                                           "fuzz", "serve", "envelope"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -371,7 +371,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     campaign of generated hostile logs and scenarios against verify, export and record, counted
     per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
     `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1)."""
+    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
+    `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
+    reference and MuJoCo (the `bench` extra)."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
@@ -390,6 +392,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     elif what == "serve":
         from bench import serve as bench_serve
         bench_serve.main(quick=quick)
+    elif what == "envelope":
+        from bench import envelope
+        envelope.main(quick=quick)
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)

@@ -259,3 +259,17 @@ def test_the_cli_summary_and_the_table(tmp_path):
 def test_bad_values_of_an_axis_are_refused():
     with pytest.raises(SweepError, match="horizontal_speed"):
         sweep_of(("ships.initial.horizontal_speed=0:1e9:3",))
+
+
+def test_charts_of_a_grid_and_of_random_samples(whole, tmp_path):
+    pytest.importorskip("matplotlib")
+    from sweep.chart import CODE, draw, regions
+    draw(whole, tmp_path / "grid.png")
+    assert (tmp_path / "grid.png").stat().st_size > 10_000
+    codes = regions(whole.column("outcome").to_pylist(),
+                    whole.column("slide_distance").to_numpy())
+    assert CODE["stands"] in codes and CODE["tips over"] in codes
+    sampled = run(sweep_of(("ships.initial.horizontal_speed=0:6", "body.terrain.slope_deg=0:10"),
+                           samples=40, seed=2), workers=1).table()
+    draw(sampled, tmp_path / "p.png")
+    assert (tmp_path / "p.png").stat().st_size > 10_000
