@@ -101,7 +101,7 @@ def _grid(plt, keys, cols, code, title):
         _boundaries(ax, xs, ys, img)
         _names(ax, xs, ys, img)
         if zk:
-            ax.set_title(f"{_label(zk)} = {z:g}", fontsize=10)
+            ax.set_title(f"{_label(zk)} = {z:.3g}", fontsize=10)
         if j % ncol == 0:
             ax.set_ylabel(_label(yk) if yk else "")
         if j // ncol == nrow - 1:
@@ -138,18 +138,24 @@ def _boundaries(ax, xs, ys, img):
 
 
 def _names(ax, xs, ys, img):
-    """Each outcome's name at the cell of its region farthest from any other outcome."""
+    """Each outcome's name at the cell of its largest region farthest from any other outcome;
+    an outcome of a few scattered cases (under 1% of the panel) is marked x at each and named in
+    the panel's corner instead."""
+    rare = []
     for k, (name, _) in enumerate(REGIONS):
         mask = img == k
         if not mask.any() or name == "missing":
+            continue
+        if mask.sum() < 0.01 * mask.size:
+            ii, jj = np.nonzero(mask)
+            ax.plot(xs[jj], ys[ii], "x", color="black", ms=5)
+            rare.append(f"x {name}: {int(mask.sum())}")
             continue
         try:
             from scipy.ndimage import distance_transform_edt, label
             lab, nlab = label(mask)
             sizes = np.bincount(lab.ravel())[1:]
             big = 1 + int(np.argmax(sizes))
-            if sizes[big - 1] < max(2, 0.02 * mask.size) and sizes[big - 1] != mask.sum():
-                continue
             d = distance_transform_edt(np.pad(lab == big, 1))[1:-1, 1:-1]
             i, j = np.unravel_index(int(np.argmax(d)), d.shape)
         except ImportError:
@@ -157,6 +163,9 @@ def _names(ax, xs, ys, img):
             i, j = int(np.median(ii)), int(np.median(jj))
         ax.text(xs[j], ys[i], name, ha="center", va="center", fontsize=9, weight="bold",
                 bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.75))
+    if rare:
+        ax.text(0.02, 0.02, "; ".join(rare), transform=ax.transAxes, fontsize=8, va="bottom",
+                bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.85))
 
 
 def _probability(plt, keys, cols, code, title):
