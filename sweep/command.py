@@ -42,7 +42,6 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
     except OSError as exc:
         raise WorkFailed(f"{out}: cannot write: {exc.strerror}") from None
     click.echo(res.summary())
-    n_ticks = None
     click.echo(f"{out}: {sw.n_cases:,} rows; {res.wall_s:.1f} s on {res.workers}")
     if chart:
         from sweep.chart import draw
@@ -53,7 +52,6 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
         click.echo(f"interrupted: {sw.n_cases - missing:,} cases done are in {out}; "
                    f"{missing:,} are marked missing", err=True)
         return 130
-    del n_ticks
     return 0
 
 
@@ -73,7 +71,7 @@ def _record(sw: Sweep, case: int, output: str, UserError, WorkFailed) -> int:
         raise UserError(f"{out}: cannot write: {exc.strerror}") from None
     try:
         outcome = drive(World.of(scn), scn.params.sim.n_ticks, writer, progress=f"case {case}")
-    except (LogError, OSError) as exc:
+    except (LogError, OSError):
         raise WorkFailed(f"{out}: cannot write; nothing was kept (no {out})") from None
     if outcome.how != "done":
         click.echo(f"interrupted at tick {outcome.last_tick}", err=True)

@@ -162,7 +162,6 @@ def run(sw: Sweep, workers: int = 2, scheduler: str | None = None, progress: boo
             results, how = _run_dask(sw, parts, scheduler, stop, bar)
         elif workers <= 1:
             how = "1 process"
-            global _STOP, _DONE
             for p in parts:
                 if stop.asked:
                     break
