@@ -64,11 +64,11 @@ def draw(table, path, title: str | None = None) -> None:
     slide = np.where(np.isnan(slide.astype(float)), 0.0, slide.astype(float))
     code = regions(outcome, slide)
     scen = json.loads(table.schema.metadata.get(b"touchdown.scenario", b"{}"))
-    title = title or f"Touchdown envelope: {scen.get('name', '')}, {len(outcome):,} cases"
+    title = title or f"Touchdown envelope: {scen.get('name', '')}"
     if meta.get("samples"):
         fig = _probability(plt, keys, cols, code, title)
     else:
-        fig = _grid(plt, keys, cols, code, title)
+        fig = _grid(plt, keys, cols, code, title + f", {len(outcome):,} cases")
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
