@@ -35,6 +35,10 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
     from sweep.run import run
     try:
         res = run(sw, workers=workers, scheduler=scheduler, progress=True)
+    except ScenarioError as exc:  # values each valid alone, refused together (kinetic > static)
+        raise UserError(f"a case of the sweep: {exc}") from None
+    except SweepError as exc:  # the same, from a worker
+        raise UserError(str(exc)) from None
     except OSError as exc:
         raise WorkFailed(f"--scheduler {scheduler}: {exc}") from None
     try:

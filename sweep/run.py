@@ -65,9 +65,14 @@ def _progress(k: int) -> None:
 
 def run_chunk(sw: Sweep, cases) -> dict[str, np.ndarray]:
     """One chunk's columns (sweep.fleet.run_part), in a worker."""
+    from sim.scenario import ScenarioError
+    from sweep.cases import SweepError
     from sweep.fleet import run_part
     stop = (lambda: _STOP.is_set()) if _STOP is not None else None
-    return run_part(sw, cases, _progress, stop)
+    try:
+        return run_part(sw, cases, _progress, stop)
+    except ScenarioError as exc:  # as a plain message: it crosses to the parent by pickle
+        raise SweepError(f"a case of the sweep: {exc}") from None
 
 
 # -- the whole ---------------------------------------------------------------------------------

@@ -273,3 +273,23 @@ def test_charts_of_a_grid_and_of_random_samples(whole, tmp_path):
                            samples=40, seed=2), workers=1).table()
     draw(sampled, tmp_path / "p.png")
     assert (tmp_path / "p.png").stat().st_size > 10_000
+
+
+def test_values_refused_together_are_one_line_naming_the_key(tmp_path):
+    """A landed ship tilted 30 deg stands toward a foot (yaw 0 or 90: critical 37 deg) but not
+    toward the edge between two (yaw 45: 28 deg): the grid's ends pass, its middle is refused,
+    in a worker process, as one line."""
+    scn = tmp_path / "landed.toml"
+    scn.write_text('''name = "landed"
+duration = 1.0
+[[ships]]
+id = "a"
+[ships.initial]
+state = "landed"
+altitude = 0.0
+tilt_deg = 30.0
+''')
+    r = invoke("sweep", scn, "--vary", "ships.initial.yaw_deg=0:90:3", "-o", tmp_path / "x.parquet")
+    assert r.exit_code == 2, r.output
+    assert "tilt_deg" in r.output and len(r.output.strip().splitlines()) == 1, r.output
+    assert not (tmp_path / "x.parquet").exists()
