@@ -54,6 +54,15 @@ def parse_sets(sets: tuple[str, ...]) -> dict:
 def load_scenario(spec: str, sets: tuple[str, ...] = ()):
     """A scenario from a TOML path or a built-in name; returns (scenario, source)."""
     overrides = parse_sets(sets)
+    text, source = scenario_text(spec)
+    try:
+        return parse_text(text, source, overrides), source
+    except ScenarioError as exc:
+        raise UserError(str(exc)) from None
+
+
+def scenario_text(spec: str) -> tuple[str, str]:
+    """The TOML text of a scenario file or a built-in name, and its source's name."""
     path = Path(spec)
     if path.suffix == ".toml" or path.exists():
         try:
@@ -67,10 +76,7 @@ def load_scenario(spec: str, sets: tuple[str, ...] = ()):
         text, source = builtin.text(spec), spec
     else:
         raise UserError(f"{spec}: no such file or built-in scenario (see `touchdown scenarios`)")
-    try:
-        return parse_text(text, source, overrides), source
-    except ScenarioError as exc:
-        raise UserError(str(exc)) from None
+    return text, source
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -343,7 +349,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 
 @main.command()
 @click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve"]))
+                                           "fuzz", "serve", "envelope"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -365,7 +371,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     campaign of generated hostile logs and scenarios against verify, export and record, counted
     per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
     `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1)."""
+    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
+    `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
+    reference and MuJoCo (the `bench` extra)."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
@@ -384,6 +392,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     elif what == "serve":
         from bench import serve as bench_serve
         bench_serve.main(quick=quick)
+    elif what == "envelope":
+        from bench import envelope
+        envelope.main(quick=quick)
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)
@@ -462,6 +473,49 @@ def serve(redis_url: str, scenario: str | None, ticks: int | None, rate: float |
                f"p99 {pct(0.99):.2f} ms, max {times[-1] * 1e3:.2f} ms; {stats.entries_sent:,} "
                f"entries delivered, {stats.entries_dropped:,} dropped; {stats.commands_read:,} "
                f"commands read; {stats.late} tick(s) late; logs in {log_dir}", err=True)
+
+
+@main.command()
+@click.argument("scenario")
+@click.option("--vary", "vary", multiple=True, metavar="KEY=LO:HI:N",
+              help="an axis: N values from LO to HI of a numeric key of the first ship "
+                   "(ships.initial.horizontal_speed), the contact model, the body or the slope "
+                   "(body.terrain.slope_deg); with --samples, KEY=LO:HI; repeatable")
+@click.option("--samples", type=click.IntRange(min=1), default=None,
+              help="N random cases (a Latin hypercube over the ranges) instead of the grid")
+@click.option("--seed", type=int, default=0, show_default=True, help="the samples' seed")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="the table (Parquet; default NAME-sweep.parquet), or with --record the log")
+@click.option("--chart", type=click.Path(dir_okay=False), default=None, metavar="PNG",
+              help="also draw the envelope (needs matplotlib: the chart extra)")
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+              help="processes on this machine")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="run the cases on this Dask scheduler (tcp://host:8786; the sweep extra)")
+@click.option("--record", "record_case", type=click.IntRange(min=0), default=None, metavar="CASE",
+              help="write case CASE's full log to -o instead of sweeping")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="override a scenario key for every case; repeatable")
+def sweep(scenario: str, vary: tuple[str, ...], samples: int | None, seed: int,
+          output: str | None, chart: str | None, workers: int, scheduler: str | None,
+          record_case: int | None, sets: tuple[str, ...]) -> None:
+    """The touchdown envelope: one case per point of the grid of the varied keys (or N random
+    samples of their ranges), each case the scenario's first ship with those values, stepped
+    together as one fleet; a table of outcomes (SPEC.md section 6), the count per outcome, and
+    optionally a chart. Ctrl-C keeps the cases done (the others are marked missing, exit 130)."""
+    from sweep.command import main as sweep_main
+    text, source = scenario_text(scenario)
+    try:
+        doc = load_toml(text, source)
+        if sets:
+            from sim.scenario import apply_overrides
+            doc = apply_overrides(doc, parse_sets(sets), source)
+    except ScenarioError as exc:
+        raise UserError(str(exc)) from None
+    code = sweep_main(doc, source, vary, samples, seed, output, chart, workers, scheduler,
+                      record_case, UserError, WorkFailed)
+    if code:
+        sys.exit(code)
 
 
 if __name__ == "__main__":

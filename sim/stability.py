@@ -17,6 +17,7 @@ for the scene's contact are sub-stepped further or refused, as ``sim.on_unstable
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -74,6 +75,7 @@ def spectral_radius(m: np.ndarray) -> float:
     return max(abs(tr / 2.0 + r), abs(tr / 2.0 - r))
 
 
+@functools.lru_cache(maxsize=256)  # pure; a sweep parses thousands of scenes
 def largest_stable_wh(method: str, zeta: float) -> float:
     """The largest w h for which ``method`` does not amplify the contact oscillator (0 if none:
     explicit Euler, zeta 0; infinity for a method that solves it exactly)."""

@@ -1,0 +1,86 @@
+"""``touchdown sweep``'s work, apart from its options (cli.py)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from sim.scenario import ScenarioError
+from sweep.cases import Sweep, SweepError, parse_vary
+
+
+def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, scheduler,
+         record_case, UserError, WorkFailed) -> int:
+    try:
+        sw = Sweep.of(doc, source, parse_vary(vary, samples is not None), samples, seed)
+    except (SweepError, ScenarioError) as exc:
+        raise UserError(str(exc)) from None
+    name = str(doc.get("name", "sweep"))
+    if record_case is not None:
+        return _record(sw, record_case, output or f"{name}-case-{record_case}.mcap", UserError,
+                       WorkFailed)
+    out = Path(output) if output else Path(f"{name}-sweep.parquet")
+    if scheduler:
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise UserError("--scheduler needs Dask distributed: pip install -e '.[sweep]'") \
+                from None
+    if chart:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise UserError("--chart needs matplotlib: pip install -e '.[chart]'") from None
+    from sweep.run import run
+    try:
+        res = run(sw, workers=workers, scheduler=scheduler, progress=True)
+    except ScenarioError as exc:  # values each valid alone, refused together (kinetic > static)
+        raise UserError(f"a case of the sweep: {exc}") from None
+    except SweepError as exc:  # the same, from a worker
+        raise UserError(str(exc)) from None
+    except OSError as exc:
+        raise WorkFailed(f"--scheduler {scheduler}: {exc}") from None
+    try:
+        res.write(out, json.dumps(doc, default=str))
+    except OSError as exc:
+        raise WorkFailed(f"{out}: cannot write: {exc.strerror}") from None
+    click.echo(res.summary())
+    click.echo(f"{out}: {sw.n_cases:,} rows; {res.wall_s:.1f} s on {res.workers}")
+    if chart:
+        from sweep.chart import draw
+        draw(res.table(), chart)
+        click.echo(f"{chart}: the envelope")
+    if res.interrupted:
+        missing = res.counts()["missing"]
+        click.echo(f"interrupted: {sw.n_cases - missing:,} cases done are in {out}; "
+                   f"{missing:,} are marked missing", err=True)
+        return 130
+    return 0
+
+
+def _record(sw: Sweep, case: int, output: str, UserError, WorkFailed) -> int:
+    """Case ``case`` alone, recorded as ``touchdown record`` records a scenario."""
+    from logs import LogError
+    from logs.mcap_log import LogWriter, scenario_message
+    from service.driver import drive
+    from sim.world import World
+    if case >= sw.n_cases:
+        raise UserError(f"--record {case}: the sweep has cases 0..{sw.n_cases - 1}")
+    scn = sw.case_scenario(case)
+    out = Path(output)
+    try:
+        writer = LogWriter(out, scenario_message(scn, f"{sw.source} case {case}"))
+    except OSError as exc:
+        raise UserError(f"{out}: cannot write: {exc.strerror}") from None
+    try:
+        outcome = drive(World.of(scn), scn.params.sim.n_ticks, writer, progress=f"case {case}")
+    except (LogError, OSError):
+        raise WorkFailed(f"{out}: cannot write; nothing was kept (no {out})") from None
+    if outcome.how != "done":
+        click.echo(f"interrupted at tick {outcome.last_tick}", err=True)
+        return 130
+    values = ", ".join(f"{k} = {v:g}" for k, v in sw.overrides(case).items())
+    click.echo(f"{out}: case {case} ({values}), {scn.params.sim.n_ticks + 1} ticks, "
+               f"{outcome.events} event(s)")
+    return 0
