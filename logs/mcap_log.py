@@ -27,8 +27,9 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
-from logs.codec import BlockEncoder, decode_tick
-from logs.safe_read import ReadStatus, iter_messages
+from logs.codec import PACKED, BlockEncoder, decode_tick
+from logs.decode import TickBlock, decode_block
+from logs.safe_read import ReadLimits, ReadStatus, iter_messages
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -454,6 +455,18 @@ class LogWriter(FinishedOrGone):
 
 
 
+#: the most a writer puts in a chunk before it closes it (LogWriter's chunk_size at most), bytes
+CHUNK_BYTES_MAX = 1 << 20
+
+
+def tick_bytes_bound(ships: int) -> int:
+    """The most bytes a tick record of ``ships`` ships holds, with margin: its header, and each
+    field's key, length and numbers (every field, a keyframe's too), then a quarter more."""
+    per_ship = sum(fields.per_ship(name) * (1 if dt == "u1" else 8) for _, name, dt in PACKED)
+    exact = 32 + 16 * len(PACKED) + ships * per_ship
+    return exact + exact // 4 + 4096
+
+
 class TickData:
     """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
     (a verification that finds the bytes identical never decodes them)."""
@@ -592,6 +605,7 @@ class LogReader:
         self.summary: pb.LogSummary | None = None
         self.status = ReadStatus()
         for topic, data in self._iter({TOPIC_SCENARIO}):
+            self._largest_record = len(data)
             try:
                 self.scenario = pb.ScenarioRecord.FromString(data)
             except Exception as exc:
@@ -674,11 +688,80 @@ class LogReader:
         ships = len(self.scenario.ship_ids)
         fmt = self.scenario.log_format_version
         table = len(self.ship_table()) if fmt >= 3 else ships
+        limit = self.max_tick_bytes()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status):
+                                                end, self.status, self._tick_limits()):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            if len(data) > limit:
+                raise self._oversize(t_ns // dt_ns, len(data))
             yield TickData(data, t_ns // dt_ns, str(self.path), ships, fmt, table)
+
+    def max_tick_bytes(self) -> int:
+        """The most bytes a tick record of this log can hold: every ship the log ever held
+        (its header's and each that joined), each with every field (sim.fields), with margin."""
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return tick_bytes_bound(ships)
+
+    def _oversize(self, tick: int, size: int) -> LogError:
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return LogError(f"{self.path}: tick {tick}: a tick record of {size:,} bytes, more than "
+                        f"the log's {ships:,} ship(s) can fill ({self.max_tick_bytes():,}); "
+                        f"refusing it")
+
+    def _tick_limits(self) -> ReadLimits:
+        """The reader's limits for the tick records: a chunk may hold at most what a writer puts
+        in one (its target size, then one message more: the largest tick this fleet fills, or
+        the log's header), so a chunk claiming more is refused before it is decompressed."""
+        base = ReadLimits.from_environment()
+        bound = (CHUNK_BYTES_MAX + max(self.max_tick_bytes(), self._largest_record)
+                 + (1 << 18))
+        if bound >= base.max_chunk_bytes:
+            return base
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
+            f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
+
+    def blocks(self, first: int | None = None, last: int | None = None,
+               wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20
+               ) -> Iterator[TickBlock]:
+        """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
+        records at a time, each block decoded and checked in one compiled pass
+        (logs.decode.decode_block); ``wanted``: the fields to gather (default all)."""
+        start = None if first is None else self.tick_time_ns(first)
+        end = None if last is None else self.tick_time_ns(last)
+        dt_ns = self.tick_time_ns(1)
+        fmt = self.log_format
+        table = len(self.ship_table()) if fmt >= 3 else len(self.scenario.ship_ids)
+        limit = self.max_tick_bytes()
+        # the records are copied into one buffer, kept from block to block (a fresh one each
+        # time costs its pages' faults: as much as the copy itself)
+        buf = np.empty(block_bytes + limit, np.uint8)
+        offsets = [0]
+        times: list[int] = []
+
+        def flush() -> TickBlock:
+            ticks = np.asarray(times, np.int64) // dt_ns
+            return decode_block(buf, np.asarray(offsets, np.int64), ticks, fmt, table,
+                                len(self.scenario.ship_ids), wanted, str(self.path))
+
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
+                                                end, self.status, self._tick_limits(),
+                                                views=True):
+            if t_ns % dt_ns:
+                raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            n = len(data)
+            if n > limit:
+                raise self._oversize(t_ns // dt_ns, n)
+            o = offsets[-1]
+            buf[o:o + n] = np.frombuffer(data, np.uint8)
+            offsets.append(o + n)
+            times.append(t_ns)
+            if o + n >= block_bytes:
+                yield flush()
+                offsets, times = [0], []
+        if times:
+            yield flush()
 
     @property
     def log_format(self) -> int:
@@ -691,6 +774,7 @@ class LogReader:
             self._fleet: list[pb.FleetChange] = []
             if self.log_format >= 3:
                 for _topic, data in self._iter({TOPIC_FLEET}):
+                    self._largest_record = max(self._largest_record, len(data))
                     change = _parse(pb.FleetChange, data, f"{self.path}: damaged fleet record")
                     for j in change.joined:
                         try:
