@@ -245,6 +245,9 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                 write(sys.stdout.buffer)
                 sys.stdout.flush()
             note = ex.what_was_read(reader, last_tick["tick"], events)
+            damage = reader.structure_note()
+            if damage:
+                note = (f"{note}\ntouchdown: " if note else "") + f"{log}: {damage}"
     except LogError as exc:
         raise UserError(str(exc)) from None
     except OSError as exc:
@@ -363,6 +366,26 @@ def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: st
     if output and not output.endswith(".rrd"):
         raise UserError(f"{output}: the output of view is an .rrd file")
     _show(list(logs), ship_id, output, png, at_s)
+
+
+@main.command()
+@click.argument("log", type=click.Path(dir_okay=False))
+def doctor(log: str) -> None:
+    """Check LOG's MCAP structure the way `mcap doctor` does (records, chunks, message indexes
+    and their entries, summary, footer), and beside it what Touchdown checks of its content
+    (scenario, every tick record decoded and checked, events, summary). Exit 0 sound, 1 damaged
+    (what and where), 2 not a readable file."""
+    from logs import structure
+
+    if not Path(log).is_file():
+        raise UserError(f"{log}: cannot open: no such file")
+    try:
+        lines, bad = structure.report(log)
+    except OSError as exc:
+        raise UserError(f"{log}: cannot read: {exc.strerror}") from None
+    click.echo("\n".join(lines))
+    if bad:
+        sys.exit(1)
 
 
 @main.command()

@@ -30,6 +30,8 @@ from logs import LogError
 from logs.codec import PACKED, BlockEncoder, decode_tick
 from logs.decode import TickBlock, decode_block
 from logs.safe_read import ReadLimits, ReadStatus, iter_messages
+from logs.structure import Structure
+from logs.structure import check as check_structure
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -467,6 +469,11 @@ def tick_bytes_bound(ships: int) -> int:
     return exact + exact // 4 + 4096
 
 
+def _ends_with_magic(s: Structure) -> bool:
+    """The file ends with MCAP's magic (finished; a cut file has none: read as a cut)."""
+    return not any(p.part == "footer" and "ends without a footer" in p.what for p in s.problems)
+
+
 class TickData:
     """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
     (a verification that finds the bytes identical never decodes them)."""
@@ -604,6 +611,12 @@ class LogReader:
         self.scenario: pb.ScenarioRecord | None = None
         self.summary: pb.LogSummary | None = None
         self.status = ReadStatus()
+        # the file's MCAP structure (no decompression): a finished file whose summary or footer
+        # is damaged but whose data section is whole is read by walking that section
+        self.structure = check_structure(self._file)
+        st = self.structure
+        self._walk = _ends_with_magic(st) and not st.summary_ok and st.data_end >= 0
+        self._largest_record = 0
         for topic, data in self._iter({TOPIC_SCENARIO}):
             self._largest_record = len(data)
             try:
@@ -640,16 +653,22 @@ class LogReader:
             raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
                            f"(limit {MAX_SCENARIO_CHARS:,})")
 
+    def structure_note(self) -> str:
+        """One line if the file's MCAP structure (message indexes, summary, footer) is damaged
+        while its content is readable (logs.structure), else "". A cut file (no footer) is not
+        said to be damaged here: its readers say what they recovered."""
+        return self.structure.line() if _ends_with_magic(self.structure) else ""
+
     def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
         for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
-                                             self.status):
+                                             self.status, walk=self._walk):
             yield topic, data
 
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
         """(log time ns, message bytes) of one topic's messages, in log order."""
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
-                                                end_ns, self.status):
+                                                end_ns, self.status, walk=self._walk):
             yield t_ns, data
 
     @property
@@ -690,7 +709,8 @@ class LogReader:
         table = len(self.ship_table()) if fmt >= 3 else ships
         limit = self.max_tick_bytes()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status, self._tick_limits()):
+                                                end, self.status, self._tick_limits(),
+                                                walk=self._walk):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
             if len(data) > limit:
@@ -747,7 +767,7 @@ class LogReader:
 
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
                                                 end, self.status, self._tick_limits(),
-                                                views=True):
+                                                views=True, walk=self._walk):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
             n = len(data)

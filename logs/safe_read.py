@@ -172,12 +172,14 @@ def _has_footer(f: IO[bytes], size: int) -> bool:
 
 def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None = None,
                   end_ns: int | None = None, status: ReadStatus | None = None,
-                  limits: ReadLimits | None = None, views: bool = False
+                  limits: ReadLimits | None = None, views: bool = False, walk: bool = False
                   ) -> Iterator[tuple[str, int, bytes]]:
     """(topic, log_time_ns, data) of the messages on ``topics`` with start <= log_time <= end,
     within ``limits`` (default: ReadLimits.from_environment()). ``views``: data as memoryviews
-    into the decompressed chunk (no copy), else bytes."""
-    messages = _messages(f, name, topics, start_ns, end_ns, status, limits)
+    into the decompressed chunk (no copy), else bytes. ``walk``: read the data section record
+    by record, not through the summary (a finished file whose summary or footer is damaged, but
+    whose data section is whole: logs.structure)."""
+    messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk)
     if views:
         yield from messages
     else:
@@ -186,8 +188,8 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
 
 
 def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
-              end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None
-              ) -> Iterator[tuple[str, int, bytes]]:
+              end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None,
+              walk: bool = False) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     limits = limits if limits is not None else ReadLimits.from_environment()
     f.seek(0, io.SEEK_END)
@@ -205,8 +207,9 @@ def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
         status.complete = False
         yield from _walk(f, name, wanted, status, limits)
         return
-    footer = _footer(f, name, size)
-    if footer.summary_start == 0:  # finished, without a summary section (MCAP allows it)
+    footer = None if walk else _footer(f, name, size)
+    if walk or footer.summary_start == 0:  # finished, without a summary section (MCAP allows
+        # it), or with a damaged summary or footer (logs.structure): the data section, walked
         yield from _walk(f, name, wanted, status, limits)
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
@@ -291,6 +294,8 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
         except Exception as exc:  # the end of the intact part
             status.damage = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
             return
+        if type(rec).__name__ == "DataEnd":  # the data section's end: the summary follows
+            return
         batch: list = [rec]
         if isinstance(rec, Chunk):
             try:
@@ -305,4 +310,21 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
                 yield channels[r.channel_id], r.log_time, r.data
 
 
-__all__ = ["iter_messages", "ReadStatus", "ReadLimits"]
+def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = None) -> bytes:
+    """The records of the chunk record at ``offset``, decompressed within ``limits`` and
+    CRC-checked; LogError if there is no sound chunk there."""
+    limits = limits if limits is not None else ReadLimits.from_environment()
+    try:
+        f.seek(offset)
+        chunk = next(StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
+                                  record_size_limit=limits.max_chunk_bytes).records)
+    except LogError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any failure to parse it is damage
+        raise LogError(f"{name}: damaged chunk at byte {offset:,} ({type(exc).__name__})") from None
+    if not isinstance(chunk, Chunk):
+        raise LogError(f"{name}: expected a chunk at byte {offset:,}")
+    return _chunk_data(chunk, name, limits)
+
+
+__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "chunk_at"]
