@@ -257,10 +257,13 @@ def width_of(name: str, log_format: int) -> int:
 
 def decode_block(data: np.ndarray, offsets: np.ndarray, tick_from_time: np.ndarray,
                  log_format: int, table_size: int, header_ships: int = 0,
-                 wanted: tuple[str, ...] | None = None, where: str = "") -> TickBlock:
+                 wanted: tuple[str, ...] | None = None, where: str = "",
+                 out: list | None = None) -> TickBlock:
     """Decode and check the messages ``data[offsets[k]:offsets[k + 1]]``, whose log times say
     they are ticks ``tick_from_time``; ``wanted``: the columns to gather (default every field the
-    format has). Checks as TickData does, each failure a LogError naming the tick."""
+    format has). Checks as TickData does, each failure a LogError naming the tick. ``out``: a
+    one-item list holding a buffer to reuse for the columns (grown as needed; the block's columns
+    are then valid only until the next block decoded into it)."""
     try:
         ticks, t_s, counts, starts, lengths = scan(data, offsets)
     except _ScanError as exc:
@@ -308,7 +311,16 @@ def decode_block(data: np.ndarray, offsets: np.ndarray, tick_from_time: np.ndarr
     padded = (col_bytes + 7) // 8 * 8
     np.cumsum(padded[:-1], out=bases[1:])
     row_bytes = row_off[:-1, None] * (widths[idx] * WIRE[idx])[None, :]
-    buf = np.zeros(int(padded.sum()) + 8, np.uint8)
+    need = int(padded.sum()) + 8
+    if out is not None:
+        if out[0] is None or out[0].shape[0] < need:
+            out[0] = np.empty(need + need // 4, np.uint8)
+        buf = out[0]
+        missing = has[:, idx].all(axis=0) if k else np.ones(idx.shape[0], bool)
+        for j in np.flatnonzero(~missing):  # a field absent on some ticks: zeros there
+            buf[bases[j]:bases[j] + col_bytes[j]] = 0
+    else:
+        buf = np.zeros(need, np.uint8)
     _gather(data, starts, lengths, np.ascontiguousarray(row_bytes), idx, bases, buf)
     columns, present = {}, {}
     for j, name in enumerate(names):

@@ -257,7 +257,8 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
                 raise LogError(f"{reader.path}: no ship {sid!r} in this log (ships: "
                                f"{', '.join(ids[:10])}{', ...' if len(ids) > 10 else ''})")
         keep_keys = np.array(sorted(table.key(s) for s in sel.ships), np.int64)
-    for b in reader.blocks(sel.first, sel.last, wanted=wanted, block_bytes=block_bytes):
+    for b in reader.blocks(sel.first, sel.last, wanted=wanted, block_bytes=block_bytes,
+                           reuse=True):
         if keep_keys is not None:
             b = b.take(np.flatnonzero(np.isin(b.keys, keep_keys)))
         if b.rows == 0:

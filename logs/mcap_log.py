@@ -743,11 +743,13 @@ class LogReader:
             f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
 
     def blocks(self, first: int | None = None, last: int | None = None,
-               wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20
-               ) -> Iterator[TickBlock]:
+               wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
+               reuse: bool = False) -> Iterator[TickBlock]:
         """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
         records at a time, each block decoded and checked in one compiled pass
-        (logs.decode.decode_block); ``wanted``: the fields to gather (default all)."""
+        (logs.decode.decode_block); ``wanted``: the fields to gather (default all). ``reuse``:
+        every block's columns in one buffer, valid until the next block is asked for (a reader
+        that converts or copies each block at once saves the fresh pages' faults)."""
         start = None if first is None else self.tick_time_ns(first)
         end = None if last is None else self.tick_time_ns(last)
         dt_ns = self.tick_time_ns(1)
@@ -759,11 +761,12 @@ class LogReader:
         buf = np.empty(block_bytes + limit, np.uint8)
         offsets = [0]
         times: list[int] = []
+        columns = [None] if reuse else None
 
         def flush() -> TickBlock:
             ticks = np.asarray(times, np.int64) // dt_ns
             return decode_block(buf, np.asarray(offsets, np.int64), ticks, fmt, table,
-                                len(self.scenario.ship_ids), wanted, str(self.path))
+                                len(self.scenario.ship_ids), wanted, str(self.path), columns)
 
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
                                                 end, self.status, self._tick_limits(),
