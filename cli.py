@@ -442,7 +442,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 
 @main.command()
 @click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve"]))
+                                           "fuzz", "serve", "logs"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -464,7 +464,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     campaign of generated hostile logs and scenarios against verify, export and record, counted
     per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
     `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1)."""
+    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
+    `logs`: export (Parquet, CSV, JSON Lines), view, verify and doctor of a 1,000-ship log as
+    whole commands on one core, as ratios against the old per-row JSON Lines export."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
@@ -486,6 +488,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)
+    elif what == "logs":
+        from bench import logs as bench_logs
+        bench_logs.main(quick=quick)
     else:
         from bench import replay_speed
         replay_speed.main(quick=quick)

@@ -165,6 +165,8 @@ STATE_LABELS = tuple(SurfaceState(i).label for i in range(len(SurfaceState)))
 #: the log fields each kind of column is made from
 _BASE_FIELDS = ("surface_state", "cos_tilt") + tuple(f.in_log for f in EXPORTED)
 _DERIVED_FIELDS = ("pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg")
+#: every log field the tick table is made from
+SOURCE_FIELDS = _BASE_FIELDS + _DERIVED_FIELDS
 _SITE = ("east", "north", "up", "v_east", "v_north", "v_up")
 _OMEGA = ("omega_x", "omega_y", "omega_z")
 FORMATS = ("jsonl", "csv", "parquet")
