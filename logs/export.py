@@ -412,55 +412,114 @@ def write_csv(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> int:
 
 def write_jsonl_blocks(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> int:
     """The tick table as JSON Lines, the same objects (keys, order, values) as :func:`tick_rows`
-    with :func:`write_jsonl` gives; each block formatted as whole columns (Arrow's shortest
-    round-trip formatting of doubles) and written at once. ``out``: a binary file."""
+    with :func:`write_jsonl` gives; each block's columns formatted at once (Arrow's shortest
+    round-trip text of doubles) and interleaved into lines by a compiled pass, then written at
+    once. ``out``: a binary file."""
     import pyarrow as pa
     import pyarrow.compute as pc
     ids = pa.array([json.dumps(s) for s in info.ship_ids], pa.string())
     states = pa.array([json.dumps(s) for s in STATE_LABELS], pa.string())
+    keys = [("{" if k == 0 else ",") + json.dumps(name) + ":" for k, name in
+            enumerate(info.columns)]
+    key_bytes = np.frombuffer("".join(keys).encode(), np.uint8)
+    key_off = np.zeros(len(keys) + 1, np.int64)
+    np.cumsum([len(k.encode()) for k in keys], out=key_off[1:])
     n = 0
+    buf = np.empty(0, np.uint8)
     for blk in blocks:
-        parts = []
+        R = blk.rows
+        texts, kinds = [], []
+        missing = np.zeros((len(info.columns), R), bool)
         for k, name in enumerate(info.columns):
             a = blk.columns[name]
             if name == "ship_id":
-                text = ids.take(pa.array(a, pa.int32()))
+                texts.append(ids.take(pa.array(a, pa.int32())))
             elif name == "state":
-                text = states.take(pa.array(a, pa.int32()))
-            elif a.dtype.kind == "f":
-                text = _float_text(pa, pc, a, blk.missing.get(name))
+                texts.append(states.take(pa.array(a, pa.int32())))
             else:
-                text = pc.cast(pa.array(a), pa.string())
-            parts.append(pa.scalar(("{" if k == 0 else ",") + json.dumps(name) + ":"))
-            parts.append(text)
-        parts.append(pa.scalar("}\n"))
-        lines = pc.binary_join_element_wise(*parts, "", null_handling="replace",
-                                            null_replacement="")
-        out.write(_text_buffer(lines))
-        n += blk.rows
+                texts.append(pc.cast(pa.array(a), pa.string()))
+            kinds.append(1 if a.dtype.kind == "f" else 0)
+            if name in blk.missing:
+                missing[k] = blk.missing[name]
+        offsets = np.empty((len(texts), R + 1), np.int64)
+        bases = np.zeros(len(texts) + 1, np.int64)
+        datas = []
+        for k, t in enumerate(texts):
+            t = t.combine_chunks() if isinstance(t, pa.ChunkedArray) else t
+            off = np.frombuffer(t.buffers()[1], np.int32)[t.offset:t.offset + R + 1]
+            offsets[k] = off
+            data = np.frombuffer(t.buffers()[2], np.uint8) if t.buffers()[2] is not None \
+                else np.zeros(0, np.uint8)
+            datas.append(data)
+            bases[k + 1] = bases[k] + data.shape[0]
+        data = np.concatenate(datas) if datas else np.zeros(0, np.uint8)
+        kinds_a = np.asarray(kinds, np.int64)
+        size = _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, None)
+        if buf.shape[0] < size:  # one buffer for every block: fresh pages fault as they fill
+            buf = np.empty(size + size // 4, np.uint8)
+        _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, buf[:size])
+        out.write(memoryview(buf[:size]))
+        n += R
     return n
 
 
-def _float_text(pa, pc, a: np.ndarray, missing: np.ndarray | None):
-    """Doubles as JSON numbers: Arrow's shortest round-trip text, with Python's spelling where
-    the two differ (an integral value keeps its ".0"; an exponent is written e-05 / e+20); nulls
-    as null."""
-    text = pc.cast(pa.array(a, pa.float64()), pa.string())
-    # Arrow writes 3 for 3.0 and 1e-05 as 1e-05, 1e+20 as 1e+20: Python's json writes 3.0
-    integral = pc.invert(pc.match_substring_regex(text, r"[.eEn]"))
-    text = pc.if_else(integral, pc.binary_join_element_wise(text, pa.scalar(".0"), ""), text)
-    if missing is not None:
-        text = pc.if_else(pa.array(missing), pa.scalar("null"), text)
-    return text
+def _json_lines(offsets, data, bases, kinds, missing, key_bytes, key_off, out) -> int:
+    if out is None:
+        return int(_json_size(offsets, data, bases, kinds, missing, key_off))
+    _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out)
+    return out.shape[0]
 
 
-def _text_buffer(lines) -> memoryview:
-    """The characters of a string array with no nulls, end to end (its data buffer, sliced)."""
-    import pyarrow as pa
-    arr = lines.cast(pa.large_string()) if lines.type != pa.large_string() else lines
-    offsets = np.frombuffer(arr.buffers()[1], np.int64)[arr.offset:arr.offset + len(arr) + 1]
-    data = arr.buffers()[2]
-    return memoryview(data)[int(offsets[0]):int(offsets[-1])]
+@separate
+def _needs_point(data, a, b):
+    """A double's text with neither a point nor an exponent (Arrow writes 3 for 3.0): Python's
+    JSON writes 3.0."""
+    for i in range(a, b):
+        c = data[i]
+        if c == 46 or c == 101 or c == 69 or c == 110:  # . e E n
+            return False
+    return True
+
+
+@separate
+def _json_size(offsets, data, bases, kinds, missing, key_off):
+    total = 0
+    nc, R = offsets.shape[0], offsets.shape[1] - 1
+    for r in range(R):
+        for k in range(nc):
+            total += key_off[k + 1] - key_off[k]
+            if missing[k, r]:
+                total += 4
+                continue
+            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
+            total += b - a
+            if kinds[k] == 1 and _needs_point(data, a, b):
+                total += 2
+        total += 2
+    return total
+
+
+@separate
+def _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out):
+    o = 0
+    nc, R = offsets.shape[0], offsets.shape[1] - 1
+    for r in range(R):
+        for k in range(nc):
+            n = key_off[k + 1] - key_off[k]
+            out[o:o + n] = key_bytes[key_off[k]:key_off[k + 1]]
+            o += n
+            if missing[k, r]:
+                out[o], out[o + 1], out[o + 2], out[o + 3] = 110, 117, 108, 108  # null
+                o += 4
+                continue
+            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
+            out[o:o + b - a] = data[a:b]
+            o += b - a
+            if kinds[k] == 1 and _needs_point(data, a, b):
+                out[o], out[o + 1] = 46, 48  # .0
+                o += 2
+        out[o], out[o + 1] = 125, 10  # }\n
+        o += 2
 
 
 def event_table(reader: LogReader, ships: tuple[str, ...] | None = None,
