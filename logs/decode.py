@@ -232,6 +232,10 @@ class TickBlock:
     def rows(self) -> int:
         return int(self.row_off[-1])
 
+    def tick(self, k: int) -> "BlockTick":
+        """The block's k-th tick, as a TickData-like view (tick, keys, arrays by field)."""
+        return BlockTick(self, k)
+
     def tick_of_row(self) -> np.ndarray:
         return np.repeat(self.ticks, self.counts)
 
@@ -247,6 +251,23 @@ class TickBlock:
         return TickBlock(self.ticks[keep], self.t_s[keep], counts, row_off, self.keys[rows],
                          {n: c[rows] for n, c in self.columns.items()},
                          {n: p[keep] for n, p in self.present.items()})
+
+
+class BlockTick:
+    """One tick of a TickBlock: ``tick`` (= ``tick_from_time``, checked when decoded),
+    ``ship_count``, ``keys`` and ``arrays`` (the fields it holds, flat, as TickData has them)."""
+
+    def __init__(self, block: TickBlock, k: int):
+        self.tick = self.tick_from_time = int(block.ticks[k])
+        self.t_s = float(block.t_s[k])
+        self.ship_count = int(block.counts[k])
+        lo, hi = block.row_off[k], block.row_off[k + 1]
+        self.keys = block.keys[lo:hi]
+        self.arrays = {name: col[lo:hi].ravel() for name, col in block.columns.items()
+                       if block.present[name][k]}
+
+    def vec(self, name: str, width: int) -> np.ndarray:
+        return self.arrays[name].reshape(self.ship_count, width)
 
 
 def width_of(name: str, log_format: int) -> int:
