@@ -17,6 +17,8 @@ import struct
 from dataclasses import dataclass, field
 from typing import IO
 
+import numpy as np
+
 try:
     from zlib_ng.zlib_ng import crc32
 except ImportError:  # pragma: no cover
@@ -30,6 +32,12 @@ KNOWN = {0x01: "header", 0x02: "footer", 0x03: "schema", 0x04: "channel", 0x05: 
          0x0A: "attachment index", 0x0B: "statistics", 0x0C: "metadata",
          0x0D: "metadata index", 0x0E: "summary offset", 0x0F: "data end"}
 _DATA_OPS = {0x01, 0x03, 0x04, 0x05, 0x06, 0x07, 0x09, 0x0C, 0x0F}
+#: the most records the walk and the summary parse look at (a writer puts a chunk and a message
+#: index per channel in it for every megabyte or so: far fewer), and the largest message index
+#: or summary section read (a hostile file must not make the check slow or large)
+MAX_RECORDS = 500_000
+MAX_INDEX_BYTES = 64 << 20
+_ENTRY = np.dtype([("t", "<u8"), ("off", "<u8")])
 _SUMMARY_OPS = {0x03, 0x04, 0x08, 0x0A, 0x0B, 0x0D, 0x0E}
 
 
@@ -43,8 +51,8 @@ class ChunkRef:
     start_ns: int
     end_ns: int
     uncompressed_size: int
-    #: channel id -> (offset of its message index record, entries)
-    indexes: dict[int, tuple[int, list[tuple[int, int]]]] = field(default_factory=dict)
+    #: channel id -> (offset of its message index record, entries: time "t" and offset "off")
+    indexes: dict[int, tuple[int, np.ndarray]] = field(default_factory=dict)
     index_end: int = 0  # the end of the message index records that follow it
 
 
@@ -69,6 +77,8 @@ class Structure:
     chunk_indexes: int = 0
     statistics: dict = field(default_factory=dict)
     problems: list[Problem] = field(default_factory=list)
+    #: the walk stopped at MAX_RECORDS records: the summary is not held to it
+    walk_cut: bool = False
 
     def add(self, part: str, where: int, what: str) -> None:
         self.problems.append(Problem(part, where, what))
@@ -129,8 +139,10 @@ def check(f: IO[bytes], size: int | None = None) -> Structure:
     data_limit = footer[0] if footer and footer[0] else footer_at
     hints = sorted(ci[1] for ci in summary[0]) if summary else []
     _walk(f, s, data_limit, hints)
-    if summary is not None:
+    if summary is not None and not s.walk_cut:
         _cross_check(s, *summary)
+    elif summary is not None:
+        s.summary_ok = True  # not held to a walk that stopped short
     return s
 
 
@@ -157,6 +169,10 @@ def _read_summary(f, s: Structure, footer, footer_at: int):
     """(chunk indexes as (record offset, chunk start, chunk length, {channel: index offset}),
     statistics' message count or None), or None if the summary is damaged."""
     start, offset_start, crc = footer
+    if footer_at - start > MAX_INDEX_BYTES * 4:
+        s.add("summary", start, f"a summary section of {footer_at - start:,} bytes (at most "
+                                f"{MAX_INDEX_BYTES * 4:,} read)")
+        return None
     f.seek(start)
     data = f.read(footer_at - start)
     if crc:
@@ -177,6 +193,9 @@ def _read_summary(f, s: Structure, footer, footer_at: int):
             return None
         body = data[pos + 9:pos + 9 + length]
         s.summary_records += 1
+        if s.summary_records > MAX_RECORDS:
+            s.add("summary", at, f"more than {MAX_RECORDS:,} records")
+            return None
         try:
             if op == 0x08:
                 n = struct.unpack_from("<I", body, 32)[0]
@@ -199,7 +218,12 @@ def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
     record the walk goes on at the next chunk the summary knows of (``hints``), if any."""
     pos = len(MAGIC)
     last: ChunkRef | None = None
+    count = 0
     while pos < limit:
+        count += 1
+        if count > MAX_RECORDS:
+            s.walk_cut = True
+            return
         f.seek(pos)
         head = f.read(9)
         op, length = (head[0], _u64(head, 1)) if len(head) == 9 else (-1, 0)
@@ -224,15 +248,14 @@ def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
             last.index_end = pos + 9 + length
             s.chunks.append(last)
         elif op == 0x07:
-            body = f.read(length)
-            problem = _message_index(body, last)
+            body = f.read(length) if length <= MAX_INDEX_BYTES else b""
+            problem = _message_index(body, last) if body else \
+                f"a message index of {length:,} bytes (at most {MAX_INDEX_BYTES:,} read)"
             if problem:
                 s.add("message index", pos, problem)
             else:
                 channel = struct.unpack_from("<H", body, 0)[0]
-                n = struct.unpack_from("<I", body, 2)[0] // 16
-                entries = [struct.unpack_from("<QQ", body, 6 + 16 * k) for k in range(n)]
-                last.indexes[channel] = (pos, entries)
+                last.indexes[channel] = (pos, np.frombuffer(body, _ENTRY, offset=6))
                 s.message_indexes += 1
             if last is not None and pos == last.index_end:
                 last.index_end = pos + 9 + length
@@ -248,13 +271,17 @@ def _message_index(body: bytes, chunk: ChunkRef | None) -> str:
     n_bytes = struct.unpack_from("<I", body, 2)[0]
     if n_bytes % 16 or 6 + n_bytes != len(body):
         return f"its entries take {n_bytes:,} bytes of its {len(body) - 6:,}"
-    for k in range(n_bytes // 16):
-        t, off = struct.unpack_from("<QQ", body, 6 + 16 * k)
-        if off >= chunk.uncompressed_size:
-            return (f"entry {k} points at byte {off:,} of a chunk of "
-                    f"{chunk.uncompressed_size:,} bytes")
-        if not chunk.start_ns <= t <= chunk.end_ns:
-            return f"entry {k}'s time {t} is outside its chunk's {chunk.start_ns}..{chunk.end_ns}"
+    e = np.frombuffer(body, _ENTRY, offset=6)
+    bad = np.flatnonzero(e["off"] >= chunk.uncompressed_size)
+    if bad.size:
+        k = int(bad[0])
+        return (f"entry {k} points at byte {int(e['off'][k]):,} of a chunk of "
+                f"{chunk.uncompressed_size:,} bytes")
+    bad = np.flatnonzero((e["t"] < chunk.start_ns) | (e["t"] > chunk.end_ns))
+    if bad.size:
+        k = int(bad[0])
+        return (f"entry {k}'s time {int(e['t'][k])} is outside its chunk's "
+                f"{chunk.start_ns}..{chunk.end_ns}")
     return ""
 
 
@@ -284,7 +311,7 @@ def _cross_check(s: Structure, indexes: list, count: int | None) -> None:
         s.add("summary", missing[0], f"no chunk index for the chunk at byte {missing[0]:,} "
                                      f"({len(missing)} chunk(s) unindexed)")
         ok = False
-    total = sum(len(e) for c in s.chunks for _, e in c.indexes.values())
+    total = sum(e.shape[0] for c in s.chunks for _, e in c.indexes.values())
     if ok and count is not None and not index_problem and count != total:
         s.add("summary", 0, f"its statistics count {count:,} messages, the message indexes "
                             f"{total:,}")
@@ -307,7 +334,7 @@ def check_entries(f, s: Structure, name: str) -> int:
             s.add("chunk", c.offset, str(exc).removeprefix(f"{name}: "))
             continue
         for channel, (at, entries) in c.indexes.items():
-            for t, off in entries:
+            for t, off in entries.tolist():
                 checked += 1
                 ok = off + 9 + 22 <= len(data) and data[off] == 0x05
                 if ok:
