@@ -221,7 +221,10 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     ex.write_events(ex.event_table(reader, sel.ships, first, last), info, fmt,
                                     out)
                     return
-                blocks = seen(ex.tick_blocks(reader, sel))
+                # Parquet: a row group per block (large); the text formats: smaller blocks,
+                # as each block's text is held whole while it is formatted
+                blocks = seen(ex.tick_blocks(reader, sel, 64 << 20 if fmt == "parquet"
+                                             else 16 << 20))
                 if fmt == "parquet":
                     ex.write_parquet(blocks, info, out)
                 elif fmt == "csv":
