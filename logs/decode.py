@@ -72,14 +72,14 @@ def _varint(data, i, end):
 
 
 @separate
-def _scan(data, offsets, num_index, wire, header, t_at, starts, lengths):
-    """Fields of every message ``data[offsets[k]:offsets[k + 1]]``: ``header[k]`` = (tick, ship
+def _scan(data, begins, ends, num_index, wire, header, t_at, starts, lengths):
+    """Fields of every message ``data[begins[k]:ends[k]]``: ``header[k]`` = (tick, ship
     count), ``t_at[k]`` where its time's 8 bytes are (-1: absent, 0.0), ``starts[k, f]`` and
     ``lengths[k, f]`` where field f's numbers are (start -1: absent). Returns (error code, the
     message it is in); (0, -1) when all is well."""
     nf = starts.shape[1]
-    for k in range(offsets.shape[0] - 1):
-        i, end = offsets[k], offsets[k + 1]
+    for k in range(begins.shape[0]):
+        i, end = begins[k], ends[k]
         header[k, 0] = 0
         header[k, 1] = 0
         t_at[k] = -1
@@ -167,16 +167,16 @@ def _keys_unique(keys, row_off, table_size, seen):
     return -1
 
 
-def scan(data: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                         np.ndarray, np.ndarray]:
-    """(ticks, t_s, counts, starts, lengths) of the messages ``data[offsets[k]:offsets[k+1]]``
+def scan(data: np.ndarray, begins: np.ndarray, ends: np.ndarray
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(ticks, t_s, counts, starts, lengths) of the messages ``data[begins[k]:ends[k]]``
     (``data`` uint8). LogError (``"message k: what"``) on anything the writer never writes."""
-    k = offsets.shape[0] - 1
+    k = begins.shape[0]
     header = np.empty((k, 2), np.int64)
     t_at = np.empty(k, np.int64)
     starts = np.empty((k, len(PACKED)), np.int64)
     lengths = np.empty((k, len(PACKED)), np.int64)
-    err, at = _scan(data, offsets, _NUM_INDEX, WIRE, header, t_at, starts, lengths)
+    err, at = _scan(data, begins, ends, _NUM_INDEX, WIRE, header, t_at, starts, lengths)
     if err:
         raise _ScanError(int(at), ERRORS[int(err)])
     t_s = np.zeros(k)
@@ -196,7 +196,8 @@ def decode_one(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
     """One TickBatch as (tick, t_s, ship_count, arrays by field name): float64 or int64 arrays,
     as :func:`logs.codec.decode_tick` has always given them. LogError on malformed bytes."""
     buf = np.frombuffer(data, np.uint8)
-    ticks, t_s, counts, starts, lengths = scan(buf, np.array([0, buf.size], np.int64))
+    ticks, t_s, counts, starts, lengths = scan(buf, np.zeros(1, np.int64),
+                                               np.array([buf.size], np.int64))
     arrays = {}
     for f, name in enumerate(NAMES):
         s = starts[0, f]
@@ -276,19 +277,29 @@ def width_of(name: str, log_format: int) -> int:
     return 1 if (name == "sliding" and log_format < 2) else fields.per_ship(name)
 
 
-def decode_block(data: np.ndarray, offsets: np.ndarray, tick_from_time: np.ndarray,
+def decode_block(data, offsets: np.ndarray | None, tick_from_time: np.ndarray,
                  log_format: int, table_size: int, header_ships: int = 0,
                  wanted: tuple[str, ...] | None = None, where: str = "",
                  out: list | None = None) -> TickBlock:
-    """Decode and check the messages ``data[offsets[k]:offsets[k + 1]]``, whose log times say
-    they are ticks ``tick_from_time``; ``wanted``: the columns to gather (default every field the
-    format has). Checks as TickData does, each failure a LogError naming the tick. ``out``: a
-    one-item list holding a buffer to reuse for the columns (grown as needed; the block's columns
-    are then valid only until the next block decoded into it)."""
-    try:
-        ticks, t_s, counts, starts, lengths = scan(data, offsets)
-    except _ScanError as exc:
-        raise LogError(f"{where}: tick {int(tick_from_time[exc.message])}: {exc}") from None
+    """Decode and check the messages ``data[offsets[k]:offsets[k + 1]]`` (or, ``offsets``
+    None, ``data`` a list of segments ``(buffer, begins, ends)``: messages
+    ``buffer[begins[k]:ends[k]]``, e.g. where they lie in their decompressed chunks), whose log
+    times say they are ticks ``tick_from_time``; ``wanted``: the columns to gather (default every
+    field the format has). Checks as TickData does, each failure a LogError naming the tick.
+    ``out``: a one-item list holding a buffer to reuse for the columns (grown as needed; the
+    block's columns are then valid only until the next block decoded into it)."""
+    segments = [(data, offsets[:-1], offsets[1:])] if offsets is not None else data
+    parts, first = [], 0
+    for seg, begins, ends in segments:
+        try:
+            parts.append(scan(seg, np.ascontiguousarray(begins, np.int64),
+                              np.ascontiguousarray(ends, np.int64)))
+        except _ScanError as exc:
+            raise LogError(f"{where}: tick {int(tick_from_time[first + exc.message])}: "
+                           f"{exc}") from None
+        first += len(begins)
+    ticks, t_s, counts, starts, lengths = (np.concatenate([p[i] for p in parts])
+                                           for i in range(5))
     k = ticks.shape[0]
 
     def fail(i: int, what: str):
@@ -342,7 +353,12 @@ def decode_block(data: np.ndarray, offsets: np.ndarray, tick_from_time: np.ndarr
             buf[bases[j]:bases[j] + col_bytes[j]] = 0
     else:
         buf = np.zeros(need, np.uint8)
-    _gather(data, starts, lengths, np.ascontiguousarray(row_bytes), idx, bases, buf)
+    row_bytes = np.ascontiguousarray(row_bytes)
+    m = 0
+    for seg, begins, _ in segments:
+        n = len(begins)
+        _gather(seg, starts[m:m + n], lengths[m:m + n], row_bytes[m:m + n], idx, bases, buf)
+        m += n
     columns, present = {}, {}
     for j, name in enumerate(names):
         f = INDEX[name]

@@ -756,17 +756,20 @@ class LogReader:
         fmt = self.log_format
         table = len(self.ship_table()) if fmt >= 3 else len(self.scenario.ship_ids)
         limit = self.max_tick_bytes()
-        # the records are copied into one buffer, kept from block to block (a fresh one each
-        # time costs its pages' faults: as much as the copy itself)
-        buf = np.empty(block_bytes + limit, np.uint8)
-        offsets = [0]
+        # the records are decoded where they lie, in their decompressed chunks: one segment
+        # (buffer, begins, ends) per chunk
+        segments: list = []
         times: list[int] = []
+        size = 0
         columns = [None] if reuse else None
+        base = base_arr = None
+        begins: list[int] = []
+        ends: list[int] = []
 
         def flush() -> TickBlock:
             ticks = np.asarray(times, np.int64) // dt_ns
-            return decode_block(buf, np.asarray(offsets, np.int64), ticks, fmt, table,
-                                len(self.scenario.ship_ids), wanted, str(self.path), columns)
+            return decode_block(segments, None, ticks, fmt, table, len(self.scenario.ship_ids),
+                                wanted, str(self.path), columns)
 
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
                                                 end, self.status, self._tick_limits(),
@@ -776,13 +779,20 @@ class LogReader:
             n = len(data)
             if n > limit:
                 raise self._oversize(t_ns // dt_ns, n)
-            o = offsets[-1]
-            buf[o:o + n] = np.frombuffer(data, np.uint8)
-            offsets.append(o + n)
+            owner = data.obj if isinstance(data, memoryview) else data
+            if owner is not base:
+                base = owner
+                base_arr = np.frombuffer(owner, np.uint8)
+                begins, ends = [], []
+                segments.append((base_arr, begins, ends))
+            at = np.frombuffer(data, np.uint8).ctypes.data - base_arr.ctypes.data if n else 0
+            begins.append(at)
+            ends.append(at + n)
             times.append(t_ns)
-            if o + n >= block_bytes:
+            size += n
+            if size >= block_bytes:
                 yield flush()
-                offsets, times = [0], []
+                segments, times, size, base = [], [], 0, None
         if times:
             yield flush()
 
