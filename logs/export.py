@@ -543,8 +543,16 @@ def write_events(cols: dict[str, list], info: TableInfo, fmt: str, out) -> int:
     n = len(cols["event"])
     if fmt == "jsonl":
         for k in range(n):
-            out.write((json.dumps({name: cols[name][k] for name in info.columns},
-                                  separators=(",", ":")) + "\n").encode())
+            row = {name: cols[name][k] for name in info.columns}
+            try:
+                line = json.dumps(row, separators=(",", ":"), allow_nan=False)
+            except ValueError:
+                bad = next(c for c in info.columns if isinstance(row[c], float)
+                           and not math.isfinite(row[c]))
+                raise LogError(f"{info.path}: tick {cols['tick'][k]}, ship "
+                               f"{cols['ship_id'][k]}: event {bad} is {row[bad]} (the log is "
+                               f"damaged)") from None
+            out.write((line + "\n").encode())
         return n
     import pyarrow as pa
     schema = arrow_schema(info, events=True)
