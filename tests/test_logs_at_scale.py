@@ -284,6 +284,9 @@ def test_damaged_structure_with_intact_content_verifies_and_says_so_in_one_line(
     r = invoke("doctor", bad)
     assert r.exit_code == 1 and f"problem: {how} at byte" in r.stdout, r.stdout
     assert "601 tick record(s)" in r.stdout
+    if how == "message index":
+        r = invoke("view", bad, "-o", tmp_path / "v.rrd")
+        assert r.exit_code == 0 and "structure is damaged" in r.stderr, r.output
 
 
 def test_doctor_on_a_sound_log_and_on_garbage(bounce, tmp_path):

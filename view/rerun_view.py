@@ -440,6 +440,8 @@ def load_runs(paths: list[str | Path], ship_id: str | None) -> tuple[list[Run], 
         run = read_run(p, ship_id=ship_id, max_ships=MAX_SHIPS)
         if run.partial_note:
             notes.append(run.partial_note)
+        if run.structure_note:
+            notes.append(run.structure_note)
         if ship_id is None and run.fleet_size > MAX_SHIPS:
             notes.append(f"{p}: showing {MAX_SHIPS} of its {run.fleet_size} ships in full, every "
                          f"ship in the fleet overview; pick one with --ship ID")

@@ -80,6 +80,8 @@ class Run:
     overview: "FleetOverview | None" = None
     #: ships in the log (``ships`` holds those drawn in full)
     fleet_size: int = 0
+    #: the file's MCAP structure is damaged, its content read all the same ("" if not)
+    structure_note: str = ""
 
 
 
@@ -167,6 +169,7 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
             raise LogError(f"{path}: the log holds no tick")
         from logs.export import what_was_read
         note = what_was_read(reader, last_tick)
+        damage = reader.structure_note()
         shown = {ids[k] for k in wanted}
         events = tuple(
             RunEvent(ev.tick, ev.t_s, ev.ship_id, ev.event, ev.from_state, ev.to_state,
@@ -191,7 +194,8 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
         col = {k: v[rows, 0] if v.shape[1] == 1 else v[rows] for k, v in flat.items()}
         tracks.append(_track(params, key, col, tick, t_s, c, s))
     return Run(label or path.stem, path, params, dt, tuple(tracks), events, note,
-               fleet.done() if fleet is not None else None, len(ids))
+               fleet.done() if fleet is not None else None, len(ids),
+               f"{path}: {damage}" if damage else "")
 
 
 class _OverviewBuilder:
