@@ -166,6 +166,29 @@ def _range(text: str | None, flag: str, kind):
     return lo, hi
 
 
+class _TextSink:
+    """A binary writer onto a text stream without a buffer (a caller's StringIO)."""
+
+    closed = False
+
+    def __init__(self, text):
+        self.text = text
+
+    def write(self, data) -> int:
+        self.text.write(bytes(data).decode("utf-8"))
+        return len(data)
+
+    def writable(self) -> bool:
+        return True
+
+    def flush(self) -> None:
+        self.text.flush()
+
+
+def _binary_stdout():
+    return getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)
+
+
 @main.command()
 @click.argument("log", type=click.Path(dir_okay=False))
 @click.option("--events", is_flag=True, help="one row per state transition instead of per tick")
@@ -245,7 +268,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     tmp_beside.replace(beside)
                 tmp.replace(output)
             else:
-                write(sys.stdout.buffer)
+                write(_binary_stdout())
                 sys.stdout.flush()
             note = ex.what_was_read(reader, last_tick["tick"], events)
             damage = reader.structure_note()

@@ -664,6 +664,13 @@ class LogReader:
                                              self.status, walk=self._walk):
             yield topic, data
 
+    def messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
+        every reader of this log reads them (through its index, or by walking its data section
+        when its summary or footer is damaged)."""
+        yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
+                                 walk=self._walk)
+
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
         """(log time ns, message bytes) of one topic's messages, in log order."""
