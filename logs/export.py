@@ -388,8 +388,7 @@ def write_parquet(blocks: Iterator[ColumnBlock], info: TableInfo, path: str) -> 
     import pyarrow.parquet as pq
     conv = _ArrowBlocks(info)
     n = 0
-    # zstd at a fast level (-3: 40% less time than level 1 for 10% more bytes, measured)
-    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=-3,
+    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=1,
                           use_dictionary=["ship_id", "state"], write_statistics=["tick", "t"],
                           store_schema=True) as w:
         for blk in blocks:
