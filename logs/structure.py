@@ -299,6 +299,14 @@ def _cross_check(s: Structure, indexes: list, count: int | None) -> None:
             ok = False
             continue
         seen.add(chunk_start)
+        if not index_problem and c.indexes and set(offsets) != set(c.indexes):
+            # the reader skips a chunk whose index lists none of the channels it wants: an
+            # index that leaves one out would hide its messages
+            s.add("summary", at, f"the chunk index of the chunk at byte {chunk_start:,} lists "
+                                 f"channels {sorted(offsets)}, its message indexes "
+                                 f"{sorted(c.indexes)}")
+            ok = False
+            continue
         for ch, off in offsets.items():
             found = c.indexes.get(ch)
             if (found is None or found[0] != off) and not index_problem:
