@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 import sys
 import tempfile
@@ -150,43 +151,147 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
         _show([str(out)])
 
 
+def _range(text: str | None, flag: str, kind):
+    """``A:B`` (either end may be left out) as (A or None, B or None)."""
+    if text is None:
+        return None, None
+    if ":" not in text:
+        raise UserError(f"{flag} {text!r}: expected A:B (either end may be left out)")
+    a, b = text.split(":", 1)
+    try:
+        lo = kind(a) if a.strip() else None
+        hi = kind(b) if b.strip() else None
+    except ValueError:
+        raise UserError(f"{flag} {text!r}: A and B must be "
+                        f"{'whole numbers' if kind is int else 'numbers'}") from None
+    for x in (lo, hi):
+        if x is not None and not (0 <= x < 1e15):
+            raise UserError(f"{flag} {text!r}: out of range")
+    if lo is not None and hi is not None and hi < lo:
+        raise UserError(f"{flag} {text!r}: B is before A")
+    return lo, hi
+
+
+class _TextSink:
+    """A binary writer onto a text stream without a buffer (a caller's StringIO)."""
+
+    closed = False
+
+    def __init__(self, text):
+        self.text = text
+
+    def write(self, data) -> int:
+        self.text.write(bytes(data).decode("utf-8"))
+        return len(data)
+
+    def writable(self) -> bool:
+        return True
+
+    def flush(self) -> None:
+        self.text.flush()
+
+
+def _binary_stdout():
+    return getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)
+
+
 @main.command()
 @click.argument("log", type=click.Path(dir_okay=False))
-@click.option("--events", is_flag=True, help="one object per state transition instead of per tick")
+@click.option("--events", is_flag=True, help="one row per state transition instead of per tick")
+@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv", "parquet"]), default="jsonl",
+              show_default=True, help="JSON Lines, CSV, or Parquet (columnar, zstd; needs -o)")
+@click.option("--ship", "ships", multiple=True, metavar="ID", help="only this ship (repeatable)")
+@click.option("--ticks", default=None, metavar="A:B", help="only ticks A..B (inclusive)")
+@click.option("--time", "time_range", default=None, metavar="A:B",
+              help="only the ticks at simulated seconds A..B (inclusive)")
+@click.option("--fields", default=None, metavar="F1,F2,...",
+              help="only these fields (in the table's order)")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="write to FILE, not stdout")
-def export(log: str, events: bool, output: str | None) -> None:
-    """JSON Lines of LOG: one object per ship per tick (or per event with --events)."""
-    from logs.export import event_rows, tick_rows, what_was_read, write_jsonl
+def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str | None,
+           time_range: str | None, fields: str | None, output: str | None) -> None:
+    """One row per ship per tick of LOG (or per event with --events): JSON Lines, CSV or
+    Parquet. Parquet keeps each field's unit in its metadata; a tick table in Parquet is written
+    with its events beside it (OUT.events.parquet)."""
+    from logs import export as ex
     from logs.mcap_log import LogReader
 
+    if fmt == "parquet" and not output:
+        raise UserError("--format parquet writes a file: give -o OUT.parquet")
+    if ticks is not None and time_range is not None:
+        raise UserError("--ticks and --time both given: choose one")
+    first, last = _range(ticks, "--ticks", int)
+    t_lo, t_hi = _range(time_range, "--time", float)
+    try:
+        columns = ex.parse_fields(fields, ex.EVENT_NAMES if events else ex.TICK_NAMES)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     tmp = Path(output + ".partial") if output else None
+    beside = None
+    if output and fmt == "parquet" and not events:
+        beside = Path(output).with_suffix(".events.parquet")
+    tmp_beside = Path(f"{beside}.partial") if beside else None
     try:
         with LogReader(log) as reader:
-            rows = event_rows(reader) if events else tick_rows(reader)
-            last = {"tick": None}
+            if time_range is not None:
+                dt = reader.scenario.dt_s
+                first = None if t_lo is None else int(math.ceil(t_lo / dt - 1e-9))
+                last = None if t_hi is None else int(math.floor(t_hi / dt + 1e-9))
+            sel = ex.Selection(ships or None, first, last, columns)
+            info = ex.table_info(reader, columns)
+            last_tick = {"tick": None}
 
-            def seen(rows):
-                for row in rows:
-                    last["tick"] = row["tick"]
-                    yield row
+            def seen(blocks):
+                for blk in blocks:
+                    last_tick["tick"] = blk.last_tick
+                    yield blk
+
+            def write(out) -> None:
+                if events:
+                    ex.write_events(ex.event_table(reader, sel.ships, first, last), info, fmt,
+                                    out)
+                    return
+                # Parquet: a row group per block (large); the text formats: smaller blocks,
+                # as each block's text is held whole while it is formatted
+                blocks = seen(ex.tick_blocks(reader, sel, 64 << 20 if fmt == "parquet"
+                                             else 16 << 20))
+                if fmt == "parquet":
+                    ex.write_parquet(blocks, info, out)
+                elif fmt == "csv":
+                    ex.write_csv(blocks, info, out)
+                else:
+                    ex.write_jsonl_blocks(blocks, info, out)
+
             if tmp is not None:
-                with open(tmp, "w", encoding="utf-8") as f:
-                    write_jsonl(seen(rows), f, log)
+                if fmt == "parquet":
+                    write(str(tmp))
+                else:
+                    with open(tmp, "wb") as f:
+                        write(f)
+                if beside is not None:
+                    ex.write_events(ex.event_table(reader, sel.ships, first, last),
+                                    ex.table_info(reader, ex.EVENT_NAMES), "parquet",
+                                    str(tmp_beside))
+                    tmp_beside.replace(beside)
                 tmp.replace(output)
             else:
-                write_jsonl(seen(rows), sys.stdout, log)
-            note = what_was_read(reader, last["tick"], events)
+                write(_binary_stdout())
+                sys.stdout.flush()
+            note = ex.what_was_read(reader, last_tick["tick"], events)
+            damage = reader.structure_note()
+            if damage:
+                note = (f"{note}\ntouchdown: " if note else "") + f"{log}: {damage}"
     except LogError as exc:
         raise UserError(str(exc)) from None
     except OSError as exc:
         if isinstance(exc, BrokenPipeError):
             sys.stderr.close()
             return
-        raise WorkFailed(f"{output or 'stdout'}: cannot write: {exc.strerror}; nothing was kept"
-                         + (f" (no {output})" if output else "")) from None
+        raise WorkFailed(f"{output or 'stdout'}: cannot write: {exc.strerror or exc}; nothing "
+                         f"was kept" + (f" (no {output})" if output else "")) from None
     finally:
-        if tmp is not None:
-            tmp.unlink(missing_ok=True)  # after a failure; after success it was renamed
+        for p in (tmp, tmp_beside):
+            if p is not None:
+                p.unlink(missing_ok=True)  # after a failure; after success it was renamed
     if note:
         click.echo(f"touchdown: {note}", err=True)
 
@@ -296,6 +401,26 @@ def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: st
 
 
 @main.command()
+@click.argument("log", type=click.Path(dir_okay=False))
+def doctor(log: str) -> None:
+    """Check LOG's MCAP structure the way `mcap doctor` does (records, chunks, message indexes
+    and their entries, summary, footer), and beside it what Touchdown checks of its content
+    (scenario, every tick record decoded and checked, events, summary). Exit 0 sound, 1 damaged
+    (what and where), 2 not a readable file."""
+    from logs import structure
+
+    if not Path(log).is_file():
+        raise UserError(f"{log}: cannot open: no such file")
+    try:
+        lines, bad = structure.report(log)
+    except OSError as exc:
+        raise UserError(f"{log}: cannot read: {exc.strerror}") from None
+    click.echo("\n".join(lines))
+    if bad:
+        sys.exit(1)
+
+
+@main.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path())
 @click.option("--ship", "ship_id", default=None, metavar="ID", help="the ship to cut (required)")
 @click.option("--around", default=None, metavar="TICK", help="the incident's tick (required)")
@@ -349,7 +474,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 
 @main.command()
 @click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve", "envelope"]))
+                                           "fuzz", "serve", "envelope", "logs"]))
 @click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
 @click.option("--out", "out_dir", default="docs", show_default=True,
               help="accuracy: where the chart and tables go")
@@ -373,7 +498,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
     time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
     `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
-    reference and MuJoCo (the `bench` extra)."""
+    reference and MuJoCo (the `bench` extra); `logs`: export (Parquet, CSV, JSON Lines), view,
+    verify and doctor of a 1,000-ship log as whole commands on one core, as ratios against the
+    old per-row JSON Lines export."""
     if what == "accuracy":
         from bench import accuracy
         accuracy.main(quick=quick, out_dir=out_dir)
@@ -398,6 +525,9 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     elif what == "speed":
         from bench import speed
         speed.main(quick=quick)
+    elif what == "logs":
+        from bench import logs as bench_logs
+        bench_logs.main(quick=quick)
     else:
         from bench import replay_speed
         replay_speed.main(quick=quick)

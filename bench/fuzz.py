@@ -558,11 +558,10 @@ def _content(path: str) -> tuple | None:
     """What a log holds, as today's reader reads it (None if it cannot)."""
     from logs import LogError
     from logs.mcap_log import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, LogReader
-    from logs.safe_read import iter_messages
     try:
         with LogReader(path) as r:
             msgs = {t: [] for t in (TOPIC_SCENARIO, TOPIC_TICKS, TOPIC_EVENTS, TOPIC_SUMMARY)}
-            for topic, _t, data in iter_messages(r._file, path, set(msgs), status=r.status):
+            for topic, _t, data in r.messages(set(msgs)):
                 msgs[topic].append(data)
             return tuple(tuple(v) for v in msgs.values()), r.status.complete
     except LogError:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from typing import IO, Iterator
 
 import numpy as np
@@ -17,6 +18,7 @@ from logs import LogError
 from logs.mcap_log import LogReader, TickData, fleet_params, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import fields, measure
+from sim.compiled import separate
 from sim.enums import SurfaceState
 
 _STATE = {int(s): s.label for s in SurfaceState}
@@ -121,4 +123,449 @@ def _of(reader: LogReader) -> str:
     return "" if reader.open_ended else f" of {reader.scenario.n_ticks}"
 
 
-__all__ = ["tick_rows", "event_rows", "write_jsonl", "what_was_read", "pb"]
+
+# -- columnar export: blocks of ticks as columns (logs.decode), to Parquet, CSV or JSON Lines ------
+# The path above (a dict per row) is the reference the columnar one is tested against; the command
+# line uses this one.
+
+#: the tick table's columns, in JSON Lines' key order: (name, unit, what it is)
+TICK_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("tick", "", "tick number"),
+    ("t", "s", "simulated time of the tick"),
+    ("ship_id", "", "the ship"),
+    ("tilt_deg", "deg", "long axis from local vertical"),
+) + tuple((f.export, f.unit, f.doc) for f in EXPORTED) + (
+    ("east", "m", "centre of mass in the landing-site frame (body-fixed)"),
+    ("north", "m", "centre of mass in the landing-site frame (body-fixed)"),
+    ("up", "m", "centre of mass above the reference sphere under the site"),
+    ("v_east", "m/s", "velocity relative to the surface, site frame"),
+    ("v_north", "m/s", "velocity relative to the surface, site frame"),
+    ("v_up", "m/s", "velocity relative to the surface, site frame"),
+    ("omega_x", "rad/s", "angular velocity (inertial rate), body frame"),
+    ("omega_y", "rad/s", "angular velocity (inertial rate), body frame"),
+    ("omega_z", "rad/s", "angular velocity (inertial rate), body frame"),
+    ("energy_j", "J", "mechanical energy in the body's turning frame (MODEL-NOTES 28)"),
+)
+TICK_NAMES = tuple(name for name, _, _ in TICK_COLUMNS)
+#: the event table's columns: (name, unit, what it is)
+EVENT_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("event", "", "ship.contact, ship.landed, ship.tipped, ship.righted, ship.crashed, "
+                  "ship.liftoff"),
+    ("tick", "", "the tick it is reported at"),
+    ("t", "s", "the tick's time"),
+    ("t_event", "s", "the instant it happened inside the tick"),
+    ("ship_id", "", "the ship"), ("player_id", "", "its player"), ("body", "", "the body"),
+    ("from_state", "", "state before"), ("to_state", "", "state after"),
+    ("v_radial", "m/s", "speed along local up at the transition (+ = up)"),
+    ("tilt_deg", "deg", "tilt at the transition"),
+    ("surface_contact_state", "", "the seed's string for the new state"),
+)
+EVENT_NAMES = tuple(name for name, _, _ in EVENT_COLUMNS)
+STATE_LABELS = tuple(SurfaceState(i).label for i in range(len(SurfaceState)))
+#: the log fields each kind of column is made from
+_BASE_FIELDS = ("surface_state", "cos_tilt") + tuple(f.in_log for f in EXPORTED)
+_DERIVED_FIELDS = ("pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg")
+#: every log field the tick table is made from
+SOURCE_FIELDS = _BASE_FIELDS + _DERIVED_FIELDS
+_SITE = ("east", "north", "up", "v_east", "v_north", "v_up")
+_OMEGA = ("omega_x", "omega_y", "omega_z")
+FORMATS = ("jsonl", "csv", "parquet")
+
+
+def parse_fields(text: str | None, known: tuple[str, ...] = TICK_NAMES) -> tuple[str, ...]:
+    """``--fields a,b,c`` as the table's columns in its order; ValueError naming an unknown one."""
+    if not text:
+        return known
+    asked = [f.strip() for f in text.split(",") if f.strip()]
+    bad = [f for f in asked if f not in known]
+    if bad:
+        raise ValueError(f"--fields: no field {bad[0]!r} (fields: {', '.join(known)})")
+    if not asked:
+        raise ValueError("--fields: no field named")
+    return tuple(n for n in known if n in asked)
+
+
+@dataclass
+class Selection:
+    """What of a log to export: ships (ids; None: every ship), ticks first..last (None: to the
+    log's end), the columns (in the table's order)."""
+
+    ships: tuple[str, ...] | None = None
+    first: int | None = None
+    last: int | None = None
+    columns: tuple[str, ...] = TICK_NAMES
+
+
+@dataclass
+class ColumnBlock:
+    """Rows of the tick table: ``columns`` name -> numpy array; ``ship_id`` and ``state`` as
+    int32 indices into ``TableInfo.ship_ids`` and STATE_LABELS; ``missing`` name -> bool mask of
+    rows the log does not hold that number on (a format-1 log's velocities between keyframes)."""
+
+    rows: int
+    columns: dict[str, np.ndarray]
+    missing: dict[str, np.ndarray]
+    first_tick: int
+    last_tick: int
+
+
+@dataclass
+class TableInfo:
+    path: str
+    ship_ids: list[str]
+    columns: tuple[str, ...]
+    metadata: dict[str, str]
+
+
+@separate
+def _tilt_deg(cos_tilt, out):
+    """degrees(acos(c)) with c clipped to [-1, 1], as math.degrees(math.acos(c)) gives it (libm's
+    acos: numpy's own differs in the last digit for one value in ten)."""
+    k = 180.0 / math.pi
+    for i in range(cos_tilt.shape[0]):
+        c = cos_tilt[i]
+        if c > 1.0:
+            c = 1.0
+        elif c < -1.0:
+            c = -1.0
+        out[i] = math.acos(c) * k
+
+
+def table_info(reader: LogReader, columns: tuple[str, ...] = TICK_NAMES) -> TableInfo:
+    sr = reader.scenario
+    return TableInfo(str(reader.path), reader.ship_table().ids, columns, {
+        "touchdown.log": str(reader.path), "touchdown.scenario": sr.name,
+        "touchdown.project_version": sr.project_version,
+        "touchdown.log_format_version": str(sr.log_format_version),
+        "touchdown.integrator": sr.integrator, "touchdown.dt_s": repr(sr.dt_s),
+        "touchdown.body": sr.body})
+
+
+def tick_blocks(reader: LogReader, sel: Selection = Selection(),
+                block_bytes: int = 64 << 20) -> Iterator[ColumnBlock]:
+    """The tick table of ``reader`` as blocks of columns (module comment above), each block
+    decoded in one compiled pass (LogReader.blocks). A number that is not finite (only a damaged
+    log holds one) is a LogError naming the tick, ship and field."""
+    ids = reader.ship_table().ids
+    cols = sel.columns
+    derived = any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
+    params = fleet_params(reader, scenario_of(reader)[0]) if derived else None
+    wanted = _BASE_FIELDS + (_DERIVED_FIELDS if derived else ())
+    keep_keys = None
+    if sel.ships is not None:
+        table = reader.ship_table()
+        for sid in sel.ships:
+            if sid not in table:
+                raise LogError(f"{reader.path}: no ship {sid!r} in this log (ships: "
+                               f"{', '.join(ids[:10])}{', ...' if len(ids) > 10 else ''})")
+        keep_keys = np.array(sorted(table.key(s) for s in sel.ships), np.int64)
+    for b in reader.blocks(sel.first, sel.last, wanted=wanted, block_bytes=block_bytes,
+                           reuse=True):
+        if keep_keys is not None:
+            b = b.take(np.flatnonzero(np.isin(b.keys, keep_keys)))
+        if b.rows == 0:
+            continue
+        yield _columns(reader, b, cols, params, ids)
+
+
+def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> ColumnBlock:
+    R = b.rows
+    out: dict[str, np.ndarray] = {}
+    missing: dict[str, np.ndarray] = {}
+    c = b.columns
+    tick = b.tick_of_row()
+    t = np.repeat(b.t_s, b.counts)
+    present_rows = {name: np.repeat(p, b.counts) for name, p in b.present.items()}
+    for name in cols:
+        if name == "tick":
+            out[name] = tick
+        elif name == "t":
+            out[name] = t
+        elif name == "ship_id":
+            out[name] = b.keys.astype(np.int32)
+        elif name == "tilt_deg":
+            out[name] = np.empty(R)
+            _tilt_deg(np.ascontiguousarray(c["cos_tilt"].reshape(R)), out[name])
+    for f in EXPORTED:
+        if f.export not in cols:
+            continue
+        if f.name == "surface_state":
+            out[f.export] = c[f.in_log].reshape(R).astype(np.int32)
+            continue
+        a = c.get(f.in_log)
+        if a is None or not b.present[f.in_log].all():  # a format-1 log has no energy_guard_j
+            has = present_rows.get(f.in_log, np.zeros(R, bool))
+            missing[f.export] = ~has
+            a = np.zeros((R, 1)) if a is None else a
+        out[f.export] = a.reshape(R)
+    if any(n in cols for n in _SITE + _OMEGA + ("energy_j",)):
+        p, v = c["pos_m"], c["vel_mps"]
+        q, w = c["quat"], c["omega_body_radps"]
+        has_v = present_rows["vel_mps"] & present_rows["omega_body_radps"]
+        with np.errstate(all="ignore"):  # a damaged log's overflow is named below, in one line
+            if any(n in cols for n in _SITE):
+                pos, vel = measure.site_frame(params, p, v, t)
+                for k, name in enumerate(_SITE[:3]):
+                    out[name] = pos[:, k]
+                for k, name in enumerate(_SITE[3:]):
+                    out[name] = vel[:, k]
+            for k, name in enumerate(_OMEGA):
+                out[name] = w[:, k]
+            if "energy_j" in cols:
+                out["energy_j"] = measure.energy(params, b.keys, t, p, v, q, w,
+                                                 c["mass_kg"].reshape(R))["total_j"]
+        if not has_v.all():
+            for name in _SITE[3:] + _OMEGA + ("energy_j",):
+                missing[name] = ~has_v
+    out = {name: out[name] for name in cols}
+    for name, a in out.items():
+        if a.dtype.kind != "f":
+            continue
+        bad = ~np.isfinite(a)
+        if name in missing:
+            bad &= ~missing[name]
+        if bad.any():
+            r = int(np.argmax(bad))
+            raise LogError(f"{reader.path}: tick {int(tick[r])}, ship {ids[int(b.keys[r])]}: "
+                           f"{name} is {float(a[r])} (the log is damaged)")
+    return ColumnBlock(R, out, {k: v for k, v in missing.items() if k in out},
+                       int(b.ticks[0]), int(b.ticks[-1]))
+
+
+# -- writers ---------------------------------------------------------------------------------------
+
+def arrow_schema(info: TableInfo, events: bool = False):
+    """The table's Arrow schema: every field with its unit (and what it is) in its metadata; the
+    log, its scenario, project version and format in the schema's."""
+    import pyarrow as pa
+    spec = EVENT_COLUMNS if events else TICK_COLUMNS
+    types = {"tick": pa.int64(), "ship_id": pa.dictionary(pa.int32(), pa.string()),
+             "state": pa.dictionary(pa.int32(), pa.string())}
+    if events:
+        types = {"tick": pa.int64()}
+    out = []
+    for name, unit, doc in spec:
+        if name not in info.columns:
+            continue
+        typ = types.get(name, pa.string() if events and name not in (
+            "t", "t_event", "v_radial", "tilt_deg") else pa.float64())
+        out.append(pa.field(name, typ, metadata={"unit": unit, "description": doc}))
+    return pa.schema(out, metadata=info.metadata)
+
+
+class _ArrowBlocks:
+    """Blocks of the tick table as Arrow record batches."""
+
+    def __init__(self, info: TableInfo, dictionary: bool = True):
+        import pyarrow as pa
+        self.pa = pa
+        self.ids = pa.array(info.ship_ids, pa.string())
+        self.states = pa.array(list(STATE_LABELS), pa.string())
+        self.schema = arrow_schema(info)
+        if not dictionary:
+            self.schema = pa.schema([f.with_type(pa.string()) if pa.types.is_dictionary(f.type)
+                                     else f for f in self.schema], metadata=self.schema.metadata)
+        self.dictionary = dictionary
+
+    def batch(self, blk: ColumnBlock):
+        pa = self.pa
+        arrays = []
+        for f in self.schema:
+            a = blk.columns[f.name]
+            if f.name in ("ship_id", "state"):
+                values = self.ids if f.name == "ship_id" else self.states
+                idx = pa.array(a, pa.int32())
+                arrays.append(pa.DictionaryArray.from_arrays(idx, values) if self.dictionary
+                              else values.take(idx))
+            else:
+                mask = blk.missing.get(f.name)
+                arrays.append(pa.array(a, f.type, mask=mask))
+        return pa.RecordBatch.from_arrays(arrays, schema=self.schema)
+
+
+def write_parquet(blocks: Iterator[ColumnBlock], info: TableInfo, path: str) -> int:
+    """The tick table to a Parquet file, block by block (a row group each), zstd."""
+    import pyarrow.parquet as pq
+    conv = _ArrowBlocks(info)
+    n = 0
+    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=1,
+                          use_dictionary=["ship_id", "state"], write_statistics=["tick", "t"],
+                          store_schema=True) as w:
+        for blk in blocks:
+            w.write_batch(conv.batch(blk), row_group_size=blk.rows)
+            n += blk.rows
+    return n
+
+
+def write_csv(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> int:
+    """The tick table as CSV (a header line, then a line per row), block by block; ``out`` a
+    binary file."""
+    import pyarrow.csv as pcsv
+    conv = _ArrowBlocks(info, dictionary=False)
+    n = 0
+    with pcsv.CSVWriter(out, conv.schema) as w:
+        for blk in blocks:
+            w.write_batch(conv.batch(blk))
+            n += blk.rows
+    return n
+
+
+def write_jsonl_blocks(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> int:
+    """The tick table as JSON Lines, the same objects (keys, order, values) as :func:`tick_rows`
+    with :func:`write_jsonl` gives; each block's columns formatted at once (Arrow's shortest
+    round-trip text of doubles) and interleaved into lines by a compiled pass, then written at
+    once. ``out``: a binary file."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    ids = pa.array([json.dumps(s) for s in info.ship_ids], pa.string())
+    states = pa.array([json.dumps(s) for s in STATE_LABELS], pa.string())
+    keys = [("{" if k == 0 else ",") + json.dumps(name) + ":" for k, name in
+            enumerate(info.columns)]
+    key_bytes = np.frombuffer("".join(keys).encode(), np.uint8)
+    key_off = np.zeros(len(keys) + 1, np.int64)
+    np.cumsum([len(k.encode()) for k in keys], out=key_off[1:])
+    n = 0
+    buf = np.empty(0, np.uint8)
+    for blk in blocks:
+        R = blk.rows
+        texts, kinds = [], []
+        missing = np.zeros((len(info.columns), R), bool)
+        for k, name in enumerate(info.columns):
+            a = blk.columns[name]
+            if name == "ship_id":
+                texts.append(ids.take(pa.array(a, pa.int32())))
+            elif name == "state":
+                texts.append(states.take(pa.array(a, pa.int32())))
+            else:
+                texts.append(pc.cast(pa.array(a), pa.string()))
+            kinds.append(1 if a.dtype.kind == "f" else 0)
+            if name in blk.missing:
+                missing[k] = blk.missing[name]
+        offsets = np.empty((len(texts), R + 1), np.int64)
+        bases = np.zeros(len(texts) + 1, np.int64)
+        datas = []
+        for k, t in enumerate(texts):
+            t = t.combine_chunks() if isinstance(t, pa.ChunkedArray) else t
+            off = np.frombuffer(t.buffers()[1], np.int32)[t.offset:t.offset + R + 1]
+            offsets[k] = off
+            data = np.frombuffer(t.buffers()[2], np.uint8) if t.buffers()[2] is not None \
+                else np.zeros(0, np.uint8)
+            datas.append(data)
+            bases[k + 1] = bases[k] + data.shape[0]
+        data = np.concatenate(datas) if datas else np.zeros(0, np.uint8)
+        kinds_a = np.asarray(kinds, np.int64)
+        size = _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, None)
+        if buf.shape[0] < size:  # one buffer for every block: fresh pages fault as they fill
+            buf = np.empty(size + size // 4, np.uint8)
+        _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, buf[:size])
+        out.write(memoryview(buf[:size]))
+        n += R
+    return n
+
+
+def _json_lines(offsets, data, bases, kinds, missing, key_bytes, key_off, out) -> int:
+    if out is None:
+        return int(_json_size(offsets, data, bases, kinds, missing, key_off))
+    _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out)
+    return out.shape[0]
+
+
+@separate
+def _needs_point(data, a, b):
+    """A double's text with neither a point nor an exponent (Arrow writes 3 for 3.0): Python's
+    JSON writes 3.0."""
+    for i in range(a, b):
+        c = data[i]
+        if c == 46 or c == 101 or c == 69 or c == 110:  # . e E n
+            return False
+    return True
+
+
+@separate
+def _json_size(offsets, data, bases, kinds, missing, key_off):
+    total = 0
+    nc, R = offsets.shape[0], offsets.shape[1] - 1
+    for r in range(R):
+        for k in range(nc):
+            total += key_off[k + 1] - key_off[k]
+            if missing[k, r]:
+                total += 4
+                continue
+            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
+            total += b - a
+            if kinds[k] == 1 and _needs_point(data, a, b):
+                total += 2
+        total += 2
+    return total
+
+
+@separate
+def _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out):
+    o = 0
+    nc, R = offsets.shape[0], offsets.shape[1] - 1
+    for r in range(R):
+        for k in range(nc):
+            n = key_off[k + 1] - key_off[k]
+            out[o:o + n] = key_bytes[key_off[k]:key_off[k + 1]]
+            o += n
+            if missing[k, r]:
+                out[o], out[o + 1], out[o + 2], out[o + 3] = 110, 117, 108, 108  # null
+                o += 4
+                continue
+            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
+            out[o:o + b - a] = data[a:b]
+            o += b - a
+            if kinds[k] == 1 and _needs_point(data, a, b):
+                out[o], out[o + 1] = 46, 48  # .0
+                o += 2
+        out[o], out[o + 1] = 125, 10  # }\n
+        o += 2
+
+
+def event_table(reader: LogReader, ships: tuple[str, ...] | None = None,
+                first: int | None = None, last: int | None = None) -> dict[str, list]:
+    """The events (optionally of some ships, in ticks first..last) as columns."""
+    cols: dict[str, list] = {name: [] for name in EVENT_NAMES}
+    for row in event_rows(reader):
+        if ships is not None and row["ship_id"] not in ships:
+            continue
+        if (first is not None and row["tick"] < first) or (last is not None and
+                                                           row["tick"] > last):
+            continue
+        for name in EVENT_NAMES:
+            cols[name].append(row[name])
+    return cols
+
+
+def write_events(cols: dict[str, list], info: TableInfo, fmt: str, out) -> int:
+    """The event table in ``fmt``; ``out`` a path (parquet) or a binary file."""
+    n = len(cols["event"])
+    if fmt == "jsonl":
+        for k in range(n):
+            row = {name: cols[name][k] for name in info.columns}
+            try:
+                line = json.dumps(row, separators=(",", ":"), allow_nan=False)
+            except ValueError:
+                bad = next(c for c in info.columns if isinstance(row[c], float)
+                           and not math.isfinite(row[c]))
+                raise LogError(f"{info.path}: tick {cols['tick'][k]}, ship "
+                               f"{cols['ship_id'][k]}: event {bad} is {row[bad]} (the log is "
+                               f"damaged)") from None
+            out.write((line + "\n").encode())
+        return n
+    import pyarrow as pa
+    schema = arrow_schema(info, events=True)
+    table = pa.Table.from_arrays([pa.array(cols[f.name], f.type) for f in schema], schema=schema)
+    if fmt == "parquet":
+        import pyarrow.parquet as pq
+        pq.write_table(table, out, compression="zstd")
+    else:
+        import pyarrow.csv as pcsv
+        pcsv.write_csv(table, out)
+    return n
+
+
+__all__ = ["tick_rows", "event_rows", "write_jsonl", "what_was_read", "pb", "Selection",
+           "tick_blocks", "table_info", "write_parquet", "write_csv", "write_jsonl_blocks",
+           "event_table", "write_events", "parse_fields", "TICK_COLUMNS", "EVENT_COLUMNS",
+           "FORMATS"]

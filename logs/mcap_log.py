@@ -27,8 +27,11 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
-from logs.codec import BlockEncoder, decode_tick
-from logs.safe_read import ReadStatus, iter_messages
+from logs.codec import PACKED, BlockEncoder, decode_tick
+from logs.decode import TickBlock, decode_block
+from logs.safe_read import ReadLimits, ReadStatus, iter_messages
+from logs.structure import Structure
+from logs.structure import check as check_structure
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -454,6 +457,23 @@ class LogWriter(FinishedOrGone):
 
 
 
+#: the most a writer puts in a chunk before it closes it (LogWriter's chunk_size at most), bytes
+CHUNK_BYTES_MAX = 1 << 20
+
+
+def tick_bytes_bound(ships: int) -> int:
+    """The most bytes a tick record of ``ships`` ships holds, with margin: its header, and each
+    field's key, length and numbers (every field, a keyframe's too), then a quarter more."""
+    per_ship = sum(fields.per_ship(name) * (1 if dt == "u1" else 8) for _, name, dt in PACKED)
+    exact = 32 + 16 * len(PACKED) + ships * per_ship
+    return exact + exact // 4 + 4096
+
+
+def _ends_with_magic(s: Structure) -> bool:
+    """The file ends with MCAP's magic (finished; a cut file has none: read as a cut)."""
+    return not any(p.part == "footer" and "ends without a footer" in p.what for p in s.problems)
+
+
 class TickData:
     """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
     (a verification that finds the bytes identical never decodes them)."""
@@ -591,7 +611,14 @@ class LogReader:
         self.scenario: pb.ScenarioRecord | None = None
         self.summary: pb.LogSummary | None = None
         self.status = ReadStatus()
+        # the file's MCAP structure (no decompression): a finished file whose summary or footer
+        # is damaged but whose data section is whole is read by walking that section
+        self.structure = check_structure(self._file)
+        st = self.structure
+        self._walk = _ends_with_magic(st) and not st.summary_ok and st.data_end >= 0
+        self._largest_record = 0
         for topic, data in self._iter({TOPIC_SCENARIO}):
+            self._largest_record = len(data)
             try:
                 self.scenario = pb.ScenarioRecord.FromString(data)
             except Exception as exc:
@@ -626,16 +653,29 @@ class LogReader:
             raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
                            f"(limit {MAX_SCENARIO_CHARS:,})")
 
+    def structure_note(self) -> str:
+        """One line if the file's MCAP structure (message indexes, summary, footer) is damaged
+        while its content is readable (logs.structure), else "". A cut file (no footer) is not
+        said to be damaged here: its readers say what they recovered."""
+        return self.structure.line() if _ends_with_magic(self.structure) else ""
+
     def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
         for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
-                                             self.status):
+                                             self.status, walk=self._walk):
             yield topic, data
+
+    def messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
+        every reader of this log reads them (through its index, or by walking its data section
+        when its summary or footer is damaged)."""
+        yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
+                                 walk=self._walk)
 
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
         """(log time ns, message bytes) of one topic's messages, in log order."""
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
-                                                end_ns, self.status):
+                                                end_ns, self.status, walk=self._walk):
             yield t_ns, data
 
     @property
@@ -674,11 +714,94 @@ class LogReader:
         ships = len(self.scenario.ship_ids)
         fmt = self.scenario.log_format_version
         table = len(self.ship_table()) if fmt >= 3 else ships
+        limit = self.max_tick_bytes()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status):
+                                                end, self.status, self._tick_limits(),
+                                                walk=self._walk):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            if len(data) > limit:
+                raise self._oversize(t_ns // dt_ns, len(data))
             yield TickData(data, t_ns // dt_ns, str(self.path), ships, fmt, table)
+
+    def max_tick_bytes(self) -> int:
+        """The most bytes a tick record of this log can hold: every ship the log ever held
+        (its header's and each that joined), each with every field (sim.fields), with margin."""
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return tick_bytes_bound(ships)
+
+    def _oversize(self, tick: int, size: int) -> LogError:
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return LogError(f"{self.path}: tick {tick}: a tick record of {size:,} bytes, more than "
+                        f"the log's {ships:,} ship(s) can fill ({self.max_tick_bytes():,}); "
+                        f"refusing it")
+
+    def _tick_limits(self) -> ReadLimits:
+        """The reader's limits for the tick records: a chunk may hold at most what a writer puts
+        in one (its target size, then one message more: the largest tick this fleet fills, or
+        the log's header), so a chunk claiming more is refused before it is decompressed."""
+        base = ReadLimits.from_environment()
+        bound = (CHUNK_BYTES_MAX + max(self.max_tick_bytes(), self._largest_record)
+                 + (1 << 18))
+        if bound >= base.max_chunk_bytes:
+            return base
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
+            f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
+
+    def blocks(self, first: int | None = None, last: int | None = None,
+               wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
+               reuse: bool = False) -> Iterator[TickBlock]:
+        """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
+        records at a time, each block decoded and checked in one compiled pass
+        (logs.decode.decode_block); ``wanted``: the fields to gather (default all). ``reuse``:
+        every block's columns in one buffer, valid until the next block is asked for (a reader
+        that converts or copies each block at once saves the fresh pages' faults)."""
+        start = None if first is None else self.tick_time_ns(first)
+        end = None if last is None else self.tick_time_ns(last)
+        dt_ns = self.tick_time_ns(1)
+        fmt = self.log_format
+        table = len(self.ship_table()) if fmt >= 3 else len(self.scenario.ship_ids)
+        limit = self.max_tick_bytes()
+        # the records are decoded where they lie, in their decompressed chunks: one segment
+        # (buffer, begins, ends) per chunk
+        segments: list = []
+        times: list[int] = []
+        size = 0
+        columns = [None] if reuse else None
+        base = base_arr = None
+        begins: list[int] = []
+        ends: list[int] = []
+
+        def flush() -> TickBlock:
+            ticks = np.asarray(times, np.int64) // dt_ns
+            return decode_block(segments, None, ticks, fmt, table, len(self.scenario.ship_ids),
+                                wanted, str(self.path), columns)
+
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
+                                                end, self.status, self._tick_limits(),
+                                                views=True, walk=self._walk):
+            if t_ns % dt_ns:
+                raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            n = len(data)
+            if n > limit:
+                raise self._oversize(t_ns // dt_ns, n)
+            owner = data.obj if isinstance(data, memoryview) else data
+            if owner is not base:
+                base = owner
+                base_arr = np.frombuffer(owner, np.uint8)
+                begins, ends = [], []
+                segments.append((base_arr, begins, ends))
+            at = np.frombuffer(data, np.uint8).ctypes.data - base_arr.ctypes.data if n else 0
+            begins.append(at)
+            ends.append(at + n)
+            times.append(t_ns)
+            size += n
+            if size >= block_bytes:
+                yield flush()
+                segments, times, size, base = [], [], 0, None
+        if times:
+            yield flush()
 
     @property
     def log_format(self) -> int:
@@ -691,6 +814,7 @@ class LogReader:
             self._fleet: list[pb.FleetChange] = []
             if self.log_format >= 3:
                 for _topic, data in self._iter({TOPIC_FLEET}):
+                    self._largest_record = max(self._largest_record, len(data))
                     change = _parse(pb.FleetChange, data, f"{self.path}: damaged fleet record")
                     for j in change.joined:
                         try:

@@ -30,6 +30,11 @@ from dataclasses import dataclass
 from typing import IO, Iterator
 
 import zstandard
+
+try:  # zlib-ng's CRC-32 is the same function, several times faster (SIMD)
+    from zlib_ng.zlib_ng import crc32
+except ImportError:  # pragma: no cover - zlib-ng is a dependency; zlib's is the same numbers
+    from zlib import crc32
 from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, Footer, Message
 from mcap.stream_reader import StreamReader
@@ -49,6 +54,8 @@ class ReadLimits:
     max_chunk_bytes: int = 256 * _MIB  # a chunk's uncompressed size
     max_records_per_chunk: int = 1_000_000
     max_window_bytes: int = 64 * _MIB  # the zstd decoder's window (the writer's is ~1 MiB)
+    #: where max_chunk_bytes comes from, for the message refusing a chunk
+    chunk_bound: str = "TOUCHDOWN_MAX_CHUNK_MIB"
 
     @staticmethod
     def from_environment() -> "ReadLimits":
@@ -84,31 +91,36 @@ def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits) -> bytes:
     declared = chunk.uncompressed_size
     if declared > limits.max_chunk_bytes:
         raise LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
-                       f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB); refusing it")
+                       f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}); refusing it")
     if chunk.compression == "":
         data = chunk.data
     elif chunk.compression == "zstd":
         try:
             dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
-            out = bytearray()
+            # into a buffer of the declared size (checked above), and one byte more: enough to
+            # know a chunk holds more than it declares
+            out = bytearray(declared + 1)
+            view = memoryview(out)
+            got = 0
             with dctx.stream_reader(io.BytesIO(chunk.data), read_across_frames=True) as r:
-                while len(out) <= declared:  # one byte more than declared is enough to know
-                    piece = r.read(min(4 * _MIB, declared + 1 - len(out)))
-                    if not piece:
+                while got <= declared:
+                    n = r.readinto(view[got:])
+                    if not n:
                         break
-                    out += piece
+                    got += n
+            view.release()
         except zstandard.ZstdError as exc:
             raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
                            f"is at most {limits.max_window_bytes:,} bytes, "
                            f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
-        data = bytes(out)
+        data = out if got == len(out) else memoryview(out)[:got]
     else:
         raise LogError(f"{where}: chunk compression {chunk.compression!r} is not supported "
                        f"(zstd or none)")
     if len(data) != declared:
         raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but holds "
                        f"{'more' if len(data) > declared else f'{len(data):,}'}")
-    if chunk.uncompressed_crc != 0 and zlib.crc32(data) != chunk.uncompressed_crc:
+    if chunk.uncompressed_crc != 0 and crc32(data) != chunk.uncompressed_crc:
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
     return data
 
@@ -160,9 +172,24 @@ def _has_footer(f: IO[bytes], size: int) -> bool:
 
 def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None = None,
                   end_ns: int | None = None, status: ReadStatus | None = None,
-                  limits: ReadLimits | None = None) -> Iterator[tuple[str, int, bytes]]:
+                  limits: ReadLimits | None = None, views: bool = False, walk: bool = False
+                  ) -> Iterator[tuple[str, int, bytes]]:
     """(topic, log_time_ns, data) of the messages on ``topics`` with start <= log_time <= end,
-    within ``limits`` (default: ReadLimits.from_environment())."""
+    within ``limits`` (default: ReadLimits.from_environment()). ``views``: data as memoryviews
+    into the decompressed chunk (no copy), else bytes. ``walk``: read the data section record
+    by record, not through the summary (a finished file whose summary or footer is damaged, but
+    whose data section is whole: logs.structure)."""
+    messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk)
+    if views:
+        yield from messages
+    else:
+        for topic, t_ns, data in messages:
+            yield topic, t_ns, bytes(data)
+
+
+def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
+              end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None,
+              walk: bool = False) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     limits = limits if limits is not None else ReadLimits.from_environment()
     f.seek(0, io.SEEK_END)
@@ -180,13 +207,14 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
         status.complete = False
         yield from _walk(f, name, wanted, status, limits)
         return
-    footer = _footer(f, name, size)
-    if footer.summary_start == 0:  # finished, without a summary section (MCAP allows it)
+    footer = None if walk else _footer(f, name, size)
+    if walk or footer.summary_start == 0:  # finished, without a summary section (MCAP allows
+        # it), or with a damaged summary or footer (logs.structure): the data section, walked
         yield from _walk(f, name, wanted, status, limits)
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
         return
-    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits)
+    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics)
 
 
 def _footer(f, name: str, size: int) -> Footer:
@@ -201,7 +229,8 @@ def _footer(f, name: str, size: int) -> Footer:
 
 
 def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | None,
-             end_ns: int | None, limits: ReadLimits) -> Iterator[tuple[str, int, bytes]]:
+             end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset()
+             ) -> Iterator[tuple[str, int, bytes]]:
     try:
         f.seek(footer.summary_start)
         summary_len = size - len(MAGIC) - _FOOTER_RECORD - footer.summary_start
@@ -220,21 +249,21 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
             elif type(rec).__name__ == "ChunkIndex":
                 chunk_indexes.append(rec)
         chunk_indexes.sort(key=lambda c: (c.message_start_time, c.chunk_start_offset))
+        mine = {cid for cid, topic in channels.items() if topic in topics}
         for ci in chunk_indexes:
             if ((start_ns is not None and ci.message_end_time < start_ns)
                     or (end_ns is not None and ci.message_start_time > end_ns)):
                 continue  # seeking: chunks outside the window are never read
+            if ci.message_index_offsets and mine and not mine.intersection(
+                    ci.message_index_offsets):
+                continue  # the chunk's index lists no message of the topics asked for
             if (ci.chunk_start_offset < len(MAGIC)
                     or ci.chunk_start_offset + ci.chunk_length > footer.summary_start):
                 raise LogError(f"{name}: a chunk index points outside the data section")
             if ci.chunk_length > limits.max_chunk_bytes:
                 raise LogError(f"{name}: a chunk of {ci.chunk_length:,} bytes (limit "
                                f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
-            f.seek(ci.chunk_start_offset)
-            chunk = next(StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
-                                      record_size_limit=limits.max_chunk_bytes).records)
-            if not isinstance(chunk, Chunk):
-                raise LogError(f"{name}: expected a chunk at offset {ci.chunk_start_offset}")
+            chunk = _read_chunk(f, ci.chunk_start_offset, ci.chunk_length, name)
             for rec in _chunk_records(_chunk_data(chunk, name, limits), name, limits):
                 if isinstance(rec, Channel):
                     _add_channel(channels, rec, name)
@@ -244,6 +273,30 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
         raise
     except Exception as exc:  # CRC, zstd, struct, record-length errors: all mean damage
         raise LogError(f"{name}: damaged ({type(exc).__name__}: {exc})") from None
+
+
+def _read_chunk(f, offset: int, length: int, name: str) -> Chunk:
+    """The chunk record at ``offset`` of ``length`` bytes (its index's), parsed as mcap's reader
+    parses it, without a reader per chunk."""
+    f.seek(offset)
+    raw = f.read(length)
+    where = f"{name}: expected a chunk at offset {offset}"
+    if len(raw) != length or length < 9 + 8 * 3 + 4 + 4 + 8 or raw[0] != 0x06:
+        raise LogError(where)
+    (body_len,) = struct.unpack_from("<Q", raw, 1)
+    if 9 + body_len != length:
+        raise LogError(f"{where} (its record is {9 + body_len:,} bytes, its index says "
+                       f"{length:,})")
+    start, end, size, crc, n = struct.unpack_from("<QQQII", raw, 9)
+    o = 9 + 32 + n
+    if o + 8 > length:
+        raise LogError(where)
+    compression = bytes(raw[41:o]).decode("utf-8", "replace")
+    (records_len,) = struct.unpack_from("<Q", raw, o)
+    if o + 8 + records_len != length:
+        raise LogError(f"{where} (its records run past it)")
+    return Chunk(compression=compression, data=memoryview(raw)[o + 8:], message_start_time=start,
+                 message_end_time=end, uncompressed_crc=crc, uncompressed_size=size)
 
 
 def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
@@ -261,6 +314,8 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
         except Exception as exc:  # the end of the intact part
             status.damage = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
             return
+        if type(rec).__name__ == "DataEnd":  # the data section's end: the summary follows
+            return
         batch: list = [rec]
         if isinstance(rec, Chunk):
             try:
@@ -275,4 +330,21 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
                 yield channels[r.channel_id], r.log_time, r.data
 
 
-__all__ = ["iter_messages", "ReadStatus", "ReadLimits"]
+def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = None) -> bytes:
+    """The records of the chunk record at ``offset``, decompressed within ``limits`` and
+    CRC-checked; LogError if there is no sound chunk there."""
+    limits = limits if limits is not None else ReadLimits.from_environment()
+    try:
+        f.seek(offset)
+        chunk = next(StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
+                                  record_size_limit=limits.max_chunk_bytes).records)
+    except LogError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any failure to parse it is damage
+        raise LogError(f"{name}: damaged chunk at byte {offset:,} ({type(exc).__name__})") from None
+    if not isinstance(chunk, Chunk):
+        raise LogError(f"{name}: expected a chunk at byte {offset:,}")
+    return _chunk_data(chunk, name, limits)
+
+
+__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "chunk_at"]

@@ -261,8 +261,9 @@ def _recorded(chain: list[Segment]):
     """The recorded ticks the cut re-runs (after the keyframe), each with its file."""
     for i, seg in enumerate(chain):
         lo = seg.lo + 1 if i == 0 else seg.lo
-        for td in seg.reader.ticks(lo, seg.hi):
-            yield seg, td
+        for b in seg.reader.blocks(lo, seg.hi):  # decoded a block at a time, compiled
+            for k in range(b.ticks.shape[0]):
+                yield seg, b.tick(k)
 
 
 def _recorded_events(seg: Segment, ship_id: str, lo: int, hi: int) -> list[tuple[int, bytes]]:

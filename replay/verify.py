@@ -75,6 +75,8 @@ class VerifyResult:
     partial_note: str = ""
     #: how the inputs were found, when not from the log's own records (an older format)
     inputs_note: str = ""
+    #: the file's MCAP structure is damaged, its content read all the same (logs.structure)
+    structure_note: str = ""
 
     @property
     def identical(self) -> bool:
@@ -102,6 +104,8 @@ class VerifyResult:
                          f"compared bit for bit")
             if self.partial_note:
                 lines.append(f"only part of the run was checked: {self.partial_note}")
+            if self.structure_note:
+                lines.append(f"note: {self.structure_note}")
             return "\n".join(lines)
         d = self.divergence
         lines.append(f"DIVERGED at tick {d.tick} (t = {d.t_s:.4f} s), ship {d.ship_id}, "
@@ -190,6 +194,7 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         if res.divergence is None and whole:
             _compare_summary(reader, res, len(replayed))
         _say_what_was_checked(reader, res, target, events_to)
+        res.structure_note = reader.structure_note()
         return res
 
 

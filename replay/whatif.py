@@ -69,11 +69,12 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
         if start and new_dt != old_dt:
             raise LogError(f"{reader.path}: starts at tick {start} (its state there is a "
                            f"keyframe on its own tick): a what-if of it cannot change sim.dt")
-        old_ticks = {td.tick: td for td in reader.ticks()}
+        old_ticks = _recorded_positions(reader)
         if start:
-            if start not in old_ticks:
+            first = next(reader.ticks(start, start), None)
+            if start not in old_ticks or first is None:
                 raise LogError(f"{reader.path}: no tick record at its first tick {start}")
-            world = keyframe_world(reader, scn, old_ticks[start])
+            world = keyframe_world(reader, scn, first)
             if ship_id is not None and ship_id not in reader.ship_table():
                 raise LogError(f"{reader.path}: no ship {ship_id!r} in this log")
             if ship_id is not None:
@@ -142,6 +143,30 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
     if not math.isfinite(res.max_position_diff_m):
         res.max_position_diff_m = float("inf")
     return res
+
+
+class _Recorded:
+    """One recorded tick's ships (keys), positions and attitudes: what a what-if compares."""
+
+    __slots__ = ("keys", "pos", "quat")
+
+    def __init__(self, keys: np.ndarray, pos: np.ndarray, quat: np.ndarray):
+        self.keys, self.pos, self.quat = keys, pos, quat
+
+    def vec(self, name: str, width: int) -> np.ndarray:
+        return self.pos if name == "pos_m" else self.quat
+
+
+def _recorded_positions(reader: LogReader) -> dict[int, _Recorded]:
+    """Every recorded tick's positions and attitudes, decoded a block at a time (compiled:
+    LogReader.blocks), holding those two fields only."""
+    out = {}
+    for b in reader.blocks(wanted=("pos_m", "quat")):
+        pos, quat = b.columns["pos_m"], b.columns["quat"]
+        for k in range(b.ticks.shape[0]):
+            lo, hi = b.row_off[k], b.row_off[k + 1]
+            out[int(b.ticks[k])] = _Recorded(b.keys[lo:hi], pos[lo:hi], quat[lo:hi])
+    return out
 
 
 def _scenario(reader: LogReader, overrides: dict, ship_id: str | None) -> Scenario:

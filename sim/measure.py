@@ -28,8 +28,13 @@ def body_angles(params: Params, t_s: np.ndarray | float, n: int) -> tuple[np.nda
     tick's start (sim.frames.body_rotation)."""
     t = np.broadcast_to(np.asarray(t_s, dtype=float), (n,))
     om = params.body.omega_radps
-    cs = np.array([body_rotation(om, float(x)) for x in t]).reshape(n, 2)
-    return cs[:, 0].copy(), cs[:, 1].copy()
+    if n == 0:
+        return np.zeros(0), np.zeros(0)
+    # one call per run of equal instants (rows come tick by tick: a fleet's rows share one)
+    starts = np.concatenate(([0], np.flatnonzero(t[1:] != t[:-1]) + 1))
+    cs = np.array([body_rotation(om, float(x)) for x in t[starts]]).reshape(-1, 2)
+    lengths = np.diff(np.append(starts, n))
+    return np.repeat(cs[:, 0], lengths), np.repeat(cs[:, 1], lengths)
 
 
 @kernel

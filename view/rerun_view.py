@@ -320,6 +320,11 @@ def blueprint(layout: Layout):
     plots = [rrb.TimeSeriesView(origin=f"plots/{panel}", name=title,
                                 plot_legend=rrb.PlotLegend(corner="RightTop", visible=True))
              for panel, title, _ in PANELS]
+    if any(r.overview is not None for r in layout.runs):  # a fleet: the whole of it first
+        plots = [rrb.Spatial3DView(origin="fleet", name="Fleet: every ship, coloured by state"),
+                 rrb.TimeSeriesView(origin="fleet_states", name="Fleet: ships per state",
+                                    plot_legend=rrb.PlotLegend(corner="RightTop", visible=True))
+                 ] + plots
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
@@ -366,6 +371,34 @@ def build(runs: list[Run], recording_id: str):
     return rec, layout
 
 
+def _overview(rr, rec, layout: Layout, run: Run) -> None:
+    """The whole fleet: ships per state over time (one line per state), and every ship's
+    position coloured by its state at the sampled ticks (the latest at the time cursor)."""
+    ov = run.overview
+    if ov is None or ov.tick.size == 0:
+        return
+    p = layout.prefix(run)
+    times = [rr.TimeColumn("tick", sequence=ov.tick), rr.TimeColumn("sim_time", duration=ov.t_s)]
+    for s in SurfaceState:
+        path = f"fleet_states/{p}{s.label}"
+        rec.log(path, rr.SeriesLines(colors=[STATE_COLORS[s]],
+                                     names=f"{run.label + ': ' if p else ''}{s.label}"),
+                static=True)
+        rr.send_columns(path, indexes=times,
+                        columns=rr.Scalars.columns(scalars=ov.counts[:, int(s)].astype(float)),
+                        recording=rec)
+    if ov.frame_tick.size:
+        palette = np.array([STATE_COLORS[s] for s in SurfaceState], dtype=np.uint8)
+        rec.log(f"fleet/{p}ships", rr.Points3D.from_fields(radii=[-3.0]), static=True)
+        rr.send_columns(
+            f"fleet/{p}ships",
+            indexes=[rr.TimeColumn("tick", sequence=ov.frame_tick),
+                     rr.TimeColumn("sim_time", duration=ov.frame_t_s)],
+            columns=rr.Points3D.columns(positions=ov.pos_site_m,
+                                        colors=palette[ov.state]).partition(ov.frame_rows),
+            recording=rec)
+
+
 def populate(rec, layout: Layout) -> None:
     import rerun as rr
 
@@ -377,6 +410,7 @@ def populate(rec, layout: Layout) -> None:
     for run in layout.runs:
         _thresholds(rr, rec, layout, run)
         _events(rr, rec, layout, run)
+        _overview(rr, rec, layout, run)
         for track in run.ships:
             base = f"world/{layout.prefix(run)}{track.ship_id}"
             rr.send_columns(f"{base}/ship", indexes=_times(rr, track),
@@ -402,15 +436,15 @@ def load_runs(paths: list[str | Path], ship_id: str | None) -> tuple[list[Run], 
     """The runs to show and the notes to print (a log read only in part, ships left out)."""
     runs, notes = [], []
     for p in paths:
-        run = read_run(p, ship_id=ship_id)
+        # only what is drawn is held: up to MAX_SHIPS ships in full, and the fleet's overview
+        run = read_run(p, ship_id=ship_id, max_ships=MAX_SHIPS)
         if run.partial_note:
             notes.append(run.partial_note)
-        if len(run.ships) > MAX_SHIPS:
-            notes.append(f"{p}: showing {MAX_SHIPS} of its {len(run.ships)} ships; pick one with "
-                         f"--ship ID")
-            shown = run.ships[:MAX_SHIPS]
-            ids = {t.ship_id for t in shown}
-            run = replace(run, ships=shown, events=tuple(e for e in run.events if e.ship_id in ids))
+        if run.structure_note:
+            notes.append(run.structure_note)
+        if ship_id is None and run.fleet_size > MAX_SHIPS:
+            notes.append(f"{p}: showing {MAX_SHIPS} of its {run.fleet_size} ships in full, every "
+                         f"ship in the fleet overview; pick one with --ship ID")
         runs.append(run)
     return runs, notes
 

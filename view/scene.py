@@ -18,6 +18,7 @@ import numpy as np
 from logs import LogError
 from logs.mcap_log import LogReader, fleet_params, scenario_of
 from sim import fields, measure
+from sim.enums import SurfaceState
 from sim.measure import ENERGY_PARTS
 from sim.params import Params
 
@@ -75,6 +76,14 @@ class Run:
     ships: tuple[ShipTrack, ...]
     events: tuple[RunEvent, ...]
     partial_note: str  # "" when the whole log was read
+    #: the whole fleet at a glance (a log of more than one ship), else None
+    overview: "FleetOverview | None" = None
+    #: ships in the log (``ships`` holds those drawn in full)
+    fleet_size: int = 0
+    #: the file's MCAP structure is damaged, its content read all the same ("" if not)
+    structure_note: str = ""
+
+
 
     @property
     def critical_tilt_foot_deg(self) -> np.ndarray:
@@ -89,8 +98,31 @@ class Run:
         return np.degrees(np.arctan2(sh.leg_radius_m, math.sqrt(2.0) * sh.com_height_m))
 
 
-def read_run(path: str | Path, label: str | None = None, ship_id: str | None = None) -> Run:
-    """Read a log into columns. ``ship_id`` keeps one ship (LogError if the log has none such)."""
+@dataclass(frozen=True)
+class FleetOverview:
+    """Every ship of a log, in little memory: how many ships are in each state at every tick,
+    and every ship's position and state at ``frames`` sampled ticks (every ``stride``-th)."""
+
+    tick: np.ndarray  # (T,) every tick read
+    t_s: np.ndarray  # (T,)
+    counts: np.ndarray  # (T, 5) ships per SurfaceState
+    frame_tick: np.ndarray  # (F,) the sampled ticks
+    frame_t_s: np.ndarray  # (F,)
+    frame_rows: np.ndarray  # (F,) ships at each sampled tick
+    pos_site_m: np.ndarray  # (sum rows, 3) float32, east, north, up
+    state: np.ndarray  # (sum rows,) uint8
+    stride: int
+
+
+#: sampled ticks of a fleet's positions at most (each holds every ship)
+OVERVIEW_FRAMES = 200
+
+
+def read_run(path: str | Path, label: str | None = None, ship_id: str | None = None,
+             max_ships: int = 16) -> Run:
+    """Read a log into columns, holding only what is drawn: the first ``max_ships`` ships (or
+    ``ship_id`` alone; LogError if the log has none such) in full, and for a fleet its overview
+    (FleetOverview). The log is decoded a block of ticks at a time (LogReader.blocks)."""
     path = Path(path)
     with LogReader(path) as reader:
         scn, _ = scenario_of(reader)
@@ -99,41 +131,57 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
         if ship_id is not None and ship_id not in ids:
             raise LogError(f"{path}: no ship {ship_id!r} (ships: {', '.join(ids[:10])}"
                            f"{', ...' if len(ids) > 10 else ''})")
-        cols: dict[str, list[np.ndarray]] = {}
-        ticks: list[int] = []
-        keys: list[np.ndarray] = []
+        wanted = [ids.index(ship_id)] if ship_id is not None else list(
+            range(min(len(ids), max_ships)))
+        wanted_keys = np.asarray(wanted, np.int64)
         # what a log holds on every tick (sim.fields), bar the commands
         drawn = [f for f in fields.FIELDS if not f.keyframe_only and f.record != "inputs"]
         names = tuple(f.in_log for f in drawn)
         width = {f.in_log: f.per_ship for f in drawn}
-        for td in reader.ticks():
-            a = td.arrays
-            n = td.ship_count
-            ticks.append(td.tick)
-            keys.append(td.keys)
+        cols: dict[str, list[np.ndarray]] = {name: [] for name in names}
+        ticks: list[np.ndarray] = []
+        keys: list[np.ndarray] = []
+        fleet = _OverviewBuilder(params, reader) if len(ids) > 1 and ship_id is None else None
+        last_tick = None
+        held = fields.EVERY_TICK_BY_FORMAT[reader.log_format] + \
+            fields.KEYFRAME_BY_FORMAT[reader.log_format]
+        for b in reader.blocks(wanted=tuple(n for n in names if n in held), reuse=True):
+            last_tick = int(b.ticks[-1])
+            if fleet is not None:
+                fleet.add(b)
+            rows = np.flatnonzero(np.isin(b.keys, wanted_keys))
+            tick_rows = b.tick_of_row()[rows]
+            ticks.append(tick_rows)
+            keys.append(b.keys[rows])
+            tick_index = np.repeat(np.arange(b.ticks.shape[0]), b.counts)[rows]
             for name in names:
-                arr = a.get(name)
-                if arr is None:  # a format-1 log: velocities on keyframes only, no guard
-                    arr = np.full(n * width.get(name, 1), np.nan)
-                cols.setdefault(name, []).append(
-                    np.asarray(arr, float).reshape(n, width.get(name, 1)))  # n may be 0
-        if not ticks:
+                w = width.get(name, 1)
+                col = b.columns.get(name)
+                if col is None:  # a format-1 log: no guard
+                    cols[name].append(np.full((rows.size, w), np.nan))
+                    continue
+                a = np.asarray(col[rows], float).reshape(rows.size, w)
+                held = b.present[name][tick_index]
+                if not held.all():  # a format-1 log: velocities on keyframes only
+                    a[~held] = np.nan
+                cols[name].append(a)
+        if last_tick is None:
             raise LogError(f"{path}: the log holds no tick")
         from logs.export import what_was_read
-        note = what_was_read(reader, ticks[-1])
+        note = what_was_read(reader, last_tick)
+        damage = reader.structure_note()
+        shown = {ids[k] for k in wanted}
         events = tuple(
             RunEvent(ev.tick, ev.t_s, ev.ship_id, ev.event, ev.from_state, ev.to_state,
                      ev.v_radial_mps, ev.ship.tilt_deg)
-            for ev in reader.events() if ship_id is None or ev.ship_id == ship_id)
-    # every ship-tick in one array per field, then each ship's rows (its ticks: it may join late
-    # or leave early) by one stable sort on the key
-    per_tick = np.array([k.size for k in keys])
+            for ev in reader.events() if ev.ship_id in shown)
+    # the drawn ships' rows, each ship's (its ticks: it may join late or leave early) by one
+    # stable sort on the key
     all_keys = np.concatenate(keys)
-    all_ticks = np.repeat(np.asarray(ticks, dtype=np.int64), per_tick)
+    all_ticks = np.concatenate(ticks)
     flat = {k: np.concatenate(v) for k, v in cols.items()}
     order = np.argsort(all_keys, kind="stable")
     bounds = np.searchsorted(all_keys[order], np.arange(len(ids) + 1))
-    wanted = [ids.index(ship_id)] if ship_id is not None else range(len(ids))
     dt = params.sim.dt_s
     tracks = []
     for key in wanted:
@@ -145,7 +193,53 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
         c, s = measure.body_angles(params, t_s, tick.shape[0])
         col = {k: v[rows, 0] if v.shape[1] == 1 else v[rows] for k, v in flat.items()}
         tracks.append(_track(params, key, col, tick, t_s, c, s))
-    return Run(label or path.stem, path, params, dt, tuple(tracks), events, note)
+    return Run(label or path.stem, path, params, dt, tuple(tracks), events, note,
+               fleet.done() if fleet is not None else None, len(ids),
+               f"{path}: {damage}" if damage else "")
+
+
+class _OverviewBuilder:
+    """Gathers a FleetOverview block by block."""
+
+    def __init__(self, params: Params, reader: LogReader):
+        self.params = params
+        sr = reader.scenario
+        span = max(1, (sr.n_ticks if not sr.open_ended else 0) - reader.start_tick)
+        self.stride = max(1, -(-span // OVERVIEW_FRAMES))
+        self.start = reader.start_tick
+        self.tick, self.t_s, self.counts = [], [], []
+        self.f_tick, self.f_t, self.f_rows, self.pos, self.state = [], [], [], [], []
+
+    def add(self, b) -> None:
+        n = len(SurfaceState)
+        idx = np.repeat(np.arange(b.ticks.shape[0]), b.counts)
+        st = b.columns["surface_state"].reshape(-1).astype(np.int64)
+        self.counts.append(np.bincount(idx * n + st, minlength=b.ticks.shape[0] * n)
+                           .reshape(-1, n).astype(np.int32))
+        self.tick.append(b.ticks)
+        self.t_s.append(b.t_s)
+        pick = np.flatnonzero((b.ticks - self.start) % self.stride == 0)
+        if pick.size == 0:
+            return
+        rows = np.concatenate([np.arange(b.row_off[k], b.row_off[k + 1]) for k in pick])
+        t = np.repeat(b.t_s[pick], b.counts[pick])
+        c, s = measure.body_angles(self.params, t, rows.size)
+        pos = measure.to_site(b.columns["pos_m"][rows], c, s)
+        pos[:, 2] -= self.params.body.radius_m
+        self.pos.append(pos.astype(np.float32))
+        self.state.append(st[rows].astype(np.uint8))
+        self.f_tick.append(b.ticks[pick])
+        self.f_t.append(b.t_s[pick])
+        self.f_rows.append(b.counts[pick])
+
+    def done(self) -> FleetOverview:
+        cat = lambda xs, dt: np.concatenate(xs) if xs else np.zeros(0, dt)  # noqa: E731
+        return FleetOverview(
+            cat(self.tick, np.int64), cat(self.t_s, float),
+            np.concatenate(self.counts) if self.counts else np.zeros((0, len(SurfaceState))),
+            cat(self.f_tick, np.int64), cat(self.f_t, float), cat(self.f_rows, np.int64),
+            np.concatenate(self.pos) if self.pos else np.zeros((0, 3), np.float32),
+            cat(self.state, np.uint8), self.stride)
 
 
 def _track(params: Params, i: int, col: dict[str, np.ndarray], tick: np.ndarray,

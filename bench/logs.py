@@ -1,0 +1,165 @@
+"""Logs at fleet scale: ``touchdown bench logs [--quick]``.
+
+Records a fleet log (1,000 ships, 2,001 ticks: 2 million ship-ticks; ``--quick``: 200 ships, 401
+ticks), then runs each command on it as a whole command (a fresh process, pinned to one core;
+wall time and peak memory, startup included) and prints the figures as ratios against the old
+path measured in the same run: the per-row JSON Lines export that ``export`` was before issue 25
+(a dict per row, ``json.dumps`` per row, the tick records decoded in Python). Then where the time
+of a Parquet export goes (in this process: opening, decoding, converting, writing), and the
+bounded reader's refusal of a tick record larger than the fleet can fill.
+"""
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: the export before issue 25, as it was: rows as dicts, JSON per row, Python decoding
+OLD_EXPORT = """
+import sys
+import logs.mcap_log as m
+from logs.codec import decode_tick_python
+from logs.export import tick_rows, write_jsonl
+m.decode_tick = decode_tick_python  # the decoder export used then
+with m.LogReader(sys.argv[1]) as r, open(sys.argv[2], "w") as f:
+    write_jsonl(tick_rows(r), f, sys.argv[1])
+"""
+
+
+def _one_core() -> None:
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+
+
+def run(args: list[str]) -> tuple[float, float, float]:
+    """(wall seconds, CPU seconds, peak resident MB) of a command in a fresh process on one
+    core. The CPU seconds (user + system) are the figure on a shared machine: the wall time
+    also counts the time others held the core."""
+    with tempfile.TemporaryFile() as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, *args], cwd=ROOT, stdout=subprocess.DEVNULL,
+                                stderr=err, preexec_fn=_one_core)
+        _pid, status, usage = os.wait4(proc.pid, 0)
+        took = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            raise RuntimeError(f"{' '.join(args[:3])}: exit {proc.returncode}: "
+                               f"{err.read().decode(errors='replace')[-500:]}")
+    return took, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0
+
+
+def record_fleet(path: str, ships: int, ticks: int) -> float:
+    from bench.speed import fleet_doc
+    from service import driver
+    from sim.scenario import parse
+    scn = parse(fleet_doc(ships, ticks * 0.05), "bench")
+    t0 = time.perf_counter()
+    driver.record(scn, path, "bench")
+    return time.perf_counter() - t0
+
+
+def breakdown(log: str, out: str) -> dict[str, float]:
+    """Where a Parquet export's time goes, in this process (the kernels loaded already)."""
+    from logs import export as ex
+    from logs.mcap_log import LogReader
+    t = {}
+    clock = time.process_time
+    t0 = clock()
+    with LogReader(log) as r:
+        r.ship_table()
+        ex.table_info(r)
+        t["open the log, its ships"] = clock() - t0
+        t0 = clock()
+        for _ in r.blocks(wanted=ex.SOURCE_FIELDS, reuse=True):
+            pass
+        t["read and decode (compiled)"] = clock() - t0
+        t0 = clock()
+        for _ in ex.tick_blocks(r):
+            pass
+        t["... and derive the columns"] = clock() - t0
+        t0 = clock()
+        ex.write_parquet(ex.tick_blocks(r), ex.table_info(r), out)
+        t["... and write Parquet"] = clock() - t0
+    return t
+
+
+def bounded_refusal(tmp: str) -> float:
+    """Seconds to refuse a log declaring one 100 MiB tick record (a few kB on disk)."""
+    from bench import fuzz
+    from logs import LogError
+    from replay.verify import verify
+    src = os.path.join(tmp, "small.mcap")
+    record_fleet(src, 2, 20)
+
+    n = 100 << 20
+    varint = bytes([(n >> (7 * k)) & 0x7F | (0x80 if n >> (7 * (k + 1)) else 0)
+                    for k in range(4)])
+
+    def edit(topic, data):
+        if topic == "/touchdown/ticks" and data[:2] == b"\x08\x01":
+            data = b"\x08\x01\x2a" + varint + bytes(n)  # one packed field of 100 MiB
+        return [(topic, data)]
+    bad = os.path.join(tmp, "bomb.mcap")
+    Path(bad).write_bytes(fuzz._rewrite(Path(src).read_bytes(), edit))
+    t0 = time.perf_counter()
+    try:
+        verify(bad)
+    except LogError:
+        pass
+    return time.perf_counter() - t0, os.path.getsize(bad)
+
+
+def main(quick: bool = False) -> None:
+    from bench.speed import machine
+    ships, ticks = (200, 400) if quick else (1000, 2000)
+    rows = ships * (ticks + 1)
+    print(f"machine: {machine()}; each command a fresh process on one core (startup included)")
+    with tempfile.TemporaryDirectory(prefix="touchdown-bench-logs-") as tmp:
+        log = os.path.join(tmp, "fleet.mcap")
+        took = record_fleet(log, ships, ticks)
+        print(f"log: {ships:,} ships x {ticks + 1:,} ticks = {rows:,} rows, "
+              f"{os.path.getsize(log) / 1e6:.0f} MB, recorded in {took:.1f} s")
+        cli = str(ROOT / "cli.py")
+        old_out = os.path.join(tmp, "old.jsonl")
+        w_old, c_old, m_old = run(["-c", OLD_EXPORT, log, old_out])
+        size_old = os.path.getsize(old_out)
+        os.unlink(old_out)
+        print(f"{'':36} {'wall s':>7} {'CPU s':>7} {'rows/CPU s':>11} {'out MB':>7} "
+              f"{'peak MB':>8}  against the old export (CPU)")
+        print(f"{'old export (JSON Lines, per row)':36} {w_old:7.2f} {c_old:7.2f} "
+              f"{rows / c_old:11,.0f} {size_old / 1e6:7.0f} {m_old:8.0f}  1")
+        for fmt in ("parquet", "csv", "jsonl"):
+            out = os.path.join(tmp, f"out.{fmt}")
+            w, c, m = run([cli, "export", log, "--format", fmt, "-o", out])
+            size = os.path.getsize(out)
+            os.unlink(out)
+            print(f"{'export --format ' + fmt:36} {w:7.2f} {c:7.2f} {rows / c:11,.0f} "
+                  f"{size / 1e6:7.0f} {m:8.0f}  {c_old / c:.1f}x faster, {size_old / size:.1f}x "
+                  f"smaller")
+        w, c, m = run([cli, "view", log, "-o", os.path.join(tmp, "view.rrd")])
+        print(f"{'view -o OUT.rrd (16 ships + fleet)':36} {w:7.2f} {c:7.2f} {'':>11} "
+              f"{os.path.getsize(os.path.join(tmp, 'view.rrd')) / 1e6:7.0f} {m:8.0f}  "
+              f"(aim: under 5 s and 400 MB for 1,000 ships)")
+        for name, args in (("replay --verify", ["replay", log, "--verify"]),
+                           ("doctor", ["doctor", log])):
+            w, c, m = run([cli, *args])
+            print(f"{name:36} {w:7.2f} {c:7.2f} {rows / c:11,.0f} {'':>7} {m:8.0f}")
+        w, c, m = run(["-c", "import cli"])
+        print(f"{'(python, import cli: startup)':36} {w:7.2f} {c:7.2f} {'':>11} {'':>7} {m:8.0f}")
+        print("a Parquet export, in this process (CPU seconds; each line includes the ones above "
+              "it but the first):")
+        for what, s in breakdown(log, os.path.join(tmp, "in.parquet")).items():
+            print(f"  {what:34} {s:6.2f} s  {rows / s:11,.0f} rows/s")
+        s, size = bounded_refusal(tmp)
+        print(f"a {size / 1e3:.0f} kB log declaring a 100 MiB tick record: refused in {s:.3f} s "
+              f"(verify, in this process)")
+
+
+if __name__ == "__main__":
+    main(quick="--quick" in sys.argv)
