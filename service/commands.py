@@ -48,10 +48,11 @@ class Request:
     values: dict = field(default_factory=dict, hash=False)
     player_id: str = ""
     size: int = 0  # the entry's bytes, for the tick's budget (not journaled)
+    origin: str = ""  # its id on the shared stream it was routed from ("" if sent directly)
 
     def as_json(self) -> dict:
         return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
-                "values": self.values, "player_id": self.player_id}
+                "values": self.values, "player_id": self.player_id, "origin": self.origin}
 
 
 @dataclass(frozen=True)
@@ -64,18 +65,20 @@ class Rejected:
     cmd: str = ""
     player_id: str = ""
     size: int = 0
+    origin: str = ""
 
     def as_json(self) -> dict:
         return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
-                "reject": self.reason, "player_id": self.player_id}
+                "reject": self.reason, "player_id": self.player_id, "origin": self.origin}
 
 
 def from_json(d: dict) -> Request | Rejected:
     """A journal's record back to what :func:`parse` gave."""
     if "reject" in d:
         return Rejected(d["id"], d["ship_id"], d["reject"], d.get("cmd", ""),
-                        d.get("player_id", ""))
-    return Request(d["id"], d["cmd"], d["ship_id"], d["values"], d.get("player_id", ""))
+                        d.get("player_id", ""), origin=d.get("origin", ""))
+    return Request(d["id"], d["cmd"], d["ship_id"], d["values"], d.get("player_id", ""),
+                   origin=d.get("origin", ""))
 
 
 def shard_of(ship_id: str, shards: int) -> int:

@@ -181,13 +181,15 @@ return 1
 #: Entries of the shared command stream moved to their shards' streams and acknowledged, in one
 #: step (nothing routed twice, nothing lost): KEYS source, then shard 0..S-1's streams; ARGV
 #: group, then per entry: id, shard, field count, fields...
+ROUTED = "routed_from"  # the field ROUTE adds: the entry's id on the shared stream
 ROUTE = """
+local ROUTED = 'routed_from'
 local i, moved, last = 2, 0, nil
 while i <= #ARGV do
   local id, k, nf = ARGV[i], tonumber(ARGV[i + 1]), tonumber(ARGV[i + 2])
   local args = {}
   for j = 0, 2 * nf - 1 do args[#args + 1] = ARGV[i + 3 + j] end
-  if nf > 0 then redis.call('XADD', KEYS[k + 2], '*', unpack(args)) end
+  if nf > 0 then redis.call('XADD', KEYS[k + 2], '*', ROUTED, id, unpack(args)) end
   redis.call('XACK', KEYS[1], ARGV[1], id)
   moved, last = moved + 1, id
   i = i + 3 + 2 * nf

@@ -23,6 +23,7 @@ of an outage are dropped.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -152,6 +153,7 @@ class Worker:
         self._last_counts = (time.monotonic(), 0, 0)
         self._metrics = None
         self._metrics_server = None
+        self.last_figures: dict = {}
         try:
             self.r = rio.connect(cfg.url, cfg.password)
             self.r_ping = rio.connect(cfg.url, cfg.password, timeout=0.25)
@@ -310,7 +312,7 @@ class Worker:
             o = self.owned[k]
             self._step(o, self._admit(o))
         if self.redis_up:
-            self._redis(self._flush)
+            self._redis(self._flush, clears=True)
 
     def _admit(self, o: _Owned) -> list:
         """The backlog's requests for this tick, in order, within the tick's budget of
@@ -370,13 +372,14 @@ class Worker:
                          f"have them)", "error")
 
     # -- Redis, each step guarded ------------------------------------------------------------
-    def _redis(self, fn, *args):
+    def _redis(self, fn, *args, clears: bool = False):
         """Run ``fn``. If Redis is unreachable, mark it down (the loop goes on); if it refuses
         (out of memory, a missing permission, read-only, ...), say so at most every few
-        seconds and go on holding what is unsent. Returns None on either."""
+        seconds and go on holding what is unsent. Returns None on either. ``clears``: a
+        success means the refusal is over (the writes went through)."""
         try:
             result = fn(*args)
-            if self._refused is not None:
+            if clears and self._refused is not None:
                 self.log(f"redis {self.where} accepts writes again ({self._refused} is over): "
                          f"delivering what was held")
                 self._refused = None
@@ -459,12 +462,14 @@ class Worker:
                 self.stats.commands_read += 1
 
     def _parse(self, k: int, eid: str, raw: dict) -> Request | Rejected:
-        req = parse(eid, decode_entry(raw))
+        fields = decode_entry(raw)
+        origin = fields.pop(rio.ROUTED, "")[:40]
+        req = dataclasses.replace(parse(eid, fields), origin=origin)
         if req.ship_id and shard_of(req.ship_id, self.cfg.shards) != k:
             right = shard_of(req.ship_id, self.cfg.shards)
             return Rejected(eid, req.ship_id, f"sent to shard {k}'s stream, but ship "
                             f"{req.ship_id!r} belongs to shard {right} (shard_of)",
-                            getattr(req, "cmd", ""), req.player_id, req.size)
+                            getattr(req, "cmd", ""), req.player_id, req.size, origin)
         return req
 
     def _route(self) -> None:
@@ -763,9 +768,8 @@ class Worker:
         while shard.tick < last:
             self._take(o, shard.step(journal.get(shard.tick, [])))
             caught += 1
-        o.specs.clear()
-        o.params.clear()
-        o.telemetry.clear()
+        o.telemetry.clear()  # (specs and parameters are written again: a spawn journaled by
+        # an owner that died before writing them would otherwise have none)
         for eid, raw in claimed:
             o.inflight.add(eid)
             o.backlog.append(self._parse(k, eid, raw))
@@ -793,7 +797,7 @@ class Worker:
         start = "0-0"
         for _ in range(10_000):
             reply = self.r.xautoclaim(self.keys.commands, rio.Keys.ROUTER, self.id, 0,
-                                      start_id=start, count=1000, justid=True)
+                                      start_id=start, count=1000)
             start = reply[0]
             if start in (b"0-0", "0-0"):
                 break
@@ -806,6 +810,7 @@ class Worker:
             return  # try again at the next lease round
         self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         o.shard.log.close(complete=True, reason="handed over")
+        self._keep_counts(o)
         del self.owned[k]
         self.log(f"shard {k}: handed over at tick {o.shard.tick}")
 
@@ -813,6 +818,7 @@ class Worker:
         o = self.owned.pop(k, None)
         if o is None:
             return
+        self._keep_counts(o)
         o.shard.log.close(complete=True, reason="lost")
         self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); {len(o.unsent)} unsent "
                  f"entries left to its new owner, which re-derives them", "warning")
@@ -852,6 +858,11 @@ class Worker:
         return fig
 
     _gone_counts = (0, 0, 0)
+
+    def _keep_counts(self, o: _Owned) -> None:
+        c = o.shard.counts
+        a, r, u = self._gone_counts
+        self._gone_counts = (a + c.applied, r + c.rejected, u + c.unpublished)
 
     def _report(self) -> None:
         self._next_stats = time.monotonic() + self.cfg.stats_every_s
@@ -905,6 +916,7 @@ class Worker:
         if held:
             self.log(f"stopped with {held:,} entries undelivered (Redis unreachable or "
                      f"refusing); the flight logs have them", "error")
+        self.last_figures = self.figures()
         self.owned.clear()
         try:
             self.r.zrem(self.keys.workers, self.id)

@@ -198,7 +198,7 @@ class Shard:
     def _rejection(self, req, reason: str, t: int) -> dict:
         return {"event": REJECTED, "ship_id": req.ship_id,
                 "player_id": self._player(req.ship_id), "body": self.body, "tick": str(t),
-                "cmd": req.cmd, "reason": reason, "entry_id": req.entry_id}
+                "cmd": req.cmd, "reason": reason, "entry_id": req.origin or req.entry_id}
 
     def _owner(self, sid: str) -> str | None:
         """The player of ship ``sid`` (present, or known to this shard), or None."""
