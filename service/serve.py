@@ -318,17 +318,20 @@ class Worker:
         """The backlog's requests for this tick, in order, within the tick's budget of
         commands, spawns and bytes; the rest wait for the next tick."""
         cfg = self.cfg
-        out, spawns, size = [], 0, 0
+        out, spawned, size = [], set(), 0
         while o.backlog and len(out) < cfg.max_commands_per_tick:
             req = o.backlog[0]
-            is_spawn = getattr(req, "cmd", "") == "spawn"
-            if is_spawn and spawns >= cfg.max_spawns_per_tick:
+            is_spawn = isinstance(req, Request) and req.cmd == "spawn"
+            if is_spawn and len(spawned) >= cfg.max_spawns_per_tick:
                 break
             if out and size + req.size > cfg.max_command_bytes_per_tick:
                 break
+            if not is_spawn and req.ship_id in spawned:
+                break  # a ship's commands after its spawn wait for the tick it has joined
             o.backlog.popleft()
             out.append(req)
-            spawns += is_spawn
+            if is_spawn:
+                spawned.add(req.ship_id)
             size += req.size
         return out
 

@@ -163,7 +163,9 @@ def _from_logs(folder: Path) -> tuple[dict, dict, dict]:
                 throttles.setdefault((c.ship_id, c.throttle), set()).add(c.tick)
             table = r.ship_table()
             for t in r.ticks():
-                states = t.arrays["surface_state"]
+                states = t.arrays.get("surface_state")
+                if states is None:  # a tick with no ships
+                    continue
                 for j, key in enumerate(t.keys):
                     sid = table.ids[int(key)]
                     if sid not in last or last[sid][0] <= t.tick:
