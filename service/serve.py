@@ -54,6 +54,10 @@ REFUSALS = {"OOM": "out of memory (maxmemory)", "NOPERM": "a permission missing 
             "user", "READONLY": "a read-only replica", "BUSY": "busy running a script",
             "MISCONF": "unable to persist (MISCONF)", "LOADING": "loading its data"}
 
+#: redis-py's exception classes, by the error code Redis sent (redis-py drops the code)
+_KINDS = {"OutOfMemoryError": "OOM", "NoPermissionError": "NOPERM", "ReadOnlyError": "READONLY",
+          "BusyLoadingError": "LOADING", "NoScriptError": "NOSCRIPT"}
+
 
 class ServeError(Exception):
     """A user's mistake or a refused start (one line); the CLI exits 2."""
@@ -397,13 +401,14 @@ class Worker:
             self._next_try = time.monotonic() + 0.25
         except redis.exceptions.RedisError as exc:
             text = self._text(exc)
-            kind = text.split(" ", 1)[0] if text.split(" ", 1)[0].isupper() else \
-                type(exc).__name__
+            kind = _KINDS.get(type(exc).__name__) or (
+                text.split(" ", 1)[0] if text.split(" ", 1)[0].isupper() else
+                type(exc).__name__)
             self._refused = REFUSALS.get(kind, kind)
             self.log_every(f"refused:{kind}",
-                           f"redis {self.where} refused ({text}): ticking on; holding events "
-                           f"and commands to journal until it accepts them (the flight logs "
-                           f"have every tick)", "error")
+                           f"redis {self.where} refused: {kind} {text} ({self._refused}): "
+                           f"ticking on; holding events and commands to journal until it "
+                           f"accepts them (the flight logs have every tick)", "error")
         self._reread_all()
         return None
 
