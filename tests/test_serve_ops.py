@@ -376,9 +376,12 @@ def test_a_full_then_read_only_log_disk_pauses_the_log_and_the_ships_go_on(redis
               "ticks while paused")
         filler.unlink()
         _wait(lambda: "resumed" in w.err(), 30, "the log to resume")
-        subprocess.run(["mount", "-o", "remount,ro", str(disk)], check=True)
-        _wait(lambda: w.err().count("paused") >= 2, 30, "the log to pause on a read-only disk")
-        subprocess.run(["mount", "-o", "remount,rw", str(disk)], check=True)
+        # the log folder made read-only under it (a read-only bind mount: the file in hand
+        # writes on, the next rotation cannot create its file)
+        subprocess.run(["mount", "--bind", str(flight), str(flight)], check=True)
+        subprocess.run(["mount", "-o", "remount,bind,ro", str(flight)], check=True)
+        _wait(lambda: w.err().count("paused") >= 2, 30, "the log to pause on a read-only dir")
+        subprocess.run(["umount", str(flight)], check=True)
         _wait(lambda: w.err().count("resumed") >= 2, 30, "the log to resume again")
         time.sleep(0.5)
         assert w.term() == 0
@@ -392,7 +395,7 @@ def test_a_full_then_read_only_log_disk_pauses_the_log_and_the_ships_go_on(redis
             assert res.divergence is None, (path, res.report())
             if path.suffix == ".mcap":
                 with LogReader(path) as r:
-                    desc = r.header.description if hasattr(r, "header") else ""
+                    desc = r.scenario.description
                 if "gap" in desc:
                     resumed.append(path)
         assert resumed, "no log says where its gap was"
@@ -401,6 +404,7 @@ def test_a_full_then_read_only_log_disk_pauses_the_log_and_the_ships_go_on(redis
             w.kill()
         client.close()
         _cleanup(redis_url, prefix)
+        subprocess.run(["umount", "-l", str(disk / "flight")], capture_output=True)
         subprocess.run(["umount", "-l", str(disk)], capture_output=True)
 
 
