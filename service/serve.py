@@ -148,6 +148,7 @@ class Worker:
         self._next_lease = 0.0
         self._said: dict[str, float] = {}
         self._refused: str | None = None  # the kind of refusal going on, if any
+        self._loop_refused = False
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
         self._lease_stop = threading.Event()
@@ -299,6 +300,7 @@ class Worker:
 
     def loop_once(self) -> None:
         now = time.monotonic()
+        self._loop_refused = False
         if not self.redis_up and now >= self._next_try:
             self._reconnect()
         if self._lease_lost:
@@ -386,7 +388,7 @@ class Worker:
         success means the refusal is over (the writes went through)."""
         try:
             result = fn(*args)
-            if clears and self._refused is not None:
+            if clears and self._refused is not None and not self._loop_refused:
                 self.log(f"redis {self.where} accepts writes again ({self._refused} is over): "
                          f"delivering what was held")
                 self._refused = None
@@ -402,8 +404,10 @@ class Worker:
         except redis.exceptions.RedisError as exc:
             text = self._text(exc)
             kind = _KINDS.get(type(exc).__name__) or (
+                "NOPERM" if "can't run this command" in text or "no permissions" in text else
                 text.split(" ", 1)[0] if text.split(" ", 1)[0].isupper() else
                 type(exc).__name__)
+            self._loop_refused = True
             self._refused = REFUSALS.get(kind, kind)
             self.log_every(f"refused:{kind}",
                            f"redis {self.where} refused: {kind} {text} ({self._refused}): "
@@ -664,8 +668,12 @@ class Worker:
                                       *[self.keys.shard(k, "owner") for k in order],
                                       self.id, lease_ms)
                         self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
-                except (redis.exceptions.RedisError, RuntimeError):
-                    pass  # the loop says what is wrong with Redis
+                except REDIS_ERRORS:
+                    pass  # the loop says Redis is away
+                except (redis.exceptions.RedisError, RuntimeError) as exc:
+                    self.log_every("leases", f"redis {self.where}: leases not renewed "
+                                   f"({self._text(exc)}): shards will pass to other workers",
+                                   "error")
                 self._lease_stop.wait(cfg.lease_s / 4)
         finally:
             r.close()
