@@ -437,7 +437,7 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
               show_default=True, help="ships a shard takes; a spawn past it is rejected (0: any)")
 @click.option("--max-commands-per-ship", type=click.IntRange(min=0), default=4,
               show_default=True, help="commands for one ship in one tick; the rest rejected")
-@click.option("--max-spawns-per-tick", type=click.IntRange(min=1), default=500,
+@click.option("--max-spawns-per-tick", type=click.IntRange(min=1), default=200,
               show_default=True, help="spawns a shard applies a tick; the rest wait a tick")
 @click.option("--max-commands-per-tick", type=click.IntRange(min=1), default=2000,
               show_default=True, help="commands a shard applies a tick; the rest wait a tick")

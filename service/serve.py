@@ -91,7 +91,7 @@ class ServeConfig:
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
     max_commands_per_tick: int = 2000  # applied per shard per tick; the rest wait a tick
-    max_spawns_per_tick: int = 500  # per shard per tick; the rest wait a tick
+    max_spawns_per_tick: int = 200  # per shard per tick; the rest wait a tick
     max_command_bytes_per_tick: int = 4 << 20  # per shard per tick; the rest wait a tick
     limits: Limits = field(default_factory=Limits)
     stats_every_s: float = 5.0  # the stats line, the stats hash (its time-out is 3x this)

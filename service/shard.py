@@ -98,9 +98,11 @@ class Shard:
         for block in self.world.blocks(t + 1):
             msgs = self.log.write_block(block)
             out.blocks.append(block)
+            rows = {sid: i for i, sid in enumerate(block.ship_ids)} if block.spawned else {}
             for sp in block.spawned:
-                out.hashes[sp.ship_id] = ship_hash(SurfaceState(
-                    self._state_of(block, sp.ship_id)), self.body, block.first_tick,
+                out.hashes[sp.ship_id] = ship_hash(SurfaceState(int(
+                    block.states[0]["surface_state"][rows[sp.ship_id]])), self.body,
+                    block.first_tick,
                     sp.spec.get("player_id") or "player-" + sp.ship_id, self.index)
             for r in block.retired:
                 out.hashes[r.ship_id] = None
