@@ -127,6 +127,7 @@ class _Owned:
     #: read whose reply was lost left them pending), or None
     reread: str | None = "0"
     retired: list = field(default_factory=list)  # (tick, ship id) of ships that left
+    read_count: int = 100  # entries asked for a tick: follows the byte budget (_adapt)
     #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
     #: the log's flush Event, the ships whose specs it drops)
     checkpoint: tuple | None = None
@@ -276,12 +277,14 @@ class Worker:
                         now = time.monotonic()
                     behind = now - due
                     self.stats.lag_s = max(0.0, behind)
-                    if behind > period:
-                        # every period missed counts, however long the stall
-                        self.stats.late += int(behind // period)
                     self.stats.start_late_s.append(max(0.0, behind))
-                    if behind > 1.0:  # far behind (a pause): start the schedule again
+                    if behind > 1.0:
+                        # far behind (a stall): every period it held up counts as a late tick
+                        # (the count is never reset), and the schedule starts again
+                        self.stats.late += int(behind // period)
                         due = now
+                    elif behind > period:
+                        self.stats.late += 1
                     due += period
                 t0 = time.perf_counter()
                 self.loop_once()
@@ -448,7 +451,7 @@ class Worker:
                 continue
             start = o.reread if o.reread is not None else ">"
             pipe.xreadgroup(rio.Keys.group(k), self.id, {self.keys.shard_commands(k): start},
-                            count=min(self.cfg.read_count, room))
+                            count=max(1, min(o.read_count, room)))
             order.append((k, start))
         if not order:
             return
@@ -465,6 +468,7 @@ class Worker:
             entries = [e for _s, es in (reply or []) for e in es]
             if start != ">":
                 o.reread = entries[-1][0].decode() if entries else None
+            o.read_count = self._adapt(o.read_count, entries)
             for entry_id, raw in entries:
                 eid = entry_id.decode()
                 if eid in o.inflight or raw is None:
@@ -472,6 +476,19 @@ class Worker:
                 o.inflight.add(eid)
                 o.backlog.append(self._parse(k, eid, raw))
                 self.stats.commands_read += 1
+
+    def _adapt(self, count: int, entries: list) -> int:
+        """The next read's entry count: a read costs a tick at most the byte budget (commands
+        of 64 KiB are read 64 at a time), and up to ``read_count`` entries of small ones."""
+        if len(entries) < count:
+            return count
+        size = sum(len(f) + len(v) for _id, raw in entries for f, v in (raw or {}).items())
+        budget = self.cfg.max_command_bytes_per_tick
+        if size > budget:
+            return max(1, count // 2)
+        if size < budget // 4:
+            return min(self.cfg.read_count, count * 2)
+        return count
 
     def _parse(self, k: int, eid: str, raw: dict) -> Request | Rejected:
         fields = decode_entry(raw)
@@ -490,8 +507,10 @@ class Worker:
         g = rio.Keys.ROUTER
         src = self.keys.commands
         start = getattr(self, "_route_from", "0")
-        reply = self.r.xreadgroup(g, self.id, {src: start}, count=self.cfg.read_count)
+        count = getattr(self, "_route_count", 100)
+        reply = self.r.xreadgroup(g, self.id, {src: start}, count=count)
         entries = [e for _s, es in (reply or []) for e in es]
+        self._route_count = self._adapt(count, entries)
         if start != ">" and not entries:
             self._route_from = ">"
             return
@@ -858,7 +877,7 @@ class Worker:
             "ticks": self.stats.ticks, "lag_s": round(self.stats.lag_s, 4),
             "tick_p50_ms": round(pct(0.5), 3), "tick_p99_ms": round(pct(0.99), 3),
             "late": self.stats.late,
-            "late_share": round(self.stats.late / max(1, self.stats.ticks), 4),
+            "late_share": round(min(1.0, self.stats.late / max(1, self.stats.ticks)), 4),
             "ships": sum(o.shard.world.state.n for o in self.owned.values()),
             "shards": len(self.owned),
             "held": sum(len(o.unsent) + len(o.backlog) + sum(len(j[1]) for j in o.journal)
