@@ -500,6 +500,7 @@ def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
         Path(stats_json).write_text(json.dumps({
             "tick_s": stats.tick_s, "start_late_s": stats.start_late_s, "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,
+            "recent": [[round(t, 4), d] for t, d in stats.recent],
             "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0}))
     times = sorted(stats.tick_s) or [0.0]
     pct = lambda q: times[min(len(times) - 1, int(q * len(times)))] * 1e3  # noqa: E731
