@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import os
 import sys
 import tempfile
 import time
@@ -270,7 +271,7 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
 
 
 @main.command()
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("logs", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="write an .rrd file instead of opening the viewer")
 @click.option("--ship", "ship_id", default=None, help="show this ship alone")
@@ -278,15 +279,58 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
               help="render the view to a PNG without a display (Rerun's headless viewer)")
 @click.option("--at", "at_s", type=click.FloatRange(min=0.0), default=None, metavar="SECONDS",
               help="--screenshot: the moment shown (default: the end of the run)")
+@click.option("--redis", "redis_url", default=None, metavar="URL",
+              help="instead of logs: the running service's fleet, live, from its telemetry "
+                   "stream (the URL may come from TOUCHDOWN_REDIS_URL with --redis env)")
+@click.option("--prefix", default="galaxy", show_default=True,
+              help="--redis: the service's key prefix")
+@click.option("--seconds", type=click.FloatRange(min=0.1), default=None,
+              help="--redis: follow the fleet this long (default: until Ctrl-C; 5 s with -o or "
+                   "--screenshot)")
 def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: str | None,
-         at_s: float | None) -> None:
+         at_s: float | None, redis_url: str | None, prefix: str,
+         seconds: float | None) -> None:
     """Show LOG in Rerun: the 3D scene in the landing-site frame, plots over time, the status
-    and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes."""
+    and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes. With
+    --redis URL: the running service's fleet, live (ships by state in the landing-site frame,
+    counts per state over time, the event log)."""
+    if redis_url is not None:
+        if logs:
+            raise UserError("view: give logs or --redis URL, not both")
+        if output and not output.endswith(".rrd"):
+            raise UserError(f"{output}: the output of view is an .rrd file")
+        if redis_url == "env":
+            redis_url = os.environ.get("TOUCHDOWN_REDIS_URL", "")
+        _show_live(redis_url, prefix, seconds, output, png)
+        return
+    if not logs:
+        raise UserError("view: give a log (or several), or --redis URL")
     if len(logs) > 4:
         raise UserError(f"view takes at most 4 logs, not {len(logs)}")
     if output and not output.endswith(".rrd"):
         raise UserError(f"{output}: the output of view is an .rrd file")
     _show(list(logs), ship_id, output, png, at_s)
+
+
+def _show_live(url: str, prefix: str, seconds: float | None, output: str | None,
+               png: str | None) -> None:
+    from view import live
+    from view import rerun_view as rv
+
+    try:
+        if output or png:
+            with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
+                rrd = Path(output or Path(tmp) / "live.rrd")
+                n = live.record(url, prefix, seconds or 5.0, rrd)
+                if output:
+                    click.echo(f"{rrd}: {n:,} telemetry samples of the live fleet")
+                if png:
+                    rv.screenshot(rrd, Path(png), None)
+                    click.echo(f"{png}: screenshot of the live view")
+        else:
+            live.live(url, prefix, seconds)
+    except rv.ViewError as exc:
+        raise UserError(str(exc)) from None
 
 
 @main.command()

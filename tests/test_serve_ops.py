@@ -787,3 +787,36 @@ def test_the_late_count_survives_a_long_stall(redis_url):  # noqa: F811
     finally:
         _cleanup(redis_url, prefix)
     assert stats.late >= 29, stats.late
+
+
+def test_view_redis_draws_the_running_fleet(worker, tmp_path):
+    """`touchdown view --redis URL` follows the telemetry and event streams of a running service
+    into Rerun (here to an .rrd, and a screenshot where software Vulkan is installed)."""
+    w, th = worker(rate_hz=40.0, telemetry_hz=10.0)
+    client = redis.Redis.from_url(worker.url)
+    try:
+        _wait(lambda: client.xlen(f"{worker.prefix}:telemetry") > 5, 60, "telemetry")
+        out = tmp_path / "live.rrd"
+        done = subprocess.run(_cli("view", "--redis", worker.url, "--prefix", worker.prefix,
+                                   "--seconds", "2", "-o", str(out)), capture_output=True,
+                              text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert out.exists() and out.stat().st_size > 1000
+        n = int(done.stdout.split(":")[1].split()[0].replace(",", ""))
+        assert n > 5
+        icd = Path("/usr/share/vulkan/icd.d")
+        if icd.is_dir() and any(icd.glob("lvp_icd*.json")):
+            png = tmp_path / "live.png"
+            done = subprocess.run(_cli("view", "--redis", worker.url, "--prefix",
+                                       worker.prefix, "--seconds", "2", "--screenshot",
+                                       str(png)), capture_output=True, text=True, timeout=180)
+            assert done.returncode == 0, done.stderr
+            assert png.stat().st_size > 1000
+        bad = subprocess.run(_cli("view", "--redis", "http://:pw@127.0.0.1:1/0", "-o",
+                                  str(tmp_path / "x.rrd")), capture_output=True, text=True,
+                             timeout=60)
+        assert bad.returncode == 2 and "Traceback" not in bad.stderr and "pw" not in bad.stderr
+    finally:
+        w.stop.set()
+        th.join(timeout=60)
+        client.close()
