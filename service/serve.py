@@ -508,7 +508,13 @@ class Worker:
         src = self.keys.commands
         start = getattr(self, "_route_from", "0")
         count = getattr(self, "_route_count", 100)
-        reply = self.r.xreadgroup(g, self.id, {src: start}, count=count)
+        try:
+            reply = self.r.xreadgroup(g, self.id, {src: start}, count=count)
+        except redis.exceptions.ResponseError as exc:
+            if "NOGROUP" not in str(exc):
+                raise
+            self._ensure_group(None)  # Redis lost it (restarted without its data)
+            return
         entries = [e for _s, es in (reply or []) for e in es]
         self._route_count = self._adapt(count, entries)
         if start != ">" and not entries:
