@@ -542,7 +542,8 @@ def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
         raise UserError(str(exc)) from None
     if stats_json:
         Path(stats_json).write_text(json.dumps({
-            "tick_s": stats.tick_s, "start_late_s": stats.start_late_s, "late": stats.late,
+            "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
+            "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,
             "recent": [[round(t, 4), d] for t, d in stats.recent],
             "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0}))

@@ -98,18 +98,23 @@ class ServeConfig:
     metrics_port: int | None = None
 
 
+STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
+
+
 @dataclass
 class Stats:
     ticks: int = 0
-    tick_s: list = field(default_factory=list)  # work time of each loop (no sleeping)
+    #: work time of each loop (no sleeping), the latest STATS_KEPT (per-tick figures are bounded)
+    tick_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
     late: int = 0  # loops that began a whole period or more after their due time (never reset)
-    start_late_s: list = field(default_factory=list)  # how late each loop began (paced runs)
+    #: how late each loop began (paced runs), the latest STATS_KEPT
+    start_late_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
     entries_sent: int = 0
     entries_dropped: int = 0
     commands_read: int = 0
     takeovers: int = 0
     lag_s: float = 0.0  # how far behind its schedule the last loop began
-    recent: deque = field(default_factory=lambda: deque(maxlen=100_000))  # (time, tick seconds)
+    recent: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))  # (time, seconds)
 
 
 @dataclass
