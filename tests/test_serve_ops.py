@@ -771,25 +771,37 @@ def test_checkpoints_of_ten_thousand_ships_stay_under_a_megabyte_a_second():
     assert (state.rows == world.state.rows).all() and state.tick == world.tick
 
 
-def test_the_late_count_survives_a_long_stall(redis_url):  # noqa: F811
-    """A 1.5 s stall at 20 ticks a second: 29 or more periods missed, and counted."""
+def test_a_long_tick_keeps_its_lease_and_the_late_count_survives_it(redis_url, tmp_path):  # noqa: F811,E501
+    """A 1.5 s tick at 20 ticks a second with a 0.4 s lease: the lease is renewed meanwhile (no
+    shard lost), and the 29 or more periods missed are counted."""
     prefix = _prefix()
-    w = Worker(ServeConfig(url=redis_url, prefix=prefix, rate_hz=20.0, ticks=12, shards=1),
-               say=lambda line: None)
+    said: list[str] = []
+    w = Worker(ServeConfig(url=redis_url, prefix=prefix, rate_hz=20.0, ticks=12, shards=1,
+                           lease_s=0.4, log_dir=tmp_path / "flight"), say=said.append)
     real = w.loop_once
     calls = []
 
+    grabbed = []
+    client = redis.Redis.from_url(redis_url)
+
     def loop_once():
         calls.append(1)
-        if len(calls) == 5:
-            time.sleep(1.5)
+        if len(calls) == 5:  # a 1.5 s tick: meanwhile another worker tries to take the shard
+            time.sleep(1.0)
+            grabbed.append(client.set(Keys(prefix).shard(0, "owner"), "intruder", nx=True,
+                                      px=5000))
+            time.sleep(0.5)
         real()
     w.loop_once = loop_once
     try:
         stats = w.run()
     finally:
         _cleanup(redis_url, prefix)
+    client.close()
+    assert grabbed == [None]  # the lease was held throughout
     assert stats.late >= 29, stats.late
+    assert not [line for line in said if "lost" in line], said
+    assert sum("taken" in line for line in said) == 1
 
 
 def test_view_redis_draws_the_running_fleet(worker, tmp_path):
