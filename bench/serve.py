@@ -219,7 +219,7 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
 def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0") -> None:
     print(f"machine: {machine()}")
     print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
-          f"flight logs, checkpoints every 2 s; Redis at {url}")
+          f"flight logs, checkpoints every 5 s (50 ticks); Redis at {url}")
     seconds = 6.0 if quick else 20.0
     start, limit = (1000, 4000) if quick else (12_500, 400_000)
     t0 = time.perf_counter()
