@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import os
 import sys
 import tempfile
 import time
@@ -381,7 +382,7 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
 
 
 @main.command()
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("logs", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="write an .rrd file instead of opening the viewer")
 @click.option("--ship", "ship_id", default=None, help="show this ship alone")
@@ -389,15 +390,58 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
               help="render the view to a PNG without a display (Rerun's headless viewer)")
 @click.option("--at", "at_s", type=click.FloatRange(min=0.0), default=None, metavar="SECONDS",
               help="--screenshot: the moment shown (default: the end of the run)")
+@click.option("--redis", "redis_url", default=None, metavar="URL",
+              help="instead of logs: the running service's fleet, live, from its telemetry "
+                   "stream (the URL may come from TOUCHDOWN_REDIS_URL with --redis env)")
+@click.option("--prefix", default="galaxy", show_default=True,
+              help="--redis: the service's key prefix")
+@click.option("--seconds", type=click.FloatRange(min=0.1), default=None,
+              help="--redis: follow the fleet this long (default: until Ctrl-C; 5 s with -o or "
+                   "--screenshot)")
 def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: str | None,
-         at_s: float | None) -> None:
+         at_s: float | None, redis_url: str | None, prefix: str,
+         seconds: float | None) -> None:
     """Show LOG in Rerun: the 3D scene in the landing-site frame, plots over time, the status
-    and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes."""
+    and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes. With
+    --redis URL: the running service's fleet, live (ships by state in the landing-site frame,
+    counts per state over time, the event log)."""
+    if redis_url is not None:
+        if logs:
+            raise UserError("view: give logs or --redis URL, not both")
+        if output and not output.endswith(".rrd"):
+            raise UserError(f"{output}: the output of view is an .rrd file")
+        if redis_url == "env":
+            redis_url = os.environ.get("TOUCHDOWN_REDIS_URL", "")
+        _show_live(redis_url, prefix, seconds, output, png)
+        return
+    if not logs:
+        raise UserError("view: give a log (or several), or --redis URL")
     if len(logs) > 4:
         raise UserError(f"view takes at most 4 logs, not {len(logs)}")
     if output and not output.endswith(".rrd"):
         raise UserError(f"{output}: the output of view is an .rrd file")
     _show(list(logs), ship_id, output, png, at_s)
+
+
+def _show_live(url: str, prefix: str, seconds: float | None, output: str | None,
+               png: str | None) -> None:
+    from view import live
+    from view import rerun_view as rv
+
+    try:
+        if output or png:
+            with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
+                rrd = Path(output or Path(tmp) / "live.rrd")
+                n = live.record(url, prefix, seconds or 5.0, rrd)
+                if output:
+                    click.echo(f"{rrd}: {n:,} telemetry samples of the live fleet")
+                if png:
+                    rv.screenshot(rrd, Path(png), None)
+                    click.echo(f"{png}: screenshot of the live view")
+        else:
+            live.live(url, prefix, seconds)
+    except rv.ViewError as exc:
+        raise UserError(str(exc)) from None
 
 
 @main.command()
@@ -535,7 +579,12 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
 
 @main.command()
 @click.option("--redis", "redis_url", default="redis://127.0.0.1:6379/0", show_default=True,
-              metavar="URL", help="the Redis the service works through")
+              metavar="URL", envvar="TOUCHDOWN_REDIS_URL",
+              help="the Redis the service works through (or the environment variable "
+                   "TOUCHDOWN_REDIS_URL, which keeps a password out of the process list); "
+                   "redis://, rediss:// (TLS: ?ssl_ca_certs=CA&ssl_certfile=...), unix://")
+@click.option("--redis-password-file", default=None, type=click.Path(dir_okay=False),
+              help="read the Redis password from this file (its first line)")
 @click.option("--scenario", "scenario", default=None, metavar="FILE",
               help="start with this scenario's ships (a .toml file or a built-in name)")
 @click.option("--ticks", type=click.IntRange(min=1), default=None,
@@ -549,39 +598,79 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
 @click.option("--stream", "events_stream", default=None,
               help="the event stream (default PREFIX:ships)")
 @click.option("--commands", "commands_stream", default=None,
-              help="the command stream (default PREFIX:commands)")
+              help="the command stream (default PREFIX:commands; shard k's is STREAM:{k})")
 @click.option("--shards", type=click.IntRange(min=1, max=4096), default=4, show_default=True,
               help="how the ships are divided among workers (every worker must agree)")
 @click.option("--lease", "lease_s", type=click.FloatRange(min=0.1), default=2.0,
               show_default=True, help="seconds before a dead worker's shards are taken over")
-@click.option("--checkpoint-every", type=click.IntRange(min=1), default=20, show_default=True,
+@click.option("--checkpoint-every", type=click.IntRange(min=1), default=50, show_default=True,
               help="ticks between a shard's checkpoints in Redis")
 @click.option("--telemetry-hz", type=click.FloatRange(min=0.0), default=1.0, show_default=True,
               help="telemetry samples per simulated second (0: none)")
+@click.option("--events-maxlen", type=click.IntRange(min=0), default=1_000_000,
+              show_default=True, help="the event stream is trimmed to about this many entries "
+                                      "(0: never)")
 @click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=64.0, show_default=True,
               help="a flight log file is closed and the next begun past this size")
+@click.option("--log-keep-mb", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+              help="a shard's flight logs are kept under this total, oldest removed (0: all)")
+@click.option("--log-keep-hours", type=click.FloatRange(min=0.0), default=0.0,
+              show_default=True, help="flight-log files older than this are removed (0: kept)")
+@click.option("--log-min-free-mb", type=click.FloatRange(min=0.0), default=64.0,
+              show_default=True, help="the flight log pauses below this much free disk")
+@click.option("--max-ships", "max_ships", type=click.IntRange(min=0), default=20_000,
+              show_default=True, help="ships a shard takes; a spawn past it is rejected (0: any)")
+@click.option("--max-commands-per-ship", type=click.IntRange(min=0), default=4,
+              show_default=True, help="commands for one ship in one tick; the rest rejected")
+@click.option("--max-spawns-per-tick", type=click.IntRange(min=1), default=200,
+              show_default=True, help="spawns a shard applies a tick; the rest wait a tick")
+@click.option("--max-commands-per-tick", type=click.IntRange(min=1), default=2000,
+              show_default=True, help="commands a shard applies a tick; the rest wait a tick")
 @click.option("--max-shards", type=click.IntRange(min=1), default=None,
               help="own at most this many shards (default: a fair share of the live workers)")
 @click.option("--worker-id", default="", help="this worker's name (default HOST-PID)")
+@click.option("--metrics-port", type=click.IntRange(min=1, max=65535), default=None,
+              help="serve the worker's figures at http://127.0.0.1:PORT/metrics (Prometheus)")
+@click.option("--stats-every", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
+              help="seconds between stats lines (and the stats hash's refresh)")
 @click.option("--stats-json", default=None, hidden=True, type=click.Path(dir_okay=False),
               help="(bench serve) write each tick's working time and the counts here at exit")
-def serve(redis_url: str, scenario: str | None, ticks: int | None, rate: float | None,
-          log_dir: str, prefix: str, events_stream: str | None, commands_stream: str | None,
-          shards: int, lease_s: float, checkpoint_every: int, telemetry_hz: float,
-          log_max_mb: float, max_shards: int | None, worker_id: str,
+def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
+          ticks: int | None, rate: float | None, log_dir: str, prefix: str,
+          events_stream: str | None, commands_stream: str | None, shards: int, lease_s: float,
+          checkpoint_every: int, telemetry_hz: float, events_maxlen: int, log_max_mb: float,
+          log_keep_mb: float, log_keep_hours: float, log_min_free_mb: float, max_ships: int,
+          max_commands_per_ship: int, max_spawns_per_tick: int, max_commands_per_tick: int,
+          max_shards: int | None, worker_id: str, metrics_port: int | None, stats_every: float,
           stats_json: str | None) -> None:
     """The live service: step the ships of a scenario and those spawned by commands, read
     commands from Redis, publish events, keep each ship's state in Redis, write flight logs
-    (SPEC.md section 5)."""
+    (SPEC.md section 5; docs/SERVICE.md)."""
     from service.serve import ServeConfig, ServeError, Worker, install_stop
+    from service.shard import Limits
 
+    password = None
+    if redis_password_file:
+        try:
+            password = Path(redis_password_file).read_text().splitlines()[0].strip()
+        except (OSError, IndexError, UnicodeDecodeError) as exc:
+            raise UserError(f"--redis-password-file {redis_password_file}: cannot read a "
+                            f"password ({getattr(exc, 'strerror', None) or 'empty'})") from None
     scn, source = load_scenario(scenario) if scenario else (None, "")
-    cfg = ServeConfig(url=redis_url, scenario=scn, source=source, ticks=ticks, rate_hz=rate,
-                      log_dir=Path(log_dir), prefix=prefix, events_stream=events_stream,
-                      commands_stream=commands_stream, shards=shards, lease_s=lease_s,
-                      checkpoint_every=checkpoint_every, telemetry_hz=telemetry_hz,
-                      log_max_bytes=int(log_max_mb * (1 << 20)), worker_id=worker_id,
-                      max_shards=max_shards)
+    cfg = ServeConfig(url=redis_url, password=password, scenario=scn, source=source, ticks=ticks,
+                      rate_hz=rate, log_dir=Path(log_dir), prefix=prefix,
+                      events_stream=events_stream, commands_stream=commands_stream,
+                      shards=shards, lease_s=lease_s, checkpoint_every=checkpoint_every,
+                      telemetry_hz=telemetry_hz, events_maxlen=events_maxlen,
+                      log_max_bytes=int(log_max_mb * (1 << 20)),
+                      log_max_total_bytes=int(log_keep_mb * (1 << 20)),
+                      log_max_age_s=log_keep_hours * 3600.0,
+                      log_min_free_bytes=int(log_min_free_mb * (1 << 20)), worker_id=worker_id,
+                      max_shards=max_shards, max_spawns_per_tick=max_spawns_per_tick,
+                      max_commands_per_tick=max_commands_per_tick,
+                      limits=Limits(max_ships=max_ships,
+                                    max_commands_per_ship=max_commands_per_ship),
+                      metrics_port=metrics_port, stats_every_s=stats_every)
     try:
         worker = Worker(cfg)
     except ServeError as exc:
@@ -594,8 +683,10 @@ def serve(redis_url: str, scenario: str | None, ticks: int | None, rate: float |
         raise UserError(str(exc)) from None
     if stats_json:
         Path(stats_json).write_text(json.dumps({
-            "tick_s": stats.tick_s, "start_late_s": stats.start_late_s, "late": stats.late,
-            "entries_sent": stats.entries_sent,
+            "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
+            "late": stats.late,
+            "entries_sent": stats.entries_sent, "figures": worker.last_figures,
+            "recent": [[round(t, 4), d] for t, d in stats.recent],
             "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0}))
     times = sorted(stats.tick_s) or [0.0]
     pct = lambda q: times[min(len(times) - 1, int(q * len(times)))] * 1e3  # noqa: E731

@@ -138,10 +138,88 @@ def largest(url: str, workers: int, start: int, seconds: float, limit: int) -> t
     return good, rows
 
 
+def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
+          after_s: float = 10.0) -> dict:
+    """Two workers (4 shards, 10 Hz, a 2 s lease), idle; then ``n_spawns`` spawns at once,
+    straight into the shards' command streams. Returns the tick-time p99 during the burst (from
+    its sending until every ship has joined) and for ``after_s`` after it, how long the joining
+    took, the leases that changed hands and the spawns rejected."""
+    from service.commands import shard_of
+    from service.redis_io import Keys
+    prefix = f"bench:burst:{uuid.uuid4().hex[:8]}"
+    keys = Keys(prefix)
+    client = redis.Redis.from_url(url)
+    cpus = sorted(os.sched_getaffinity(0))
+    procs = []
+    with tempfile.TemporaryDirectory(prefix="touchdown-bench-burst-") as tmp:
+        try:
+            for w in range(2):
+                stats = Path(tmp) / f"stats-{w}.json"
+                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", "--redis", url,
+                       "--prefix", prefix, "--rate", str(RATE_HZ), "--shards", str(shards),
+                       "--lease", str(lease_s), "--log-dir", str(Path(tmp) / "flight"),
+                       "--worker-id", f"w{w}", "--max-shards", str(shards // 2),
+                       "--stats-json", str(stats), "--stats-every", "1"]
+                procs.append((subprocess.Popen(
+                    cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                    preexec_fn=lambda c=cpus[w % len(cpus)]: os.sched_setaffinity(0, {c})),
+                    stats))
+            owners = lambda: [client.get(keys.shard(k, "owner")) for k in range(shards)]  # noqa
+            end = time.monotonic() + 120
+            while None in owners() and time.monotonic() < end:
+                time.sleep(0.1)
+            time.sleep(2.0)
+            before = owners()
+            spec = json.dumps({"initial": {"altitude": 500.0}})
+            t_send = time.monotonic()
+            pipe = client.pipeline(transaction=False)
+            for i in range(n_spawns):
+                sid = f"burst-{i}"
+                pipe.xadd(keys.shard_commands(shard_of(sid, shards)),
+                          {"cmd": "spawn", "ship_id": sid, "player_id": f"p{i % 100}",
+                           "ship": spec})
+                if i % 5000 == 4999:
+                    pipe.execute()
+            pipe.execute()
+
+            def ships():
+                return sum(int(client.hget(keys.stats(f"w{w}"), "ships") or 0)
+                           for w in range(2))
+            while ships() < n_spawns and time.monotonic() < t_send + 600:
+                time.sleep(0.2)
+            t_joined = time.monotonic()
+            time.sleep(after_s)
+            changed = sum(a != b for a, b in zip(before, owners()))
+            errs = []
+            for proc, _stats in procs:
+                proc.send_signal(2)
+            results = []
+            for proc, stats in procs:
+                _out, err = proc.communicate(timeout=300)
+                errs.append(err)
+                results.append(json.loads(stats.read_text()))
+        finally:
+            for proc, _ in procs:
+                proc.kill()
+            rejected = sum(1 for _id, f in client.xrange(keys.events)
+                           if f.get(b"event") == b"ship.command_rejected")
+            _cleanup(url, prefix)
+            client.close()
+    during = sorted(d for r in results for t, d in r["recent"] if t_send <= t <= t_joined)
+    after = sorted(d for r in results for t, d in r["recent"] if t_joined < t)
+
+    def p99(xs):
+        return xs[min(len(xs) - 1, int(0.99 * len(xs)))] * 1e3 if xs else float("nan")
+    lost = sum(e.count("lost at tick") for e in errs)
+    return {"spawns": n_spawns, "join_s": t_joined - t_send, "p99_during_ms": p99(during),
+            "p99_after_ms": p99(after), "leases_changed": changed, "shards_lost": lost,
+            "rejected": rejected}
+
+
 def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0") -> None:
     print(f"machine: {machine()}")
     print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
-          f"flight logs, checkpoints every 2 s; Redis at {url}")
+          f"flight logs, checkpoints every 5 s (50 ticks); Redis at {url}")
     seconds = 6.0 if quick else 20.0
     start, limit = (1000, 4000) if quick else (12_500, 400_000)
     t0 = time.perf_counter()
@@ -151,4 +229,11 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0") -> None:
     print("two workers (one CPU each, two shards each):")
     two, _ = largest(url, 2, start, seconds, limit)
     print(f"=> two workers keep {two:,} ships at 10 Hz ({two / max(one, 1):.2f}x one worker)")
+    n = 5000 if quick else 50_000
+    b = burst(url, n)
+    print(f"burst: {b['spawns']:,} spawns at once into two idle workers (4 shards, 10 Hz, lease "
+          f"2 s): all joined in {b['join_s']:.1f} s; tick p99 {b['p99_during_ms']:.0f} ms "
+          f"during it, {b['p99_after_ms']:.0f} ms in the 10 s after (with {b['spawns']:,} "
+          f"ships); leases changed hands {b['leases_changed']}, shards lost "
+          f"{b['shards_lost']}, spawns rejected {b['rejected']}")
     print(f"(bench took {time.perf_counter() - t0:.0f} s)")

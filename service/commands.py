@@ -1,6 +1,7 @@
 """Player commands as they arrive on the command stream (SPEC.md section 5), checked field by field.
 
-An entry is a flat map of strings: ``cmd`` and ``ship_id``, plus per command
+An entry is a flat map of strings: ``cmd``, ``ship_id`` and ``player_id`` (the player the game's
+gateway authenticated: docs/SERVICE.md, "Who may command a ship"), plus per command
 
     throttle  value        0..1 of the ship's max thrust
     rcs       x, y, z      -1..1 of its max RCS torque per body axis
@@ -45,10 +46,13 @@ class Request:
     cmd: str
     ship_id: str
     values: dict = field(default_factory=dict, hash=False)
+    player_id: str = ""
+    size: int = 0  # the entry's bytes, for the tick's budget (not journaled)
+    origin: str = ""  # its id on the shared stream it was routed from ("" if sent directly)
 
     def as_json(self) -> dict:
         return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
-                "values": self.values}
+                "values": self.values, "player_id": self.player_id, "origin": self.origin}
 
 
 @dataclass(frozen=True)
@@ -59,17 +63,22 @@ class Rejected:
     ship_id: str
     reason: str
     cmd: str = ""
+    player_id: str = ""
+    size: int = 0
+    origin: str = ""
 
     def as_json(self) -> dict:
         return {"id": self.entry_id, "cmd": self.cmd, "ship_id": self.ship_id,
-                "reject": self.reason}
+                "reject": self.reason, "player_id": self.player_id, "origin": self.origin}
 
 
 def from_json(d: dict) -> Request | Rejected:
     """A journal's record back to what :func:`parse` gave."""
     if "reject" in d:
-        return Rejected(d["id"], d["ship_id"], d["reject"], d.get("cmd", ""))
-    return Request(d["id"], d["cmd"], d["ship_id"], d["values"])
+        return Rejected(d["id"], d["ship_id"], d["reject"], d.get("cmd", ""),
+                        d.get("player_id", ""), origin=d.get("origin", ""))
+    return Request(d["id"], d["cmd"], d["ship_id"], d["values"], d.get("player_id", ""),
+                   origin=d.get("origin", ""))
 
 
 def shard_of(ship_id: str, shards: int) -> int:
@@ -92,11 +101,14 @@ def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
     """Check one entry; see the module's docstring for what each command carries."""
     ship_id = fields.get("ship_id", "")
     cmd = fields.get("cmd", "")
+    player = fields.get("player_id", "")
     shown_id = ship_id[:MAX_SHIP_ID]
+    size = sum(len(k) + len(v) for k, v in fields.items())
 
     def no(reason: str) -> Rejected:
+        ok = len(player) <= MAX_SHIP_ID and _printable(player)
         return Rejected(entry_id, shown_id if _printable(shown_id) else "", reason,
-                        cmd if cmd in FIELDS else "")
+                        cmd if cmd in FIELDS else "", player if ok else "", size)
 
     if len(fields) > MAX_FIELDS:
         return no(f"{len(fields)} fields (at most {MAX_FIELDS})")
@@ -111,11 +123,16 @@ def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
         return no("ship_id: missing")
     if len(ship_id) > MAX_SHIP_ID:
         return no(f"ship_id: longer than {MAX_SHIP_ID} characters")
-    allowed = {"cmd", "ship_id", *FIELDS[cmd]}
+    if not player:
+        return no("player_id: missing (every command names the player it comes from)")
+    if len(player) > MAX_SHIP_ID:
+        return no(f"player_id: longer than {MAX_SHIP_ID} characters")
+    allowed = {"cmd", "ship_id", "player_id", *FIELDS[cmd]}
     extra = sorted(set(fields) - allowed)
     if extra:
         return no(f"{cmd}: unknown field {_show(extra[0])} (it takes "
-                  f"{', '.join(FIELDS[cmd]) or 'no fields'} besides cmd and ship_id)")
+                  f"{', '.join(FIELDS[cmd]) or 'no fields'} besides cmd, ship_id and "
+                  f"player_id)")
     missing = [f for f in FIELDS[cmd] if f not in fields]
     if missing:
         return no(f"{cmd}: missing field {missing[0]!r}")
@@ -146,8 +163,11 @@ def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
             return no("spawn: ship must be a JSON object (one [[ships]] table)")
         if "id" in spec and spec["id"] != ship_id:
             return no(f"spawn: the table's id {_show(str(spec['id']))} is not ship_id")
-        values["ship"] = {**spec, "id": ship_id}
-    return Request(entry_id, cmd, ship_id, values)
+        if "player_id" in spec and spec["player_id"] != player:
+            return no("spawn: the table's player_id is not the command's player_id (a ship "
+                      "belongs to the player who spawns it)")
+        values["ship"] = {**spec, "id": ship_id, "player_id": player}
+    return Request(entry_id, cmd, ship_id, values, player, size)
 
 
 def _number(text: str) -> float | None:

@@ -2,8 +2,13 @@
 
 Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first three):
 
-    P:ships                    stream: every transition, rejection and autopilot report
-    P:commands                 stream: the players' commands, read by one consumer group per shard
+    P:ships                    stream: every transition, rejection, retirement and autopilot
+                               report (trimmed: approximate MAXLEN, --events-maxlen)
+    P:commands:{k}             stream: the commands for shard k's ships (a client picks k by
+                               service.commands.shard_of), read by shard k's consumer group;
+                               trimmed to what is not yet acknowledged
+    P:commands                 stream (SPEC.md section 5): commands routed to P:commands:{k} by
+                               the worker that owns shard 0, atomically (ROUTE)
     P:ship:{ship_id}           hash: state, surface_contact_state, landed_body_name, tick, ...
     P:telemetry                stream, capped: Telemetry samples (proto/service.proto)
     P:service:config           hash: the shard count and the scene every worker shares
@@ -11,7 +16,11 @@ Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first
     P:shard:{k}:owner          string with a time-out: the worker that owns shard k (its lease)
     P:shard:{k}:checkpoint     ShardCheckpoint (proto/service.proto): the shard at a tick
     P:shard:{k}:journal        stream, entry ``{tick}-1``: the requests applied at that tick
-    P:shard:{k}:specs          hash: ship id -> its table (JSON), every ship ever in the shard
+    P:shard:{k}:specs          hash: ship id -> [join tick, its table] (JSON), the shard's ships
+                               (a retired ship's removed by the first checkpoint after it left)
+    P:shard:{k}:params         hash: ship id -> its parameter record (SHIP_DTYPE bytes), written
+                               once when it joins: checkpoints carry only what changes
+    P:worker:{id}:stats        hash with a time-out: the worker's figures (its health key)
     P:shard:{k}:published      how many entries shard k has put on P:ships (its high-water mark)
     P:shard:{k}:tick           the last tick whose entries are on P:ships
 
@@ -24,6 +33,9 @@ shard's mark, so re-sending after a lost reply, a Redis restart or a takeover ad
 from __future__ import annotations
 
 import json
+import re
+import zlib
+from urllib.parse import urlsplit
 
 import numpy as np
 import redis
@@ -34,7 +46,7 @@ from proto import service_pb2 as spb
 from sim.params import SHIP_DTYPE, ShipParams
 from sim.state import INPUTS_DTYPE, STATE_DTYPE, Inputs, State
 
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2  # 2: no parameter records (P:shard:{k}:params), rows zlib-compressed
 DTYPES = json.dumps([str(d.descr) for d in (SHIP_DTYPE, STATE_DTYPE, INPUTS_DTYPE)])
 
 
@@ -51,6 +63,13 @@ class Keys:
     def ship(self, ship_id: str) -> str:
         return f"{self.prefix}:ship:{ship_id}"
 
+    def shard_commands(self, k: int) -> str:
+        """Shard k's command stream (in a Redis Cluster, in the slot of shard k's keys)."""
+        return f"{self.commands}:{{{k}}}"
+
+    def stats(self, worker: str) -> str:
+        return f"{self.prefix}:worker:{worker}:stats"
+
     def shard(self, k: int, what: str) -> str:
         """``what``: owner, checkpoint, journal, specs, published or tick."""
         return f"{self.prefix}:shard:{{{k}}}:{what}"  # {k}: a Redis Cluster hash tag
@@ -59,12 +78,57 @@ class Keys:
     def group(k: int) -> str:
         return f"touchdown-shard-{k}"
 
+    ROUTER = "touchdown-router"
 
-def connect(url: str) -> redis.Redis:
+
+SCHEMES = ("redis", "rediss", "unix")
+
+
+def redact(url: str) -> str:
+    """``url`` with its password (and a ``password=`` query value) replaced by ``***``: what
+    every message shows of a Redis URL."""
+    try:
+        parts = urlsplit(url)
+    except ValueError:
+        return "<a Redis URL that does not parse>"
+    netloc = parts.netloc
+    if "@" in netloc:
+        cred, host = netloc.rsplit("@", 1)
+        user = cred.split(":", 1)[0] if ":" in cred else ""
+        netloc = f"{user}:***@{host}" if ":" in cred else f"***@{host}"
+    query = re.sub(r"(?i)(password=)[^&]*", r"\1***", parts.query)
+    out = f"{parts.scheme}://{netloc}{parts.path}"
+    return out + (f"?{query}" if query else "")
+
+
+def scrub(text: str, *secrets: str | None) -> str:
+    """One line of an error's text with every secret in it replaced by ``***``."""
+    line = (str(text).splitlines() or [""])[0]
+    for secret in secrets:
+        if secret:
+            line = line.replace(secret, "***")
+    return line
+
+
+def password_of(url: str) -> str | None:
+    try:
+        return urlsplit(url).password
+    except ValueError:
+        return None
+
+
+def connect(url: str, password: str | None = None, timeout: float = 2.0) -> redis.Redis:
     """A client that fails fast: no retries (redis-py's default retries for seconds, which
-    would stall the tick loop; the loop retries by itself) and short time-outs."""
-    return redis.Redis.from_url(url, socket_connect_timeout=0.5, socket_timeout=2.0,
-                                retry=Retry(NoBackoff(), 0), health_check_interval=0)
+    would stall the tick loop; the loop retries by itself) and short time-outs. ValueError
+    (naming the scheme, never the URL) for a URL that is not a Redis one."""
+    scheme = url.split("://", 1)[0].lower() if "://" in url else ""
+    if scheme not in SCHEMES:
+        raise ValueError(f"not a Redis URL: scheme {scheme or 'missing'!r} (redis://, "
+                         f"rediss:// or unix://)")
+    extra = {"password": password} if password is not None else {}
+    return redis.Redis.from_url(url, socket_connect_timeout=min(0.5, timeout),
+                                socket_timeout=timeout, retry=Retry(NoBackoff(), 0),
+                                health_check_interval=0, **extra)
 
 
 #: Shard k's entries for the event stream, above its mark: KEYS owner, mark, events, tick;
@@ -92,8 +156,10 @@ if ARGV[2] ~= '-1' then redis.call('SET', KEYS[4], ARGV[2]) end
 return added
 """
 
-#: The requests applied at a tick, then their command entries acknowledged: KEYS owner,
-#: journal, commands; ARGV worker, group, journal id, payload ('' = nothing to journal), ids...
+#: The requests applied at a tick, then their command entries acknowledged, then the command
+#: stream trimmed below its oldest unacknowledged entry (acknowledged commands only): KEYS owner,
+#: journal, the shard's commands; ARGV worker, group, journal id, payload ('' = nothing to
+#: journal), ids...
 JOURNAL = """
 if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
 if ARGV[4] ~= '' then
@@ -102,19 +168,55 @@ if ARGV[4] ~= '' then
     return redis.error_reply(ok.err)
   end
 end
-if #ARGV > 4 then redis.call('XACK', KEYS[3], ARGV[2], unpack(ARGV, 5)) end
+if #ARGV > 4 then
+  redis.call('XACK', KEYS[3], ARGV[2], unpack(ARGV, 5))
+  local p = redis.call('XPENDING', KEYS[3], ARGV[2])
+  local floor = ARGV[#ARGV]
+  if p[1] > 0 then floor = p[2] end
+  redis.call('XTRIM', KEYS[3], 'MINID', '~', floor)
+end
 return 1
 """
 
-#: KEYS owner, checkpoint, journal, published mark; ARGV worker, blob, the checkpoint's tick
-#: (journal entries before it are dropped: the checkpoint holds what they did), the entries
-#: the shard has emitted (refused, -2, unless all of them are out: a successor starts counting
-#: there, and would never send the missing ones)
+#: Entries of the shared command stream moved to their shards' streams and acknowledged, in one
+#: step (nothing routed twice, nothing lost): KEYS source, then shard 0..S-1's streams; ARGV
+#: group, then per entry: id, shard, field count, fields...
+ROUTED = "routed_from"  # the field ROUTE adds: the entry's id on the shared stream
+ROUTE = """
+local ROUTED = 'routed_from'
+local i, moved, last = 2, 0, nil
+while i <= #ARGV do
+  local id, k, nf = ARGV[i], tonumber(ARGV[i + 1]), tonumber(ARGV[i + 2])
+  local args = {}
+  for j = 0, 2 * nf - 1 do args[#args + 1] = ARGV[i + 3 + j] end
+  if nf > 0 then redis.call('XADD', KEYS[k + 2], '*', ROUTED, id, unpack(args)) end
+  redis.call('XACK', KEYS[1], ARGV[1], id)
+  moved, last = moved + 1, id
+  i = i + 3 + 2 * nf
+end
+if last then
+  local p = redis.call('XPENDING', KEYS[1], ARGV[1])
+  local floor = last
+  if p[1] > 0 then floor = p[2] end
+  redis.call('XTRIM', KEYS[1], 'MINID', '~', floor)
+end
+return moved
+"""
+
+#: KEYS owner, checkpoint, journal, published mark, specs, params; ARGV worker, blob, the
+#: checkpoint's tick (journal entries before it are dropped: the checkpoint holds what they
+#: did), the entries the shard has emitted (refused, -2, unless all of them are out: a
+#: successor starts counting there, and would never send the missing ones), then the ships that
+#: left before the checkpoint (their specs and parameters are dropped)
 CHECKPOINT = """
 if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
 if tonumber(redis.call('GET', KEYS[4]) or '-1') < tonumber(ARGV[4]) - 1 then return -2 end
 redis.call('SET', KEYS[2], ARGV[2])
 redis.call('XTRIM', KEYS[3], 'MINID', ARGV[3])
+if #ARGV > 4 then
+  redis.call('HDEL', KEYS[5], unpack(ARGV, 5))
+  redis.call('HDEL', KEYS[6], unpack(ARGV, 5))
+end
 return 1
 """
 
@@ -137,19 +239,19 @@ return 0
 """
 
 
-def checkpoint_blob(k: int, shards: int, world, scene_json: str, autoland, published: int
-                    ) -> bytes:
+def checkpoint_blob(k: int, shards: int, world, autoland, published: int) -> bytes:
+    """The shard's state and inputs in force at its tick (zlib level 1: a fleet at rest packs
+    small); the parameters are in P:shard:{k}:params, sent once."""
     w = world
     return spb.ShardCheckpoint(
-        format=CHECKPOINT_FORMAT, shard=k, shards=shards, tick=w.tick, scene_json=scene_json,
+        format=CHECKPOINT_FORMAT, shard=k, shards=shards, tick=w.tick,
         ship_ids=list(w.ship_ids), player_ids=list(w.params.ships.player_id),
-        ship_rows=np.ascontiguousarray(w.params.ships.rows).tobytes(),
-        state_rows=np.ascontiguousarray(w.state.rows).tobytes(),
-        input_rows=np.ascontiguousarray(w.inputs.rows).tobytes(), dtypes=DTYPES,
-        autoland=list(autoland), published=published).SerializeToString()
+        state_rows=zlib.compress(np.ascontiguousarray(w.state.rows).tobytes(), 1),
+        input_rows=zlib.compress(np.ascontiguousarray(w.inputs.rows).tobytes(), 1),
+        dtypes=DTYPES, autoland=list(autoland), published=published).SerializeToString()
 
 
-def read_checkpoint(blob: bytes) -> tuple[spb.ShardCheckpoint, ShipParams, State, Inputs]:
+def read_checkpoint(blob: bytes) -> tuple[spb.ShardCheckpoint, State, Inputs]:
     """The checkpoint and its arrays; ValueError if it is not one this code wrote."""
     cp = spb.ShardCheckpoint.FromString(blob)
     if cp.format != CHECKPOINT_FORMAT or cp.dtypes != DTYPES:
@@ -157,14 +259,24 @@ def read_checkpoint(blob: bytes) -> tuple[spb.ShardCheckpoint, ShipParams, State
                          "differ)")
     n = len(cp.ship_ids)
     arrays = []
-    for data, dt in ((cp.ship_rows, SHIP_DTYPE), (cp.state_rows, STATE_DTYPE),
-                     (cp.input_rows, INPUTS_DTYPE)):
-        if len(data) != n * dt.itemsize:
+    for data, dt in ((cp.state_rows, STATE_DTYPE), (cp.input_rows, INPUTS_DTYPE)):
+        try:
+            raw = zlib.decompressobj().decompress(data, n * dt.itemsize + 1)
+        except zlib.error:
+            raise ValueError("a checkpoint's records do not decompress") from None
+        if len(raw) != n * dt.itemsize:
             raise ValueError("a checkpoint's records do not match its ship count")
-        arrays.append(np.frombuffer(data, dt).copy())
-    ships = ShipParams(rows=arrays[0], ship_id=tuple(cp.ship_ids),
-                       player_id=tuple(cp.player_ids))
-    return cp, ships, State(rows=arrays[1], tick=int(cp.tick)), Inputs(rows=arrays[2])
+        arrays.append(np.frombuffer(raw, dt).copy())
+    return cp, State(rows=arrays[0], tick=int(cp.tick)), Inputs(rows=arrays[1])
+
+
+def ship_params(cp: spb.ShardCheckpoint, rows: list) -> ShipParams:
+    """The checkpoint's ships' parameters from P:shard:{k}:params (HMGET in its ship order)."""
+    if any(r is None or len(r) != SHIP_DTYPE.itemsize for r in rows):
+        missing = [sid for sid, r in zip(cp.ship_ids, rows) if r is None]
+        raise ValueError(f"the parameters of ship(s) {', '.join(missing[:3])} are missing")
+    data = np.frombuffer(b"".join(rows), SHIP_DTYPE).copy()
+    return ShipParams(rows=data, ship_id=tuple(cp.ship_ids), player_id=tuple(cp.player_ids))
 
 
 def flat_entries(entries: list[tuple[int, dict]]) -> list:

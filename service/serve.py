@@ -23,6 +23,7 @@ of an outage are dropped.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -39,15 +40,23 @@ from typing import Callable
 import numpy as np
 import redis
 
-from logs.rotating import RotatingLog
 from service import redis_io as rio
 from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
-from service.shard import Shard, TickOut
+from service.flightlog import ServiceLog
+from service.shard import Limits, Shard, TickOut
 from sim.scenario import Scenario, Scene, parse as parse_doc
 from sim.timeline import Timeline
 from sim.world import World
 
 REDIS_ERRORS = (redis.exceptions.ConnectionError, redis.exceptions.TimeoutError)
+#: what Redis can answer instead of doing a write, by the name a message gives it
+REFUSALS = {"OOM": "out of memory (maxmemory)", "NOPERM": "a permission missing from the ACL "
+            "user", "READONLY": "a read-only replica", "BUSY": "busy running a script",
+            "MISCONF": "unable to persist (MISCONF)", "LOADING": "loading its data"}
+
+#: redis-py's exception classes, by the error code Redis sent (redis-py drops the code)
+_KINDS = {"OutOfMemoryError": "OOM", "NoPermissionError": "NOPERM", "ReadOnlyError": "READONLY",
+          "BusyLoadingError": "LOADING", "NoScriptError": "NOSCRIPT"}
 
 
 class ServeError(Exception):
@@ -57,6 +66,7 @@ class ServeError(Exception):
 @dataclass(frozen=True)
 class ServeConfig:
     url: str = "redis://127.0.0.1:6379/0"
+    password: str | None = None  # from --redis-password-file (never printed)
     scenario: Scenario | None = None
     source: str = ""
     ticks: int | None = None  # stop after this many loops (None: when stopped)
@@ -67,27 +77,44 @@ class ServeConfig:
     commands_stream: str | None = None
     shards: int = 4
     lease_s: float = 2.0
-    checkpoint_every: int = 20  # ticks
+    checkpoint_every: int = 50  # ticks
     telemetry_hz: float = 1.0  # samples of each ship per simulated second (0: none)
     telemetry_maxlen: int = 10_000
+    events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
     buffer_max: int = 100_000  # unsent entries held while Redis is away
     log_max_bytes: int = 64 << 20
+    log_max_total_bytes: int = 0  # a shard's flight-log folder, oldest files removed (0: all kept)
+    log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
+    log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
     keyframe_every: int = 10
     worker_id: str = ""
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
+    max_commands_per_tick: int = 2000  # applied per shard per tick; the rest wait a tick
+    max_spawns_per_tick: int = 200  # per shard per tick; the rest wait a tick
+    max_command_bytes_per_tick: int = 4 << 20  # per shard per tick; the rest wait a tick
+    limits: Limits = field(default_factory=Limits)
+    stats_every_s: float = 5.0  # the stats line, the stats hash (its time-out is 3x this)
+    metrics_port: int | None = None
+
+
+STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 
 
 @dataclass
 class Stats:
     ticks: int = 0
-    tick_s: list = field(default_factory=list)  # work time of each loop (no sleeping)
-    late: int = 0  # loops that began a whole period or more after their due time
-    start_late_s: list = field(default_factory=list)  # how late each loop began (paced runs)
+    #: work time of each loop (no sleeping), the latest STATS_KEPT (per-tick figures are bounded)
+    tick_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
+    late: int = 0  # loops that began a whole period or more after their due time (never reset)
+    #: how late each loop began (paced runs), the latest STATS_KEPT
+    start_late_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
     entries_sent: int = 0
     entries_dropped: int = 0
     commands_read: int = 0
     takeovers: int = 0
+    lag_s: float = 0.0  # how far behind its schedule the last loop began
+    recent: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))  # (time, seconds)
 
 
 @dataclass
@@ -95,22 +122,28 @@ class _Owned:
     shard: Shard
     journal: deque = field(default_factory=deque)  # (tick, [requests], [entry ids]) to write
     unsent: deque = field(default_factory=deque)  # (number, fields) to publish
-    specs: dict = field(default_factory=dict)  # ship id -> JSON, to write
+    specs: dict = field(default_factory=dict)  # ship id -> [join tick, table] JSON, to write
+    params: dict = field(default_factory=dict)  # ship id -> its parameter record, to write
     hashes: dict = field(default_factory=dict)  # ship id -> fields or None, to write
     telemetry: list = field(default_factory=list)  # serialized samples to add
-    #: what a former owner read and never journaled: (requests, entry ids), for the next tick
-    claimed: tuple = ((), ())
+    backlog: deque = field(default_factory=deque)  # requests read, waiting for their tick
+    inflight: set = field(default_factory=set)  # entry ids read and not yet acknowledged
+    #: the start id of a re-read of this worker's own pending entries (after a Redis error: a
+    #: read whose reply was lost left them pending), or None
+    reread: str | None = "0"
+    retired: list = field(default_factory=list)  # (tick, ship id) of ships that left
+    read_count: int = 100  # entries asked for a tick: follows the byte budget (_adapt)
     #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
-    #: the log's flush Event)
+    #: the log's flush Event, the ships whose specs it drops)
     checkpoint: tuple | None = None
 
 
 class Worker:
     def __init__(self, cfg: ServeConfig, say: Callable[[str], None] | None = None):
         self.cfg = cfg
-        self.say = say or (lambda line: print(f"touchdown serve: {line}", file=sys.stderr,
-                                              flush=True))
         self.id = cfg.worker_id or f"{socket.gethostname()}-{os.getpid()}"
+        self.say = say or (lambda line: print(line, file=sys.stderr, flush=True))
+        self.where = rio.redact(cfg.url)
         self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream)
         self.owned: dict[int, _Owned] = {}
         self.stats = Stats()
@@ -119,20 +152,58 @@ class Worker:
         self._down_since = 0.0
         self._next_try = 0.0
         self._next_lease = 0.0
+        self._said: dict[str, float] = {}
+        self._refused: str | None = None  # the kind of refusal going on, if any
+        self._loop_refused = False
         self._started = time.monotonic()
-        self.r = rio.connect(cfg.url)
+        self._lease_lost: set[int] = set()
+        self._lease_stop = threading.Event()
+        self._lease_thread: threading.Thread | None = None
+        self._live = 1
+        self._next_stats = time.monotonic() + cfg.stats_every_s
+        self._last_counts = (time.monotonic(), 0, 0)
+        self._metrics = None
+        self._metrics_server = None
+        self.last_figures: dict = {}
+        try:
+            self.r = rio.connect(cfg.url, cfg.password)
+            self.r_ping = rio.connect(cfg.url, cfg.password, timeout=0.25)
+        except ValueError as exc:
+            raise ServeError(f"--redis {self.where}: {exc}") from None
         try:
             self.r.ping()
-        except (redis.exceptions.RedisError, ValueError) as exc:
-            raise ServeError(f"redis {cfg.url}: {exc}") from None
-        self._scripts = {name: self.r.register_script(getattr(rio, name))
-                         for name in ("PUBLISH", "JOURNAL", "CHECKPOINT", "RENEW", "RELEASE")}
-        self.scenario, self.scenario_json = self._agree_on_config()
+            self.scenario, self.scenario_json = self._agree_on_config()
+            for k in range(cfg.shards):
+                self._ensure_group(k)
+        except (redis.exceptions.RedisError, ValueError, OSError) as exc:
+            raise ServeError(f"redis {self.where}: {self._text(exc)}") from None
         self.scene = self.scenario.scene
         self.dt_s = self.scenario.params.sim.dt_s
         self.body = self.scenario.params.body.name
         period = 1.0 / (cfg.telemetry_hz * self.dt_s) if cfg.telemetry_hz > 0 else 0
         self.telemetry_every = max(1, int(round(period))) if period else 0
+        if cfg.metrics_port is not None:
+            self._start_metrics(cfg.metrics_port)
+
+    # -- saying things -----------------------------------------------------------------------
+    def log(self, msg: str, level: str = "info", **figures) -> None:
+        """One JSON line on stderr: time, level, worker, msg (and any figures)."""
+        line = {"time": time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime()) +
+                f".{int(time.time() * 1000) % 1000:03d}Z", "level": level, "worker": self.id,
+                "msg": msg, **figures}
+        self.say(json.dumps(line))
+
+    def log_every(self, kind: str, msg: str, level: str = "warning", every_s: float = 10.0
+                  ) -> None:
+        """Say ``msg`` at most once every ``every_s`` for one kind of trouble."""
+        now = time.monotonic()
+        if now >= self._said.get(kind, 0.0):
+            self._said[kind] = now + every_s
+            self.log(msg, level)
+
+    def _text(self, exc: BaseException) -> str:
+        return rio.scrub(f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc),
+                         self.cfg.password, rio.password_of(self.cfg.url))
 
     # -- start ---------------------------------------------------------------------------------
     def _agree_on_config(self) -> tuple[Scenario, str]:
@@ -145,7 +216,7 @@ class Worker:
         stored = self.r.hgetall(self.keys.config)
         shards = int(stored[b"shards"])
         doc_json = stored[b"scenario_json"].decode()
-        where = f"{cfg.url} {self.keys.config}"
+        where = f"{self.where} {self.keys.config}"
         if shards != cfg.shards:
             raise ServeError(f"{where}: the service runs {shards} shards, not {cfg.shards} "
                              f"(--shards must agree)")
@@ -156,6 +227,40 @@ class Worker:
             return default_scenario(), ""
         return parse_doc(json.loads(doc_json), "service"), doc_json
 
+    def _start_metrics(self, port: int) -> None:
+        from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+        from prometheus_client import start_http_server
+        reg = CollectorRegistry()
+        m = {
+            "tick": Histogram("touchdown_tick_seconds", "working time of a tick",
+                              buckets=(.001, .0025, .005, .01, .025, .05, .075, .1, .25, .5, 1,
+                                       2.5, 5, 10), registry=reg),
+            "ships": Gauge("touchdown_ships", "ships this worker steps", registry=reg),
+            "shards": Gauge("touchdown_shards", "shards this worker owns", registry=reg),
+            "late": Counter("touchdown_late_ticks", "ticks begun a period or more late",
+                            registry=reg),
+            "lag": Gauge("touchdown_lag_seconds", "how far behind schedule the last tick began",
+                         registry=reg),
+            "applied": Counter("touchdown_commands_applied", "commands applied", registry=reg),
+            "rejected": Counter("touchdown_commands_rejected", "commands rejected (published "
+                                "or only counted)", registry=reg),
+            "events": Counter("touchdown_events_published", "entries put on the event stream",
+                              registry=reg),
+            "dropped": Counter("touchdown_dropped", "entries dropped from a full buffer and "
+                               "rejections counted but not published", registry=reg),
+            "held": Gauge("touchdown_held_entries", "entries and requests waiting for Redis",
+                          registry=reg),
+            "tick_no": Gauge("touchdown_tick", "the latest tick of this worker's shards",
+                             registry=reg),
+        }
+        try:
+            out = start_http_server(port, addr="127.0.0.1", registry=reg)
+        except OSError as exc:
+            raise ServeError(f"--metrics-port {port}: {exc.strerror or exc}") from None
+        self._metrics_server = out[0] if isinstance(out, tuple) else None
+        self._metrics = m
+        self._metric_seen = {"applied": 0, "rejected": 0, "dropped": 0, "events": 0, "late": 0}
+
     # -- the loop ------------------------------------------------------------------------------
     def run(self) -> Stats:
         cfg = self.cfg
@@ -163,6 +268,9 @@ class Worker:
         period = 1.0 / rate if rate > 0 else 0.0
         due = time.monotonic()
         loops = 0
+        self._lease_thread = threading.Thread(target=self._lease_loop, daemon=True,
+                                              name=f"touchdown-leases-{self.id}")
+        self._lease_thread.start()
         try:
             while not self.stop.is_set() and (cfg.ticks is None or loops < cfg.ticks):
                 if period:
@@ -171,41 +279,80 @@ class Worker:
                         self.stop.wait(due - now)
                         if self.stop.is_set():
                             break
-                    elif now - due > 1.0:  # far behind (a pause): start the schedule again
+                        now = time.monotonic()
+                    behind = now - due
+                    self.stats.lag_s = max(0.0, behind)
+                    self.stats.start_late_s.append(max(0.0, behind))
+                    if behind > 1.0:
+                        # far behind (a stall): every period it held up counts as a late tick
+                        # (the count is never reset), and the schedule starts again
+                        self.stats.late += int(behind // period)
                         due = now
-                    if now > due + period:
+                    elif behind > period:
                         self.stats.late += 1
-                    self.stats.start_late_s.append(max(0.0, now - due))
                     due += period
                 t0 = time.perf_counter()
                 self.loop_once()
-                self.stats.tick_s.append(time.perf_counter() - t0)
+                dt = time.perf_counter() - t0
+                self.stats.tick_s.append(dt)
+                self.stats.recent.append((time.monotonic(), dt))
+                if self._metrics:
+                    self._metrics["tick"].observe(dt)
                 loops += 1
                 self.stats.ticks = loops
+                if time.monotonic() >= self._next_stats:
+                    self._report()
         finally:
             self.shutdown()
         return self.stats
 
     def loop_once(self) -> None:
         now = time.monotonic()
+        self._loop_refused = False
         if not self.redis_up and now >= self._next_try:
             self._reconnect()
+        if self._lease_lost:
+            lost, self._lease_lost = self._lease_lost, set()
+            for k in sorted(lost & set(self.owned)):
+                self._redis(self._relet, k)
         if self.redis_up and now >= self._next_lease:
             self._redis(self._leases)
             self._next_lease = now + self.cfg.lease_s / 4
-        fresh = self._redis(self._read_commands) if self.redis_up else None
+        if self.redis_up:
+            self._redis(self._read_commands)
+            if 0 in self.owned:
+                self._redis(self._route)
         for k in sorted(self.owned):
             o = self.owned[k]
-            reqs, ids = (fresh or {}).get(k, ((), ()))
-            self._step(o, [*o.claimed[0], *reqs], [*o.claimed[1], *ids])
-            o.claimed = ((), ())
+            self._step(o, self._admit(o))
         if self.redis_up:
-            self._redis(self._flush)
+            self._redis(self._flush, clears=True)
 
-    def _step(self, o: _Owned, requests: list, ids: list) -> None:
+    def _admit(self, o: _Owned) -> list:
+        """The backlog's requests for this tick, in order, within the tick's budget of
+        commands, spawns and bytes; the rest wait for the next tick."""
+        cfg = self.cfg
+        out, spawned, size = [], set(), 0
+        while o.backlog and len(out) < cfg.max_commands_per_tick:
+            req = o.backlog[0]
+            is_spawn = isinstance(req, Request) and req.cmd == "spawn"
+            if is_spawn and len(spawned) >= cfg.max_spawns_per_tick:
+                break
+            if out and size + req.size > cfg.max_command_bytes_per_tick:
+                break
+            if not is_spawn and req.ship_id in spawned:
+                break  # a ship's commands after its spawn wait for the tick it has joined
+            o.backlog.popleft()
+            out.append(req)
+            if is_spawn:
+                spawned.add(req.ship_id)
+            size += req.size
+        return out
+
+    def _step(self, o: _Owned, requests: list) -> None:
         sh = o.shard
-        if ids:
-            o.journal.append((sh.tick, requests, ids))
+        if requests:
+            o.journal.append((sh.tick, requests, [r.entry_id for r in requests]))
         out = sh.step(requests)
         self._take(o, out)
         every = self.telemetry_every
@@ -220,83 +367,192 @@ class Worker:
     def _take(self, o: _Owned, out: TickOut) -> None:
         o.unsent.extend(out.entries)
         o.hashes.update(out.hashes)
+        world = o.shard.world
         for block in out.blocks:
             for sp in block.spawned:
-                o.specs[sp.ship_id] = json.dumps(sp.spec, sort_keys=True)
+                o.specs[sp.ship_id] = json.dumps([block.first_tick, sp.spec], sort_keys=True)
+                i = world.row(sp.ship_id)
+                if i is not None:
+                    o.params[sp.ship_id] = world.params.ships.rows[i].tobytes()
+            for r in block.retired:
+                o.retired.append((block.first_tick, r.ship_id))
+                o.specs.pop(r.ship_id, None)
+                o.params.pop(r.ship_id, None)
         held = sum(len(x.unsent) for x in self.owned.values())
         while held > self.cfg.buffer_max and o.unsent:
             o.unsent.popleft()
             held -= 1
             self.stats.entries_dropped += 1
             if self.stats.entries_dropped in (1, 1000, 100_000):
-                self.say(f"event buffer full ({self.cfg.buffer_max:,}): dropped "
+                self.log(f"event buffer full ({self.cfg.buffer_max:,}): dropped "
                          f"{self.stats.entries_dropped:,} entries so far (the flight logs "
-                         f"have them)")
+                         f"have them)", "error")
 
     # -- Redis, each step guarded ------------------------------------------------------------
-    def _redis(self, fn, *args):
-        """Run ``fn``; if Redis is unreachable, mark it down (the loop goes on) and return None."""
+    def _redis(self, fn, *args, clears: bool = False):
+        """Run ``fn``. If Redis is unreachable, mark it down (the loop goes on); if it refuses
+        (out of memory, a missing permission, read-only, ...), say so at most every few
+        seconds and go on holding what is unsent. Returns None on either. ``clears``: a
+        success means the refusal is over (the writes went through)."""
         try:
-            return fn(*args)
+            result = fn(*args)
+            if clears and self._refused is not None and not self._loop_refused:
+                self.log(f"redis {self.where} accepts writes again ({self._refused} is over): "
+                         f"delivering what was held")
+                self._refused = None
+            return result
         except REDIS_ERRORS as exc:
             if self.redis_up:
                 self.redis_up = False
                 self._down_since = time.monotonic()
-                self.say(f"redis {self.cfg.url} unreachable ({type(exc).__name__}): ticking on; "
-                         f"holding events (the flight logs have them) until it answers")
+                self.log(f"redis {self.where} unreachable ({type(exc).__name__}): ticking on; "
+                         f"holding events (the flight logs have them) until it answers",
+                         "error")
             self._next_try = time.monotonic() + 0.25
-            return None
+        except redis.exceptions.RedisError as exc:
+            text = self._text(exc)
+            kind = _KINDS.get(type(exc).__name__) or (
+                "NOPERM" if "can't run this command" in text or "no permissions" in text else
+                text.split(" ", 1)[0] if text.split(" ", 1)[0].isupper() else
+                type(exc).__name__)
+            self._loop_refused = True
+            self._refused = REFUSALS.get(kind, kind)
+            self.log_every(f"refused:{kind}",
+                           f"redis {self.where} refused: {kind} {text} ({self._refused}): "
+                           f"ticking on; holding events and commands to journal until it "
+                           f"accepts them (the flight logs have every tick)", "error")
+        self._reread_all()
+        return None
+
+    def _reread_all(self) -> None:
+        """After any error a read's reply may have been lost, leaving its entries pending to
+        this worker: read them again (those already in hand are skipped)."""
+        for o in self.owned.values():
+            o.reread = "0"
 
     def _reconnect(self) -> None:
         try:
-            self.r.ping()
-        except REDIS_ERRORS:
+            self.r_ping.ping()
+        except redis.exceptions.RedisError:
             self._next_try = time.monotonic() + 0.25
             return
         self.redis_up = True
         held = sum(len(o.unsent) for o in self.owned.values())
-        self.say(f"redis back after {time.monotonic() - self._down_since:.1f} s: delivering "
+        self.log(f"redis back after {time.monotonic() - self._down_since:.1f} s: delivering "
                  f"{held:,} held entries")
         self._next_lease = 0.0
 
-    def _read_commands(self) -> dict[int, tuple[list, list]]:
-        """New entries of each owned shard's group: (requests for its ships, every entry id)."""
+    def _read_commands(self) -> None:
+        """Each owned shard's new entries (and, after an error, its own pending ones) into its
+        backlog. A shard with a full backlog reads nothing (the stream holds the rest)."""
         if not self.owned:
-            return {}
+            return
         pipe = self.r.pipeline(transaction=False)
-        order = sorted(self.owned)
-        for k in order:
-            pipe.xreadgroup(rio.Keys.group(k), self.id, {self.keys.commands: ">"},
-                            count=self.cfg.read_count)
+        order = []
+        for k in sorted(self.owned):
+            o = self.owned[k]
+            room = self.cfg.max_commands_per_tick * 2 - len(o.backlog)
+            if room <= 0:
+                continue
+            start = o.reread if o.reread is not None else ">"
+            pipe.xreadgroup(rio.Keys.group(k), self.id, {self.keys.shard_commands(k): start},
+                            count=max(1, min(o.read_count, room)))
+            order.append((k, start))
+        if not order:
+            return
         replies = pipe.execute(raise_on_error=False)
-        out = {}
-        for k, reply in zip(order, replies):
-            if isinstance(reply, redis.exceptions.ResponseError):
-                if "NOGROUP" in str(reply):  # Redis lost it (restarted without its data)
-                    self._ensure_group(k)
-                    continue
-                raise reply
+        for (k, start), reply in zip(order, replies):
+            o = self.owned.get(k)
+            if o is None:
+                continue
+            if isinstance(reply, redis.exceptions.ResponseError) and "NOGROUP" in str(reply):
+                self._ensure_group(k)  # Redis lost it (restarted without its data)
+                continue
             if isinstance(reply, Exception):
                 raise reply
-            reqs, ids = [], []
-            for _stream, entries in reply or []:
-                for entry_id, raw in entries:
-                    eid = entry_id.decode()
-                    ids.append(eid)
-                    req = parse(eid, decode_entry(raw))
-                    if shard_of(req.ship_id, self.cfg.shards) == k:
-                        reqs.append(req)
-            if ids:
-                out[k] = (reqs, ids)
-                self.stats.commands_read += len(ids)
-        return out
+            entries = [e for _s, es in (reply or []) for e in es]
+            if start != ">":
+                o.reread = entries[-1][0].decode() if entries else None
+            o.read_count = self._adapt(o.read_count, entries)
+            for entry_id, raw in entries:
+                eid = entry_id.decode()
+                if eid in o.inflight or raw is None:
+                    continue
+                o.inflight.add(eid)
+                o.backlog.append(self._parse(k, eid, raw))
+                self.stats.commands_read += 1
 
-    def _ensure_group(self, k: int) -> None:
+    def _adapt(self, count: int, entries: list) -> int:
+        """The next read's entry count: a read costs a tick at most the byte budget (commands
+        of 64 KiB are read 64 at a time), and up to ``read_count`` entries of small ones."""
+        if len(entries) < count:
+            return count
+        size = sum(len(f) + len(v) for _id, raw in entries for f, v in (raw or {}).items())
+        budget = self.cfg.max_command_bytes_per_tick
+        if size > budget:
+            return max(1, count // 2)
+        if size < budget // 4:
+            return min(self.cfg.read_count, count * 2)
+        return count
+
+    def _parse(self, k: int, eid: str, raw: dict) -> Request | Rejected:
+        fields = decode_entry(raw)
+        origin = fields.pop(rio.ROUTED, "")[:40]
+        req = dataclasses.replace(parse(eid, fields), origin=origin)
+        if req.ship_id and shard_of(req.ship_id, self.cfg.shards) != k:
+            right = shard_of(req.ship_id, self.cfg.shards)
+            return Rejected(eid, req.ship_id, f"sent to shard {k}'s stream, but ship "
+                            f"{req.ship_id!r} belongs to shard {right} (shard_of)",
+                            getattr(req, "cmd", ""), req.player_id, req.size, origin)
+        return req
+
+    def _route(self) -> None:
+        """The owner of shard 0 moves the shared command stream's entries (SPEC.md section 5's
+        ``P:commands``) to their shards' streams."""
+        g = rio.Keys.ROUTER
+        src = self.keys.commands
+        start = getattr(self, "_route_from", "0")
+        count = getattr(self, "_route_count", 100)
         try:
-            self.r.xgroup_create(self.keys.commands, rio.Keys.group(k), id="0", mkstream=True)
+            reply = self.r.xreadgroup(g, self.id, {src: start}, count=count)
+        except redis.exceptions.ResponseError as exc:
+            if "NOGROUP" not in str(exc):
+                raise
+            self._ensure_group(None)  # Redis lost it (restarted without its data)
+            return
+        entries = [e for _s, es in (reply or []) for e in es]
+        self._route_count = self._adapt(count, entries)
+        if start != ">" and not entries:
+            self._route_from = ">"
+            return
+        if not entries:
+            return
+        args: list = [g]
+        for entry_id, raw in entries:
+            raw = raw or {}
+            sid = raw.get(b"ship_id", b"").decode("utf-8", "surrogateescape")
+            args += [entry_id, shard_of(sid, self.cfg.shards), len(raw)]
+            for f, v in raw.items():
+                args += [f, v]
+        keys = [src] + [self.keys.shard_commands(k) for k in range(self.cfg.shards)]
+        self.r.eval(rio.ROUTE, len(keys), *keys, *args)
+        if start != ">":
+            self._route_from = entries[-1][0].decode()
+
+    def _ensure_group(self, k: int | None) -> None:
+        stream, group = ((self.keys.commands, rio.Keys.ROUTER) if k is None else
+                         (self.keys.shard_commands(k), rio.Keys.group(k)))
+        try:
+            self.r.xgroup_create(stream, group, id="0", mkstream=True)
         except redis.exceptions.ResponseError as exc:
             if "BUSYGROUP" not in str(exc):
                 raise
+        if k == 0:
+            self._ensure_group(None)
+
+    def _script(self, name: str, keys: list, args: list, client=None):
+        """One of redis_io's scripts, by EVAL (no SCRIPT LOAD or EXISTS: fewer permissions)."""
+        return (client or self.r).eval(getattr(rio, name), len(keys), *keys, *args)
 
     def _flush(self) -> None:
         """Journal (rare: only ticks that had commands), then in one round trip: each shard's
@@ -307,14 +563,15 @@ class Worker:
             while o.journal:
                 tick, reqs, ids = o.journal[0]
                 payload = json.dumps([r.as_json() for r in reqs]) if reqs else ""
-                ok = self._scripts["JOURNAL"](
-                    keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "journal"),
-                          self.keys.commands],
-                    args=[self.id, rio.Keys.group(k), f"{tick}-1", payload, *ids])
+                ok = self._script("JOURNAL", [self.keys.shard(k, "owner"),
+                                              self.keys.shard(k, "journal"),
+                                              self.keys.shard_commands(k)],
+                                  [self.id, rio.Keys.group(k), f"{tick}-1", payload, *ids])
                 if ok == -1:
                     lost.add(k)
                     break
                 o.journal.popleft()
+                o.inflight.difference_update(ids)
         pipe = self.r.pipeline(transaction=False)
         plan: list[tuple[str, int, int]] = []
         for k in sorted(set(self.owned) - lost):
@@ -323,11 +580,11 @@ class Worker:
             entries = list(o.unsent)
             chunks = [entries[i:i + 500] for i in range(0, len(entries), 500)] or [[]]
             for c, chunk in enumerate(chunks):  # the shard's tick goes with its last entries
-                self._scripts["PUBLISH"](
-                    keys=[self.keys.shard(k, "owner"), self.keys.shard(k, "published"),
-                          self.keys.events, self.keys.shard(k, "tick")],
-                    args=[self.id, sh.tick if c == len(chunks) - 1 else -1, 0,
-                          *rio.flat_entries(chunk)], client=pipe)
+                self._script("PUBLISH", [self.keys.shard(k, "owner"),
+                                         self.keys.shard(k, "published"), self.keys.events,
+                                         self.keys.shard(k, "tick")],
+                             [self.id, sh.tick if c == len(chunks) - 1 else -1,
+                              self.cfg.events_maxlen, *rio.flat_entries(chunk)], client=pipe)
                 plan.append(("publish", k, len(chunk)))
             for sid, fields in o.hashes.items():
                 if fields is None:
@@ -338,6 +595,9 @@ class Worker:
             if o.specs:
                 pipe.hset(self.keys.shard(k, "specs"), mapping=o.specs)
                 plan.append(("specs", k, 0))
+            if o.params:
+                pipe.hset(self.keys.shard(k, "params"), mapping=o.params)
+                plan.append(("params", k, 0))
             for sample in o.telemetry:
                 pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
                                                 "proto": sample},
@@ -346,39 +606,46 @@ class Worker:
             if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
                 # taken now, sent once the log has this tick on disk (no waiting on the log's
                 # thread here: that was the slowest tick's time)
-                o.checkpoint = (rio.checkpoint_blob(k, self.cfg.shards, sh.world,
-                                                    self.scenario_json, sh.autoland,
+                gone = [sid for t, sid in o.retired if t <= sh.tick]
+                o.checkpoint = (rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland,
                                                     sh.published),
-                                sh.tick, sh.published, sh.log.flush(wait=False))
+                                sh.tick, sh.published, sh.log.flush(wait=False), gone)
             if o.checkpoint is not None and o.checkpoint[3].is_set():
-                blob, tick, published, _ = o.checkpoint
-                self._scripts["CHECKPOINT"](
-                    keys=self._checkpoint_keys(k), args=[self.id, blob, tick, published],
-                    client=pipe)
+                blob, tick, published, _, gone = o.checkpoint
+                self._script("CHECKPOINT", self._checkpoint_keys(k),
+                             [self.id, blob, tick, published, *gone], client=pipe)
                 plan.append(("checkpoint", k, 0))
         if not plan:
             return
         replies = pipe.execute(raise_on_error=False)
+        failed: set[int] = set()
+        first_error = None
         for (what, k, n), reply in zip(plan, replies):
             if isinstance(reply, REDIS_ERRORS):
                 raise reply
             if isinstance(reply, Exception):
-                self.say(f"shard {k}: redis refused a {what}: {str(reply).splitlines()[0]}")
+                failed.add(k)
+                first_error = first_error or reply
                 continue
             if reply == -1 and what in ("publish", "checkpoint"):
                 lost.add(k)
             elif what == "checkpoint" and reply == 1:
-                self.owned[k].checkpoint = None
+                o = self.owned[k]
+                gone = set(o.checkpoint[4])
+                o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
+                o.checkpoint = None
             elif what == "publish" and k not in lost:
                 o = self.owned[k]
                 for _ in range(n):
                     o.unsent.popleft()
                 self.stats.entries_sent += reply
-        for k in sorted(set(self.owned) - lost):
+        for k in sorted(set(self.owned) - lost - failed):
             o = self.owned[k]
-            o.hashes, o.specs, o.telemetry = {}, {}, []
+            o.hashes, o.specs, o.params, o.telemetry = {}, {}, {}, []
         for k in sorted(lost):
             self._lose(k, "its lease passed to another worker")
+        if first_error is not None:
+            raise first_error  # said once by _redis; what failed stays held
 
     def _checkpoint_due(self, k: int, tick: int) -> bool:
         """Every ``checkpoint_every`` ticks, the shards staggered across that period (the work
@@ -391,14 +658,17 @@ class Worker:
         o = self.owned[k]
         sh = o.shard
         sh.log.flush()  # the log holds every tick up to the checkpoint before Redis does
-        blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, self.scenario_json,
-                                   sh.autoland, sh.published)
-        return self._scripts["CHECKPOINT"](keys=self._checkpoint_keys(k),
-                                           args=[self.id, blob, sh.tick, sh.published],
-                                           client=client)
+        blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland, sh.published)
+        gone = [sid for t, sid in o.retired if t <= sh.tick]
+        ok = self._script("CHECKPOINT", self._checkpoint_keys(k),
+                          [self.id, blob, sh.tick, sh.published, *gone], client=client)
+        if ok == 1:
+            o.retired = [(t, sid) for t, sid in o.retired if t > sh.tick]
+        return ok
 
     def _checkpoint_keys(self, k: int) -> list[str]:
-        return [self.keys.shard(k, w) for w in ("owner", "checkpoint", "journal", "published")]
+        return [self.keys.shard(k, w) for w in ("owner", "checkpoint", "journal", "published",
+                                                "specs", "params")]
 
     # -- shards: leases, taking over, handing over --------------------------------------------
     def _new_world(self, k: int) -> World:
@@ -406,23 +676,50 @@ class Worker:
             return World.empty(self.scene)
         return shard_world(self.scenario, k, self.cfg.shards)
 
+    def _lease_loop(self) -> None:
+        """Renew this worker's heartbeat and leases every lease / 4 on a connection of its own,
+        whatever the tick is doing: a long tick never loses a lease it holds. A lease found
+        lost is handed to the loop (``_lease_lost``)."""
+        cfg = self.cfg
+        lease_ms = int(cfg.lease_s * 1000)
+        r = rio.connect(cfg.url, cfg.password, timeout=max(0.2, cfg.lease_s / 4))
+        try:
+            while not self._lease_stop.is_set():
+                try:
+                    server_s = _server_time(r)
+                    pipe = r.pipeline(transaction=False)
+                    pipe.zadd(self.keys.workers, {self.id: server_s + cfg.lease_s})
+                    pipe.zremrangebyscore(self.keys.workers, "-inf", server_s)
+                    pipe.zcard(self.keys.workers)
+                    self._live = pipe.execute()[2]
+                    order = sorted(list(self.owned))
+                    if order:
+                        kept = r.eval(rio.RENEW, len(order),
+                                      *[self.keys.shard(k, "owner") for k in order],
+                                      self.id, lease_ms)
+                        self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
+                except REDIS_ERRORS:
+                    pass  # the loop says Redis is away
+                except (redis.exceptions.RedisError, RuntimeError) as exc:
+                    self.log_every("leases", f"redis {self.where}: leases not renewed "
+                                   f"({self._text(exc)}): shards will pass to other workers",
+                                   "error")
+                self._lease_stop.wait(cfg.lease_s / 4)
+        finally:
+            r.close()
+
+    def _relet(self, k: int) -> None:
+        """Shard k's lease was not renewed (Redis away past it, or taken): take it again if it
+        is free, else the shard is another worker's now."""
+        if k in self.owned and not self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
+                                              px=int(self.cfg.lease_s * 1000)):
+            if self.r.get(self.keys.shard(k, "owner")) != self.id.encode():
+                self._lose(k, "its lease passed to another worker while it could not renew it")
+
     def _leases(self) -> None:
         cfg = self.cfg
         lease_ms = int(cfg.lease_s * 1000)
-        server_s = _server_time(self.r)
-        pipe = self.r.pipeline(transaction=False)
-        pipe.zadd(self.keys.workers, {self.id: server_s + cfg.lease_s})
-        pipe.zremrangebyscore(self.keys.workers, "-inf", server_s)
-        pipe.zcard(self.keys.workers)
-        live = pipe.execute()[2]
-        if self.owned:
-            order = sorted(self.owned)
-            kept = self._scripts["RENEW"](keys=[self.keys.shard(k, "owner") for k in order],
-                                          args=[self.id, lease_ms])
-            for k, ok in zip(order, kept):
-                if not ok and not self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
-                                             px=lease_ms):
-                    self._lose(k, "its lease passed to another worker while Redis was away")
+        live = self.r.zcard(self.keys.workers) or 1
         share = math.ceil(cfg.shards / max(1, live))
         if cfg.max_shards is not None:
             share = min(share, cfg.max_shards)
@@ -433,7 +730,11 @@ class Worker:
                 break
             if k not in self.owned and self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
                                                   px=lease_ms):
-                self._take_over(k)
+                try:
+                    self._take_over(k)
+                except BaseException:
+                    self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
+                    raise
 
     def _take_over(self, k: int) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
@@ -441,22 +742,34 @@ class Worker:
         self._ensure_group(k)
         keys = self.keys
         blob = self.r.get(keys.shard(k, "checkpoint"))
+        specs_json = {sid.decode(): json.loads(v)
+                      for sid, v in self.r.hgetall(keys.shard(k, "specs")).items()}
         if blob is None:
             world, autoland, published = self._new_world(k), [], 0
-            specs = {sid: json.dumps(spec, sort_keys=True) for sid, spec in world.known.items()}
-            if specs:
-                self.r.hset(keys.shard(k, "specs"), mapping=specs)
+            fresh_specs = {sid: json.dumps([-1, spec], sort_keys=True)
+                           for sid, spec in world.known.items()}
+            fresh_params = {sid: world.params.ships.rows[i].tobytes()
+                            for i, sid in enumerate(world.ship_ids)}
             how = "new"
         else:
             try:
-                cp, ships, state, inputs = rio.read_checkpoint(blob)
+                cp, state, inputs = rio.read_checkpoint(blob)
+                rows = self.r.hmget(keys.shard(k, "params"), list(cp.ship_ids)) \
+                    if cp.ship_ids else []
+                ships = rio.ship_params(cp, rows)
             except ValueError as exc:
                 raise ServeError(f"{keys.shard(k, 'checkpoint')}: {exc}") from None
-            known = {sid.decode(): json.loads(v)
-                     for sid, v in self.r.hgetall(keys.shard(k, "specs")).items()}
+            # the ships known at the checkpoint's tick: those that joined after it are the
+            # journal's spawns, re-applied below (not "taken")
+            known = {sid: spec for sid, (tick, spec) in specs_json.items()
+                     if tick <= state.tick}
+            for sid in cp.ship_ids:
+                if sid not in known and sid in specs_json:
+                    known[sid] = specs_json[sid][1]
             world = World.restore(self.scene, ships, state, inputs, known)
             world.timeline = self._new_world(k).timeline.from_tick(state.tick)
             autoland, published = list(cp.autoland), int(cp.published)
+            fresh_specs, fresh_params = {}, {}
             how = f"from its checkpoint at tick {state.tick}"
         # everything read from Redis first: a failure here leaves nothing half made
         journal: dict[int, list] = {}
@@ -469,23 +782,30 @@ class Worker:
         last = int(self.r.get(keys.shard(k, "tick")) or -1)
         last = max([last] + [t + 1 for t in journal])
         # what the last owner read but never journaled is new: this worker applies it next
-        reqs, ids, acks = [], [], []
+        claimed, acks = [], []
         for eid, raw in self._claim(k):
             if eid in journaled:
                 acks.append(eid)
                 continue
-            ids.append(eid)
-            req = parse(eid, decode_entry(raw))
-            if shard_of(req.ship_id, self.cfg.shards) == k:
-                reqs.append(req)
+            claimed.append((eid, raw))
         if acks:
-            self.r.xack(keys.commands, rio.Keys.group(k), *acks)
-        log = RotatingLog(self.cfg.log_dir / f"shard-{k:03d}", world, prefix=self.id,
-                          keyframe_interval=self.cfg.keyframe_every,
-                          max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
-                          source=self.cfg.source or "serve", open_ended=True)
-        log.write_block(world.first_block())  # the file's first record: the state it starts at
-        shard = Shard(k, world, log, self.body, dict.fromkeys(autoland), published)
+            self.r.xack(keys.shard_commands(k), rio.Keys.group(k), *acks)
+        if fresh_specs:
+            self.r.hset(keys.shard(k, "specs"), mapping=fresh_specs)
+        if fresh_params:
+            self.r.hset(keys.shard(k, "params"), mapping=fresh_params)
+        if k == 0:
+            self._route_from = "0"
+            self._claim_router()
+        shard = Shard(k, world, None, self.body, dict.fromkeys(autoland), published,
+                      limits=self.cfg.limits)
+        shard.log = ServiceLog(
+            self.cfg.log_dir / f"shard-{k:03d}", lambda: shard.world, self.log,
+            prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
+            max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
+            source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
+            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes)
+        shard.log.start()  # the file's first record: the state it starts at
         o = _Owned(shard)
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
         # the journal's requests, at their ticks, up to the last tick whose entries are out:
@@ -494,43 +814,128 @@ class Worker:
         while shard.tick < last:
             self._take(o, shard.step(journal.get(shard.tick, [])))
             caught += 1
-        o.telemetry.clear()
-        o.claimed = (reqs, ids)
+        o.telemetry.clear()  # (specs and parameters are written again: a spawn journaled by
+        # an owner that died before writing them would otherwise have none)
+        for eid, raw in claimed:
+            o.inflight.add(eid)
+            o.backlog.append(self._parse(k, eid, raw))
+        o.reread = "0"
         self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
-        self.say(f"shard {k}: taken ({how}; {world.state.n} ships; re-stepped {caught} "
-                 f"ticks to tick {shard.tick})")
+        self.log(f"shard {k}: taken ({how}; {world.state.n} ships; re-stepped {caught} "
+                 f"ticks to tick {shard.tick}; {len(claimed)} unjournaled commands claimed)")
 
     def _claim(self, k: int) -> list:
         """Every pending entry of shard k's group (read by a former owner), now this worker's."""
         out, start = [], "0-0"
         for _ in range(10_000):  # a bound: at most 10,000 pages of 1,000
-            reply = self.r.xautoclaim(self.keys.commands, rio.Keys.group(k), self.id, 0,
-                                      start_id=start, count=1000)
+            reply = self.r.xautoclaim(self.keys.shard_commands(k), rio.Keys.group(k), self.id,
+                                      0, start_id=start, count=1000)
             start, entries = reply[0], reply[1]
             out += [(e[0].decode(), e[1]) for e in entries if e[1] is not None]
             if start in (b"0-0", "0-0"):
                 break
         return out
 
+    def _claim_router(self) -> None:
+        """The router's pending entries (a former router read and never routed them)."""
+        start = "0-0"
+        for _ in range(10_000):
+            reply = self.r.xautoclaim(self.keys.commands, rio.Keys.ROUTER, self.id, 0,
+                                      start_id=start, count=1000)
+            start = reply[0]
+            if start in (b"0-0", "0-0"):
+                break
+
     def _hand_over(self, k: int) -> None:
-        """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed."""
+        """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed.
+        Its backlog (read, not applied) stays pending in its group for the next owner."""
         o = self.owned[k]
         if o.journal or o.unsent or self._checkpoint(k) != 1:
             return  # try again at the next lease round
-        self._scripts["RELEASE"](keys=[self.keys.shard(k, "owner")], args=[self.id])
+        self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         o.shard.log.close(complete=True, reason="handed over")
+        self._keep_counts(o)
         del self.owned[k]
-        self.say(f"shard {k}: handed over at tick {o.shard.tick}")
+        self.log(f"shard {k}: handed over at tick {o.shard.tick}")
 
     def _lose(self, k: int, why: str) -> None:
         o = self.owned.pop(k, None)
         if o is None:
             return
+        self._keep_counts(o)
         o.shard.log.close(complete=True, reason="lost")
-        self.say(f"shard {k}: lost at tick {o.shard.tick} ({why}); {len(o.unsent)} unsent "
-                 f"entries left to its new owner, which re-derives them")
+        self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); {len(o.unsent)} unsent "
+                 f"entries left to its new owner, which re-derives them", "warning")
+
+    # -- figures -------------------------------------------------------------------------------
+    def figures(self) -> dict:
+        """What the stats line, the stats hash and the metrics say."""
+        now = time.monotonic()
+        recent = sorted(d for t, d in self.stats.recent if t >= now - 60.0)
+        pct = (lambda q: recent[min(len(recent) - 1, int(q * len(recent)))] * 1e3
+               ) if recent else (lambda q: 0.0)
+        counts = [o.shard.counts for o in self.owned.values()]
+        applied = sum(c.applied for c in counts) + self._gone_counts[0]
+        rejected = sum(c.rejected for c in counts) + self._gone_counts[1]
+        unpublished = sum(c.unpublished for c in counts) + self._gone_counts[2]
+        t0, c0, e0 = self._last_counts
+        span = max(1e-9, now - t0)
+        cmds = self.stats.commands_read
+        fig = {
+            "tick": max((o.shard.tick for o in self.owned.values()), default=0),
+            "ticks": self.stats.ticks, "lag_s": round(self.stats.lag_s, 4),
+            "tick_p50_ms": round(pct(0.5), 3), "tick_p99_ms": round(pct(0.99), 3),
+            "late": self.stats.late,
+            "late_share": round(min(1.0, self.stats.late / max(1, self.stats.ticks)), 4),
+            "ships": sum(o.shard.world.state.n for o in self.owned.values()),
+            "shards": len(self.owned),
+            "held": sum(len(o.unsent) + len(o.backlog) + sum(len(j[1]) for j in o.journal)
+                        for o in self.owned.values()),
+            "commands_per_s": round((cmds - c0) / span, 1),
+            "events_per_s": round((self.stats.entries_sent - e0) / span, 1),
+            "applied": applied, "rejected": rejected, "rejections_unpublished": unpublished,
+            "dropped": self.stats.entries_dropped + unpublished,
+            "redis": "up" if self.redis_up and self._refused is None else
+                     ("refusing" if self.redis_up else "down"),
+            "logs_paused": sum(o.shard.log.paused for o in self.owned.values()),
+        }
+        return fig
+
+    _gone_counts = (0, 0, 0)
+
+    def _keep_counts(self, o: _Owned) -> None:
+        c = o.shard.counts
+        a, r, u = self._gone_counts
+        self._gone_counts = (a + c.applied, r + c.rejected, u + c.unpublished)
+
+    def _report(self) -> None:
+        self._next_stats = time.monotonic() + self.cfg.stats_every_s
+        fig = self.figures()
+        self._last_counts = (time.monotonic(), self.stats.commands_read, self.stats.entries_sent)
+        self.log("stats", "info", **fig)
+        if self._metrics:
+            m, seen = self._metrics, self._metric_seen
+            m["ships"].set(fig["ships"])
+            m["shards"].set(fig["shards"])
+            m["lag"].set(fig["lag_s"])
+            m["held"].set(fig["held"])
+            m["tick_no"].set(fig["tick"])
+            for name, value in (("applied", fig["applied"]), ("rejected", fig["rejected"]),
+                                ("dropped", fig["dropped"]),
+                                ("events", self.stats.entries_sent), ("late", fig["late"])):
+                if value > seen[name]:
+                    m[name].inc(value - seen[name])
+                    seen[name] = value
+        if self.redis_up:
+            def write():
+                key = self.keys.stats(self.id)
+                pipe = self.r.pipeline(transaction=False)
+                pipe.hset(key, mapping={k: str(v) for k, v in fig.items()})
+                pipe.expire(key, max(1, int(math.ceil(3 * self.cfg.stats_every_s))))
+                pipe.execute()
+            self._redis(write)
 
     # -- stop ----------------------------------------------------------------------------------
     def shutdown(self, flush_s: float = 5.0) -> None:
@@ -546,19 +951,31 @@ class Worker:
             done = self._redis(self._final_flush)
             if done:
                 break
+            time.sleep(0.05)
+        self._lease_stop.set()
+        if self._lease_thread is not None:
+            self._lease_thread.join(timeout=5)
         for k in sorted(self.owned):
             o = self.owned[k]
             o.shard.log.close(complete=True, reason="stopped")
         held = sum(len(o.unsent) for o in self.owned.values())
         if held:
-            self.say(f"stopped with {held:,} entries undelivered (Redis unreachable); the "
-                     f"flight logs have them")
+            self.log(f"stopped with {held:,} entries undelivered (Redis unreachable or "
+                     f"refusing); the flight logs have them", "error")
+        self.last_figures = self.figures()
         self.owned.clear()
         try:
             self.r.zrem(self.keys.workers, self.id)
-            self.r.close()
-        except REDIS_ERRORS:
+            self.r.delete(self.keys.stats(self.id))
+        except redis.exceptions.RedisError:
             pass
+        for client in (self.r, self.r_ping):
+            try:
+                client.close()
+            except redis.exceptions.RedisError:
+                pass
+        if self._metrics_server is not None:
+            self._metrics_server.shutdown()
 
     def _final_flush(self) -> bool:
         self._flush()
@@ -567,7 +984,7 @@ class Worker:
             if o.journal or o.unsent:
                 return False
             if self._checkpoint(k) == 1:
-                self._scripts["RELEASE"](keys=[self.keys.shard(k, "owner")], args=[self.id])
+                self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         return True
 
 

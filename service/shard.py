@@ -27,6 +27,7 @@ from sim.timeline import CommandError
 from sim.world import Block, World
 
 REJECTED = "ship.command_rejected"
+RETIRED = "ship.retired"
 AUTOLAND_DONE = "ship.autoland_complete"
 AUTOLAND_FAILED = "ship.autoland_failed"
 
@@ -42,14 +43,32 @@ class TickOut:
     blocks: list[Block] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class Limits:
+    """What one shard admits (settings of ``touchdown serve``; 0: no limit)."""
+
+    max_ships: int = 20_000  # ships in the shard; a spawn past it is rejected
+    max_commands_per_ship: int = 4  # commands for one ship in one tick; the rest rejected
+    max_rejections: int = 100  # rejection events a tick; the rest counted, not published
+
+
+@dataclass
+class Counts:
+    applied: int = 0
+    rejected: int = 0  # every rejection, published or not
+    unpublished: int = 0  # rejections counted only (past Limits.max_rejections in a tick)
+
+
 @dataclass
 class Shard:
     index: int
     world: World
-    log: object  # logs.rotating.RotatingLog (write_block, flush, close)
+    log: object  # service.flightlog.ServiceLog (write_block, flush, close)
     body: str
     autoland: dict[str, None] = field(default_factory=dict)  # insertion-ordered set
     published: int = 0  # entries emitted so far: the next one's number
+    limits: Limits = field(default_factory=Limits)
+    counts: Counts = field(default_factory=Counts)
 
     @property
     def tick(self) -> int:
@@ -60,22 +79,37 @@ class Shard:
         out = TickOut()
         t = self.world.tick
         pending: dict[str, list] = {}
+        self._per_ship: dict[str, int] = {}
+        self._ships_next = self.world.state.n  # with the spawns accepted this tick
+        shown = 0
         for req in requests:
             reason = self._apply(req, pending) if isinstance(req, Request) else req.reason
-            if reason is not None:
-                self._emit(out, self._rejection(req, reason, t))
+            if reason is None:
+                self.counts.applied += 1
+                continue
+            self.counts.rejected += 1
+            if self.limits.max_rejections and shown >= self.limits.max_rejections:
+                self.counts.unpublished += 1
+                continue
+            shown += 1
+            self._emit(out, self._rejection(req, reason, t))
         self._autopilot(out, pending, t)
         self.world.commands((sid, *given) for sid, given in pending.items())
         for block in self.world.blocks(t + 1):
             msgs = self.log.write_block(block)
             out.blocks.append(block)
+            rows = {sid: i for i, sid in enumerate(block.ship_ids)} if block.spawned else {}
             for sp in block.spawned:
-                out.hashes[sp.ship_id] = ship_hash(SurfaceState(
-                    self._state_of(block, sp.ship_id)), self.body, block.first_tick,
+                out.hashes[sp.ship_id] = ship_hash(SurfaceState(int(
+                    block.states[0]["surface_state"][rows[sp.ship_id]])), self.body,
+                    block.first_tick,
                     sp.spec.get("player_id") or "player-" + sp.ship_id, self.index)
             for r in block.retired:
                 out.hashes[r.ship_id] = None
                 self.autoland.pop(r.ship_id, None)
+                self._emit(out, {"event": RETIRED, "ship_id": r.ship_id,
+                                 "player_id": self._player(r.ship_id), "body": self.body,
+                                 "tick": str(block.first_tick)})
             for m in msgs:
                 fields = entry_fields(m)
                 self._emit(out, fields)
@@ -87,12 +121,28 @@ class Shard:
     def _apply(self, req: Request, pending: dict[str, list]) -> str | None:
         """Apply one request; the reason it cannot be applied, or None."""
         w, sid = self.world, req.ship_id
+        lim = self.limits
+        if req.cmd != "spawn":
+            owner = self._owner(sid)
+            if owner is not None and req.player_id and owner != req.player_id:
+                return (f"{req.cmd}: ship {sid!r} belongs to another player (player_id "
+                        f"{req.player_id!r} may command only its own ships)")
+            n = self._per_ship.get(sid, 0) + 1
+            self._per_ship[sid] = n
+            if lim.max_commands_per_ship and n > lim.max_commands_per_ship:
+                return (f"{req.cmd}: more than {lim.max_commands_per_ship} commands for ship "
+                        f"{sid!r} in tick {w.tick} (the per-ship rate)")
         try:
             if req.cmd == "spawn":
+                if lim.max_ships and self._ships_next >= lim.max_ships:
+                    return (f"spawn: shard {self.index} is full ({lim.max_ships:,} ships, "
+                            f"the most a shard takes)")
                 w.spawn(req.values["ship"])
+                self._ships_next += 1
                 return None
             if req.cmd == "retire":
                 w.retire(sid)
+                self._ships_next -= 1
                 pending.pop(sid, None)
                 self.autoland.pop(sid, None)
                 return None
@@ -150,7 +200,15 @@ class Shard:
     def _rejection(self, req, reason: str, t: int) -> dict:
         return {"event": REJECTED, "ship_id": req.ship_id,
                 "player_id": self._player(req.ship_id), "body": self.body, "tick": str(t),
-                "cmd": req.cmd, "reason": reason, "entry_id": req.entry_id}
+                "cmd": req.cmd, "reason": reason, "entry_id": req.origin or req.entry_id}
+
+    def _owner(self, sid: str) -> str | None:
+        """The player of ship ``sid`` (present, or known to this shard), or None."""
+        i = self._row(sid)
+        if i is not None:
+            return self.world.params.ships.player_id[i]
+        spec = self.world.known.get(sid)
+        return (spec.get("player_id") or "player-" + sid) if spec else None
 
     def _player(self, sid: str) -> str:
         i = self._row(sid)

@@ -7,9 +7,11 @@ names the file and the key (``bounce.toml: ships[0].initial.tilt_deg: ...``).
 """
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable
 
@@ -207,13 +209,35 @@ class Scene:
 
     doc: dict
     source: str
+    #: a ship's table (without its id and player) -> what it parsed to: a live service's
+    #: spawns of one class re-parse nothing (bounded: emptied past SHIP_CACHE entries)
+    _ships: dict = field(default_factory=dict, compare=False, repr=False)
 
     def ship(self, spec: dict) -> tuple[ShipParams, State]:
         """One ship's parameters and its state at tick 0 (sim.world turns it to the tick it joins
         at), by the same rules, checks and messages as a scenario's ``[[ships]]`` table."""
         table = {k: v for k, v in spec.items() if k not in TIMING_KEYS}
-        scn = parse({**self.doc, "ships": [table]}, self.source)
-        return scn.params.ships, scn.initial
+        sid, pid = table.get("id"), table.get("player_id")
+        if not isinstance(sid, str) or not (pid is None or isinstance(pid, str)):
+            scn = parse({**self.doc, "ships": [table]}, self.source)  # its message
+            return scn.params.ships, scn.initial
+        try:
+            key = json.dumps({k: v for k, v in table.items() if k not in ("id", "player_id")},
+                             sort_keys=True, allow_nan=False)
+        except (TypeError, ValueError, RecursionError):
+            key = None
+        hit = self._ships.get(key) if key is not None else None
+        if hit is None:
+            scn = parse({**self.doc, "ships": [table]}, self.source)
+            hit = (scn.params.ships, scn.initial)
+            if key is not None:
+                if len(self._ships) >= SHIP_CACHE:
+                    self._ships.clear()
+                self._ships[key] = hit
+        ships, initial = hit
+        ships = dataclasses.replace(ships, ship_id=(sid,),
+                                    player_id=(pid if pid is not None else "player-" + sid,))
+        return ships, State(rows=initial.rows.copy(), tick=initial.tick)
 
 
 @dataclass(frozen=True)
@@ -414,6 +438,7 @@ def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario
 MAX_SUBSTEPS_PER_TICK = 1000
 MAX_TICKS = 1_000_000_000
 MAX_SHIPS = 1_000_000
+SHIP_CACHE = 4096  # ship classes Scene.ship keeps parsed
 MAX_INPUTS = 1_000_000
 #: a method whose stable w h is below this is unstable at any step a run could take
 PRACTICAL_BOUND_WH = 1e-3

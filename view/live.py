@@ -1,0 +1,205 @@
+"""``touchdown view --redis URL``: the running service's fleet in Rerun, live, from the telemetry
+stream as it arrives (``P:telemetry``, service.serve) and the event stream (``P:ships``):
+
+- ``fleet/ships``: every ship seen, at its last sample, in the landing-site frame (east, north,
+  up; m), coloured by state (the log view's colours), labelled with its id;
+- ``counts/{state}``: how many ships are in each state, over time (``tick`` and ``sim_time``);
+- ``events``: the event stream as a text log (transitions, rejections, retirements, the
+  autopilot's reports), levels by kind.
+
+Telemetry is a rolling slice (each ship once per telemetry period), so the picture is each
+ship's latest sample. Without a display: ``-o OUT.rrd`` records ``--seconds`` of it to a file,
+``--screenshot PNG`` renders it with Rerun's headless viewer.
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import redis
+
+from proto import service_pb2 as spb
+from service import redis_io as rio
+from sim.enums import SurfaceState
+from view.rerun_view import STATE_COLORS, ViewError
+
+LEVELS = {"ship.crashed": "ERROR", "ship.tipped": "WARN", "ship.command_rejected": "WARN",
+          "ship.autoland_failed": "WARN"}
+
+
+class Fleet:
+    """Each ship's latest sample, in site coordinates."""
+
+    def __init__(self, scene: dict):
+        body = scene.get("body", {})
+        self.radius = float(body.get("radius", 1737400.0))
+        period = float(body.get("rotation_period", 0.0) or 0.0)
+        self.omega = 2.0 * math.pi / period if period else 0.0
+        self.ships: dict[str, tuple[np.ndarray, int]] = {}
+        self.tick = 0
+        self.t_s = 0.0
+
+    def add(self, sample: spb.Telemetry) -> None:
+        n = len(sample.ship_ids)
+        if not n:
+            return
+        pos = np.array(sample.pos_m, dtype=float).reshape(n, 3)
+        # body-centred inertial -> body-fixed (the body turned by omega t about z) -> the site's
+        # east (y), north (z), up (x - R): the log view's frame near the site
+        a = self.omega * sample.t_s
+        c, s = math.cos(a), math.sin(a)
+        x = c * pos[:, 0] + s * pos[:, 1]
+        y = -s * pos[:, 0] + c * pos[:, 1]
+        site = np.stack([y, pos[:, 2], x - self.radius], axis=1)
+        for sid, p, st in zip(sample.ship_ids, site, sample.state):
+            self.ships[sid] = (p, int(st))
+        self.tick = max(self.tick, int(sample.tick))
+        self.t_s = max(self.t_s, float(sample.t_s))
+
+    def drop(self, ship_id: str) -> None:
+        self.ships.pop(ship_id, None)
+
+
+def _client(url: str, password: str | None) -> redis.Redis:
+    try:
+        client = rio.connect(url, password)
+        client.ping()
+    except ValueError as exc:
+        raise ViewError(f"--redis {rio.redact(url)}: {exc}") from None
+    except redis.exceptions.RedisError as exc:
+        raise ViewError(f"redis {rio.redact(url)}: "
+                        f"{rio.scrub(str(exc), password, rio.password_of(url))}") from None
+    return client
+
+
+def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
+           password: str | None = None, history: int = 2000) -> int:
+    """Log the fleet into ``rec`` as it arrives, for ``seconds`` (None: until Ctrl-C); starts
+    from the last ``history`` telemetry samples and events. Returns the samples drawn."""
+    import rerun as rr
+
+    client = _client(url, password)
+    keys = rio.Keys(prefix)
+    telemetry = f"{prefix}:telemetry"
+    scene_json = client.hget(keys.config, "scenario_json") or b""
+    scene = json.loads(scene_json) if scene_json else {}
+    fleet = Fleet(scene)
+    rec.log("fleet", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    last = {telemetry: "0", keys.events: "0"}
+    for stream in last:
+        tail = client.xrevrange(stream, count=history)
+        if tail:
+            last[stream] = _before(tail[-1][0].decode())
+    drawn = 0
+    end = None if seconds is None else time.monotonic() + seconds
+    try:
+        while end is None or time.monotonic() < end:
+            block = 200 if end is None else max(1, int(min(200, (end - time.monotonic()) * 1e3)))
+            try:
+                reply = client.xread(last, count=500, block=block)
+            except redis.exceptions.RedisError:
+                time.sleep(0.25)
+                continue
+            changed = False
+            for stream, entries in reply or []:
+                stream = stream.decode()
+                for entry_id, fields in entries:
+                    last[stream] = entry_id.decode()
+                    if stream == telemetry:
+                        sample = spb.Telemetry.FromString(fields.get(b"proto", b""))
+                        fleet.add(sample)
+                        changed = True
+                        drawn += 1
+                    else:
+                        _event(rr, rec, fleet, fields)
+            if changed:
+                _draw(rr, rec, fleet)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        client.close()
+    return drawn
+
+
+def _before(entry_id: str) -> str:
+    """The id just before ``entry_id`` (XREAD returns entries after the id it is given)."""
+    ms, seq = (int(x) for x in entry_id.split("-"))
+    return f"{ms}-{seq - 1}" if seq else f"{ms - 1}-18446744073709551615"
+
+
+def _time(rr, rec, tick: int, t_s: float) -> None:
+    rec.set_time("tick", sequence=tick)
+    rec.set_time("sim_time", duration=t_s)
+
+
+def _draw(rr, rec, fleet: Fleet) -> None:
+    _time(rr, rec, fleet.tick, fleet.t_s)
+    ids = list(fleet.ships)
+    pos = np.array([fleet.ships[s][0] for s in ids]) if ids else np.zeros((0, 3))
+    states = [fleet.ships[s][1] for s in ids]
+    colors = [STATE_COLORS.get(SurfaceState(st), (200, 200, 200)) for st in states]
+    labels = ids if len(ids) <= 200 else None
+    rec.log("fleet/ships", rr.Points3D(pos, colors=colors, radii=3.0, labels=labels))
+    for state in SurfaceState:
+        rec.log(f"counts/{state.label}", rr.Scalars(sum(1 for st in states if st == int(state))))
+
+
+def _event(rr, rec, fleet: Fleet, fields: dict) -> None:
+    f = {k.decode(): v.decode("utf-8", "replace") for k, v in fields.items() if k != b"proto"}
+    kind = f.get("event", "")
+    tick = int(f.get("tick", fleet.tick) or 0)
+    rec.set_time("tick", sequence=tick)
+    text = f"{kind} {f.get('ship_id', '')} (player {f.get('player_id', '')})"
+    if "reason" in f:
+        text += f": {f['reason']}"
+    if "result" in f:
+        text += f": {f['result']}"
+    rec.log("events", rr.TextLog(text, level=LEVELS.get(kind, "INFO")))
+    if kind == "ship.retired":
+        fleet.drop(f.get("ship_id", ""))
+
+
+def record(url: str, prefix: str, seconds: float, out: Path, password: str | None = None
+           ) -> int:
+    """``seconds`` of the live view into ``out`` (an .rrd, via ``out.partial``)."""
+    import os
+
+    import rerun as rr
+    out = Path(out)
+    rec = rr.RecordingStream("touchdown-live", recording_id=f"live-{prefix}")
+    rec.set_log_time_enabled(False) if hasattr(rec, "set_log_time_enabled") else None
+    partial = Path(f"{out}.partial")
+    try:
+        rec.save(partial)
+        n = follow(rec, url, prefix, seconds, password)
+        rec.flush()
+        rec.disconnect()
+        os.replace(partial, out)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+    return n
+
+
+def live(url: str, prefix: str, seconds: float | None, password: str | None = None) -> int:
+    """Open the native viewer and draw into it as the fleet moves (until Ctrl-C or
+    ``seconds``)."""
+    import rerun as rr
+
+    from view.rerun_view import _last_line, _start_viewer
+
+    proc, port, err = _start_viewer(["--hide-welcome-screen"])
+    try:
+        time.sleep(2.0)
+        if proc.poll() is not None:
+            raise ViewError(f"the viewer could not open a window ({_last_line(err)}); record the "
+                            f"live view with -o OUT.rrd --seconds S, or a picture with "
+                            f"--screenshot PNG")
+        rec = rr.RecordingStream("touchdown-live", recording_id=f"live-{prefix}")
+        rec.connect_grpc(f"rerun+http://127.0.0.1:{port}/proxy")
+        return follow(rec, url, prefix, seconds, password)
+    finally:
+        err.unlink(missing_ok=True)
