@@ -77,6 +77,8 @@ class VerifyResult:
     inputs_note: str = ""
     #: the file's MCAP structure is damaged, its content read all the same (logs.structure)
     structure_note: str = ""
+    #: a file rotated at its run's last tick: the whole run is here, and the next file repeats it
+    segment_note: str = ""
 
     @property
     def identical(self) -> bool:
@@ -106,6 +108,8 @@ class VerifyResult:
                 lines.append(f"only part of the run was checked: {self.partial_note}")
             if self.structure_note:
                 lines.append(f"note: {self.structure_note}")
+            if self.segment_note:
+                lines.append(f"note: {self.segment_note}")
             return "\n".join(lines)
         d = self.divergence
         lines.append(f"DIVERGED at tick {d.tick} (t = {d.t_s:.4f} s), ship {d.ship_id}, "
@@ -408,6 +412,12 @@ def _say_what_was_checked(reader: LogReader, res: VerifyResult, target: int, eve
                else "it holds no more")
         of = "" if target >= UNBOUNDED else f" of {target}"
         gaps.append(f"the log ends at tick {res.last_tick}{of} ({why})")
+    elif reader.status.complete:
+        # rotated at the run's last tick: the next file holds that tick again, and nothing more
+        summary = reader.read_summary()
+        if summary is not None and summary.complete and summary.reason == "rotated":
+            res.segment_note = (f"the run goes on in the next file (rotated), which holds tick "
+                                f"{res.last_tick}, the run's last, again")
     if events_to < res.last_tick:
         gaps.append(f"the events of tick {res.last_tick} may have been lost with the cut and were "
                     f"not compared")

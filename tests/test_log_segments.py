@@ -417,3 +417,23 @@ def test_incident_of_a_missing_or_broken_log_exits_2(tmp_path):
         assert r.exit_code == 2, r.output
         lines = r.output.strip().splitlines()
         assert len(lines) == 1 and "Traceback" not in r.output, r.output
+
+
+def test_a_file_rotated_at_the_runs_last_tick_says_so_and_the_next_verifies(tmp_path):
+    """Rotation follows the file's size as the writer's thread last saw it, so it can fall at the
+    run's very last tick: that file holds the whole rest of the run and says the run goes on; the
+    next holds that tick alone, as a keyframe, and verifies too."""
+    world = World.of(parse_text(SCENE, "segments.toml"))
+    log = RotatingLog(tmp_path, world, keyframe_interval=KEYFRAMES, max_bytes=1 << 30)
+    log.write_block(world.first_block())
+    for t in range(0, N_TICKS, 10):
+        if t == N_TICKS - 10:
+            log.max_bytes = 1  # the last block puts it past the bound
+        for block in world.blocks(t + 10, max_ticks=10):
+            log.write_block(block)
+    log.close()
+    assert len(log.files) == 2
+    first, last = (verify(str(f)) for f in log.files)
+    assert first.identical and "the run goes on in the next file (rotated)" in first.report()
+    assert last.identical, last.report()
+    assert last.first_tick == last.last_tick == N_TICKS
