@@ -385,7 +385,7 @@ def test_autoland_flies_a_spawned_ship_down_and_reports_it(service):
     """spawn, then autoland: the ship is flown down by recorded commands, lands, the service
     reports ``ship.autoland_complete`` (result landed) and its hash says landed; retire then
     removes it. The shard's flight logs replay it exactly."""
-    w, th = service(ticks=700, rate_hz=0.0)
+    w, th = service(ticks=1500, rate_hz=0.0)  # room after the landing for the retire, under load
     client = redis.Redis.from_url(service.url)
     commands = f"{service.prefix}:commands"
     p7 = {"player_id": "p-7"}
