@@ -523,6 +523,14 @@ def spawn_viewer(runs: list[Run], wait_s: float = 2.0) -> None:
                          default_blueprint=blueprint(layout))
         populate(rec, layout)
         rec.flush()
+        # a loaded machine can take longer than wait_s to find it has no display: a viewer that
+        # stops while (or soon after) it is sent the run never showed it
+        end = time.monotonic() + wait_s
+        while time.monotonic() < end and proc.poll() is None:
+            time.sleep(0.1)
+        if proc.poll() is not None:
+            raise ViewError(f"the viewer could not open a window ({_last_line(err)}); write the "
+                            f"view to a file with -o OUT.rrd, or a picture with --screenshot PNG")
     finally:
         err.unlink(missing_ok=True)
 
