@@ -14,6 +14,7 @@ from pathlib import Path
 import click
 
 import scenarios as builtin
+from bench.commands import bench
 from logs import LogError
 from sim.integrators import METHODS
 from sim.scenario import ScenarioError, load_toml, parse_text
@@ -87,6 +88,9 @@ def main() -> None:
     """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
     from sim.compiled import notify_compilation
     notify_compilation()  # one line on stderr while the kernels compile (first run after install)
+
+
+main.add_command(bench)  # one subcommand per benchmark, each with its own options (bench/commands.py)
 
 
 @main.command("scenarios")
@@ -514,67 +518,6 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
         raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
                          f"(no {output})") from None
     click.echo(res.report())
-
-
-@main.command()
-@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve", "envelope", "logs"]))
-@click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
-@click.option("--out", "out_dir", default="docs", show_default=True,
-              help="accuracy: where the chart and tables go")
-@click.option("--files", type=click.IntRange(min=1), default=2000, show_default=True,
-              help="fuzz: how many hostile files to generate and run")
-@click.option("--seconds", type=click.FloatRange(min=0.1), default=20.0, show_default=True,
-              help="fuzz: the time bound per file")
-@click.option("--memory-gib", type=click.FloatRange(min=0.5), default=1.5, show_default=True,
-              help="fuzz: the address-space cap of the whole campaign")
-@click.option("--seed", type=int, default=20261123, show_default=True, help="fuzz: the corpus seed")
-def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memory_gib: float,
-          seed: int) -> None:
-    """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates, and
-    the cost per ship-tick by state and model; `replay`: verify against record speed, seeking in a
-    long log, what keyframes cost; `accuracy`: the work-precision chart and tables (needs the
-    `bench` extra); `stability`: each method's largest stable step, measured against theory;
-    `physics`: scenes off the well-walked paths (turning bodies, tumbles, falls onto the side,
-    spins, hills, slopes, impossible starts), each figure beside what physics says; `fuzz`: a
-    campaign of generated hostile logs and scenarios against verify, export and record, counted
-    per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
-    `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
-    `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
-    reference and MuJoCo (the `bench` extra); `logs`: export (Parquet, CSV, JSON Lines), view,
-    verify and doctor of a 1,000-ship log as whole commands on one core, as ratios against the
-    old per-row JSON Lines export."""
-    if what == "accuracy":
-        from bench import accuracy
-        accuracy.main(quick=quick, out_dir=out_dir)
-    elif what == "stability":
-        from bench import stability
-        stability.main(quick=quick)
-    elif what == "fuzz":
-        from bench import fuzz
-        tally = fuzz.main(files=200 if quick else files, seconds=seconds, memory_gib=memory_gib,
-                          seed=seed)
-        if tally.bad():
-            sys.exit(1)
-    elif what == "physics":
-        from bench import physics
-        physics.main(quick=quick)
-    elif what == "serve":
-        from bench import serve as bench_serve
-        bench_serve.main(quick=quick)
-    elif what == "envelope":
-        from bench import envelope
-        envelope.main(quick=quick)
-    elif what == "speed":
-        from bench import speed
-        speed.main(quick=quick)
-    elif what == "logs":
-        from bench import logs as bench_logs
-        bench_logs.main(quick=quick)
-    else:
-        from bench import replay_speed
-        replay_speed.main(quick=quick)
 
 
 @main.command()

@@ -168,6 +168,21 @@ def test_every_command_has_help(cmd):
     assert r.exit_code == 0 and "Usage" in r.output
 
 
+BENCHES = ["speed", "replay", "accuracy", "stability", "physics", "fuzz", "serve", "envelope",
+           "logs"]
+
+
+@pytest.mark.parametrize("name", BENCHES)
+def test_each_benchmark_is_a_subcommand_with_its_own_options(name):
+    r = invoke("bench", name, "--help")
+    assert r.exit_code == 0 and f"bench {name}" in r.output
+    assert "--quick" in r.output
+    assert ("--files" in r.output) == (name == "fuzz")  # fuzz's options are fuzz's alone
+    assert ("--out " in r.output) == (name == "accuracy")
+    if name != "fuzz":
+        assert invoke("bench", name, "--files", "3").exit_code == 2  # no such option
+
+
 def test_both_entry_points_work(tmp_path):
     script = Path(sys.executable).with_name("touchdown")
     for argv in ([sys.executable, str(ROOT / "cli.py")], [str(script)]):
