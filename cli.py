@@ -1,5 +1,10 @@
 """The ``touchdown`` command line (SPEC.md section 2). Exit codes: 0 done, 1 the work failed,
-2 bad usage or bad input (one line on stderr naming the file, key or field; no traceback)."""
+2 bad usage or bad input (one line on stderr naming the file, key or field; no traceback).
+
+Every error a user is told about is a sim.errors.TouchdownError (ScenarioError, LogError,
+ServeError, ...), carrying its exit code; the root group's one handler (``Touchdown.invoke``)
+prints it. A command catches an exception only to say what it means there (a file that cannot
+be written: WorkFailed, "nothing was kept")."""
 from __future__ import annotations
 
 import json
@@ -14,24 +19,32 @@ from pathlib import Path
 import click
 
 import scenarios as builtin
+from bench.commands import bench
 from logs import LogError
+from sim.errors import TouchdownError, UserError, WorkFailed
 from sim.integrators import METHODS
 from sim.scenario import ScenarioError, load_toml, parse_text
 
 
-class UserError(click.ClickException):
-    """A user's mistake: message on one line, exit 2."""
+class _Told(click.ClickException):
+    """A TouchdownError as click shows and exits with it: ``touchdown: MESSAGE``, one line."""
 
-    exit_code = 2
+    def __init__(self, exc: TouchdownError):
+        super().__init__(str(exc))
+        self.exit_code = exc.exit_code
 
     def show(self, file=None) -> None:
         click.echo(f"touchdown: {self.format_message()}", err=True)
 
 
-class WorkFailed(UserError):
-    """The work could not be done (a full disk): message on one line, exit 1."""
+class Touchdown(click.Group):
+    """The root group: the one handler of every TouchdownError raised under any command."""
 
-    exit_code = 1
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except TouchdownError as exc:
+            raise _Told(exc) from None
 
 
 def parse_sets(sets: tuple[str, ...]) -> dict:
@@ -57,10 +70,7 @@ def load_scenario(spec: str, sets: tuple[str, ...] = ()):
     """A scenario from a TOML path or a built-in name; returns (scenario, source)."""
     overrides = parse_sets(sets)
     text, source = scenario_text(spec)
-    try:
-        return parse_text(text, source, overrides), source
-    except ScenarioError as exc:
-        raise UserError(str(exc)) from None
+    return parse_text(text, source, overrides), source
 
 
 def scenario_text(spec: str) -> tuple[str, str]:
@@ -81,12 +91,15 @@ def scenario_text(spec: str) -> tuple[str, str]:
     return text, source
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=Touchdown, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="touchdown", message="%(version)s")
 def main() -> None:
     """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
     from sim.compiled import notify_compilation
     notify_compilation()  # one line on stderr while the kernels compile (first run after install)
+
+
+main.add_command(bench)  # one subcommand per benchmark, each with its own options (bench/commands.py)
 
 
 @main.command("scenarios")
@@ -121,10 +134,7 @@ def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: 
     publisher = None
     if redis_url:
         from logs.redis_stream import EventPublisher
-        try:
-            publisher = EventPublisher(redis_url, stream)
-        except LogError as exc:
-            raise UserError(str(exc)) from None
+        publisher = EventPublisher(redis_url, stream)
     n_ticks = scn.params.sim.n_ticks
     try:
         writer = LogWriter(out, scenario_message(scn, source, keyframe_every))
@@ -224,7 +234,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
     t_lo, t_hi = _range(time_range, "--time", float)
     try:
         columns = ex.parse_fields(fields, ex.EVENT_NAMES if events else ex.TICK_NAMES)
-    except ValueError as exc:
+    except ValueError as exc:  # an unknown field
         raise UserError(str(exc)) from None
     tmp = Path(output + ".partial") if output else None
     beside = None
@@ -281,8 +291,6 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
             damage = reader.structure_note()
             if damage:
                 note = (f"{note}\ntouchdown: " if note else "") + f"{log}: {damage}"
-    except LogError as exc:
-        raise UserError(str(exc)) from None
     except OSError as exc:
         if isinstance(exc, BrokenPipeError):
             sys.stderr.close()
@@ -333,8 +341,6 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
                     _show([log, new_log], ship_id)
             return
         res = run_verify(log, from_tick, to_tick, ship_id)
-    except LogError as exc:
-        raise UserError(str(exc)) from None
     except OSError as exc:  # the what-if log (-o) could not be written; its partial is gone
         raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
                          f"(no {output})") from None
@@ -353,10 +359,7 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
     from view import rerun_view as rv
 
     t0 = time.perf_counter()
-    try:
-        runs, notes = rv.load_runs(logs, ship_id)
-    except LogError as exc:
-        raise UserError(str(exc)) from None
+    runs, notes = rv.load_runs(logs, ship_id)
     for note in notes:
         click.echo(f"touchdown: {note}", err=True)
     try:
@@ -374,8 +377,6 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
                     click.echo(f"{png}: screenshot of the view")
         else:
             rv.spawn_viewer(runs)
-    except rv.ViewError as exc:
-        raise WorkFailed(str(exc)) from None
     except OSError as exc:
         where = output or png or "the viewer"
         raise WorkFailed(f"{where}: {exc.strerror or exc}; nothing was kept") from None
@@ -428,20 +429,17 @@ def _show_live(url: str, prefix: str, seconds: float | None, output: str | None,
     from view import live
     from view import rerun_view as rv
 
-    try:
-        if output or png:
-            with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
-                rrd = Path(output or Path(tmp) / "live.rrd")
-                n = live.record(url, prefix, seconds or 5.0, rrd)
-                if output:
-                    click.echo(f"{rrd}: {n:,} telemetry samples of the live fleet")
-                if png:
-                    rv.screenshot(rrd, Path(png), None)
-                    click.echo(f"{png}: screenshot of the live view")
-        else:
-            live.live(url, prefix, seconds)
-    except rv.ViewError as exc:
-        raise UserError(str(exc)) from None
+    if output or png:
+        with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
+            rrd = Path(output or Path(tmp) / "live.rrd")
+            n = live.record(url, prefix, seconds or 5.0, rrd)
+            if output:
+                click.echo(f"{rrd}: {n:,} telemetry samples of the live fleet")
+            if png:
+                rv.screenshot(rrd, Path(png), None)
+                click.echo(f"{png}: screenshot of the live view")
+    else:
+        live.live(url, prefix, seconds)
 
 
 @main.command()
@@ -506,75 +504,12 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
             raise UserError(f"{flag} {raw!r}: must be seconds, a number >= 0")
     try:
         res = cut(list(logs), ship_id, tick, seconds["--before"], seconds["--after"], output)
-    except LogError as exc:
-        raise UserError(str(exc)) from None
     except Diverged as exc:
         raise WorkFailed(f"{str(exc)} (no {output})") from None
     except OSError as exc:
         raise WorkFailed(f"{output}: cannot write: {exc.strerror}; nothing was kept "
                          f"(no {output})") from None
     click.echo(res.report())
-
-
-@main.command()
-@click.argument("what", type=click.Choice(["speed", "replay", "accuracy", "stability", "physics",
-                                           "fuzz", "serve", "envelope", "logs"]))
-@click.option("--quick", is_flag=True, help="smaller runs (a smoke test of the benchmark itself)")
-@click.option("--out", "out_dir", default="docs", show_default=True,
-              help="accuracy: where the chart and tables go")
-@click.option("--files", type=click.IntRange(min=1), default=2000, show_default=True,
-              help="fuzz: how many hostile files to generate and run")
-@click.option("--seconds", type=click.FloatRange(min=0.1), default=20.0, show_default=True,
-              help="fuzz: the time bound per file")
-@click.option("--memory-gib", type=click.FloatRange(min=0.5), default=1.5, show_default=True,
-              help="fuzz: the address-space cap of the whole campaign")
-@click.option("--seed", type=int, default=20261123, show_default=True, help="fuzz: the corpus seed")
-def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memory_gib: float,
-          seed: int) -> None:
-    """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates, and
-    the cost per ship-tick by state and model; `replay`: verify against record speed, seeking in a
-    long log, what keyframes cost; `accuracy`: the work-precision chart and tables (needs the
-    `bench` extra); `stability`: each method's largest stable step, measured against theory;
-    `physics`: scenes off the well-walked paths (turning bodies, tumbles, falls onto the side,
-    spins, hills, slopes, impossible starts), each figure beside what physics says; `fuzz`: a
-    campaign of generated hostile logs and scenarios against verify, export and record, counted
-    per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
-    `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
-    `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
-    reference and MuJoCo (the `bench` extra); `logs`: export (Parquet, CSV, JSON Lines), view,
-    verify and doctor of a 1,000-ship log as whole commands on one core, as ratios against the
-    old per-row JSON Lines export."""
-    if what == "accuracy":
-        from bench import accuracy
-        accuracy.main(quick=quick, out_dir=out_dir)
-    elif what == "stability":
-        from bench import stability
-        stability.main(quick=quick)
-    elif what == "fuzz":
-        from bench import fuzz
-        tally = fuzz.main(files=200 if quick else files, seconds=seconds, memory_gib=memory_gib,
-                          seed=seed)
-        if tally.bad():
-            sys.exit(1)
-    elif what == "physics":
-        from bench import physics
-        physics.main(quick=quick)
-    elif what == "serve":
-        from bench import serve as bench_serve
-        bench_serve.main(quick=quick)
-    elif what == "envelope":
-        from bench import envelope
-        envelope.main(quick=quick)
-    elif what == "speed":
-        from bench import speed
-        speed.main(quick=quick)
-    elif what == "logs":
-        from bench import logs as bench_logs
-        bench_logs.main(quick=quick)
-    else:
-        from bench import replay_speed
-        replay_speed.main(quick=quick)
 
 
 @main.command()
@@ -646,7 +581,7 @@ def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
     """The live service: step the ships of a scenario and those spawned by commands, read
     commands from Redis, publish events, keep each ship's state in Redis, write flight logs
     (SPEC.md section 5; docs/SERVICE.md)."""
-    from service.serve import ServeConfig, ServeError, Worker, install_stop
+    from service.serve import ServeConfig, Worker, install_stop
     from service.shard import Limits
 
     password = None
@@ -671,16 +606,10 @@ def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
                       limits=Limits(max_ships=max_ships,
                                     max_commands_per_ship=max_commands_per_ship),
                       metrics_port=metrics_port, stats_every_s=stats_every)
-    try:
-        worker = Worker(cfg)
-    except ServeError as exc:
-        raise UserError(str(exc)) from None
+    worker = Worker(cfg)  # a ServeError (exit 2) on a bad URL or a refused start
     install_stop(worker)
     t0 = time.perf_counter()
-    try:
-        stats = worker.run()
-    except ServeError as exc:  # e.g. a shard's checkpoint written by another version
-        raise UserError(str(exc)) from None
+    stats = worker.run()  # or on a shard's checkpoint written by another version
     if stats_json:
         Path(stats_json).write_text(json.dumps({
             "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
@@ -726,15 +655,12 @@ def sweep(scenario: str, vary: tuple[str, ...], samples: int | None, seed: int,
     optionally a chart. Ctrl-C keeps the cases done (the others are marked missing, exit 130)."""
     from sweep.command import main as sweep_main
     text, source = scenario_text(scenario)
-    try:
-        doc = load_toml(text, source)
-        if sets:
-            from sim.scenario import apply_overrides
-            doc = apply_overrides(doc, parse_sets(sets), source)
-    except ScenarioError as exc:
-        raise UserError(str(exc)) from None
+    doc = load_toml(text, source)
+    if sets:
+        from sim.scenario import apply_overrides
+        doc = apply_overrides(doc, parse_sets(sets), source)
     code = sweep_main(doc, source, vary, samples, seed, output, chart, workers, scheduler,
-                      record_case, UserError, WorkFailed)
+                      record_case)
     if code:
         sys.exit(code)
 

@@ -33,7 +33,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import os
 import random
 import resource
 import signal
@@ -174,11 +173,9 @@ def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str) -> bytes
 
 
 # -- the corpus ---------------------------------------------------------------------------------
-def seed_logs(workdir: Path) -> dict[str, bytes]:
-    """Tiny logs recorded by this version: a bounce (4 ticks), a fleet (3 ticks), a bounce with
-    keyframes every 2 ticks."""
-    from cli import main
-
+def seed_logs(main, workdir: Path) -> dict[str, bytes]:
+    """Tiny logs recorded by this version through ``main`` (the command line's root command): a
+    bounce (4 ticks), a fleet (3 ticks), a bounce with keyframes every 2 ticks."""
     out = {}
     for name, args in (("bounce", ["bounce", "--set", "duration=0.15"]),
                        ("fleet", ["fleet", "--set", "duration=0.1"]),
@@ -568,10 +565,9 @@ def _content(path: str) -> tuple | None:
         return None
 
 
-def run_case(case: Case, workdir: Path, seconds: float) -> tuple[str, str]:
-    """(outcome, detail) of one case, within ``seconds``."""
-    from cli import main
-
+def run_case(main, case: Case, workdir: Path, seconds: float) -> tuple[str, str]:
+    """(outcome, detail) of one case through ``main`` (the command line's root command), within
+    ``seconds``."""
     path = workdir / "case.mcap"
     out_path = workdir / "out"
     for p in workdir.iterdir():
@@ -595,7 +591,7 @@ def run_case(case: Case, workdir: Path, seconds: float) -> tuple[str, str]:
             argv = (["replay", str(path), "--verify"] if case.command == "verify"
                     else ["export", str(path), "-o", str(out_path) + ".jsonl"])
         code, stdout, stderr = invoke(main, argv)
-        return _judge(case, code, stdout, stderr, path, out_path)
+        return _judge(main, case, code, stdout, stderr, path, out_path)
     except Timeout:
         return "hang", case.name
     except MemoryError:
@@ -605,10 +601,8 @@ def run_case(case: Case, workdir: Path, seconds: float) -> tuple[str, str]:
         signal.signal(signal.SIGALRM, old)
 
 
-def _judge(case: Case, code, stdout: str, stderr: str, path: Path, out_path: Path
+def _judge(main, case: Case, code, stdout: str, stderr: str, path: Path, out_path: Path
            ) -> tuple[str, str]:
-    from cli import main
-
     if isinstance(code, str):
         return "traceback", f"{case.name}: {code}"
     text = stdout + stderr
@@ -666,13 +660,15 @@ def _no_constant(name: str):
     raise ValueError(f"{name} is not JSON")
 
 
-def campaign(files: int, seed: int = 20261123, seconds: float = 20.0,
+def campaign(main, files: int, seed: int = 20261123, seconds: float = 20.0,
              classes: set[str] | None = None, progress=None) -> Tally:
+    """Generate ``files`` cases and run each through ``main``, the command line's root command
+    (cli.main: passed in, so that this module does not import the command line that runs it)."""
     rng = random.Random(seed)
     tally = Tally()
     with tempfile.TemporaryDirectory() as d:
         work = Path(d)
-        seeds = seed_logs(work)
+        seeds = seed_logs(main, work)
         n_logs = int(files * 0.8)
         cases = log_cases(seeds, n_logs, rng) + scenario_cases(files - n_logs, rng)
         if classes:
@@ -680,7 +676,7 @@ def campaign(files: int, seed: int = 20261123, seconds: float = 20.0,
         run_dir = work / "run"
         run_dir.mkdir()
         for i, case in enumerate(cases):
-            outcome, detail = run_case(case, run_dir, seconds)
+            outcome, detail = run_case(main, case, run_dir, seconds)
             tally.add(case.cls, outcome, detail)
             if progress:
                 progress(i + 1, len(cases))
@@ -692,13 +688,13 @@ def cap_memory(gib: float) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
 
-def main(files: int = 2000, seconds: float = 20.0, memory_gib: float = 1.5,
+def main(command, files: int = 2000, seconds: float = 20.0, memory_gib: float = 1.5,
          as_json: bool = False, seed: int = 20261123) -> Tally:
     """Run a campaign in this process (its address space capped) and print the counts."""
     from bench.speed import machine
     cap_memory(memory_gib)
     t0 = time.perf_counter()
-    tally = campaign(files, seed=seed, seconds=seconds)
+    tally = campaign(command, files, seed=seed, seconds=seconds)
     took = time.perf_counter() - t0
     if as_json:
         print(json.dumps({"counts": tally.counts, "examples": tally.examples, "seconds": took}))
@@ -712,15 +708,3 @@ def main(files: int = 2000, seconds: float = 20.0, memory_gib: float = 1.5,
     print(f"defects (silent, traceback, hang, memory, broken): {tally.bad()}")
     return tally
 
-
-if __name__ == "__main__":
-    # python -m bench.fuzz [--files N] [--seconds S] [--memory-gib G] [--seed K] [--json]: what the suite's fuzz test runs
-    args = sys.argv[1:]
-
-    def arg(name, default, kind):
-        return kind(args[args.index(name) + 1]) if name in args else default
-    t = main(files=arg("--files", 2000, int), seconds=arg("--seconds", 20.0, float),
-             memory_gib=arg("--memory-gib", 1.5, float), as_json="--json" in args,
-             seed=arg("--seed", 20261123, int))
-    sys.stdout.flush()
-    os._exit(1 if t.bad() else 0)

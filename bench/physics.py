@@ -19,6 +19,7 @@ import numpy as np
 
 from sim.contact import foot_offsets_w
 from sim.enums import EventKind, SurfaceState
+from sim.measure import terrain_height
 from sim.run import run
 from sim.scenario import ScenarioError, parse
 
@@ -80,7 +81,7 @@ def energy(scn, rec) -> float:
                               float(par.ships.com_height_m[0])):
         foot = p + np.array(off)
         east, north = -s * foot[0] + c * foot[1], foot[2]
-        x = big_r + float(par.body.terrain.height_m(np.array([east]), np.array([north]))[0]) \
+        x = big_r + float(terrain_height(par.body.terrain, np.array([east]), np.array([north]))[0]) \
             - float(np.linalg.norm(foot))
         spring += 0.5 * k_leg * x * x if x > 0.0 else 0.0
     return trans + rot + pot + cent + spring

@@ -29,6 +29,7 @@ from logs import LogError
 from logs.mcap_log import (TOPIC_EVENTS, LogReader, LogWriter, event_message, keyframe_world,
                            scenario_of, tick_arrays, world_header)
 from proto import touchdown_pb2 as pb
+from sim.errors import TouchdownError
 from replay.verify import WIDTH, _first_difference
 from sim.scenario import ScenarioError
 from sim.state import State
@@ -36,8 +37,10 @@ from sim.timeline import CommandError, Timeline
 from sim.world import Block, World
 
 
-class Diverged(Exception):
-    """The recording differs from its re-run: nothing was cut. ``str()``: one line."""
+class Diverged(TouchdownError):
+    """The recording differs from its re-run: nothing was cut. ``str()``: one line; exit 1."""
+
+    exit_code = 1
 
 
 @dataclass

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from sim.enums import HoldMode, SurfaceState
+from sim.measure import terrain_height
 
 if TYPE_CHECKING:
     from sim.world import World
@@ -239,7 +240,7 @@ def _terrain(body, cos_t: float, sin_t: float, fx: np.ndarray, fy: np.ndarray, f
     if ter.flat:
         return ter.base_height_m
     east = fy if (cos_t == 1.0 and sin_t == 0.0) else cos_t * fy - sin_t * fx
-    return ter.height_m(east, fz)
+    return terrain_height(ter, np.asarray(east, float), np.asarray(fz, float))
 
 
 #: Taylor coefficients of cos y and sin(y) / y in y^2, to y^16: |y| <= pi/4 leaves an error under

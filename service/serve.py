@@ -44,6 +44,7 @@ from service import redis_io as rio
 from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
 from service.flightlog import ServiceLog
 from service.shard import Limits, Shard, TickOut
+from sim.errors import TouchdownError
 from sim.scenario import Scenario, Scene, parse as parse_doc
 from sim.timeline import Timeline
 from sim.world import World
@@ -59,7 +60,7 @@ _KINDS = {"OutOfMemoryError": "OOM", "NoPermissionError": "NOPERM", "ReadOnlyErr
           "BusyLoadingError": "LOADING", "NoScriptError": "NOSCRIPT"}
 
 
-class ServeError(Exception):
+class ServeError(TouchdownError):
     """A user's mistake or a refused start (one line); the CLI exits 2."""
 
 

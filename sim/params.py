@@ -135,11 +135,6 @@ class Terrain:
                                        self.bump_height_m], dtype=float).T.reshape(-1, 4)
         return rec
 
-    def height_m(self, east_m: np.ndarray, north_m: np.ndarray) -> np.ndarray:
-        """The terrain's height at site coordinates (arrays), m (sim.contact.height_and_slope)."""
-        from sim.measure import terrain_height
-        return terrain_height(self, np.asarray(east_m, float), np.asarray(north_m, float))
-
     @property
     def gradient(self) -> tuple[float, float]:
         """(dh/d(east), dh/d(north)) of the uniform slope: -tan(slope) (sin(az), cos(az)) (libm,

@@ -22,6 +22,7 @@ from sim import vec
 from sim.compiled import kernel, separate
 from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
+from sim.errors import TouchdownError
 from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
                         Terrain)
@@ -29,7 +30,7 @@ from sim.state import Inputs, State
 from sim.timeline import Command, Retire, Spawn, Timeline
 
 
-class ScenarioError(ValueError):
+class ScenarioError(TouchdownError, ValueError):
     """A scenario that cannot be run; ``str()`` is one line naming the source and the key."""
 
     def __init__(self, source: str, key: str, problem: str):

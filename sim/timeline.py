@@ -16,9 +16,10 @@ import math
 from dataclasses import dataclass, field
 
 from sim.enums import HoldMode
+from sim.errors import TouchdownError
 
 
-class CommandError(ValueError):
+class CommandError(TouchdownError, ValueError):
     """A command, spawn or retire that cannot be applied; ``str()`` is one line naming the ship
     and the field."""
 

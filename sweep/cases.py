@@ -20,6 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from sim.errors import TouchdownError
 from sim.scenario import Scenario, ScenarioError, parse
 
 #: Keys whose value every case shares: the tick and the run's length fix the ticks the fleet is
@@ -27,7 +28,7 @@ from sim.scenario import Scenario, ScenarioError, parse
 FIXED = ("duration", "sim.dt", "ships.spawn_t", "ships.retire_t", "name")
 
 
-class SweepError(ValueError):
+class SweepError(TouchdownError, ValueError):
     """A bad sweep definition (exit 2): one line naming the option or key."""
 
 

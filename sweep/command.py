@@ -6,20 +6,19 @@ from pathlib import Path
 
 import click
 
+from sim.errors import UserError, WorkFailed
 from sim.scenario import ScenarioError
-from sweep.cases import Sweep, SweepError, parse_vary
+from sweep.cases import Sweep, parse_vary
 
 
 def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, scheduler,
-         record_case, UserError, WorkFailed) -> int:
-    try:
-        sw = Sweep.of(doc, source, parse_vary(vary, samples is not None), samples, seed)
-    except (SweepError, ScenarioError) as exc:
-        raise UserError(str(exc)) from None
+         record_case) -> int:
+    """The sweep; a bad definition raises SweepError or ScenarioError (exit 2, one line: cli.py's
+    handler of every TouchdownError), a table that cannot be written WorkFailed."""
+    sw = Sweep.of(doc, source, parse_vary(vary, samples is not None), samples, seed)
     name = str(doc.get("name", "sweep"))
     if record_case is not None:
-        return _record(sw, record_case, output or f"{name}-case-{record_case}.mcap", UserError,
-                       WorkFailed)
+        return _record(sw, record_case, output or f"{name}-case-{record_case}.mcap")
     out = Path(output) if output else Path(f"{name}-sweep.parquet")
     if scheduler:
         try:
@@ -37,8 +36,6 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
         res = run(sw, workers=workers, scheduler=scheduler, progress=True)
     except ScenarioError as exc:  # values each valid alone, refused together (kinetic > static)
         raise UserError(f"a case of the sweep: {exc}") from None
-    except SweepError as exc:  # the same, from a worker
-        raise UserError(str(exc)) from None
     except OSError as exc:
         raise WorkFailed(f"--scheduler {scheduler}: {exc}") from None
     try:
@@ -59,7 +56,7 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
     return 0
 
 
-def _record(sw: Sweep, case: int, output: str, UserError, WorkFailed) -> int:
+def _record(sw: Sweep, case: int, output: str) -> int:
     """Case ``case`` alone, recorded as ``touchdown record`` records a scenario."""
     from logs import LogError
     from logs.mcap_log import LogWriter, scenario_message

@@ -168,6 +168,21 @@ def test_every_command_has_help(cmd):
     assert r.exit_code == 0 and "Usage" in r.output
 
 
+BENCHES = ["speed", "replay", "accuracy", "stability", "physics", "fuzz", "serve", "envelope",
+           "logs"]
+
+
+@pytest.mark.parametrize("name", BENCHES)
+def test_each_benchmark_is_a_subcommand_with_its_own_options(name):
+    r = invoke("bench", name, "--help")
+    assert r.exit_code == 0 and f"bench {name}" in r.output
+    assert "--quick" in r.output
+    assert ("--files" in r.output) == (name == "fuzz")  # fuzz's options are fuzz's alone
+    assert ("--out " in r.output) == (name == "accuracy")
+    if name != "fuzz":
+        assert invoke("bench", name, "--files", "3").exit_code == 2  # no such option
+
+
 def test_both_entry_points_work(tmp_path):
     script = Path(sys.executable).with_name("touchdown")
     for argv in ([sys.executable, str(ROOT / "cli.py")], [str(script)]):
@@ -229,3 +244,33 @@ def test_progress_bar_on_a_terminal_and_quiet_otherwise(tmp_path):
     assert "ticks" in shown and "/2000" in shown.replace(" ", ""), shown[-500:]
     quiet = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert quiet.returncode == 0 and "/2000" not in quiet.stdout.replace(" ", "")
+
+
+def test_every_error_root_is_a_touchdown_error_with_its_exit_code():
+    """One error base (sim.errors.TouchdownError) with an exit code, and one handler in the CLI
+    (issue 26): each part's root derives from it."""
+    from logs import LogError
+    from replay.incident import Diverged
+    from service.serve import ServeError
+    from sim.errors import TouchdownError, UserError, WorkFailed
+    from sim.scenario import ScenarioError
+    from sim.timeline import CommandError
+    from sweep.cases import SweepError
+    from view.rerun_view import ViewError
+
+    codes = {ScenarioError: 2, CommandError: 2, LogError: 2, ServeError: 2, SweepError: 2,
+             UserError: 2, ViewError: 1, Diverged: 1, WorkFailed: 1}
+    for cls, code in codes.items():
+        assert issubclass(cls, TouchdownError) and cls.exit_code == code, cls
+    assert issubclass(ScenarioError, ValueError) and issubclass(CommandError, ValueError)
+    assert TouchdownError("x", exit_code=1).exit_code == 1
+
+
+def test_the_one_handler_says_a_touchdown_error_in_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nduration = 1.0\n[contact]\nfriction_static = -1.0\n'
+                   '[[ships]]\nid = "a"\n')
+    r = invoke("record", bad, "-o", tmp_path / "x.mcap")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert r.output.strip().splitlines() == [r.output.strip()]
+    assert r.output.startswith("touchdown: ") and "friction_static" in r.output

@@ -73,8 +73,8 @@ def test_a_fuzz_campaign_of_2000_files_finds_no_hang_traceback_blowup_or_silent_
     each within 10 s. A defect is a hang, an escaped exception, MemoryError, an exit 0 whose
     content differs from the original's without saying so, or a recorded log that does not
     verify or export valid JSON."""
-    r = subprocess.run([sys.executable, "-m", "bench.fuzz", "--files", "2000", "--seconds", "10",
-                        "--memory-gib", "1.5", "--json"], cwd=ROOT, capture_output=True,
+    r = subprocess.run([sys.executable, "cli.py", "bench", "fuzz", "--files", "2000",
+                        "--seconds", "10", "--memory-gib", "1.5", "--json"], cwd=ROOT, capture_output=True,
                        text=True, timeout=1200)
     assert r.stdout.strip(), r.stderr[-3000:]
     result = json.loads(r.stdout.strip().splitlines()[-1])

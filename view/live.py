@@ -68,10 +68,11 @@ def _client(url: str, password: str | None) -> redis.Redis:
         client = rio.connect(url, password)
         client.ping()
     except ValueError as exc:
-        raise ViewError(f"--redis {rio.redact(url)}: {exc}") from None
+        raise ViewError(f"--redis {rio.redact(url)}: {exc}", exit_code=2) from None
     except redis.exceptions.RedisError as exc:
         raise ViewError(f"redis {rio.redact(url)}: "
-                        f"{rio.scrub(str(exc), password, rio.password_of(url))}") from None
+                        f"{rio.scrub(str(exc), password, rio.password_of(url))}",
+                        exit_code=2) from None
     return client
 
 

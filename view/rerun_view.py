@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.enums import SurfaceState
+from sim.errors import TouchdownError
 from view.scene import ENERGY_PARTS, Run, ShipTrack, read_run, terrain_grid
 
 #: The seed's client display: CONTACT yellow, TIPPED red ("Client Display"); the others ours.
@@ -71,8 +72,10 @@ SERIES_LABEL = {"altitude_m": "altitude", "penetration_m": "penetration", "tilt_
                 "spring_j": "springs"}
 
 
-class ViewError(Exception):
-    """A view that cannot be made (one line)."""
+class ViewError(TouchdownError):
+    """A view that cannot be made (one line): exit 1, or 2 for a bad --redis."""
+
+    exit_code = 1
 
 
 @dataclass(frozen=True)

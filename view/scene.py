@@ -299,7 +299,7 @@ def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[flo
     R = params.body.radius_m
     rho2 = E * E + N * N
     sphere = -rho2 / (R + np.sqrt(np.maximum(R * R - rho2, 0.0)))  # sqrt(R^2 - rho^2) - R
-    H = params.body.terrain.height_m(E.ravel(), N.ravel()).reshape(E.shape)
+    H = measure.terrain_height(params.body.terrain, E.ravel(), N.ravel()).reshape(E.shape)
     up = sphere + H * np.sqrt(np.maximum(R * R - rho2, 0.0)) / R  # along the radial, projected
     verts = np.stack([E.ravel(), N.ravel(), up.ravel()], axis=1)
     idx = np.arange(n * n).reshape(n, n)

@@ -1,0 +1,117 @@
+"""``touchdown bench``: one click subcommand per benchmark, each with its own options only.
+
+Each subcommand imports its benchmark when it runs (``touchdown --help`` stays quick). The group is
+added to the command line by cli.py; nothing here imports cli.py (``bench fuzz`` hands the root
+command it was called from to the campaign, which drives it in-process)."""
+from __future__ import annotations
+
+import sys
+
+import click
+
+QUICK = click.option("--quick", is_flag=True,
+                     help="smaller runs (a smoke test of the benchmark itself)")
+
+
+@click.group()
+def bench() -> None:
+    """Benchmarks, printed with units and the machine (`touchdown bench NAME --help`)."""
+
+
+@bench.command()
+@QUICK
+def speed(quick: bool) -> None:
+    """Recording and stepping rates, and the cost per ship-tick by state and model (with the
+    `bench` extra, MuJoCo on the same landers)."""
+    from bench import speed as bench_speed
+    bench_speed.main(quick=quick)
+
+
+@bench.command()
+@QUICK
+def replay(quick: bool) -> None:
+    """Verify against record speed, seeking in a long log, what keyframes cost."""
+    from bench import replay_speed
+    replay_speed.main(quick=quick)
+
+
+@bench.command()
+@QUICK
+@click.option("--out", "out_dir", default="docs", show_default=True,
+              type=click.Path(file_okay=False), help="where the chart and tables go")
+def accuracy(quick: bool, out_dir: str) -> None:
+    """The work-precision chart and tables: each method's error against the references over the
+    tick, against its cost (needs the `bench` extra)."""
+    from bench import accuracy as bench_accuracy
+    bench_accuracy.main(quick=quick, out_dir=out_dir)
+
+
+@bench.command()
+@QUICK
+def stability(quick: bool) -> None:
+    """Each method's largest stable step, measured against theory."""
+    from bench import stability as bench_stability
+    bench_stability.main(quick=quick)
+
+
+@bench.command()
+@QUICK
+def physics(quick: bool) -> None:
+    """Scenes off the well-walked paths (turning bodies, tumbles, falls onto the side, spins,
+    hills, slopes, impossible starts), each figure beside what physics says."""
+    from bench import physics as bench_physics
+    bench_physics.main(quick=quick)
+
+
+@bench.command()
+@click.option("--quick", is_flag=True, help="200 files (a smoke test of the campaign itself)")
+@click.option("--files", type=click.IntRange(min=1), default=2000, show_default=True,
+              help="how many hostile files to generate and run")
+@click.option("--seconds", type=click.FloatRange(min=0.1), default=20.0, show_default=True,
+              help="the time bound per file")
+@click.option("--memory-gib", type=click.FloatRange(min=0.5), default=1.5, show_default=True,
+              help="the address-space cap of the whole campaign")
+@click.option("--seed", type=int, default=20261123, show_default=True, help="the corpus seed")
+@click.option("--json", "as_json", is_flag=True,
+              help="print the counts as one JSON line (what the suite's fuzz test reads)")
+@click.pass_context
+def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib: float,
+         seed: int, as_json: bool) -> None:
+    """A campaign of generated hostile logs and scenarios against verify, export and record, in
+    this process, counted per class and outcome (exit 1 if any hang, traceback, memory blow-up or
+    silent result)."""
+    from bench import fuzz as bench_fuzz
+    tally = bench_fuzz.main(ctx.find_root().command, files=200 if quick else files,
+                            seconds=seconds, memory_gib=memory_gib, as_json=as_json, seed=seed)
+    if tally.bad():
+        sys.stdout.flush()
+        sys.exit(1)
+
+
+@bench.command()
+@QUICK
+@click.option("--redis", "redis_url", default="redis://127.0.0.1:6379/0", show_default=True,
+              metavar="URL", help="the Redis the benchmark's workers use")
+def serve(quick: bool, redis_url: str) -> None:
+    """The most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real time,
+    with tick-time percentiles and events per second (needs a Redis)."""
+    from bench import serve as bench_serve
+    bench_serve.main(quick=quick, url=redis_url)
+
+
+@bench.command()
+@QUICK
+def envelope(quick: bool) -> None:
+    """The stand / tip boundary over sideways speed and slope from Touchdown, the planar
+    reference and MuJoCo (the `bench` extra)."""
+    from bench import envelope as bench_envelope
+    bench_envelope.main(quick=quick)
+
+
+@bench.command()
+@QUICK
+def logs(quick: bool) -> None:
+    """Export (Parquet, CSV, JSON Lines), view, verify and doctor of a 1,000-ship log as whole
+    commands on one core, as ratios against the old per-row JSON Lines export."""
+    from bench import logs as bench_logs
+    bench_logs.main(quick=quick)
