@@ -529,8 +529,11 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 @click.option("--memory-gib", type=click.FloatRange(min=0.5), default=1.5, show_default=True,
               help="fuzz: the address-space cap of the whole campaign")
 @click.option("--seed", type=int, default=20261123, show_default=True, help="fuzz: the corpus seed")
+@click.option("--cluster", is_flag=True,
+              help="serve: on a private Redis Cluster of three masters started for the bench "
+                   "(needs redis-server and redis-cli on PATH)")
 def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memory_gib: float,
-          seed: int) -> None:
+          seed: int, cluster: bool) -> None:
     """Benchmarks, printed with units and the machine. `speed`: recording and stepping rates, and
     the cost per ship-tick by state and model; `replay`: verify against record speed, seeking in a
     long log, what keyframes cost; `accuracy`: the work-precision chart and tables (needs the
@@ -540,7 +543,8 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
     campaign of generated hostile logs and scenarios against verify, export and record, counted
     per class and outcome (exit 1 if any hang, traceback, memory blow-up or silent result);
     `serve`: the most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real
-    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1);
+    time, with tick-time percentiles and events per second (needs the Redis on 127.0.0.1;
+    `--cluster`: the same on a private three-master Redis Cluster);
     `envelope`: the stand / tip boundary over sideways speed and slope from Touchdown, the planar
     reference and MuJoCo (the `bench` extra); `logs`: export (Parquet, CSV, JSON Lines), view,
     verify and doctor of a 1,000-ship log as whole commands on one core, as ratios against the
@@ -562,7 +566,7 @@ def bench(what: str, quick: bool, out_dir: str, files: int, seconds: float, memo
         physics.main(quick=quick)
     elif what == "serve":
         from bench import serve as bench_serve
-        bench_serve.main(quick=quick)
+        bench_serve.main(quick=quick, cluster=cluster)
     elif what == "envelope":
         from bench import envelope
         envelope.main(quick=quick)

@@ -3,12 +3,14 @@
 Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first three):
 
     P:ships                    stream: every transition, rejection, retirement and autopilot
-                               report (trimmed: approximate MAXLEN, --events-maxlen)
+                               report (trimmed: approximate MAXLEN, --events-maxlen); on a
+                               Redis Cluster one per shard, P:ships:{k} (shard_events)
     P:commands:{k}             stream: the commands for shard k's ships (a client picks k by
                                service.commands.shard_of), read by shard k's consumer group;
                                trimmed to what is not yet acknowledged
     P:commands                 stream (SPEC.md section 5): commands routed to P:commands:{k} by
-                               the worker that owns shard 0, atomically (ROUTE)
+                               the worker that owns shard 0, atomically (ROUTE; not on a
+                               Redis Cluster, where ROUTE's keys span slots)
     P:ship:{ship_id}           hash: state, surface_contact_state, landed_body_name, tick, ...
     P:telemetry                stream, capped: Telemetry samples (proto/service.proto)
     P:service:config           hash: the shard count and the scene every worker shares

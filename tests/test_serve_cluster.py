@@ -13,11 +13,12 @@ import time
 
 import pytest
 
-from redis_cluster import Cluster
+from bench.redis_cluster import Cluster
+from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 from service.commands import shard_of
 from service.redis_io import Keys
 from sim.enums import SurfaceState
-from test_serve_ops import ROOT, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
+from test_serve_ops import ROOT, _cli, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
     _wait
 
 SHARDS = 4
@@ -128,3 +129,13 @@ def test_on_a_redis_cluster_a_takeover_or_a_master_restart_loses_and_doubles_not
         if b is not None:
             b.kill()
         client.close()
+
+
+def test_redis_cluster_on_a_redis_that_is_not_a_cluster_is_one_line_and_exit_2(
+        redis_url, tmp_path):  # noqa: F811
+    out = subprocess.run(_cli("serve", "--redis-cluster", redis_url, "--ticks", "1",
+                              "--log-dir", str(tmp_path / "flight")),
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert "--redis-cluster" in out.stderr and "Cluster mode is not enabled" in out.stderr
+    assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1

@@ -1,8 +1,8 @@
-"""A private Redis Cluster for the tests (and ``bench serve --cluster``): three masters, no
+"""A private Redis Cluster for the tests and ``bench serve --cluster``: three masters, no
 replicas, each a redis-server on free loopback ports (its client port and its cluster bus port)
-with its data and its nodes.conf in a folder of its own (``appendonly yes``, fsync on every
-write: a master stopped and started again keeps what it acknowledged). A missing redis-server
-or redis-cli is a failure, never a skip."""
+with its data and its nodes.conf in a folder of its own (``appendonly yes``; by default fsync
+on every write: a master stopped and started again keeps what it acknowledged). A missing
+redis-server or redis-cli is a failure, never a skip."""
 from __future__ import annotations
 
 import shutil
@@ -29,7 +29,9 @@ def _free_ports(n: int) -> list[int]:
 
 
 class Cluster:
-    def __init__(self, folder: Path, masters: int = 3, node_timeout_ms: int = 3000):
+    def __init__(self, folder: Path, masters: int = 3, node_timeout_ms: int = 3000,
+                 fsync: str = "always"):
+        self.fsync = fsync
         self.binary = shutil.which("redis-server")
         self.cli = shutil.which("redis-cli")
         if self.binary is None or self.cli is None:
@@ -65,7 +67,7 @@ class Cluster:
              "--cluster-enabled", "yes", "--cluster-port", str(self.bus[i]),
              "--cluster-config-file", "nodes.conf",
              "--cluster-node-timeout", str(self.node_timeout_ms),
-             "--appendonly", "yes", "--appendfsync", "always", "--save", ""],
+             "--appendonly", "yes", "--appendfsync", self.fsync, "--save", ""],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
     def kill(self, i: int) -> None:
