@@ -176,7 +176,11 @@ class Worker:
             raise ServeError(f"{flag} {self.where}: {exc}") from None
         except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
                 OSError) as exc:  # a RedisCluster asks for the slot map at once
-            raise ServeError(f"{flag} {self.where}: {self._text(exc)}") from None
+            text = self._text(exc)
+            if "Cluster mode is not enabled" in text:  # what redis-py says for both
+                text += (" (a Redis that is not a cluster, or an ACL user without "
+                         "+cluster|slots +command)")
+            raise ServeError(f"{flag} {self.where}: {text}") from None
         try:
             self.r.ping()
             self.scenario, self.scenario_json = self._agree_on_config()

@@ -18,7 +18,7 @@ from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 from service.commands import shard_of
 from service.redis_io import Keys
 from sim.enums import SurfaceState
-from test_serve_ops import ROOT, _cli, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
+from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
     _wait
 
 SHARDS = 4
@@ -139,3 +139,35 @@ def test_redis_cluster_on_a_redis_that_is_not_a_cluster_is_one_line_and_exit_2(
     assert out.returncode == 2, out.stderr
     assert "--redis-cluster" in out.stderr and "Cluster mode is not enabled" in out.stderr
     assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+def test_on_a_cluster_the_worker_needs_its_acl_plus_cluster_slots_and_command(cluster, tmp_path):
+    """docs/SERVICE.md's worker user, on every master, plus ``+cluster|slots +command`` (what
+    redis-py's cluster client asks when it connects): the worker runs; without the two, it
+    stops at start with one line (exit 2), and no message shows the password."""
+    import redis
+    prefix = _prefix()
+    password = "cluster-worker-secret"
+    url = cluster.url.replace("redis://", f"redis://touchdown-worker:{password}@")
+    for extra in ("", " +cluster|slots +command"):
+        for port in cluster.ports:
+            node = redis.Redis(port=port)
+            _acl(node, "touchdown-worker", password, prefix, "~P:*", WORKER_ACL + extra)
+            node.close()
+        out = subprocess.run(_cli("serve", "--redis-cluster", url, "--prefix", prefix,
+                                  "--scenario", "fleet", "--ticks", "40", "--rate", "0",
+                                  "--shards", str(SHARDS), "--log-dir", str(tmp_path / "flight")),
+                             capture_output=True, text=True, timeout=120)
+        assert password not in out.stderr
+        assert "Traceback" not in out.stderr
+        if not extra:
+            assert out.returncode == 2, out.stderr
+            assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+            assert "+cluster|slots +command" in out.stderr
+        else:
+            assert out.returncode == 0, out.stderr
+            client = cluster.client()
+            keys = Keys(prefix, cluster=True)
+            assert sum(client.xlen(keys.shard_events(k)) for k in range(SHARDS)) > 0
+            assert all(int(client.get(keys.shard(k, "tick"))) == 40 for k in range(SHARDS))
+            client.close()
