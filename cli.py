@@ -518,6 +518,12 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
               help="the Redis the service works through (or the environment variable "
                    "TOUCHDOWN_REDIS_URL, which keeps a password out of the process list); "
                    "redis://, rediss:// (TLS: ?ssl_ca_certs=CA&ssl_certfile=...), unix://")
+@click.option("--redis-cluster", "cluster_url", default=None, metavar="URL",
+              envvar="TOUCHDOWN_REDIS_CLUSTER_URL",
+              help="run on a Redis Cluster instead, reached through this node (redis:// or "
+                   "rediss://; or TOUCHDOWN_REDIS_CLUSTER_URL): one event stream per shard, "
+                   "PREFIX:ships:{k}, and clients write the shards' command streams "
+                   "(docs/SERVICE.md, Redis Cluster)")
 @click.option("--redis-password-file", default=None, type=click.Path(dir_okay=False),
               help="read the Redis password from this file (its first line)")
 @click.option("--scenario", "scenario", default=None, metavar="FILE",
@@ -570,7 +576,8 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
               help="seconds between stats lines (and the stats hash's refresh)")
 @click.option("--stats-json", default=None, hidden=True, type=click.Path(dir_okay=False),
               help="(bench serve) write each tick's working time and the counts here at exit")
-def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
+def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | None,
+          scenario: str | None,
           ticks: int | None, rate: float | None, log_dir: str, prefix: str,
           events_stream: str | None, commands_stream: str | None, shards: int, lease_s: float,
           checkpoint_every: int, telemetry_hz: float, events_maxlen: int, log_max_mb: float,
@@ -592,7 +599,8 @@ def serve(redis_url: str, redis_password_file: str | None, scenario: str | None,
             raise UserError(f"--redis-password-file {redis_password_file}: cannot read a "
                             f"password ({getattr(exc, 'strerror', None) or 'empty'})") from None
     scn, source = load_scenario(scenario) if scenario else (None, "")
-    cfg = ServeConfig(url=redis_url, password=password, scenario=scn, source=source, ticks=ticks,
+    cfg = ServeConfig(url=cluster_url or redis_url, cluster=cluster_url is not None,
+                      password=password, scenario=scn, source=source, ticks=ticks,
                       rate_hz=rate, log_dir=Path(log_dir), prefix=prefix,
                       events_stream=events_stream, commands_stream=commands_stream,
                       shards=shards, lease_s=lease_s, checkpoint_every=checkpoint_every,

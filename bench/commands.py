@@ -92,11 +92,15 @@ def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib
 @QUICK
 @click.option("--redis", "redis_url", default="redis://127.0.0.1:6379/0", show_default=True,
               metavar="URL", help="the Redis the benchmark's workers use")
-def serve(quick: bool, redis_url: str) -> None:
+@click.option("--cluster", is_flag=True,
+              help="on a private Redis Cluster of three masters started for the bench "
+                   "(needs redis-server and redis-cli on PATH)")
+def serve(quick: bool, redis_url: str, cluster: bool) -> None:
     """The most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real time,
-    with tick-time percentiles and events per second (needs a Redis)."""
+    with tick-time percentiles, events per second and Redis memory and traffic per 10,000 ships
+    (needs a Redis; `--cluster`: the same on a private three-master Redis Cluster)."""
     from bench import serve as bench_serve
-    bench_serve.main(quick=quick, url=redis_url)
+    bench_serve.main(quick=quick, url=redis_url, cluster=cluster)
 
 
 @bench.command()

@@ -38,21 +38,63 @@ RATE_HZ = 10.0
 DT_S = 0.1
 
 
+#: the Redis Cluster the bench runs on (``main(cluster=True)``): its clients and the flag
+CLUSTER = {"on": False}
+
+
+def _client(url: str):
+    if CLUSTER["on"]:
+        from redis.cluster import RedisCluster
+        return RedisCluster.from_url(url)
+    return redis.Redis.from_url(url)
+
+
+def _redis_args(url: str) -> list[str]:
+    return ["--redis-cluster" if CLUSTER["on"] else "--redis", url]
+
+
+def _redis_figures(url: str) -> tuple[int, int, int]:
+    """Summed over the Redis (every master of a cluster): memory used, bytes received, bytes
+    sent."""
+    client = _client(url)
+    try:
+        if CLUSTER["on"]:
+            nodes = [(n.host, n.port) for n in client.get_primaries()]
+        else:
+            nodes = None
+        infos = []
+        if nodes is None:
+            infos.append(client.info())
+        else:
+            for host, port in nodes:
+                c = redis.Redis(host=host, port=port)
+                infos.append(c.info())
+                c.close()
+    finally:
+        client.close()
+    return tuple(sum(int(i[k]) for i in infos) for k in
+                 ("used_memory", "total_net_input_bytes", "total_net_output_bytes"))
+
+
 def _config(url: str, prefix: str, n_ships: int, shards: int) -> None:
     doc = fleet_doc(n_ships, 3600.0)
     doc["sim"] = {"dt": DT_S}
     scn = parse(doc, "bench-serve")
-    client = redis.Redis.from_url(url)
+    client = _client(url)
     client.hset(f"{prefix}:service:config", mapping={
         "shards": shards, "scenario_json": json.dumps(scn.resolved, sort_keys=True)})
     client.close()
 
 
 def _cleanup(url: str, prefix: str) -> None:
-    client = redis.Redis.from_url(url)
-    keys = list(client.scan_iter(f"{prefix}:*", count=10_000))
-    for i in range(0, len(keys), 1000):
-        client.delete(*keys[i:i + 1000])
+    client = _client(url)
+    keys = list(client.scan_iter(f"{prefix}:*", count=10_000))  # (a cluster: every master)
+    pipe = client.pipeline()
+    for i, key in enumerate(keys):
+        pipe.delete(key)
+        if i % 1000 == 999:
+            pipe.execute()
+    pipe.execute()
     client.close()
 
 
@@ -66,12 +108,14 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     cpus = sorted(os.sched_getaffinity(0))
     ticks = int(seconds * RATE_HZ)
     procs = []
+    before = _redis_figures(url)
+    t_start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="touchdown-bench-serve-") as tmp:
         try:
             for w in range(workers):
                 stats = Path(tmp) / f"stats-{w}.json"
                 cpu = cpus[w % len(cpus)]
-                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", "--redis", url,
+                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", *_redis_args(url),
                        "--prefix", prefix, "--rate", str(RATE_HZ), "--ticks", str(ticks),
                        "--log-dir", str(Path(tmp) / "flight"), "--shards", str(shards),
                        "--worker-id", f"w{w}", "--stats-json", str(stats)]
@@ -86,6 +130,8 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
                 if proc.returncode != 0:
                     raise RuntimeError(f"serve failed: {err.strip().splitlines()[-1:]}")
                 results.append(json.loads(stats.read_text()))
+            after = _redis_figures(url)
+            span = time.monotonic() - t_start
         finally:
             for proc, _ in procs:
                 proc.kill()
@@ -103,13 +149,20 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     return {"ships": n_ships, "workers": workers, "p50_ms": pct(0.5), "p99_ms": pct(0.99),
             "max_ms": times[-1] * 1e3 if times else float("nan"), "late": late,
             "entries_per_s": sent / wall if wall else 0.0,
+            # what the service holds in Redis at the end (all of it: the bench's keys only)
+            # and its traffic over the run (into Redis, out of it), per 10,000 ships
+            "redis_mb_per_10k": (after[0] - before[0]) / 1e6 * 1e4 / n_ships,
+            "redis_in_mbps_per_10k": (after[1] - before[1]) / span / 1e6 * 1e4 / n_ships,
+            "redis_out_mbps_per_10k": (after[2] - before[2]) / span / 1e6 * 1e4 / n_ships,
             "keeps_up": bool(times) and pct(0.99) < 1e3 / RATE_HZ and late <= 0.01}
 
 
 def _line(r: dict) -> str:
     return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s): tick p50 {r['p50_ms']:6.1f} ms, "
             f"p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; late {r['late']:.1%}; "
-            f"{r['entries_per_s']:,.0f} entries/s to Redis  "
+            f"{r['entries_per_s']:,.0f} entries/s to Redis; per 10,000 ships Redis holds "
+            f"{r['redis_mb_per_10k']:.1f} MB, takes in {r['redis_in_mbps_per_10k']:.2f} MB/s, "
+            f"sends {r['redis_out_mbps_per_10k']:.2f} MB/s  "
             f"{'keeps 10 Hz' if r['keeps_up'] else 'FALLS BEHIND'}")
 
 
@@ -147,15 +200,15 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
     from service.commands import shard_of
     from service.redis_io import Keys
     prefix = f"bench:burst:{uuid.uuid4().hex[:8]}"
-    keys = Keys(prefix)
-    client = redis.Redis.from_url(url)
+    keys = Keys(prefix, cluster=CLUSTER["on"])
+    client = _client(url)
     cpus = sorted(os.sched_getaffinity(0))
     procs = []
     with tempfile.TemporaryDirectory(prefix="touchdown-bench-burst-") as tmp:
         try:
             for w in range(2):
                 stats = Path(tmp) / f"stats-{w}.json"
-                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", "--redis", url,
+                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", *_redis_args(url),
                        "--prefix", prefix, "--rate", str(RATE_HZ), "--shards", str(shards),
                        "--lease", str(lease_s), "--log-dir", str(Path(tmp) / "flight"),
                        "--worker-id", f"w{w}", "--max-shards", str(shards // 2),
@@ -201,7 +254,8 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
         finally:
             for proc, _ in procs:
                 proc.kill()
-            rejected = sum(1 for _id, f in client.xrange(keys.events)
+            rejected = sum(1 for stream in keys.all_events(shards)
+                           for _id, f in client.xrange(stream)
                            if f.get(b"event") == b"ship.command_rejected")
             _cleanup(url, prefix)
             client.close()
@@ -216,10 +270,30 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
             "rejected": rejected}
 
 
-def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0") -> None:
+def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
+         cluster: bool = False) -> None:
+    """``cluster``: the same figures on a private Redis Cluster of three masters (no replicas,
+    AOF with fsync every second as a deployment would run) started on free loopback ports for
+    the bench, the workers on ``--redis-cluster``."""
+    if cluster:
+        from bench.redis_cluster import Cluster
+        with tempfile.TemporaryDirectory(prefix="touchdown-bench-cluster-") as tmp:
+            c = Cluster(Path(tmp), fsync="everysec")
+            CLUSTER["on"] = True
+            try:
+                _main(quick, c.url, "a Redis Cluster of 3 masters (no replicas; AOF, fsync "
+                      f"every second) on loopback, {c.url}")
+            finally:
+                CLUSTER["on"] = False
+                c.stop()
+        return
+    _main(quick, url, f"Redis at {url}")
+
+
+def _main(quick: bool, url: str, where: str) -> None:
     print(f"machine: {machine()}")
     print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
-          f"flight logs, checkpoints every 5 s (50 ticks); Redis at {url}")
+          f"flight logs, checkpoints every 5 s (50 ticks); {where}")
     seconds = 6.0 if quick else 20.0
     start, limit = (1000, 4000) if quick else (12_500, 400_000)
     t0 = time.perf_counter()

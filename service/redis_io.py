@@ -3,12 +3,14 @@
 Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first three):
 
     P:ships                    stream: every transition, rejection, retirement and autopilot
-                               report (trimmed: approximate MAXLEN, --events-maxlen)
+                               report (trimmed: approximate MAXLEN, --events-maxlen); on a
+                               Redis Cluster one per shard, P:ships:{k} (shard_events)
     P:commands:{k}             stream: the commands for shard k's ships (a client picks k by
                                service.commands.shard_of), read by shard k's consumer group;
                                trimmed to what is not yet acknowledged
     P:commands                 stream (SPEC.md section 5): commands routed to P:commands:{k} by
-                               the worker that owns shard 0, atomically (ROUTE)
+                               the worker that owns shard 0, atomically (ROUTE; not on a
+                               Redis Cluster, where ROUTE's keys span slots)
     P:ship:{ship_id}           hash: state, surface_contact_state, landed_body_name, tick, ...
     P:telemetry                stream, capped: Telemetry samples (proto/service.proto)
     P:service:config           hash: the shard count and the scene every worker shares
@@ -52,8 +54,9 @@ DTYPES = json.dumps([str(d.descr) for d in (SHIP_DTYPE, STATE_DTYPE, INPUTS_DTYP
 
 class Keys:
     def __init__(self, prefix: str = "galaxy", events: str | None = None,
-                 commands: str | None = None):
+                 commands: str | None = None, cluster: bool = False):
         self.prefix = prefix
+        self.cluster = cluster
         self.events = events or f"{prefix}:ships"
         self.commands = commands or f"{prefix}:commands"
         self.telemetry = f"{prefix}:telemetry"
@@ -62,6 +65,16 @@ class Keys:
 
     def ship(self, ship_id: str) -> str:
         return f"{self.prefix}:ship:{ship_id}"
+
+    def shard_events(self, k: int) -> str:
+        """Where shard k publishes: the one event stream ``P:ships``, or on a Redis Cluster
+        shard k's own ``P:ships:{k}`` (PUBLISH writes it with the shard's mark, so it must be
+        in the shard's slot)."""
+        return f"{self.events}:{{{k}}}" if self.cluster else self.events
+
+    def all_events(self, shards: int) -> list[str]:
+        """Every event stream of a service of ``shards`` shards (one, or one per shard)."""
+        return [self.shard_events(k) for k in range(shards)] if self.cluster else [self.events]
 
     def shard_commands(self, k: int) -> str:
         """Shard k's command stream (in a Redis Cluster, in the slot of shard k's keys)."""
@@ -117,15 +130,23 @@ def password_of(url: str) -> str | None:
         return None
 
 
-def connect(url: str, password: str | None = None, timeout: float = 2.0) -> redis.Redis:
+def connect(url: str, password: str | None = None, timeout: float = 2.0,
+            cluster: bool = False) -> redis.Redis:
     """A client that fails fast: no retries (redis-py's default retries for seconds, which
     would stall the tick loop; the loop retries by itself) and short time-outs. ValueError
-    (naming the scheme, never the URL) for a URL that is not a Redis one."""
+    (naming the scheme, never the URL) for a URL that is not a Redis one. ``cluster``: a
+    ``RedisCluster`` reached through the node of ``url`` (it learns the others from it; a
+    refused or lost connection re-reads the slot map, then fails like a single Redis)."""
     scheme = url.split("://", 1)[0].lower() if "://" in url else ""
-    if scheme not in SCHEMES:
+    if scheme not in (("redis", "rediss") if cluster else SCHEMES):
         raise ValueError(f"not a Redis URL: scheme {scheme or 'missing'!r} (redis://, "
-                         f"rediss:// or unix://)")
+                         f"rediss://{'' if cluster else ' or unix://'})")
     extra = {"password": password} if password is not None else {}
+    if cluster:
+        from redis.cluster import RedisCluster
+        return RedisCluster.from_url(url, socket_connect_timeout=min(0.5, timeout),
+                                     socket_timeout=timeout, retry=Retry(NoBackoff(), 0),
+                                     health_check_interval=0, **extra)
     return redis.Redis.from_url(url, socket_connect_timeout=min(0.5, timeout),
                                 socket_timeout=timeout, retry=Retry(NoBackoff(), 0),
                                 health_check_interval=0, **extra)

@@ -49,7 +49,9 @@ from sim.scenario import Scenario, Scene, parse as parse_doc
 from sim.timeline import Timeline
 from sim.world import World
 
-REDIS_ERRORS = (redis.exceptions.ConnectionError, redis.exceptions.TimeoutError)
+#: Redis (or, on a cluster, the node of a slot, or the slot map) unreachable: ticking on
+REDIS_ERRORS = (redis.exceptions.ConnectionError, redis.exceptions.TimeoutError,
+                redis.exceptions.RedisClusterException)
 #: what Redis can answer instead of doing a write, by the name a message gives it
 REFUSALS = {"OOM": "out of memory (maxmemory)", "NOPERM": "a permission missing from the ACL "
             "user", "READONLY": "a read-only replica", "BUSY": "busy running a script",
@@ -97,6 +99,7 @@ class ServeConfig:
     limits: Limits = field(default_factory=Limits)
     stats_every_s: float = 5.0  # the stats line, the stats hash (its time-out is 3x this)
     metrics_port: int | None = None
+    cluster: bool = False  # url is a node of a Redis Cluster (--redis-cluster)
 
 
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
@@ -145,7 +148,7 @@ class Worker:
         self.id = cfg.worker_id or f"{socket.gethostname()}-{os.getpid()}"
         self.say = say or (lambda line: print(line, file=sys.stderr, flush=True))
         self.where = rio.redact(cfg.url)
-        self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream)
+        self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream, cfg.cluster)
         self.owned: dict[int, _Owned] = {}
         self.stats = Stats()
         self.stop = threading.Event()
@@ -166,17 +169,26 @@ class Worker:
         self._metrics = None
         self._metrics_server = None
         self.last_figures: dict = {}
+        flag = "--redis-cluster" if cfg.cluster else "--redis"
         try:
-            self.r = rio.connect(cfg.url, cfg.password)
-            self.r_ping = rio.connect(cfg.url, cfg.password, timeout=0.25)
+            self.r = rio.connect(cfg.url, cfg.password, cluster=cfg.cluster)
+            self.r_ping = rio.connect(cfg.url, cfg.password, timeout=0.25, cluster=cfg.cluster)
         except ValueError as exc:
-            raise ServeError(f"--redis {self.where}: {exc}") from None
+            raise ServeError(f"{flag} {self.where}: {exc}") from None
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
+                OSError) as exc:  # a RedisCluster asks for the slot map at once
+            text = self._text(exc)
+            if "Cluster mode is not enabled" in text:  # what redis-py says for both
+                text += (" (a Redis that is not a cluster, or an ACL user without "
+                         "+cluster|slots +command)")
+            raise ServeError(f"{flag} {self.where}: {text}") from None
         try:
             self.r.ping()
             self.scenario, self.scenario_json = self._agree_on_config()
             for k in range(cfg.shards):
                 self._ensure_group(k)
-        except (redis.exceptions.RedisError, ValueError, OSError) as exc:
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
+                ValueError, OSError) as exc:
             raise ServeError(f"redis {self.where}: {self._text(exc)}") from None
         self.scene = self.scenario.scene
         self.dt_s = self.scenario.params.sim.dt_s
@@ -321,7 +333,7 @@ class Worker:
             self._next_lease = now + self.cfg.lease_s / 4
         if self.redis_up:
             self._redis(self._read_commands)
-            if 0 in self.owned:
+            if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
                 self._redis(self._route)
         for k in sorted(self.owned):
             o = self.owned[k]
@@ -433,8 +445,11 @@ class Worker:
 
     def _reconnect(self) -> None:
         try:
-            self.r_ping.ping()
-        except redis.exceptions.RedisError:
+            if self.cfg.cluster:  # every master answers (a node's slots are down with it)
+                self.r_ping.ping(target_nodes="primaries")
+            else:
+                self.r_ping.ping()
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
             self._next_try = time.monotonic() + 0.25
             return
         self.redis_up = True
@@ -548,12 +563,14 @@ class Worker:
         except redis.exceptions.ResponseError as exc:
             if "BUSYGROUP" not in str(exc):
                 raise
-        if k == 0:
+        if k == 0 and not self.cfg.cluster:
             self._ensure_group(None)
 
     def _script(self, name: str, keys: list, args: list, client=None):
         """One of redis_io's scripts, by EVAL (no SCRIPT LOAD or EXISTS: fewer permissions)."""
-        return (client or self.r).eval(getattr(rio, name), len(keys), *keys, *args)
+        # (execute_command: a cluster's pipeline has no eval(), but routes EVAL by its keys)
+        return (client or self.r).execute_command("EVAL", getattr(rio, name), len(keys), *keys,
+                                                  *args)
 
     def _flush(self) -> None:
         """Journal (rare: only ticks that had commands), then in one round trip: each shard's
@@ -582,7 +599,8 @@ class Worker:
             chunks = [entries[i:i + 500] for i in range(0, len(entries), 500)] or [[]]
             for c, chunk in enumerate(chunks):  # the shard's tick goes with its last entries
                 self._script("PUBLISH", [self.keys.shard(k, "owner"),
-                                         self.keys.shard(k, "published"), self.keys.events,
+                                         self.keys.shard(k, "published"),
+                                         self.keys.shard_events(k),
                                          self.keys.shard(k, "tick")],
                              [self.id, sh.tick if c == len(chunks) - 1 else -1,
                               self.cfg.events_maxlen, *rio.flat_entries(chunk)], client=pipe)
@@ -683,10 +701,13 @@ class Worker:
         lost is handed to the loop (``_lease_lost``)."""
         cfg = self.cfg
         lease_ms = int(cfg.lease_s * 1000)
-        r = rio.connect(cfg.url, cfg.password, timeout=max(0.2, cfg.lease_s / 4))
+        r = None
         try:
             while not self._lease_stop.is_set():
                 try:
+                    if r is None:
+                        r = rio.connect(cfg.url, cfg.password, timeout=max(0.2, cfg.lease_s / 4),
+                                        cluster=cfg.cluster)
                     server_s = _server_time(r)
                     pipe = r.pipeline(transaction=False)
                     pipe.zadd(self.keys.workers, {self.id: server_s + cfg.lease_s})
@@ -694,7 +715,13 @@ class Worker:
                     pipe.zcard(self.keys.workers)
                     self._live = pipe.execute()[2]
                     order = sorted(list(self.owned))
-                    if order:
+                    if order and cfg.cluster:  # each shard's lease in its own slot
+                        pipe = r.pipeline()
+                        for k in order:
+                            pipe.execute_command("EVAL", rio.RENEW, 1,
+                                                 self.keys.shard(k, "owner"), self.id, lease_ms)
+                        kept = [x[0] for x in pipe.execute()]
+                    elif order:
                         kept = r.eval(rio.RENEW, len(order),
                                       *[self.keys.shard(k, "owner") for k in order],
                                       self.id, lease_ms)
@@ -707,7 +734,8 @@ class Worker:
                                    "error")
                 self._lease_stop.wait(cfg.lease_s / 4)
         finally:
-            r.close()
+            if r is not None:
+                r.close()
 
     def _relet(self, k: int) -> None:
         """Shard k's lease was not renewed (Redis away past it, or taken): take it again if it
@@ -795,7 +823,7 @@ class Worker:
             self.r.hset(keys.shard(k, "specs"), mapping=fresh_specs)
         if fresh_params:
             self.r.hset(keys.shard(k, "params"), mapping=fresh_params)
-        if k == 0:
+        if k == 0 and not self.cfg.cluster:
             self._route_from = "0"
             self._claim_router()
         shard = Shard(k, world, None, self.body, dict.fromkeys(autoland), published,
@@ -968,12 +996,12 @@ class Worker:
         try:
             self.r.zrem(self.keys.workers, self.id)
             self.r.delete(self.keys.stats(self.id))
-        except redis.exceptions.RedisError:
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
             pass
         for client in (self.r, self.r_ping):
             try:
                 client.close()
-            except redis.exceptions.RedisError:
+            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
                 pass
         if self._metrics_server is not None:
             self._metrics_server.shutdown()
@@ -990,7 +1018,10 @@ class Worker:
 
 
 def _server_time(r: redis.Redis) -> float:
-    s, us = r.time()
+    t = r.time()
+    if isinstance(t, dict):  # a cluster client may answer per node
+        t = next(iter(t.values()))
+    s, us = t
     return s + us * 1e-6
 
 

@@ -1,0 +1,173 @@
+"""``touchdown serve --redis-cluster`` on a real Redis Cluster (issue 24): three masters of private
+redis-servers on loopback (tests/redis_cluster.py), two workers, spawns, throttles and retires
+written to the shards' command streams; then one worker SIGKILLed, or one master of the cluster
+SIGKILLed and started again on its data. Every spawn joins once, every throttle is applied at one
+tick or rejected once, every retire gives one ``ship.retired``, each shard's event stream
+``P:ships:{k}`` has a gapless ``seq``, each ship's hash is its state in the flight logs, and every
+flight log verifies (``touchdown replay LOG --verify``)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import pytest
+
+from bench.redis_cluster import Cluster
+from redis_server import redis_url  # noqa: F401  (a pytest fixture)
+from service.commands import shard_of
+from service.redis_io import Keys
+from sim.enums import SurfaceState
+from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
+    _wait
+
+SHARDS = 4
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    c = Cluster(tmp_path / "cluster")
+    try:
+        yield c
+    finally:
+        c.stop()
+
+
+def _replay_verify(folder) -> None:
+    files = _files(folder)
+    assert files
+    for path in files:
+        out = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(path),
+                              "--verify"], capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, (path, out.stdout[-2000:], out.stderr[-2000:])
+
+
+@pytest.mark.parametrize("what", ["a worker killed", "a master restarted"])
+def test_on_a_redis_cluster_a_takeover_or_a_master_restart_loses_and_doubles_nothing(
+        cluster, tmp_path, what):
+    prefix = _prefix()
+    flight = tmp_path / "flight"
+    args = ["serve", "--redis-cluster", cluster.url, "--prefix", prefix, "--log-dir",
+            str(flight), "--shards", str(SHARDS), "--lease", "0.6", "--rate", "40",
+            "--checkpoint-every", "10"]
+    client = cluster.client()
+    keys = Keys(prefix, cluster=True)
+    owners = lambda: {client.get(keys.shard(k, "owner")) for k in range(SHARDS)}  # noqa: E731
+    a = _Proc([*args, "--worker-id", "a"], tmp_path, "a")
+    b = None
+    try:
+        _wait(lambda: owners() == {b"a"}, 60, "a to own the shards")
+        b = _Proc([*args, "--worker-id", "b"], tmp_path, "b")
+        _wait(lambda: owners() == {b"a", b"b"}, 60, "the shards shared")
+        # the master holding shards 1 and 2 (of 0: 3, 1: 1 and 2, 2: 0)
+        node = cluster.node_of(keys.shard(1, "owner"))
+        sent_throttles, retired = {}, []
+        n = 80
+
+        def send(sid, fields):
+            return client.xadd(keys.shard_commands(shard_of(sid, SHARDS)), fields).decode()
+        for i in range(n):
+            sid = f"s{i}"
+            send(sid, _spawn(sid, f"p{i % 3}"))
+            if i >= 2 and (i - 2) % 4 == 2:
+                t = f"s{i - 2}"
+                value = f"0.{i:03d}"
+                sent_throttles[send(t, {"cmd": "throttle", "ship_id": t, "player_id":
+                                        f"p{(i - 2) % 3}", "value": value})] = (t, float(value))
+            if i >= 6 and (i - 6) % 8 == 1:
+                r = f"s{i - 6}"
+                send(r, {"cmd": "retire", "ship_id": r, "player_id": f"p{(i - 6) % 3}"})
+                retired.append(r)
+            if i == n // 2:
+                if what == "a worker killed":
+                    a.kill()
+                else:
+                    cluster.restart(node)
+            time.sleep(0.03)
+        survivors = {b"b"} if what == "a worker killed" else {b"a", b"b"}
+        _wait(lambda: owners() <= survivors and None not in owners(), 30,
+              "the shards owned by live workers")
+        mark = [int(client.get(keys.shard(k, "tick"))) for k in range(SHARDS)]
+        _wait(lambda: all(int(client.get(keys.shard(k, "tick"))) > mark[k] + 40
+                          for k in range(SHARDS)), 60, "the workers to step on")
+        if what == "a master restarted":
+            assert "unreachable" in a.err() + b.err()
+            assert a.term() == 0, a.err()
+            assert "Traceback" not in a.err()
+        assert b.term() == 0, b.err()
+        assert "Traceback" not in b.err()
+        if what == "a worker killed":
+            assert "taken (from its checkpoint" in b.err()
+        events = [e for k in range(SHARDS) for e in _events(client, keys.shard_events(k))]
+        assert all(e["seq"].startswith(f"{shard_of(e['ship_id'], SHARDS)}:") for e in events)
+        _gapless(events, SHARDS)
+        assert not [e for e in events if "taken" in e.get("reason", "")]
+        rejected = {e["entry_id"]: e for e in events if e["event"] == "ship.command_rejected"}
+        joins, throttles, last = _from_logs(flight)
+        for i in range(n):
+            assert len(joins.get(f"s{i}", ())) == 1, (f"s{i}", joins.get(f"s{i}"))
+        for eid, (sid, value) in sent_throttles.items():
+            applied = len(throttles.get((sid, value), ()))
+            assert applied + (eid in rejected) == 1, (sid, value, applied, rejected.get(eid))
+        for sid in retired:
+            mine = [e for e in events if e["ship_id"] == sid and e["event"] == "ship.retired"]
+            assert len(mine) == 1, sid
+            assert not client.exists(keys.ship(sid))
+        for i in range(n):
+            sid = f"s{i}"
+            if sid in retired:
+                continue
+            h = client.hgetall(keys.ship(sid))
+            assert h[b"state"].decode() == SurfaceState(last[sid][1]).label, sid
+            assert h[b"player_id"].decode() == f"p{i % 3}"
+        for k in range(SHARDS):  # nothing left pending in any shard's group
+            for group in client.xinfo_groups(keys.shard_commands(k)):
+                assert group["pending"] == 0, (k, group)
+        _replay_verify(flight)
+    finally:
+        a.kill()
+        if b is not None:
+            b.kill()
+        client.close()
+
+
+def test_redis_cluster_on_a_redis_that_is_not_a_cluster_is_one_line_and_exit_2(
+        redis_url, tmp_path):  # noqa: F811
+    out = subprocess.run(_cli("serve", "--redis-cluster", redis_url, "--ticks", "1",
+                              "--log-dir", str(tmp_path / "flight")),
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert "--redis-cluster" in out.stderr and "Cluster mode is not enabled" in out.stderr
+    assert "Traceback" not in out.stderr and len(out.stderr.strip().splitlines()) == 1
+
+
+def test_on_a_cluster_the_worker_needs_its_acl_plus_cluster_slots_and_command(cluster, tmp_path):
+    """docs/SERVICE.md's worker user, on every master, plus ``+cluster|slots +command`` (what
+    redis-py's cluster client asks when it connects): the worker runs; without the two, it
+    stops at start with one line (exit 2), and no message shows the password."""
+    import redis
+    prefix = _prefix()
+    password = "cluster-worker-secret"
+    url = cluster.url.replace("redis://", f"redis://touchdown-worker:{password}@")
+    for extra in ("", " +cluster|slots +command"):
+        for port in cluster.ports:
+            node = redis.Redis(port=port)
+            _acl(node, "touchdown-worker", password, prefix, "~P:*", WORKER_ACL + extra)
+            node.close()
+        out = subprocess.run(_cli("serve", "--redis-cluster", url, "--prefix", prefix,
+                                  "--scenario", "fleet", "--ticks", "40", "--rate", "0",
+                                  "--shards", str(SHARDS), "--log-dir", str(tmp_path / "flight")),
+                             capture_output=True, text=True, timeout=120)
+        assert password not in out.stderr
+        assert "Traceback" not in out.stderr
+        if not extra:
+            assert out.returncode == 2, out.stderr
+            assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+            assert "+cluster|slots +command" in out.stderr
+        else:
+            assert out.returncode == 0, out.stderr
+            client = cluster.client()
+            keys = Keys(prefix, cluster=True)
+            assert sum(client.xlen(keys.shard_events(k)) for k in range(SHARDS)) > 0
+            assert all(int(client.get(keys.shard(k, "tick"))) == 40 for k in range(SHARDS))
+            client.close()
