@@ -1242,6 +1242,21 @@ def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, 
                   events, count)
 
 
+@kernel
+def apply_commands(commands, c, tick, inputs):
+    """The commands for ticks up to ``tick`` (``commands`` sorted by tick, from index ``c``) into
+    the ships' ``inputs``; returns the index of the next command."""
+    while c < commands.shape[0] and commands[c].tick <= tick:
+        cmd = commands[c]
+        rec = inputs[cmd.ship]
+        rec.throttle = cmd.throttle
+        for j in range(3):
+            rec.rcs[j] = cmd.rcs[j]
+        rec.hold = cmd.hold
+        c += 1
+    return c
+
+
 @separate
 def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
                outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
@@ -1257,14 +1272,7 @@ def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rot
         if events.shape[0] - count[0] < tick_capacity:
             return k, c
         tick = first_tick + k
-        while c < commands.shape[0] and commands[c].tick <= tick:
-            cmd = commands[c]
-            rec = inputs[cmd.ship]
-            rec.throttle = cmd.throttle
-            for j in range(3):
-                rec.rcs[j] = cmd.rcs[j]
-            rec.hold = cmd.hold
-            c += 1
+        c = apply_commands(commands, c, tick, inputs)
         n0 = count[0]
         step_ships(scene, terrain, ships, state, inputs, outputs_out[k], rotations[k, 0],
                    rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1], events, count)

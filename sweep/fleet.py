@@ -23,7 +23,7 @@ from sim.energy import mechanical, total
 from sim.frames import body_rotation
 from sim.params import SCENE_DTYPE
 from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import CONTACT, observe_ships, step_ships
+from sim.step import CONTACT, apply_commands, observe_ships, step_ships
 from sim.vec import quat_axis_z
 from sweep.cases import Sweep
 
@@ -105,14 +105,7 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
     c = next_command
     for k in range(n_ticks):
         tick = first_tick + k
-        while c < commands.shape[0] and commands[c].tick <= tick:
-            cmd = commands[c]
-            rec = inputs[cmd.ship]
-            rec.throttle = cmd.throttle
-            for j in range(3):
-                rec.rcs[j] = cmd.rcs[j]
-            rec.hold = cmd.hold
-            c += 1
+        c = apply_commands(commands, c, tick, inputs)
         t_end = (tick + 1) * dt_s
         for i in range(state.shape[0]):
             if frozen[i]:

@@ -17,9 +17,8 @@ from bench.redis_cluster import Cluster
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 from service.commands import shard_of
 from service.redis_io import Keys
-from sim.enums import SurfaceState
-from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _from_logs, _gapless, _prefix, _Proc, _spawn, \
-    _wait
+from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _gapless, _nothing_lost, \
+    _prefix, _Proc, _spawn, _wait
 
 SHARDS = 4
 
@@ -102,24 +101,7 @@ def test_on_a_redis_cluster_a_takeover_or_a_master_restart_loses_and_doubles_not
         assert all(e["seq"].startswith(f"{shard_of(e['ship_id'], SHARDS)}:") for e in events)
         _gapless(events, SHARDS)
         assert not [e for e in events if "taken" in e.get("reason", "")]
-        rejected = {e["entry_id"]: e for e in events if e["event"] == "ship.command_rejected"}
-        joins, throttles, last = _from_logs(flight)
-        for i in range(n):
-            assert len(joins.get(f"s{i}", ())) == 1, (f"s{i}", joins.get(f"s{i}"))
-        for eid, (sid, value) in sent_throttles.items():
-            applied = len(throttles.get((sid, value), ()))
-            assert applied + (eid in rejected) == 1, (sid, value, applied, rejected.get(eid))
-        for sid in retired:
-            mine = [e for e in events if e["ship_id"] == sid and e["event"] == "ship.retired"]
-            assert len(mine) == 1, sid
-            assert not client.exists(keys.ship(sid))
-        for i in range(n):
-            sid = f"s{i}"
-            if sid in retired:
-                continue
-            h = client.hgetall(keys.ship(sid))
-            assert h[b"state"].decode() == SurfaceState(last[sid][1]).label, sid
-            assert h[b"player_id"].decode() == f"p{i % 3}"
+        _nothing_lost(client, keys, events, flight, n, sent_throttles, retired)
         for k in range(SHARDS):  # nothing left pending in any shard's group
             for group in client.xinfo_groups(keys.shard_commands(k)):
                 assert group["pending"] == 0, (k, group)

@@ -32,6 +32,7 @@ from service.serve import ServeConfig, Worker
 from service.shard import Limits
 from sim.enums import SurfaceState
 from sim.scenario import parse_text
+from test_serve import _wait  # noqa: F401  (also the cluster tests')
 
 ROOT = Path(__file__).resolve().parents[1]
 FLEET = parse_text(builtin.text("fleet"), "fleet")
@@ -48,15 +49,6 @@ def _cleanup(url: str, prefix: str) -> None:
     for i in range(0, len(keys), 1000):
         client.delete(*keys[i:i + 1000])
     client.close()
-
-
-def _wait(pred, timeout: float = 30.0, what: str = "") -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return
-        time.sleep(0.02)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def _cli(*args: str) -> list[str]:
@@ -135,6 +127,30 @@ def _gapless(events: list[dict], shards: int) -> None:
 
 def _files(folder: Path) -> list[Path]:
     return sorted(folder.rglob("*.mcap")) + sorted(folder.rglob("*.partial"))
+
+
+def _nothing_lost(client, keys, events, flight, n, sent_throttles, retired) -> None:
+    """Ships s0..s{n-1} (player p{i % 3}) each joined once; every throttle sent was applied once
+    or rejected once; every retire gave one ship.retired and removed the hash; every other
+    ship's hash says what its flight log says."""
+    rejected = {e["entry_id"]: e for e in events if e["event"] == "ship.command_rejected"}
+    joins, throttles, last = _from_logs(flight)
+    for i in range(n):
+        assert len(joins.get(f"s{i}", ())) == 1, (f"s{i}", joins.get(f"s{i}"))
+    for eid, (sid, value) in sent_throttles.items():
+        applied = len(throttles.get((sid, value), ()))
+        assert applied + (eid in rejected) == 1, (sid, value, applied, rejected.get(eid))
+    for sid in retired:
+        mine = [e for e in events if e["ship_id"] == sid and e["event"] == "ship.retired"]
+        assert len(mine) == 1, sid
+        assert not client.exists(keys.ship(sid))
+    for i in range(n):
+        sid = f"s{i}"
+        if sid in retired:
+            continue
+        h = client.hgetall(keys.ship(sid))
+        assert h[b"state"].decode() == SurfaceState(last[sid][1]).label, sid
+        assert h[b"player_id"].decode() == f"p{i % 3}"
 
 
 def _all_verify(folder: Path) -> None:
@@ -225,24 +241,7 @@ def test_a_worker_killed_while_spawns_retires_and_commands_flow_loses_and_double
         events = _events(client, keys.events)
         _gapless(events, 2)
         assert not [e for e in events if "taken" in e.get("reason", "")]
-        rejected = {e["entry_id"]: e for e in events if e["event"] == "ship.command_rejected"}
-        joins, throttles, last = _from_logs(flight)
-        for i in range(n):
-            assert len(joins.get(f"s{i}", ())) == 1, (f"s{i}", joins.get(f"s{i}"))
-        for eid, (sid, value) in sent_throttles.items():
-            applied = len(throttles.get((sid, value), ()))
-            assert applied + (eid in rejected) == 1, (sid, value, applied, rejected.get(eid))
-        for sid in retired:
-            mine = [e for e in events if e["ship_id"] == sid and e["event"] == "ship.retired"]
-            assert len(mine) == 1, sid
-            assert not client.exists(keys.ship(sid))
-        for i in range(n):
-            sid = f"s{i}"
-            if sid in retired:
-                continue
-            h = client.hgetall(keys.ship(sid))
-            assert h[b"state"].decode() == SurfaceState(last[sid][1]).label, sid
-            assert h[b"player_id"].decode() == f"p{i % 3}"
+        _nothing_lost(client, keys, events, flight, n, sent_throttles, retired)
         _all_verify(flight)
     finally:
         a.kill()
