@@ -37,7 +37,6 @@ import random
 import resource
 import signal
 import struct
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -315,7 +314,7 @@ def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]
     return cases
 
 
-def _rewrite(src: bytes, edit, schema=None) -> bytes:
+def rewrite_log(src: bytes, edit, schema=None) -> bytes:
     """A log rewritten through the mcap writer with each message passed through ``edit(topic, data)
     -> list of (topic, data)`` and each schema through ``schema(record) -> (name, encoding,
     data)`` (default: as it was); channels as they were."""
@@ -343,7 +342,7 @@ def _mutate_schema(src: bytes, rng: random.Random) -> bytes:
         data = rng.choice((b"", bytes(rng.randrange(256) for _ in range(64)), sch.data[:10]))
         name = rng.choice((sch.name, "touchdown.v1.Nope", "", "x" * 300))
         return name, rng.choice(("protobuf", "json", "")), data
-    return _rewrite(src, lambda topic, data: [(topic, data)], schema)
+    return rewrite_log(src, lambda topic, data: [(topic, data)], schema)
 
 
 def _mutate_channel(src: bytes, rng: random.Random, k: int) -> bytes:
@@ -408,7 +407,7 @@ def _mutate_scenario_record(src: bytes, rng: random.Random, k: int, pb) -> bytes
         else:
             rec.resolved_json = rec.resolved_json[: rng.randrange(len(rec.resolved_json))]
         return [(topic, rec.SerializeToString())]
-    return _rewrite(src, edit)
+    return rewrite_log(src, edit)
 
 
 def _mutate_tick(src: bytes, rng: random.Random, k: int, pb) -> bytes:
@@ -437,7 +436,7 @@ def _mutate_tick(src: bytes, rng: random.Random, k: int, pb) -> bytes:
             arrays[name] = arrays[name].copy()
             arrays[name][0] = rng.choice((5, 99, 127))
         return [(topic, encode_tick(tick, t_s, count, arrays))]
-    return _rewrite(src, edit)
+    return rewrite_log(src, edit)
 
 
 def _mutate_events(src: bytes, rng: random.Random, k: int, pb) -> bytes:
@@ -460,7 +459,7 @@ def _mutate_events(src: bytes, rng: random.Random, k: int, pb) -> bytes:
             s.event_count += 1
             return [(topic, s.SerializeToString())]
         return [(topic, data)]
-    return _rewrite(src, edit)
+    return rewrite_log(src, edit)
 
 
 def _mutate_index(src: bytes, rng: random.Random) -> bytes:

@@ -11,7 +11,6 @@ bounded reader's refusal of a tick record larger than the fleet can fill.
 from __future__ import annotations
 
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -106,7 +105,7 @@ def bounded_refusal(tmp: str) -> float:
             data = b"\x08\x01\x2a" + varint + bytes(n)  # one packed field of 100 MiB
         return [(topic, data)]
     bad = os.path.join(tmp, "bomb.mcap")
-    Path(bad).write_bytes(fuzz._rewrite(Path(src).read_bytes(), edit))
+    Path(bad).write_bytes(fuzz.rewrite_log(Path(src).read_bytes(), edit))
     t0 = time.perf_counter()
     try:
         verify(bad)

@@ -30,7 +30,7 @@ from logs.mcap_log import (TOPIC_EVENTS, LogReader, LogWriter, event_message, ke
                            scenario_of, tick_arrays, world_header)
 from proto import touchdown_pb2 as pb
 from sim.errors import TouchdownError
-from replay.verify import WIDTH, _first_difference
+from replay.verify import WIDTH, first_difference
 from sim.scenario import ScenarioError
 from sim.state import State
 from sim.timeline import CommandError, Timeline
@@ -336,7 +336,7 @@ def _compare_tick(seg: Segment, td, rec, ship_id: str) -> None:
     if rows.size == 0:
         return
     arrays = tick_arrays(rec, np.array([key], np.int64))
-    hit = _first_difference(td.arrays, arrays, rows, 1)
+    hit = first_difference(td.arrays, arrays, rows, 1)
     if hit is not None:
         _ship, name, comp, a, b = hit
         fld = f"{name}[{comp}]" if WIDTH.get(name, 1) > 1 else name

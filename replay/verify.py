@@ -128,7 +128,7 @@ class VerifyResult:
         return "\n".join(lines)
 
 
-def _first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int,
+def first_difference(rec_arrays: dict, new_arrays: dict, ship_slice, n_new: int,
                       older_format: bool = False):
     """(ship, field, component, recorded, replayed) of the first differing number, or None. In a
     log of an older format a field whose layout has changed since (``sliding``: one per ship in
@@ -274,7 +274,7 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
             arrays = tick_arrays(new, keys)
             rows = np.flatnonzero(recorded.keys == mine_key)
             res.numbers_compared += sum(np.size(arrays[k]) for k in recorded.arrays)
-        hit = _first_difference(recorded.arrays, arrays, rows, new.state.n,
+        hit = first_difference(recorded.arrays, arrays, rows, new.state.n,
                                 sr.log_format_version < LOG_FORMAT_VERSION)
         if hit is None and ship_id is None:  # same numbers, different bytes
             hit = (0, "tick", 0, float(recorded.tick), float(new.tick))

@@ -51,7 +51,7 @@ def bounce(tmp_path_factory):
 def rewrite(src: Path, dst: Path, edit) -> Path:
     """``src`` rewritten through the stock mcap writer, each message passed through
     ``edit(topic, bytes) -> list of (topic, bytes)``."""
-    dst.write_bytes(fuzz._rewrite(src.read_bytes(), edit))
+    dst.write_bytes(fuzz.rewrite_log(src.read_bytes(), edit))
     return dst
 
 

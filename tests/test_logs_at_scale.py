@@ -227,7 +227,7 @@ def test_a_non_finite_number_is_refused_in_every_format(bounce, tmp_path):
             data = encode_tick(tick, t_s, n, arrays)
         return [(topic, data)]
     bad = tmp_path / "inf.mcap"
-    bad.write_bytes(fuzz._rewrite(bounce.read_bytes(), edit))
+    bad.write_bytes(fuzz.rewrite_log(bounce.read_bytes(), edit))
     for fmt in ("jsonl", "csv", "parquet"):
         out = tmp_path / f"x.{fmt}"
         r = invoke("export", bad, "--format", fmt, "-o", out)
@@ -244,7 +244,7 @@ def test_a_tick_record_larger_than_the_fleet_can_fill_is_refused_in_under_a_seco
             data = b"\x08\x01\x2a" + varint(n) + bytes(n)
         return [(topic, data)]
     bad = tmp_path / "big-tick.mcap"
-    bad.write_bytes(fuzz._rewrite(bounce.read_bytes(), edit))
+    bad.write_bytes(fuzz.rewrite_log(bounce.read_bytes(), edit))
     assert bad.stat().st_size < 200_000
     from replay.verify import verify
     for run in (lambda: verify(str(bad)), lambda: list(ex.tick_blocks(LogReader(bad)))):

@@ -190,13 +190,13 @@ def live(url: str, prefix: str, seconds: float | None, password: str | None = No
     ``seconds``)."""
     import rerun as rr
 
-    from view.rerun_view import _last_line, _start_viewer
+    from view.rerun_view import last_line, start_viewer
 
-    proc, port, err = _start_viewer(["--hide-welcome-screen"])
+    proc, port, err = start_viewer(["--hide-welcome-screen"])
     try:
         time.sleep(2.0)
         if proc.poll() is not None:
-            raise ViewError(f"the viewer could not open a window ({_last_line(err)}); record the "
+            raise ViewError(f"the viewer could not open a window ({last_line(err)}); record the "
                             f"live view with -o OUT.rrd --seconds S, or a picture with "
                             f"--screenshot PNG")
         rec = rr.RecordingStream("touchdown-live", recording_id=f"live-{prefix}")

@@ -479,7 +479,7 @@ def _free_port() -> int:
         return sock.getsockname()[1]
 
 
-def _start_viewer(args: list[str], env: dict | None = None) -> tuple[subprocess.Popen, int, Path]:
+def start_viewer(args: list[str], env: dict | None = None) -> tuple[subprocess.Popen, int, Path]:
     """The viewer binary on a free port of 127.0.0.1, in a session of its own (so that it can
     be stopped as a whole), its stderr in a file. Returns the process, port and that file."""
     port = _free_port()
@@ -491,7 +491,7 @@ def _start_viewer(args: list[str], env: dict | None = None) -> tuple[subprocess.
     return proc, port, err
 
 
-def _last_line(path: Path) -> str:
+def last_line(path: Path) -> str:
     try:
         lines = [ln for ln in path.read_text(errors="replace").splitlines() if ln.strip()]
     except OSError:
@@ -515,11 +515,11 @@ def _stop(proc: subprocess.Popen) -> None:
 def spawn_viewer(runs: list[Run], wait_s: float = 2.0) -> None:
     """Open the native viewer on the runs (it stays open; closing it is the user's). Without a
     display it cannot open a window: that is one line naming what to do instead."""
-    proc, port, err = _start_viewer(["--hide-welcome-screen"])
+    proc, port, err = start_viewer(["--hide-welcome-screen"])
     try:
         time.sleep(wait_s)
         if proc.poll() is not None:
-            raise ViewError(f"the viewer could not open a window ({_last_line(err)}); write the "
+            raise ViewError(f"the viewer could not open a window ({last_line(err)}); write the "
                             f"view to a file with -o OUT.rrd, or a picture with --screenshot PNG")
         rec, layout = build(runs, "touchdown-view")
         rec.connect_grpc(f"rerun+http://127.0.0.1:{port}/proxy",
@@ -532,7 +532,7 @@ def spawn_viewer(runs: list[Run], wait_s: float = 2.0) -> None:
         while time.monotonic() < end and proc.poll() is None:
             time.sleep(0.1)
         if proc.poll() is not None:
-            raise ViewError(f"the viewer could not open a window ({_last_line(err)}); write the "
+            raise ViewError(f"the viewer could not open a window ({last_line(err)}); write the "
                             f"view to a file with -o OUT.rrd, or a picture with --screenshot PNG")
     finally:
         err.unlink(missing_ok=True)
@@ -565,14 +565,14 @@ def screenshot(rrd: Path, png: Path, at_s: float | None = None, size: str = "192
     with tempfile.TemporaryDirectory(prefix="touchdown-rerun-") as home:
         # the viewer's first run writes settings and analytics ids: not into the user's home
         env = dict(os.environ, XDG_CONFIG_HOME=home, XDG_DATA_HOME=home, XDG_CACHE_HOME=home)
-        proc, port, err = _start_viewer(["--headless", "--hide-welcome-screen", "--window-size",
+        proc, port, err = start_viewer(["--headless", "--hide-welcome-screen", "--window-size",
                                          size], env)
         try:
             client, t0 = None, time.monotonic()
             while client is None:
                 if proc.poll() is not None:
                     raise ViewError(f"the headless viewer stopped (exit {proc.returncode}: "
-                                    f"{_last_line(err)}); it needs software Vulkan (apt install "
+                                    f"{last_line(err)}); it needs software Vulkan (apt install "
                                     f"mesa-vulkan-drivers)")
                 try:
                     client = ViewerClient.connect(f"rerun+http://127.0.0.1:{port}/proxy")
