@@ -125,7 +125,8 @@ def scenarios_cmd() -> None:
 @click.option("--view", "show", is_flag=True, help="open the Rerun viewer on the log when done")
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
            stream: str, keyframe_every: int, show: bool) -> None:
-    from logs.mcap_log import LogWriter, scenario_message
+    from logs.header import scenario_message
+    from logs.writer import LogWriter
     from service.driver import drive
     from sim.world import World
 
@@ -224,7 +225,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
     Parquet. Parquet keeps each field's unit in its metadata; a tick table in Parquet is written
     with its events beside it (OUT.events.parquet)."""
     from logs import export as ex
-    from logs.mcap_log import LogReader
+    from logs.reader import LogReader
 
     if fmt == "parquet" and not output:
         raise UserError("--format parquet writes a file: give -o OUT.parquet")
@@ -449,12 +450,12 @@ def doctor(log: str) -> None:
     and their entries, summary, footer), and beside it what Touchdown checks of its content
     (scenario, every tick record decoded and checked, events, summary). Exit 0 sound, 1 damaged
     (what and where), 2 not a readable file."""
-    from logs import structure
+    from logs import doctor as log_doctor
 
     if not Path(log).is_file():
         raise UserError(f"{log}: cannot open: no such file")
     try:
-        lines, bad = structure.report(log)
+        lines, bad = log_doctor.report(log)
     except OSError as exc:
         raise UserError(f"{log}: cannot read: {exc.strerror}") from None
     click.echo("\n".join(lines))

@@ -30,7 +30,8 @@ import atheris
 with atheris.instrument_imports(include=["logs", "sim", "replay", "proto", "scenarios"]):
     from logs import LogError
     from logs.export import tick_rows, write_jsonl
-    from logs.mcap_log import LogReader, scenario_of
+    from logs.reader import LogReader
+    from logs.rebuild import scenario_of
     from sim.scenario import ScenarioError, parse_text
 
 CORPUS = Path(".fuzz-corpus")

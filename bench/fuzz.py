@@ -209,7 +209,7 @@ def _proto_descriptor() -> bytes:
 
 
 def _scenario_msg_of(log: bytes) -> bytes:
-    from logs.mcap_log import LogReader
+    from logs.reader import LogReader
     with tempfile.NamedTemporaryFile(suffix=".mcap") as f:
         f.write(log)
         f.flush()
@@ -411,7 +411,8 @@ def _mutate_scenario_record(src: bytes, rng: random.Random, k: int, pb) -> bytes
 
 
 def _mutate_tick(src: bytes, rng: random.Random, k: int, pb) -> bytes:
-    from logs.codec import decode_tick, encode_tick
+    from logs.codec import encode_tick
+    from logs.decode import decode_tick
 
     target = rng.randrange(4)
 
@@ -553,7 +554,8 @@ def invoke(main, argv: list[str]) -> tuple[int | str, str, str]:
 def _content(path: str) -> tuple | None:
     """What a log holds, as today's reader reads it (None if it cannot)."""
     from logs import LogError
-    from logs.mcap_log import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, LogReader
+    from logs.header import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS
+    from logs.reader import LogReader
     try:
         with LogReader(path) as r:
             msgs = {t: [] for t in (TOPIC_SCENARIO, TOPIC_TICKS, TOPIC_EVENTS, TOPIC_SUMMARY)}

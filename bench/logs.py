@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: the export before issue 25, as it was: rows as dicts, JSON per row, Python decoding
 OLD_EXPORT = """
 import sys
-import logs.mcap_log as m
+import logs.reader as m
 from logs.codec import decode_tick_python
 from logs.export import tick_rows, write_jsonl
 m.decode_tick = decode_tick_python  # the decoder export used then
@@ -66,7 +66,7 @@ def record_fleet(path: str, ships: int, ticks: int) -> float:
 def breakdown(log: str, out: str) -> dict[str, float]:
     """Where a Parquet export's time goes, in this process (the kernels loaded already)."""
     from logs import export as ex
-    from logs.mcap_log import LogReader
+    from logs.reader import LogReader
     t = {}
     clock = time.process_time
     t0 = clock()

@@ -90,19 +90,9 @@ def _read_varint(buf: bytes, i: int, end: int) -> tuple[int, int]:
     raise LogError("malformed varint in a tick record")
 
 
-def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
-    """Parse one TickBatch into (tick, t_s, ship_count, arrays); arrays are float64 or int64.
-
-    Strict: unknown wire types, out-of-range lengths, a field twice, unpacked elements and one-byte
-    fields past 127 (none of which the writer produces) raise LogError. Compiled
-    (logs.decode.decode_one): any message costs a pass over its bytes at compiled speed."""
-    from logs.decode import decode_one
-    return decode_one(bytes(data))
-
-
 def decode_tick_python(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
-    """The same in Python, field by field (the reference the compiled decoder is tested
-    against)."""
+    """One TickBatch decoded as :func:`logs.decode.decode_tick` decodes it, in Python, field by
+    field (the reference the compiled decoder is tested against)."""
     tick, t_s, count = 0, 0.0, 0
     arrays: dict[str, np.ndarray] = {}
     i, end = 0, len(data)

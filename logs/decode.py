@@ -12,7 +12,7 @@ longer than its bytes):
 2. :func:`_gather` copies each wanted field's numbers into its column, one row per ship-tick
    (ticks one after another): the wire's little-endian words are the column's own bytes.
 
-The checks :class:`logs.mcap_log.TickData` makes of one tick (every field a tick must hold, each
+The checks :class:`logs.reader.TickData` makes of one tick (every field a tick must hold, each
 with ship count x width numbers, a known surface state, ship keys in the log's table and no ship
 twice) are made over the whole block at once (:func:`check_block`).
 """
@@ -194,7 +194,7 @@ class _ScanError(LogError):
 
 def decode_one(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
     """One TickBatch as (tick, t_s, ship_count, arrays by field name): float64 or int64 arrays,
-    as :func:`logs.codec.decode_tick` has always given them. LogError on malformed bytes."""
+    as :func:`decode_tick` has always given them. LogError on malformed bytes."""
     buf = np.frombuffer(data, np.uint8)
     ticks, t_s, counts, starts, lengths = scan(buf, np.zeros(1, np.int64),
                                                np.array([buf.size], np.int64))
@@ -210,6 +210,15 @@ def decode_one(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
             a = raw.view(DTYPE[f])
             arrays[name] = a.astype(np.float64) if DTYPE[f].kind == "f" else a.astype(np.int64)
     return int(ticks[0]), float(t_s[0]), int(counts[0]), arrays
+
+
+def decode_tick(data: bytes) -> tuple[int, float, int, dict[str, np.ndarray]]:
+    """Parse one TickBatch into (tick, t_s, ship_count, arrays); arrays are float64 or int64.
+
+    Strict: unknown wire types, out-of-range lengths, a field twice, unpacked elements and one-byte
+    fields past 127 (none of which the writer produces) raise LogError. Compiled
+    (decode_one): any message costs a pass over its bytes at compiled speed."""
+    return decode_one(bytes(data))
 
 
 @dataclass
@@ -380,4 +389,5 @@ def decode_block(data, offsets: np.ndarray | None, tick_from_time: np.ndarray,
     return TickBlock(ticks, t_s, counts, row_off, keys, columns, present)
 
 
-__all__ = ["TickBlock", "decode_block", "decode_one", "scan", "width_of", "NAMES", "INDEX"]
+__all__ = ["TickBlock", "decode_block", "decode_one", "decode_tick", "scan", "width_of", "NAMES",
+           "INDEX"]

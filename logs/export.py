@@ -15,7 +15,8 @@ from typing import IO, Iterator
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, TickData, fleet_params, scenario_of
+from logs.reader import LogReader, TickData
+from logs.rebuild import fleet_params, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import fields, measure
 from sim.compiled import separate
@@ -34,7 +35,7 @@ DERIVED = (("east", "pos", 0), ("north", "pos", 1), ("up", "pos", 2), ("v_east",
 
 def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     """Site-frame position and velocity, body rates and energy of every ship at one tick
-    (``params``: every ship of the log in key order, logs.mcap_log.fleet_params)."""
+    (``params``: every ship of the log in key order, logs.rebuild.fleet_params)."""
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
         return None

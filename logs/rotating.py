@@ -1,6 +1,6 @@
 """A flight log as rotating files of bounded size, each a log that verifies on its own.
 
-:class:`RotatingLog` takes a world's blocks as a :class:`logs.mcap_log.LogWriter` does (the
+:class:`RotatingLog` takes a world's blocks as a :class:`logs.writer.LogWriter` does (the
 driver loop's ``log``: ``write_block``, ``close``, ``abandon``) and writes them to
 ``DIR/{prefix}-{first_tick:010d}.mcap``. Once the file being written is past ``max_bytes`` (the
 bytes written to it, checked at block boundaries: a file overshoots by what its writer still
@@ -8,7 +8,7 @@ holds, at most QUEUE_BLOCKS blocks and a chunk of ``max_bytes / 8``), the file i
 end of the block in hand (summary ``complete``, reason ``rotated``) and the next begins at that
 block's last tick T:
 
-- its header is :func:`logs.mcap_log.world_header` of the world at T (the ships present then,
+- its header is :func:`logs.header.world_header` of the world at T (the ships present then,
   their tables; ``start_tick = T``);
 - its first tick record is the run's own record of T (the block's last row, as recorded in the
   file before: state, telemetry, the commands in force), written as a keyframe;
@@ -28,7 +28,8 @@ import threading
 from pathlib import Path
 from typing import Callable
 
-from logs.mcap_log import FinishedOrGone, LogWriter, world_header
+from logs.header import world_header
+from logs.writer import FinishedOrGone, LogWriter
 from proto import touchdown_pb2 as pb
 from sim.world import Block, World
 

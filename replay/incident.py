@@ -26,8 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import (TOPIC_EVENTS, LogReader, LogWriter, event_message, keyframe_world,
-                           scenario_of, tick_arrays, world_header)
+from logs.header import TOPIC_EVENTS, event_message, tick_arrays, world_header
+from logs.reader import LogReader
+from logs.rebuild import keyframe_world, scenario_of
+from logs.writer import LogWriter
 from proto import touchdown_pb2 as pb
 from sim.errors import TouchdownError
 from replay.verify import WIDTH, first_difference

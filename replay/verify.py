@@ -31,9 +31,10 @@ import numpy as np
 
 from logs import LogError
 from logs.codec import PACKED, BlockEncoder
-from logs.mcap_log import (_EMPTY, KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                           LogReader, ShipTable, event_message, keyframe_world, recorded_world,
-                           scenario_of, tick_arrays)
+from logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
+                         ShipTable, event_message, tick_arrays)
+from logs.reader import LogReader
+from logs.rebuild import keyframe_world, recorded_world, scenario_of
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -43,6 +44,7 @@ from sim.world import World
 
 #: per-ship width of each packed field
 WIDTH = {name: fields.per_ship(name) for _, name, _ in PACKED}
+_EMPTY = np.zeros(0)
 
 
 @dataclass

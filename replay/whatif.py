@@ -9,8 +9,10 @@ from itertools import zip_longest
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import (LogReader, LogWriter, keyframe_world, recorded_world, scenario_message,
-                           scenario_of, world_header)
+from logs.header import scenario_message, world_header
+from logs.reader import LogReader
+from logs.rebuild import keyframe_world, recorded_world, scenario_of
+from logs.writer import LogWriter
 from service.driver import drive
 from sim import __version__ as PROJECT_VERSION
 from sim.enums import EventKind, SurfaceState

@@ -10,6 +10,9 @@ gateway authenticated: docs/SERVICE.md, "Who may command a ship"), plus per comm
     retire    (nothing)
     autoland  (nothing)    the landing autopilot (service.autopilot)
 
+Each command is a row of one table (service.kinds.KINDS: its fields and their checks, and what
+it does to the fleet), from which both :func:`parse` and the shard's applying are read.
+
 :func:`parse` turns an entry into a :class:`Request` or a :class:`Rejected` with a one-line
 reason; it looks at nothing but the entry (what a ship is, or whether it exists, is the shard's
 question, service.shard). Whatever an entry holds (unknown fields, bytes that are not UTF-8, NaN,
@@ -20,18 +23,14 @@ shard over re-applies the journal's requests at their ticks and reaches the same
 """
 from __future__ import annotations
 
-import json
-import math
 import zlib
 from dataclasses import dataclass, field
 
-from sim.enums import HoldMode
+from service.kinds import KINDS, show
 
-#: fields each command may carry besides ``cmd`` and ``ship_id``
-FIELDS: dict[str, tuple[str, ...]] = {
-    "throttle": ("value",), "rcs": ("x", "y", "z"), "hold": ("mode",), "spawn": ("ship",),
-    "retire": (), "autoland": (),
-}
+#: fields each command may carry besides ``cmd``, ``ship_id`` and ``player_id``
+FIELDS: dict[str, tuple[str, ...]] = {k.name: tuple(f.name for f in k.fields)
+                                      for k in KINDS.values()}
 MAX_SHIP_ID = 128  # characters
 MAX_VALUE = 64 * 1024  # bytes of any one field (a spawn's JSON is the largest)
 MAX_FIELDS = 16
@@ -114,11 +113,11 @@ def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
         return no(f"{len(fields)} fields (at most {MAX_FIELDS})")
     for k, v in fields.items():
         if len(v) > MAX_VALUE or len(k) > 64:
-            return no(f"field {_show(k)}: longer than {MAX_VALUE:,} characters")
-        if not _printable(k) or (k != "ship" and not _printable(v)):
-            return no(f"field {_show(k)}: not printable UTF-8 text")
+            return no(f"field {show(k)}: longer than {MAX_VALUE:,} characters")
+        if not _printable(k) or (k not in _RAW and not _printable(v)):
+            return no(f"field {show(k)}: not printable UTF-8 text")
     if cmd not in FIELDS:
-        return no(f"cmd: unknown command {_show(cmd)} (one of {', '.join(FIELDS)})")
+        return no(f"cmd: unknown command {show(cmd)} (one of {', '.join(FIELDS)})")
     if not ship_id:
         return no("ship_id: missing")
     if len(ship_id) > MAX_SHIP_ID:
@@ -130,63 +129,29 @@ def parse(entry_id: str, fields: dict[str, str]) -> Request | Rejected:
     allowed = {"cmd", "ship_id", "player_id", *FIELDS[cmd]}
     extra = sorted(set(fields) - allowed)
     if extra:
-        return no(f"{cmd}: unknown field {_show(extra[0])} (it takes "
+        return no(f"{cmd}: unknown field {show(extra[0])} (it takes "
                   f"{', '.join(FIELDS[cmd]) or 'no fields'} besides cmd, ship_id and "
                   f"player_id)")
     missing = [f for f in FIELDS[cmd] if f not in fields]
     if missing:
         return no(f"{cmd}: missing field {missing[0]!r}")
+    kind = KINDS[cmd]
     values: dict = {}
-    if cmd == "throttle":
-        x = _number(fields["value"])
-        if x is None or not 0.0 <= x <= 1.0:
-            return no(f"throttle: value must be a number in 0..1, got {_show(fields['value'])}")
-        values["value"] = x
-    elif cmd == "rcs":
-        for axis in ("x", "y", "z"):
-            x = _number(fields[axis])
-            if x is None or not -1.0 <= x <= 1.0:
-                return no(f"rcs: {axis} must be a number in -1..1, got {_show(fields[axis])}")
-            values[axis] = x
-    elif cmd == "hold":
-        mode = fields["mode"]
-        if mode not in {m.label for m in HoldMode}:
-            return no(f"hold: mode must be one of {', '.join(m.label for m in HoldMode)}, "
-                      f"got {_show(mode)}")
-        values["mode"] = mode
-    elif cmd == "spawn":
-        try:
-            spec = json.loads(fields["ship"])
-        except (ValueError, RecursionError):
-            return no("spawn: ship is not valid JSON")
-        if not isinstance(spec, dict):
-            return no("spawn: ship must be a JSON object (one [[ships]] table)")
-        if "id" in spec and spec["id"] != ship_id:
-            return no(f"spawn: the table's id {_show(str(spec['id']))} is not ship_id")
-        if "player_id" in spec and spec["player_id"] != player:
-            return no("spawn: the table's player_id is not the command's player_id (a ship "
-                      "belongs to the player who spawns it)")
-        values["ship"] = {**spec, "id": ship_id, "player_id": player}
+    for f in kind.fields:
+        x = f.value(fields[f.name])
+        if x is None:
+            return no(f"{cmd}: {f.name} must be {f.expects}, got {show(fields[f.name])}")
+        values[f.name] = x
+    if kind.check is not None:
+        values = kind.check(values, ship_id, player)
+        if isinstance(values, str):
+            return no(values)
     return Request(entry_id, cmd, ship_id, values, player, size)
-
-
-def _number(text: str) -> float | None:
-    """A finite decimal number, or None. ``float`` alone would take 'nan', 'inf' and '1_0'."""
-    text = text.strip()
-    if not text or len(text) > 32 or any(c not in "0123456789+-.eE" for c in text):
-        return None
-    try:
-        x = float(text)
-    except ValueError:
-        return None
-    return x if math.isfinite(x) else None
 
 
 def _printable(s: str) -> bool:
     return s.isprintable() and not any(0xD800 <= ord(c) <= 0xDFFF for c in s)
 
 
-def _show(s: str) -> str:
-    """A value as a message shows it: quoted, cut short, unprintable characters escaped."""
-    s = s if len(s) <= 40 else s[:40] + "..."
-    return ascii(s)
+#: fields any text may be in (checked by their command: a spawn's JSON)
+_RAW = {f.name for k in KINDS.values() for f in k.fields if not f.printable}

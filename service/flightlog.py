@@ -16,7 +16,7 @@ stop the ships, with retention.
   (the file being written always stays).
 
 The transition events come from the log's writer when it is writing, and are made the same way
-(logs.mcap_log.event_message) when it is paused, so the event stream is the same either way.
+(logs.header.event_message) when it is paused, so the event stream is the same either way.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from logs.mcap_log import event_message
+from logs.header import event_message
 from logs.rotating import RotatingLog
 from sim.state import State
 from sim.world import Block, World

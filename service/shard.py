@@ -21,9 +21,8 @@ from proto import service_pb2 as spb
 from logs.redis_stream import entry_fields
 from service.autopilot import AutolandOutcome, autoland_commands
 from service.commands import Rejected, Request
-from sim.enums import HoldMode, SurfaceState
-from sim.scenario import ScenarioError
-from sim.timeline import CommandError
+from service.kinds import KINDS, apply
+from sim.enums import SurfaceState
 from sim.world import Block, World
 
 REJECTED = "ship.command_rejected"
@@ -119,10 +118,10 @@ class Shard:
 
     # -- requests ---------------------------------------------------------------------------
     def _apply(self, req: Request, pending: dict[str, list]) -> str | None:
-        """Apply one request; the reason it cannot be applied, or None."""
-        w, sid = self.world, req.ship_id
-        lim = self.limits
-        if req.cmd != "spawn":
+        """Apply one request as its kind says (service.kinds); the reason it cannot be
+        applied, or None."""
+        kind, sid, lim = KINDS[req.cmd], req.ship_id, self.limits
+        if kind.of_ship:
             owner = self._owner(sid)
             if owner is not None and req.player_id and owner != req.player_id:
                 return (f"{req.cmd}: ship {sid!r} belongs to another player (player_id "
@@ -131,51 +130,14 @@ class Shard:
             self._per_ship[sid] = n
             if lim.max_commands_per_ship and n > lim.max_commands_per_ship:
                 return (f"{req.cmd}: more than {lim.max_commands_per_ship} commands for ship "
-                        f"{sid!r} in tick {w.tick} (the per-ship rate)")
-        try:
-            if req.cmd == "spawn":
-                if lim.max_ships and self._ships_next >= lim.max_ships:
-                    return (f"spawn: shard {self.index} is full ({lim.max_ships:,} ships, "
-                            f"the most a shard takes)")
-                w.spawn(req.values["ship"])
-                self._ships_next += 1
-                return None
-            if req.cmd == "retire":
-                w.retire(sid)
-                self._ships_next -= 1
-                pending.pop(sid, None)
-                self.autoland.pop(sid, None)
-                return None
-        except ScenarioError as exc:  # the table, by the scenario's rules
-            return f"spawn: ship.{exc.key.removeprefix('ships[0].')}: {exc.problem}"
-        except CommandError as exc:
-            return str(exc).splitlines()[0]
-        i = self._row(sid)
-        if i is None:
-            return f"{req.cmd}: no ship {sid!r} in the fleet at tick {w.tick}"
-        if req.cmd == "autoland":
-            if SurfaceState(int(w.state.rows["surface_state"][i])) is SurfaceState.CRASHED:
-                return f"autoland: ship {sid!r} has crashed"
-            self.autoland[sid] = None
-            return None
-        # a player's hand on the controls takes them back from the autopilot
-        self.autoland.pop(sid, None)
-        cur = pending.get(sid) or self._in_force(i)
-        v = req.values
-        if req.cmd == "throttle":
-            cur = [v["value"], cur[1], cur[2]]
-        elif req.cmd == "rcs":
-            cur = [cur[0], (v["x"], v["y"], v["z"]), cur[2]]
-        else:
-            cur = [cur[0], cur[1], int(HoldMode.from_label(v["mode"]))]
-        pending[sid] = cur
-        return None
-
-    def _in_force(self, i: int) -> list:
-        rows = self.world.inputs.rows
-        rcs = rows["rcs"][i]
-        return [float(rows["throttle"][i]), (float(rcs[0]), float(rcs[1]), float(rcs[2])),
-                int(rows["hold"][i])]
+                        f"{sid!r} in tick {self.world.tick} (the per-ship rate)")
+        if kind.ships > 0 and lim.max_ships and self._ships_next >= lim.max_ships:
+            return (f"{req.cmd}: shard {self.index} is full ({lim.max_ships:,} ships, "
+                    f"the most a shard takes)")
+        reason = apply(self.world, req, pending, self.autoland)
+        if reason is None:
+            self._ships_next += kind.ships
+        return reason
 
     def _row(self, sid: str) -> int | None:
         return self.world.row(sid)

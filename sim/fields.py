@@ -101,7 +101,7 @@ BY_LOG_NAME: dict[str, Field] = {f.in_log: f for f in FIELDS}
 # against today's table (tests/test_log_format.py: one test per format, and one that today's lists
 # are what the table derives).
 
-#: the format today's logs are written in (logs.mcap_log)
+#: the format today's logs are written in (logs.header)
 LOG_FORMAT = 4
 
 #: the fields on every tick of a log, by format

@@ -19,6 +19,14 @@ from sim.enums import HoldMode
 from sim.errors import TouchdownError
 
 
+#: the inputs a command gives a ship, in the order World.commands takes them, and their ranges:
+#: a recorded command's (Command.check) and a live one's (service.kinds) checks
+INPUTS = ("throttle", "rcs", "hold")
+THROTTLE = (0.0, 1.0)  # of the ship's max thrust
+RCS = (-1.0, 1.0)  # of its max RCS torque, per body axis
+HOLD_MODES = tuple(m.label for m in HoldMode)
+
+
 class CommandError(TouchdownError, ValueError):
     """A command, spawn or retire that cannot be applied; ``str()`` is one line naming the ship
     and the field."""
@@ -40,13 +48,16 @@ class Command:
         where = f"command for ship {self.ship_id!r} at tick {self.tick}"
         if not isinstance(self.tick, int) or self.tick < 0:
             raise CommandError(f"{where}: tick must be a whole number >= 0")
-        if not (_finite(self.throttle) and 0.0 <= self.throttle <= 1.0):
-            raise CommandError(f"{where}: throttle must be 0..1, got {self.throttle!r}")
-        if len(self.rcs) != 3 or not all(_finite(x) and -1.0 <= x <= 1.0 for x in self.rcs):
-            raise CommandError(f"{where}: rcs must be three numbers in -1..1, got {self.rcs!r}")
+        lo, hi = THROTTLE
+        if not (_finite(self.throttle) and lo <= self.throttle <= hi):
+            raise CommandError(f"{where}: throttle must be {lo:g}..{hi:g}, got {self.throttle!r}")
+        lo, hi = RCS
+        if len(self.rcs) != 3 or not all(_finite(x) and lo <= x <= hi for x in self.rcs):
+            raise CommandError(f"{where}: rcs must be three numbers in {lo:g}..{hi:g}, got "
+                               f"{self.rcs!r}")
         if self.hold not in {int(m) for m in HoldMode}:
-            raise CommandError(f"{where}: hold must be one of "
-                               f"{', '.join(m.label for m in HoldMode)}, got {self.hold!r}")
+            raise CommandError(f"{where}: hold must be one of {', '.join(HOLD_MODES)}, got "
+                               f"{self.hold!r}")
         return self
 
 

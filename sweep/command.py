@@ -59,7 +59,8 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
 def _record(sw: Sweep, case: int, output: str) -> int:
     """Case ``case`` alone, recorded as ``touchdown record`` records a scenario."""
     from logs import LogError
-    from logs.mcap_log import LogWriter, scenario_message
+    from logs.header import scenario_message
+    from logs.writer import LogWriter
     from service.driver import drive
     from sim.world import World
     if case >= sw.n_cases:

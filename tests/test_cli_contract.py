@@ -12,7 +12,7 @@ from click.testing import CliRunner
 
 import scenarios
 from cli import main
-from logs.mcap_log import LogReader
+from logs.reader import LogReader
 
 ROOT = Path(__file__).resolve().parents[1]
 GOOD = """

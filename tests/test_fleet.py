@@ -10,7 +10,9 @@ import pytest
 from click.testing import CliRunner
 
 from cli import main
-from logs.mcap_log import LogReader, LogWriter, scenario_message
+from logs.header import scenario_message
+from logs.reader import LogReader
+from logs.writer import LogWriter
 from replay.verify import verify
 from sim.scenario import ScenarioError, parse
 from sim.timeline import CommandError

@@ -28,7 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from cli import main  # noqa: E402
-from logs.mcap_log import LOG_FORMAT_VERSION, LogReader  # noqa: E402
+from logs.header import LOG_FORMAT_VERSION  # noqa: E402
+from logs.reader import LogReader  # noqa: E402
 from sim.run import run  # noqa: E402
 from sim.scenario import parse_text  # noqa: E402
 

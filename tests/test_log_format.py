@@ -15,9 +15,11 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from cli import main
 from logs import LogError
-from logs.codec import PACKED, decode_tick, encode_tick
-from logs.mcap_log import (TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, LogReader,
-                           LogWriter, scenario_message)
+from logs.codec import PACKED, encode_tick
+from logs.decode import decode_tick
+from logs.header import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, scenario_message
+from logs.reader import LogReader
+from logs.writer import LogWriter
 from proto import touchdown_pb2 as pb
 from sim.scenario import parse, parse_text
 import scenarios
@@ -150,7 +152,7 @@ def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
     """The recorder's compiled block encoder (logs.codec.BlockEncoder) gives, for every tick of a
     run, the bytes protobuf gives for that tick's TickBatch (keyframe fields only on keyframes)."""
     from logs.codec import BlockEncoder
-    from logs.mcap_log import KEYFRAME_ONLY, tick_arrays
+    from logs.header import KEYFRAME_ONLY, tick_arrays
     from sim.run import run_blocks
 
     scn = parse_text(scenarios.text("fleet"), "fleet", {"duration": 3.0})

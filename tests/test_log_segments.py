@@ -13,8 +13,11 @@ import pytest
 from click.testing import CliRunner
 
 from cli import main
-from logs.codec import decode_tick, encode_tick
-from logs.mcap_log import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, LogReader, LogWriter, world_header
+from logs.codec import encode_tick
+from logs.decode import decode_tick
+from logs.header import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, world_header
+from logs.reader import LogReader
+from logs.writer import LogWriter
 from logs.rotating import RotatingLog
 from proto import touchdown_pb2 as pb
 from replay.verify import verify

@@ -15,9 +15,10 @@ from click.testing import CliRunner
 from bench import fuzz
 from cli import main
 from logs import LogError, export as ex
-from logs.codec import decode_tick, decode_tick_python, encode_tick
+from logs.codec import decode_tick_python, encode_tick
+from logs.decode import decode_tick
 from logs.decode import decode_block
-from logs.mcap_log import LogReader
+from logs.reader import LogReader
 from sim import fields
 
 pa = pytest.importorskip("pyarrow")

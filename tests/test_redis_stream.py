@@ -6,7 +6,7 @@ from click.testing import CliRunner
 
 from cli import main
 from logs.export import event_rows
-from logs.mcap_log import LogReader
+from logs.reader import LogReader
 from proto import touchdown_pb2 as pb
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 

@@ -13,8 +13,10 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from cli import main
-from logs.codec import decode_tick, encode_tick
-from logs.mcap_log import TOPIC_TICKS, LogReader
+from logs.codec import encode_tick
+from logs.decode import decode_tick
+from logs.header import TOPIC_TICKS
+from logs.reader import LogReader
 from replay.verify import verify
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,7 +19,7 @@ import pytest
 import redis
 
 import scenarios as builtin
-from logs.mcap_log import LogReader
+from logs.reader import LogReader
 from proto import touchdown_pb2 as pb
 from redis_server import _free_port, redis_url  # noqa: F401  (a pytest fixture)
 from replay.verify import verify

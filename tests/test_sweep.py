@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from cli import main
 from logs.export import event_rows, tick_rows
-from logs.mcap_log import LogReader
+from logs.reader import LogReader
 from sim.scenario import load_toml
 from sweep.cases import Sweep, SweepError, latin_hypercube, parse_vary
 from sweep.run import run

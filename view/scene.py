@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from logs import LogError
-from logs.mcap_log import LogReader, fleet_params, scenario_of
+from logs.reader import LogReader
+from logs.rebuild import fleet_params, scenario_of
 from sim import fields, measure
 from sim.enums import SurfaceState
 from sim.measure import ENERGY_PARTS

@@ -1,0 +1,189 @@
+"""The log's format: its topics, its header (the ScenarioRecord: the resolved scenario and the
+ships present at its first tick), the messages the writer and the event stream share (a
+transition, a ship's state) and the table of every ship a log held by key.
+
+The MCAP log: one ScenarioRecord, one TickBatch per tick, a TransitionEvent per transition, a
+FleetChange per tick at which ships join or leave, a CommandBatch per tick with commands, and a
+LogSummary at the end. The ScenarioRecord, the joins and leaves and the commands are the run's whole
+input: a replay folds the step over them (replay.verify). Chunked, zstd-compressed, CRCs on, protobuf schemas embedded, so that stock
+readers (``mcap-protobuf-support``, Foxglove) decode every message without this project.
+Written by logs.writer, read by logs.reader; a run is rebuilt from a log by logs.rebuild.
+
+Log times are simulation time, ``tick * dt`` in integer nanoseconds, never the wall clock.
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import json
+import math
+
+import numpy as np
+
+from proto import touchdown_pb2 as pb
+from sim import __version__ as PROJECT_VERSION
+from sim import fields
+from sim.enums import EventKind, SurfaceState
+from sim.scenario import TIMING_KEYS, Scenario, parse
+from sim.state import State
+from sim.world import TickRecord, World
+
+#: The log formats and their fields: sim.fields (LOG_FORMAT, EVERY_TICK_BY_FORMAT,
+#: KEYFRAME_BY_FORMAT), where the rule is written. 2 (touchdown 0.3): per-foot ``sliding`` (4 per
+#: ship); velocities and angular velocities on every tick. A format-1 log still reads (``sliding``
+#: per ship is given to all four feet). 3 (touchdown 0.5): ships join and leave (FleetChange), each
+#: tick names its ships by key (TickBatch.ship_key), commands are recorded as commands
+#: (CommandBatch), and a replay folds over those; formats 1 and 2 replay from their scenario's
+#: inputs, with a notice. Later in 3, with fields that default to what every earlier log of format
+#: 3 is: a log may start at any tick (ScenarioRecord.start_tick: its first tick record is a
+#: keyframe of the header's ships, which the replay starts from) and a run may have no set end
+#: (ScenarioRecord.open_ended: the summary's last tick is its end). A reader from before refuses
+#: such a log (its first tick is not 0). 4 (touchdown 0.6): keyframes hold how long the settle
+#: thresholds have held (settle_for_s, settle_margin); events carry their instant (t_event_s).
+LOG_FORMAT_VERSION = fields.LOG_FORMAT
+TOPIC_SCENARIO = "/touchdown/scenario"
+TOPIC_TICKS = "/touchdown/ticks"
+TOPIC_EVENTS = "/touchdown/events"
+TOPIC_SUMMARY = "/touchdown/summary"
+TOPIC_FLEET = "/touchdown/fleet"
+TOPIC_COMMANDS = "/touchdown/commands"
+#: state fields written only on keyframe ticks (today's format); the rest (positions, velocities,
+#: attitudes, angular velocities, masses, states, telemetry, commands) are on every tick
+KEYFRAME_ONLY = fields.KEYFRAME_BY_FORMAT[LOG_FORMAT_VERSION]
+#: numbers per ship of each TickBatch array (1 where not listed)
+WIDTH = {f.in_log: f.per_ship for f in fields.FIELDS if f.per_ship > 1}
+
+
+def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Every per-ship array of a TickBatch, by field name (``keys``: the ships' keys)."""
+    records = {"state": rec.state, "outputs": rec.outputs, "inputs": rec.inputs}
+    arrays = {f.in_log: records[f.record].rows[f.name] for f in fields.FIELDS}
+    if keys is not None:
+        arrays["ship_key"] = keys
+    return arrays
+
+
+def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: int
+                       ) -> pb.ShipState:
+    st = SurfaceState(int(rec_state.surface_state[i]))
+    p, v, q, w = (rec_state.pos_m[i], rec_state.vel_mps[i], rec_state.quat[i],
+                  rec_state.omega_body_radps[i])
+    r_hat = p / math.sqrt(float(p @ p))
+    ez = np.array([2 * (q[1] * q[3] + q[0] * q[2]), 2 * (q[2] * q[3] - q[0] * q[1]),
+                   1 - 2 * (q[1] ** 2 + q[2] ** 2)])
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
+    return pb.ShipState(
+        ship_id=ship_id, player_id=player_id,
+        landed_body_name="" if st is SurfaceState.FLYING else body,
+        position_m=pb.Vec3(x=p[0], y=p[1], z=p[2]), velocity_mps=pb.Vec3(x=v[0], y=v[1], z=v[2]),
+        attitude=pb.Quaternion(w=q[0], x=q[1], y=q[2], z=q[3]),
+        omega_body_radps=pb.Vec3(x=w[0], y=w[1], z=w[2]),
+        mass_kg=float(rec_state.mass_kg[i]), fuel_kg=float(rec_state.fuel_kg[i]), state=int(st),
+        tilt_deg=tilt, surface_contact_state=st.seed_string)
+
+
+def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
+                  ) -> pb.TransitionEvent:
+    """A transition as the log and the event stream carry it."""
+    ship_id = ev.ship_id
+    player_id = ships.players[ships.key(ship_id)]
+    return pb.TransitionEvent(
+        event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * dt_s, ship_id=ship_id,
+        player_id=player_id, body=body, from_state=ev.from_state, to_state=ev.to_state,
+        ship=ship_state_message(ship_id, player_id, body, state, ev.ship),
+        v_radial_mps=ev.v_radial_mps, t_event_s=ev.t_event_s)
+
+
+def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
+                     ) -> pb.ScenarioRecord:
+    """The log's header: the resolved scenario and the ships present at tick 0."""
+    return pb.ScenarioRecord(
+        log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=scn.name,
+        description=scn.description, resolved_json=json.dumps(scn.resolved, sort_keys=True),
+        integrator=scn.params.sim.integrator, dt_s=scn.params.sim.dt_s,
+        ship_ids=list(scn.params.ships.ship_id), player_ids=list(scn.params.ships.player_id),
+        body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks,
+        keyframe_interval=keyframe_interval)
+
+
+def world_header(world: World, name: str, source: str, keyframe_interval: int = 1,
+                 open_ended: bool = False, description: str = "", end_tick: int | None = None,
+                 tables: dict[str, dict] | None = None) -> pb.ScenarioRecord:
+    """The header of a log of ``world`` from its current tick (``start_tick``): the resolved scene
+    with ``ships`` the tables of the ships present now (their timing keys removed: when they join,
+    leave and what they are commanded is the log's own record; their ``initial`` tables are
+    irrelevant, as the state comes from the log's first tick record, a keyframe). The world may
+    have no ships. ``open_ended``: the run has no set end (a live service); ``end_tick``: the
+    run's last tick when not the scene's ``duration`` (a cut: n_ticks is set to it);
+    ``tables``: ship id -> its resolved table, a cache kept across the headers of one world
+    (each ship is resolved once: 10,000 ships take about half a second)."""
+    doc = copy.deepcopy(world.scene.doc)
+    doc.pop("ships", None)
+    doc["name"] = name
+    if description:
+        doc["description"] = description
+    sim = world.params.sim
+    if end_tick is not None:
+        doc["duration"] = end_tick * sim.dt_s
+        if dataclasses.replace(sim, duration_s=doc["duration"]).n_ticks != end_tick:
+            raise ValueError(f"end_tick {end_tick}: not a whole number of ticks of {sim.dt_s!r} s")
+        sim = dataclasses.replace(sim, duration_s=doc["duration"])
+    ids = list(world.ship_ids)
+    cache = {} if tables is None else tables
+    missing = [sid for sid in ids if sid not in cache]
+    if missing:  # resolved by the scenario's rules, with its messages
+        scn = parse({**doc, "ships": [{k: v for k, v in world.known[sid].items()
+                                       if k not in TIMING_KEYS} for sid in missing]},
+                    source or name)
+        if list(scn.params.ships.ship_id) != missing:
+            raise ValueError(f"the world's ships {missing[:5]} resolve to "
+                             f"{list(scn.params.ships.ship_id)[:5]}")
+        cache.update(zip(missing, scn.resolved["ships"]))
+    # no ships (yet): the scene alone, which the log's reader accepts (scenario_of)
+    resolved = {**doc, "ships": [cache[sid] for sid in ids]}
+    return pb.ScenarioRecord(
+        log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=name,
+        description=resolved.get("description", ""),
+        resolved_json=json.dumps(resolved, sort_keys=True), integrator=sim.integrator,
+        dt_s=sim.dt_s, ship_ids=ids, player_ids=list(world.params.ships.player_id),
+        body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
+        keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended)
+
+
+class ShipTable:
+    """Every ship of a log by key: the header's ships (keys 0, 1, ...), then each that joined, in
+    the order they joined. ``specs[k]``: the table a joining ship came with (None for the
+    header's, whose tables are in the resolved scenario)."""
+
+    def __init__(self, ids=(), players=()):
+        self.ids: list[str] = list(ids)
+        self.players: list[str] = list(players)
+        self.specs: list[dict | None] = [None] * len(self.ids)
+        self.joined: list[int] = [0] * len(self.ids)
+        self._key = {sid: k for k, sid in enumerate(self.ids)}
+
+    def add(self, tick: int, spec: dict) -> int:
+        key = len(self.ids)
+        self.ids.append(spec["id"])
+        self.players.append(spec.get("player_id") or "player-" + spec["id"])
+        self.specs.append(spec)
+        self.joined.append(tick)
+        self._key[spec["id"]] = key
+        return key
+
+    def key(self, ship_id: str) -> int:
+        return self._key[ship_id]
+
+    def keys(self, ship_ids) -> np.ndarray:
+        return np.fromiter((self._key[s] for s in ship_ids), np.int64, len(ship_ids))
+
+    def __contains__(self, ship_id: str) -> bool:
+        return ship_id in self._key
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+__all__ = ["LOG_FORMAT_VERSION", "TOPIC_SCENARIO", "TOPIC_TICKS", "TOPIC_EVENTS", "TOPIC_SUMMARY",
+           "TOPIC_FLEET", "TOPIC_COMMANDS", "KEYFRAME_ONLY", "WIDTH", "tick_arrays",
+           "ship_state_message", "event_message", "scenario_message", "world_header", "ShipTable"]

@@ -1,0 +1,460 @@
+"""Reading a Touchdown log (the format: logs.header): its header checked before anything is run
+on it, the tick records one at a time (TickData) or as columns a block at a time
+(logs.decode), the fleet's joins and leaves, the commands, the events and the summary. CRCs are
+checked, sizes bounded (logs.safe_read); any damage raises LogError.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from logs import LogError
+from logs.decode import TickBlock, decode_block, decode_tick
+from logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
+                         TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, ShipTable)
+from logs.safe_read import ReadLimits, ReadStatus, iter_messages
+from logs.structure import Structure
+from logs.structure import check as check_structure
+from logs.writer import CHUNK_BYTES_MAX, tick_bytes_bound
+from proto import touchdown_pb2 as pb
+from sim import __version__ as PROJECT_VERSION
+from sim import fields
+from sim.state import Inputs, Outputs, State
+from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
+
+#: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
+MAX_START_TICK = 1 << 53
+#: the tick, s: what a scenario may set (sim.scenario), and so what a log may hold
+MIN_DT_S, MAX_DT_S = 1e-4, 1.0
+MAX_SHIPS = 10_000_000
+MAX_SCENARIO_CHARS = 64 << 20
+
+
+def _ends_with_magic(s: Structure) -> bool:
+    """The file ends with MCAP's magic (finished; a cut file has none: read as a cut)."""
+    return not any(p.part == "footer" and "ends without a footer" in p.what for p in s.problems)
+
+
+class TickData:
+    """One TickBatch as read from a log: the raw bytes, decoded only when a field is asked for
+    (a verification that finds the bytes identical never decodes them)."""
+
+    def __init__(self, raw: bytes, tick_from_time: int, where: str = "", ships: int = 0,
+                 log_format: int = LOG_FORMAT_VERSION, table_size: int = 0):
+        self.raw = raw
+        self.tick_from_time = tick_from_time
+        self._where = where
+        self._ships = ships if log_format < 3 else 0  # format 3: the fleet changes
+        self._format = log_format
+        self._table_size = table_size
+        self._decoded: tuple[int, float, int, dict[str, np.ndarray]] | None = None
+
+    def _decode(self) -> tuple[int, float, int, dict[str, np.ndarray]]:
+        if self._decoded is None:
+            try:
+                decoded = decode_tick(self.raw)
+            except LogError as exc:
+                raise LogError(f"{self._where}: tick {self.tick_from_time}: {exc}") from None
+            self._check(*decoded)
+            self._decoded = decoded
+        return self._decoded
+
+    def _check(self, tick: int, t_s: float, count: int, arrays: dict[str, np.ndarray]) -> None:
+        """Every field a tick must hold, each with exactly ship_count x width numbers, the ship
+        count the scenario's, the tick its log time's."""
+        where = f"{self._where}: tick {self.tick_from_time}"
+        if tick != self.tick_from_time:
+            raise LogError(f"{where}: the record says tick {tick}")
+        if self._ships and count != self._ships:
+            raise LogError(f"{where}: {count} ships where the scenario has {self._ships}")
+        for name in fields.EVERY_TICK_BY_FORMAT[self._format]:
+            if name not in arrays and count:
+                raise LogError(f"{where}: field {name} is missing")
+        keyframe = [name in arrays for name in fields.KEYFRAME_BY_FORMAT[self._format]]
+        if any(keyframe) and not all(keyframe):
+            raise LogError(f"{where}: a keyframe with some of its fields missing")
+        for name, a in arrays.items():
+            width = 1 if (name == "sliding" and self._format < 2) else WIDTH.get(name, 1)
+            if a.size != count * width:
+                raise LogError(f"{where}: field {name} holds {a.size} numbers for {count} ships")
+        if count and (arrays["surface_state"] > 4).any():
+            raise LogError(f"{where}: a surface state out of range")
+        keys = arrays.get("ship_key")
+        if keys is not None and keys.size and (
+                keys.min() < 0 or keys.max() >= self._table_size
+                or np.unique(keys).size != keys.size):
+            raise LogError(f"{where}: ship keys outside the log's {self._table_size} ships, or "
+                           f"a ship twice")
+
+    @property
+    def tick(self) -> int:
+        return self._decode()[0]
+
+    @property
+    def t_s(self) -> float:
+        return self._decode()[1]
+
+    @property
+    def ship_count(self) -> int:
+        return self._decode()[2]
+
+    @property
+    def arrays(self) -> dict[str, np.ndarray]:
+        return self._decode()[3]
+
+    def vec(self, name: str, width: int) -> np.ndarray:
+        return self.arrays[name].reshape(self.ship_count, width)
+
+    @property
+    def keys(self) -> np.ndarray:
+        """The ships of this tick by key (format 3); before it, the header's ships in order."""
+        keys = self.arrays.get("ship_key")
+        if keys is None:
+            return np.arange(self.ship_count, dtype=np.int64)
+        return keys
+
+    @property
+    def is_keyframe(self) -> bool:
+        return all(name in self.arrays for name in fields.KEYFRAME_BY_FORMAT[self._format]) \
+            or self.ship_count == 0
+
+    def state(self) -> State:
+        """The full state recorded at this tick (a keyframe)."""
+        a = self.arrays
+        if not self.is_keyframe:
+            raise LogError(f"tick {self.tick} is not a keyframe")
+        if self.ship_count == 0:
+            return State.zeros(0, tick=self.tick)
+        try:
+            # a field its format does not have (settle_for_s before format 4) starts at zero
+            values = {f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else a[f.in_log]
+                      for f in fields.of_record("state")
+                      if f.name != "sliding" and (f.in_log in a or f.in_log in
+                                                  fields.EVERY_TICK_BY_FORMAT[self._format]
+                                                  + fields.KEYFRAME_BY_FORMAT[self._format])}
+            values["absorbing"] = values["absorbing"] != 0
+            return State.of(self.ship_count, tick=self.tick, sliding=self._sliding(), **values)
+        except (KeyError, ValueError) as exc:
+            raise LogError(f"tick {self.tick}: incomplete state record ({exc})") from None
+
+    def _sliding(self) -> np.ndarray:
+        a = self.arrays["sliding"].astype(bool)
+        if a.size == self.ship_count:  # a format-1 log: one regime per ship
+            return np.repeat(a[:, None], 4, axis=1)
+        return a.reshape(self.ship_count, 4)
+
+    def outputs(self) -> Outputs:
+        """What this tick reported (on every tick)."""
+        if self.ship_count == 0:
+            return Outputs.zeros(0)
+        return Outputs.of(self.ship_count, **{
+            f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else self.arrays[f.in_log]
+            for f in fields.of_record("outputs")})
+
+    def inputs(self) -> Inputs:
+        """The commands applied during the step into this tick."""
+        if self.ship_count == 0:
+            return Inputs.zeros(0)
+        return Inputs.of(self.ship_count, **{
+            f.name: self.vec(f.in_log, f.per_ship) if f.per_ship > 1 else self.arrays[f.in_log]
+            for f in fields.of_record("inputs")})
+
+
+class LogReader:
+    """Read a Touchdown log. CRCs are checked; any damage raises :class:`LogError`."""
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        try:
+            self._file = open(self.path, "rb")
+        except OSError as exc:
+            raise LogError(f"{self.path}: cannot open: {exc.strerror}") from None
+        self.scenario: pb.ScenarioRecord | None = None
+        self.summary: pb.LogSummary | None = None
+        self.status = ReadStatus()
+        # the file's MCAP structure (no decompression): a finished file whose summary or footer
+        # is damaged but whose data section is whole is read by walking that section
+        self.structure = check_structure(self._file)
+        st = self.structure
+        self._walk = _ends_with_magic(st) and not st.summary_ok and st.data_end >= 0
+        self._largest_record = 0
+        for topic, data in self._iter({TOPIC_SCENARIO}):
+            self._largest_record = len(data)
+            try:
+                self.scenario = pb.ScenarioRecord.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged scenario record ({exc})") from None
+            break
+        if self.scenario is None:
+            raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
+        self._check_record()
+
+    def _check_record(self) -> None:
+        """The scenario record's own numbers, before anything is run on them (the resolved
+        scenario itself is checked by scenario_of, by the same rules as a scenario file)."""
+        sr, where = self.scenario, f"{self.path}: the scenario record"
+        if not 1 <= sr.log_format_version <= LOG_FORMAT_VERSION:
+            raise LogError(f"{where}: log format {sr.log_format_version}; this touchdown "
+                           f"({PROJECT_VERSION}) reads formats 1 to {LOG_FORMAT_VERSION}")
+        if not (math.isfinite(sr.dt_s) and MIN_DT_S <= sr.dt_s <= MAX_DT_S):
+            raise LogError(f"{where}: dt_s {sr.dt_s!r} is out of range ({MIN_DT_S:g}..{MAX_DT_S:g} s)")
+        least = 1 if sr.log_format_version < 3 else 0  # format 3: ships may all join later
+        if not least <= len(sr.ship_ids) <= MAX_SHIPS or len(sr.player_ids) != len(sr.ship_ids):
+            raise LogError(f"{where}: {len(sr.ship_ids)} ships, {len(sr.player_ids)} players")
+        if sr.keyframe_interval > max(1, sr.n_ticks) and not sr.open_ended:
+            raise LogError(f"{where}: keyframe_interval {sr.keyframe_interval} exceeds its "
+                           f"{sr.n_ticks} ticks")
+        if (sr.start_tick or sr.open_ended) and sr.log_format_version < 3:
+            raise LogError(f"{where}: start_tick or open_ended in a log of format "
+                           f"{sr.log_format_version} (they are of format 3)")
+        if sr.start_tick >= MAX_START_TICK or (sr.start_tick > sr.n_ticks and not sr.open_ended):
+            raise LogError(f"{where}: start_tick {sr.start_tick} is past its run's "
+                           f"{'limit' if sr.open_ended else f'last tick {sr.n_ticks}'}")
+        if len(sr.resolved_json) > MAX_SCENARIO_CHARS:
+            raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
+                           f"(limit {MAX_SCENARIO_CHARS:,})")
+
+    def structure_note(self) -> str:
+        """One line if the file's MCAP structure (message indexes, summary, footer) is damaged
+        while its content is readable (logs.structure), else "". A cut file (no footer) is not
+        said to be damaged here: its readers say what they recovered."""
+        return self.structure.line() if _ends_with_magic(self.structure) else ""
+
+    def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
+        for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
+                                             self.status, walk=self._walk):
+            yield topic, data
+
+    def messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
+        """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
+        every reader of this log reads them (through its index, or by walking its data section
+        when its summary or footer is damaged)."""
+        yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
+                                 walk=self._walk)
+
+    def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
+            ) -> Iterator[tuple[int, bytes]]:
+        """(log time ns, message bytes) of one topic's messages, in log order."""
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
+                                                end_ns, self.status, walk=self._walk):
+            yield t_ns, data
+
+    @property
+    def keyframe_interval(self) -> int:
+        return max(1, int(self.scenario.keyframe_interval))
+
+    @property
+    def start_tick(self) -> int:
+        """The first tick the log holds (a keyframe): 0, or later for a log that starts with the
+        fleet as it is at a later tick (a rotated segment, a worker's takeover, a cut)."""
+        return int(self.scenario.start_tick)
+
+    @property
+    def open_ended(self) -> bool:
+        """The run had no set end (a live service): its end is the summary's last tick."""
+        return bool(self.scenario.open_ended)
+
+    def is_keyframe_tick(self, tick: int) -> bool:
+        """Whether the writer made ``tick`` a keyframe (its multiples of the interval, and the
+        log's first tick)."""
+        return tick == self.start_tick or tick % self.keyframe_interval == 0
+
+    def keyframe_at_or_before(self, tick: int) -> int:
+        """The keyframe a replay of ``tick`` starts from (never before the log's first tick)."""
+        return max(self.start_tick, tick - tick % self.keyframe_interval)
+
+    def tick_time_ns(self, tick: int) -> int:
+        return tick * int(round(self.scenario.dt_s * 1e9))
+
+    def ticks(self, first: int | None = None, last: int | None = None) -> Iterator[TickData]:
+        """The tick records, optionally only ticks first..last (found through the chunk index,
+        without reading the rest of the file)."""
+        start = None if first is None else self.tick_time_ns(first)
+        end = None if last is None else self.tick_time_ns(last)
+        dt_ns = self.tick_time_ns(1)
+        ships = len(self.scenario.ship_ids)
+        fmt = self.scenario.log_format_version
+        table = len(self.ship_table()) if fmt >= 3 else ships
+        limit = self.max_tick_bytes()
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
+                                                end, self.status, self._tick_limits(),
+                                                walk=self._walk):
+            if t_ns % dt_ns:
+                raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            if len(data) > limit:
+                raise self._oversize(t_ns // dt_ns, len(data))
+            yield TickData(data, t_ns // dt_ns, str(self.path), ships, fmt, table)
+
+    def max_tick_bytes(self) -> int:
+        """The most bytes a tick record of this log can hold: every ship the log ever held
+        (its header's and each that joined), each with every field (sim.fields), with margin."""
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return tick_bytes_bound(ships)
+
+    def _oversize(self, tick: int, size: int) -> LogError:
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return LogError(f"{self.path}: tick {tick}: a tick record of {size:,} bytes, more than "
+                        f"the log's {ships:,} ship(s) can fill ({self.max_tick_bytes():,}); "
+                        f"refusing it")
+
+    def _tick_limits(self) -> ReadLimits:
+        """The reader's limits for the tick records: a chunk may hold at most what a writer puts
+        in one (its target size, then one message more: the largest tick this fleet fills, or
+        the log's header), so a chunk claiming more is refused before it is decompressed."""
+        base = ReadLimits.from_environment()
+        bound = (CHUNK_BYTES_MAX + max(self.max_tick_bytes(), self._largest_record)
+                 + (1 << 18))
+        if bound >= base.max_chunk_bytes:
+            return base
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
+            f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
+
+    def blocks(self, first: int | None = None, last: int | None = None,
+               wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
+               reuse: bool = False) -> Iterator[TickBlock]:
+        """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
+        records at a time, each block decoded and checked in one compiled pass
+        (logs.decode.decode_block); ``wanted``: the fields to gather (default all). ``reuse``:
+        every block's columns in one buffer, valid until the next block is asked for (a reader
+        that converts or copies each block at once saves the fresh pages' faults)."""
+        start = None if first is None else self.tick_time_ns(first)
+        end = None if last is None else self.tick_time_ns(last)
+        dt_ns = self.tick_time_ns(1)
+        fmt = self.log_format
+        table = len(self.ship_table()) if fmt >= 3 else len(self.scenario.ship_ids)
+        limit = self.max_tick_bytes()
+        # the records are decoded where they lie, in their decompressed chunks: one segment
+        # (buffer, begins, ends) per chunk
+        segments: list = []
+        times: list[int] = []
+        size = 0
+        columns = [None] if reuse else None
+        base = base_arr = None
+        begins: list[int] = []
+        ends: list[int] = []
+
+        def flush() -> TickBlock:
+            ticks = np.asarray(times, np.int64) // dt_ns
+            return decode_block(segments, None, ticks, fmt, table, len(self.scenario.ship_ids),
+                                wanted, str(self.path), columns)
+
+        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
+                                                end, self.status, self._tick_limits(),
+                                                views=True, walk=self._walk):
+            if t_ns % dt_ns:
+                raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
+            n = len(data)
+            if n > limit:
+                raise self._oversize(t_ns // dt_ns, n)
+            owner = data.obj if isinstance(data, memoryview) else data
+            if owner is not base:
+                base = owner
+                base_arr = np.frombuffer(owner, np.uint8)
+                begins, ends = [], []
+                segments.append((base_arr, begins, ends))
+            at = np.frombuffer(data, np.uint8).ctypes.data - base_arr.ctypes.data if n else 0
+            begins.append(at)
+            ends.append(at + n)
+            times.append(t_ns)
+            size += n
+            if size >= block_bytes:
+                yield flush()
+                segments, times, size, base = [], [], 0, None
+        if times:
+            yield flush()
+
+    @property
+    def log_format(self) -> int:
+        return int(self.scenario.log_format_version)
+
+    def ship_table(self) -> ShipTable:
+        """Every ship of the log by key: the header's, then each that joined (format 3)."""
+        if getattr(self, "_table", None) is None:
+            table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
+            self._fleet: list[pb.FleetChange] = []
+            if self.log_format >= 3:
+                for _topic, data in self._iter({TOPIC_FLEET}):
+                    self._largest_record = max(self._largest_record, len(data))
+                    change = _parse(pb.FleetChange, data, f"{self.path}: damaged fleet record")
+                    for j in change.joined:
+                        try:
+                            spec = json.loads(j.spec_json)
+                        except (ValueError, RecursionError):
+                            spec = None
+                        if (not isinstance(spec, dict) or spec.get("id") != j.ship_id
+                                or j.ship_id in table or j.ship_key != len(table)):
+                            raise LogError(f"{self.path}: tick {change.tick}: a joining ship's "
+                                           f"record is damaged (ship {j.ship_id!r})")
+                        table.add(int(change.tick), spec)
+                    self._fleet.append(change)
+            self._table = table
+        return self._table
+
+    def timeline(self) -> Timeline:
+        """The run's recorded input: the ships that joined and left, and every command
+        (format 3). Read once (a later call, e.g. while the ticks are being read, reads nothing:
+        a file whose footer is missing is read in one pass at a time)."""
+        if getattr(self, "_timeline", None) is None:
+            self._timeline = self._read_timeline()
+        return self._timeline
+
+    def _read_timeline(self) -> Timeline:
+        table = self.ship_table()
+        spawns, retires = [], []
+        for change in self._fleet:
+            for j in change.joined:
+                spawns.append(Spawn(int(change.tick), table.specs[j.ship_key]))
+            for sid in change.left_ship_id:
+                retires.append(Retire(int(change.tick), sid))
+        commands = []
+        for _topic, data in self._iter({TOPIC_COMMANDS}):
+            batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
+            for c in batch.commands:
+                try:
+                    commands.append(Command(int(c.tick), c.ship_id, c.throttle, tuple(c.rcs),
+                                            int(c.hold)).check())
+                except CommandError as exc:
+                    raise LogError(f"{self.path}: {exc}") from None
+        return Timeline.of(spawns, retires, commands)
+
+    def events(self) -> Iterator[pb.TransitionEvent]:
+        for _topic, data in self._iter({TOPIC_EVENTS}):
+            try:
+                yield pb.TransitionEvent.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged event record ({exc})") from None
+
+    def read_summary(self) -> pb.LogSummary | None:
+        for _topic, data in self._iter({TOPIC_SUMMARY}):
+            try:
+                self.summary = pb.LogSummary.FromString(data)
+            except Exception as exc:
+                raise LogError(f"{self.path}: damaged summary record ({exc})") from None
+        return self.summary
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> "LogReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _parse(cls, data: bytes, what: str):
+    try:
+        return cls.FromString(data)
+    except Exception as exc:  # protobuf's DecodeError and friends
+        raise LogError(f"{what} ({type(exc).__name__})") from None
+
+
+__all__ = ["LogReader", "TickData", "MAX_START_TICK", "MIN_DT_S", "MAX_DT_S", "MAX_SHIPS",
+           "MAX_SCENARIO_CHARS"]

@@ -1,0 +1,129 @@
+"""A run rebuilt from its log: the log's scenario checked by the scenario's own rules
+(``scenario_of``), its fleet's parameters by key (``fleet_params``), and the world a replay folds
+over, from tick 0 (``recorded_world``) or from a keyframe (``keyframe_world``).
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from logs import LogError
+from logs.reader import LogReader, TickData
+from sim.params import Params
+from sim.scenario import Scenario, ScenarioError, parse
+from sim.state import State, concatenate
+from sim.world import World
+
+def fleet_params(reader: LogReader, scn: Scenario) -> Params:
+    """The log's scene with every ship it ever held, in key order (row k: ship key k): the
+    header's from its scenario, each joined one from the table it joined with."""
+    table = reader.ship_table()
+    ships = [scn.params.ships]
+    for k in range(len(scn.params.ships.ship_id), len(table)):
+        try:
+            ships.append(scn.scene.ship(table.specs[k])[0])
+        except ScenarioError as exc:
+            raise LogError(f"{reader.path}: ship {table.ids[k]!r}: {exc}") from None
+    return scn.params.with_ships(concatenate(ships))
+
+
+def keyframe_world(reader: LogReader, scn: Scenario, keyframe: "TickData") -> World:
+    """The world a replay folds over from ``keyframe``'s tick (a log that starts later than tick
+    0, or a window): its ships in the state recorded there (their parameters from ``scn``, the
+    log's scenario, perhaps changed by a what-if, and the tables ships joined with), the commands
+    in force then, and the log's joins, leaves and commands after it."""
+    world = recorded_world(reader, scn)
+    world.params = fleet_params(reader, scn).take(keyframe.keys)
+    world.state, world.inputs = keyframe.state(), keyframe.inputs()
+    world.timeline = world.timeline.from_tick(keyframe.tick)
+    return world
+
+
+def recorded_world(reader: LogReader, scn: Scenario) -> World:
+    """The world a replay folds over: ``scn``'s ships at tick 0 (the log's scenario, perhaps
+    changed by a what-if), with the log's recorded joins, leaves and commands (format 3; before
+    it, the scenario's own inputs)."""
+    world = World.of(scn)
+    if reader.log_format >= 3:
+        world.timeline = reader.timeline()
+        table = reader.ship_table()
+        for sid, spec in zip(table.ids, table.specs):
+            if spec is not None:
+                world.known[sid] = spec
+    return world
+
+
+def scenario_of(reader: LogReader, ship_id: str | None = None,
+                overrides: dict | None = None) -> tuple[Scenario, int | None]:
+    """The log's scenario (optionally one ship of it, or with ``overrides``); returns it and that
+    ship's index. The resolved scenario is checked by the same rules as a scenario file, with the
+    same messages, and must agree with its record (tick, tick count, method, ships)."""
+    rec = reader.scenario
+    try:
+        doc = json.loads(rec.resolved_json)
+    except RecursionError:
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON (arrays or "
+                       f"objects nested too deeply)") from None
+    except ValueError as exc:  # JSONDecodeError, or an integer past Python's digit limit
+        raise LogError(f"{reader.path}: the recorded scenario is not valid JSON "
+                       f"({str(exc).split(';')[0][:100]})") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("ships"), list):
+        raise LogError(f"{reader.path}: the recorded scenario is not a scenario")
+    try:
+        if not doc["ships"] and reader.log_format >= 3:  # no ships at its first tick
+            whole = _without_ships(doc, str(reader.path))
+        else:
+            whole = parse(doc, str(reader.path))
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+    sim = whole.params.sim
+    if (sim.dt_s, sim.n_ticks, sim.integrator, list(whole.params.ships.ship_id)) != (
+            rec.dt_s, rec.n_ticks, rec.integrator, list(rec.ship_ids)):
+        raise LogError(f"{reader.path}: the scenario record disagrees with its own scenario "
+                       f"(tick, tick count, method or ships)")
+    index = None
+    if ship_id is not None:
+        ids = [s.get("id") for s in doc["ships"]]
+        if ship_id not in ids:
+            raise LogError(f"{reader.path}: no ship {ship_id!r} in this log (ships: "
+                           f"{', '.join(map(str, ids))})")
+        index = ids.index(ship_id)
+        doc["ships"] = [doc["ships"][index]]
+    if index is None and not overrides:
+        return whole, None
+    try:
+        if not doc["ships"]:
+            return _without_ships(doc, str(reader.path), overrides), index
+        return parse(doc, str(reader.path), overrides), index
+    except ScenarioError as exc:
+        raise LogError(str(exc)) from None
+
+
+_ON_UNSTABLE = ("substep", "error", "allow")
+
+
+def _without_ships(doc: dict, source: str, overrides: dict | None = None) -> Scenario:
+    """A scenario with no ships (a log whose fleet is empty at its first tick: a live service
+    before anything is spawned), which sim.scenario.parse refuses: the scene is checked and
+    resolved by the same rules, with a stand-in ship that is then dropped (its own stability is
+    allowed, as it never runs); ``resolved`` is the scene with ``ships = []``."""
+    from sim.timeline import Timeline
+    if overrides:
+        from sim.scenario import apply_overrides
+        doc = apply_overrides(doc, overrides, source)
+    sim = doc.get("sim", {})
+    own = sim.get("on_unstable", "substep") if isinstance(sim, dict) else None
+    stand_in = {**doc, "ships": [{"id": "(none)"}]}
+    if own in _ON_UNSTABLE:
+        stand_in["sim"] = {**sim, "on_unstable": "allow"}
+    scn = parse(stand_in, source)
+    if scn.params.ships.n != 1:  # the stand-in joins later (a spawn time of its own): impossible
+        raise ScenarioError(source, "ships", "no ships, and a scene that places none")
+    resolved = {**scn.resolved, "sim": {**scn.resolved["sim"], "on_unstable": own}, "ships": []}
+    none = np.zeros(1, dtype=bool)
+    return Scenario(scn.name, scn.description, resolved, scn.params.take(none),
+                    State(rows=scn.initial.select(none).rows, tick=0), Timeline())
+
+
+__all__ = ["fleet_params", "keyframe_world", "recorded_world", "scenario_of"]

@@ -1,0 +1,292 @@
+"""Writing a run to an MCAP log (the format: logs.header).
+
+Writing goes to ``OUT.mcap.partial`` and is renamed to ``OUT.mcap`` only once the footer is
+written: a file under the final name is always a finished MCAP. A writer that is interrupted
+(Ctrl-C) finishes what it has and marks the summary ``complete = false``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import queue
+import threading
+from pathlib import Path
+
+import numpy as np
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.schema import register_schema
+
+from logs.codec import PACKED, BlockEncoder
+from logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
+                         TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
+                         event_message)
+from proto import touchdown_pb2 as pb
+from sim import __version__ as PROJECT_VERSION
+from sim import fields
+from sim.state import State
+from sim.world import Block
+
+#: encoded blocks waiting for the writer's thread, at most (each about a megabyte or one tick)
+QUEUE_BLOCKS = 4
+
+
+class FinishedOrGone:
+    """A log writer as a context manager: closed when the block ends, marked incomplete on
+    Ctrl-C, abandoned (nothing kept) on any other error. Needs ``close`` and ``abandon``."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        elif issubclass(exc_type, KeyboardInterrupt):
+            self.close(complete=False, reason="interrupted")
+        else:
+            self.abandon()
+
+
+class LogWriter(FinishedOrGone):
+    """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice.
+
+    The caller's thread encodes each block of ticks (compiled, without the GIL); a thread of the
+    writer's own adds the messages to the MCAP file and compresses its chunks (zstd releases the
+    GIL), so the next block is stepped meanwhile. The queue between them holds at most
+    QUEUE_BLOCKS blocks. An error on the writer's thread (a full disk) is raised by the next call
+    from the caller (write, close)."""
+
+    def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
+        self.path = Path(path)
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        self.header = header
+        self.ships = ShipTable(header.ship_ids, header.player_ids)
+        self._keys_of: tuple[tuple[str, ...], np.ndarray] = ((), np.zeros(0, np.int64))
+        self._dt_ns = int(round(header.dt_s * 1e9))
+        keyframe_interval = max(1, header.keyframe_interval)
+        self._flush_every = flush_every_ticks
+        self._stream = open(self.partial, "wb")
+        try:
+            self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
+                                enable_crcs=True)
+            self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
+            self._channels = {}
+            for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
+                               (TOPIC_EVENTS, pb.TransitionEvent), (TOPIC_SUMMARY, pb.LogSummary),
+                               (TOPIC_FLEET, pb.FleetChange), (TOPIC_COMMANDS, pb.CommandBatch)):
+                schema_id = register_schema(self._mcap, cls)
+                self._channels[topic] = self._mcap.register_channel(topic, "protobuf", schema_id)
+            self._seq = {t: 0 for t in self._channels}
+            self._mcap.add_metadata("touchdown", {
+                "project_version": PROJECT_VERSION, "log_format_version": str(LOG_FORMAT_VERSION),
+                "scenario": header.name, "integrator": header.integrator,
+                "dt_s": repr(header.dt_s)})
+            self.keyframe_interval = keyframe_interval
+            self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval)
+            self._put(TOPIC_SCENARIO, int(header.start_tick), header.SerializeToString())
+            self._size = self._stream.tell()
+        except BaseException:  # nothing half-written: no .partial without a writer
+            self._discard()
+            raise
+        self.last_tick = -1
+        self.event_count = 0
+        self._closed = False
+        self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_BLOCKS)
+        self._error: BaseException | None = None
+        self._abort = False
+        self._thread = threading.Thread(target=self._drain, name="touchdown-log", daemon=True)
+        self._thread.start()
+
+    def _drain(self) -> None:
+        """The writer's thread: add every queued block's messages, until the end marker."""
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            if isinstance(item, threading.Event):  # flush(): all before it is written
+                try:
+                    if self._error is None and not self._abort:
+                        self._mcap.flush()  # ends the chunk being filled
+                        self._stream.flush()
+                except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                    self._error = exc
+                item.set()
+                continue
+            if self._error is not None or self._abort:
+                continue  # drop the rest; the caller hears of the error
+            try:
+                self._write_encoded(*item)
+                self._size = self._stream.tell()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                self._error = exc
+
+    def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
+                       events: dict[int, list[bytes]], inputs: list[tuple[str, int, bytes]]
+                       ) -> None:
+        for topic, tick, message in inputs:  # joins, leaves and commands: before their ticks
+            self._put(topic, tick, message)
+        view = memoryview(data)
+        for k in range(offsets.shape[0] - 1):
+            tick = first_tick + k
+            self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
+            for m in events.get(tick, ()):
+                self._put(TOPIC_EVENTS, tick, m)
+            if self._flush_every and tick % self._flush_every == 0:
+                self._mcap.flush()  # bounds what a killed writer loses
+
+    def _check(self) -> None:
+        if self._error is not None:
+            exc, self._error = self._error, None
+            raise exc
+
+    def _stop_thread(self) -> None:
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+
+    def _put(self, topic: str, tick: int, data: bytes) -> None:
+        t_ns = tick * self._dt_ns
+        self._mcap.add_message(self._channels[topic], log_time=t_ns, data=data,
+                               publish_time=t_ns, sequence=self._seq[topic])
+        self._seq[topic] += 1
+
+    def write_block(self, block: Block) -> list[pb.TransitionEvent]:
+        """Append a block of ticks (sim.world.Block): its joins and leaves, its commands, its
+        ticks and its events. Returns the events as messages (for publishing elsewhere too).
+
+        The first block is the record of the header's ``start_tick`` with the header's ships (a
+        run's tick 0: ``world.first_block()``; later, a keyframe of the fleet as it is then), and
+        is written as a keyframe; each next block follows the last."""
+        self._check()
+        expected = int(self.header.start_tick) if self.last_tick < 0 else self.last_tick + 1
+        if block.first_tick != expected:
+            raise ValueError(f"{self.path}: a block of ticks {block.first_tick}.."
+                             f"{block.last_tick} where the log's next tick is {expected}")
+        if self.last_tick < 0 and (len(block) != 1 or tuple(block.ship_ids) != tuple(
+                self.header.ship_ids) or block.spawned or block.retired or block.commands
+                                   or block.events):
+            raise ValueError(f"{self.path}: the first block must be the one tick {expected} with "
+                             f"the header's ships and nothing that led to it (no joins, leaves, "
+                             f"commands or events): world.first_block()")
+        inputs = self._inputs(block)
+        if self._keys_of[0] is not block.ship_ids:  # the same tuple while the fleet is the same
+            self._keys_of = (block.ship_ids, self.ships.keys(block.ship_ids))
+        data, offsets = self._encoder.encode(block.first_tick, block.states, block.outputs,
+                                             block.inputs, self._keys_of[1],
+                                             first_keyframe=self.last_tick < 0)
+        msgs = []
+        events: dict[int, list[bytes]] = {}
+        body = self.header.body
+        for ev in block.events:
+            state = State(rows=block.states[ev.tick - block.first_tick], tick=ev.tick)
+            m = event_message(self.ships, body, self.header.dt_s, state, ev)
+            events.setdefault(ev.tick, []).append(m.SerializeToString())
+            msgs.append(m)
+        self._queue.put((block.first_tick, data, offsets, events, inputs))
+        self.event_count += len(msgs)
+        self.last_tick = block.last_tick
+        return msgs
+
+    def _inputs(self, block: Block) -> list[tuple[str, int, bytes]]:
+        """The block's joins, leaves and commands as FleetChange and CommandBatch messages."""
+        out = []
+        if block.spawned or block.retired:
+            change = pb.FleetChange(tick=block.first_tick)
+            for r in block.retired:
+                change.left_ship_key.append(self.ships.key(r.ship_id))
+                change.left_ship_id.append(r.ship_id)
+            for sp in block.spawned:
+                key = self.ships.add(block.first_tick, sp.spec)
+                change.joined.add(ship_key=key, ship_id=sp.ship_id,
+                                  player_id=self.ships.players[key],
+                                  spec_json=json.dumps(sp.spec, sort_keys=True))
+            out.append((TOPIC_FLEET, block.first_tick, change.SerializeToString()))
+        batch = None
+        for c in block.commands:
+            if batch is None or batch.tick != c.tick:
+                if batch is not None:
+                    out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
+                batch = pb.CommandBatch(tick=c.tick)
+            batch.commands.add(tick=c.tick, ship_id=c.ship_id, throttle=c.throttle,
+                               rcs=list(c.rcs), hold=c.hold)
+        if batch is not None:
+            out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
+        return out
+
+    def close(self, complete: bool = True, reason: str = "") -> None:
+        """Write the summary and the MCAP footer, then move the file to its final name. If that
+        fails (a full disk), the partial file is removed and the error raised: a file is either
+        finished under its final name or gone."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._stop_thread()
+            self._check()
+            last = max(self.last_tick, int(self.header.start_tick))
+            summary = pb.LogSummary(last_tick=last, complete=complete, reason=reason,
+                                    event_count=self.event_count)
+            self._put(TOPIC_SUMMARY, last, summary.SerializeToString())
+            self._mcap.finish()
+            self._stream.close()
+            os.replace(self.partial, self.path)
+        except BaseException:
+            self._abort = True
+            self._stop_thread()
+            self._discard()
+            raise
+
+    def flush(self, wait: bool = True) -> threading.Event:
+        """Every block written so far into the file (its chunk ended, the file's buffer handed
+        to the operating system): a reader of the partial file, or one that recovers it after
+        the writer is killed, finds every tick up to the last one written. Waits for it, or
+        (``wait=False``) returns at once with an Event set once it is so."""
+        self._check()
+        done = threading.Event()
+        if self._closed:
+            done.set()
+            return done
+        self._queue.put(done)
+        if wait:
+            done.wait()
+            self._check()
+        return done
+
+    @property
+    def size(self) -> int:
+        """Bytes written to the file so far (the blocks still queued for the writer's thread,
+        and the chunk it is filling, are not in it yet)."""
+        # as the writer's thread last saw it: asking the file here (tell()) would wait for
+        # that thread's write to finish (the buffer's lock): 7 ms a tick in a 12,500-ship service
+        return self._size
+
+    def abandon(self) -> None:
+        """Drop the partial file (an error before anything worth keeping)."""
+        if not self._closed:
+            self._closed = True
+            self._abort = True
+            self._stop_thread()
+            self._discard()
+
+    def _discard(self) -> None:
+        # closing flushes the buffer, which fails again on a full disk: the file goes regardless
+        try:
+            self._stream.close()
+        except OSError:
+            pass
+        self.partial.unlink(missing_ok=True)
+
+
+#: the most a writer puts in a chunk before it closes it (LogWriter's chunk_size at most), bytes
+CHUNK_BYTES_MAX = 1 << 20
+
+
+def tick_bytes_bound(ships: int) -> int:
+    """The most bytes a tick record of ``ships`` ships holds, with margin: its header, and each
+    field's key, length and numbers (every field, a keyframe's too), then a quarter more."""
+    per_ship = sum(fields.per_ship(name) * (1 if dt == "u1" else 8) for _, name, dt in PACKED)
+    exact = 32 + 16 * len(PACKED) + ships * per_ship
+    return exact + exact // 4 + 4096
+
+
+__all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "CHUNK_BYTES_MAX", "tick_bytes_bound"]
