@@ -68,3 +68,32 @@ def test_no_import_circles():
     graph = _graph()
     assert "cli" not in graph["bench.fuzz"] and "sim.measure" not in graph["sim.params"]
     assert not _circles(graph), _circles(graph)
+
+
+def test_no_private_name_crosses_modules():
+    """A name that starts with one underscore is its module's own: no other module imports it or
+    reaches it through the module (``verify._first_difference`` had been used by the incident
+    report; issue 26)."""
+    files = {"cli": ROOT / "cli.py"}
+    for pkg in PACKAGES:
+        files |= {str(p): p for p in (ROOT / pkg).rglob("*.py")}
+    crossings = []
+    for path in files.values():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        modules = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
+                    and node.module.split(".")[0] in PACKAGES:
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        crossings.append(f"{path.name}: from {node.module} import {a.name}")
+                    modules.add(a.asname or a.name)
+            elif isinstance(node, ast.Import):
+                modules |= {a.asname or a.name.split(".")[0] for a in node.names
+                            if a.name.split(".")[0] in PACKAGES}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id in modules and node.attr.startswith("_") \
+                    and not node.attr.startswith("__"):
+                crossings.append(f"{path.name}: {node.value.id}.{node.attr}")
+    assert not crossings, crossings
