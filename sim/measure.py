@@ -13,6 +13,7 @@ from sim.energy import mechanical, total
 from sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
 from sim.frames import surface_velocity as _surface_velocity
 from sim.params import Params, Terrain
+from sim.settings import SurfaceNormal
 from sim.vec import quat_mul, sub
 
 ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
@@ -138,7 +139,7 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
            "pen_m": np.empty((n, 4)), "push_w": np.empty((n, 4, 3))}
     body = params.body
     _feet(body.radius_m, params.terrain,
-          params.contact.surface_normal == "radial", body.omega_radps,
+          params.contact.surface_normal == SurfaceNormal.RADIAL, body.omega_radps,
           np.ascontiguousarray(cos_t, float), np.ascontiguousarray(sin_t, float), p, q,
           np.broadcast_to(np.asarray(leg_radius_m, float), (n,)).copy(),
           np.broadcast_to(np.asarray(com_height_m, float), (n,)).copy(),
@@ -175,7 +176,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     body = params.body
     out = np.empty((n, 7))
     _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, sh.stiffness_per_kg[ship].copy(),
-            params.terrain, params.contact.surface_normal == "radial",
+            params.terrain, params.contact.surface_normal == SurfaceNormal.RADIAL,
             c, s, sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(), mass,
             np.ascontiguousarray(inertia), p, v, q, w, out)
     parts = {name: out[:, k] for k, name in enumerate(ENERGY_PARTS)}

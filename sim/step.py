@@ -40,6 +40,7 @@ from sim.friction import coulomb, hold_footprint, seed, spread_over_step
 from sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
 from sim.params import Params
 from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
+from sim.settings import FrictionModel, SurfaceNormal
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
                        Event, Inputs, Outputs, State)
 from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, quat_rotate, \
@@ -47,6 +48,7 @@ from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, qu
 
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
+SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -154,6 +156,13 @@ def emit(events, count, ship, from_state, to_state, v_radial_mps, t_offset_s):
     count[0] = n + 1
 
 
+@constructor
+def scene_ground(cfg, terrain, cos_theta, sin_theta):
+    """The ground of the scene record ``cfg`` with the body turned to (cos, sin)."""
+    return Ground(cfg.body_radius_m, terrain, cos_theta, sin_theta, cfg.omega_radps,
+                  cfg.surface_normal == RADIAL_NORMAL)
+
+
 # -- 1. commands ---------------------------------------------------------------------------------
 class Commands(NamedTuple):
     throttle: float
@@ -257,7 +266,7 @@ def striking(cfg, terrain, sp, s, cos0, sin0):
     v_rad = dot(sub(s.v, surface_velocity(cfg.omega_radps, s.p)), r_hat)
     if abs(v_rad) > IMPACT_SPEED_MPS:
         return True
-    ground = Ground(cfg.body_radius_m, terrain, cos0, sin0, cfg.omega_radps, cfg.radial_normal)
+    ground = scene_ground(cfg, terrain, cos0, sin0)
     pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
     return pen > IMPACT_SAGS * cfg.surface_gravity_mps2 / sp.stiffness_per_kg
 
@@ -272,9 +281,10 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
                     cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, terrain,
-                    cfg.radial_normal, cos0, sin0, touching, ENGAGE_AT_GROUND,
+                    cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
-                    0.0 if cfg.seed_friction else cfg.friction_kinetic, s.sliding, s.hold_w)
+                    0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
+                    s.sliding, s.hold_w)
 
 
 @kernel
@@ -457,7 +467,7 @@ def substep(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbin
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
                        pressed, NO_HOLD)
     ground_end = ground_at(fb, t_start + h)
-    if cfg.seed_friction:
+    if cfg.friction_model == SEED_FRICTION:
         j_n = j[0] + j[1] + j[2] + j[3]
         fr = seed(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
                   res.p, res.v, res.w, j_n, ground_end)
@@ -842,7 +852,7 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, ship_index, events, count)
                         break
                     if guard and aligned:  # the snap never adds energy; measure from after it
                         e_ref = energy_ref(ship_energy(fb, ground_y, p, v, q, w))
-                if not cfg.seed_friction:  # a foot meets the ground sliding or holding
+                if cfg.friction_model != SEED_FRICTION:  # a foot meets the ground sliding or holding
                     fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
                              engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
                     sliding = drag = regimes_on_touch(cfg, ce_y, sliding, fresh)
@@ -1036,7 +1046,7 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
     om = cfg.omega_radps
     r_hat = unit(s.p)
-    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
+    ground = scene_ground(cfg, terrain, cos1, sin1)
     up_ground = unit(under(ground, s.p)[1])
     v_rel = sub(s.v, surface_velocity(om, s.p))
     v_rad = dot(v_rel, r_hat)
@@ -1047,8 +1057,8 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
     m = fmin(m, (dot(quat_axis_z(s.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
-    slides = not cfg.seed_friction and (s.sliding[0] or s.sliding[1] or s.sliding[2]
-                                        or s.sliding[3])
+    slides = cfg.friction_model != SEED_FRICTION and (s.sliding[0] or s.sliding[1]
+                                                      or s.sliding[2] or s.sliding[3])
     # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
     # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44)
     return m if over_footprint(cfg, sp, s.p, s.q) and not slides else fmin(m, -1.0)
@@ -1171,7 +1181,7 @@ def observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j,
     """Telemetry at the end of the tick, into the ship's output record. Forces come from the
     free-flight phase (free ships) or are the weight (landed, tipped)."""
     om = cfg.omega_radps
-    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
+    ground = scene_ground(cfg, terrain, cos1, sin1)
     pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
     r_hat = unit(s.p)
     v_rel = sub(s.v, surface_velocity(om, s.p))
