@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.compiled import kernel
+from sim.compiled import entry
 from sim.contact import Ground, feet, height_and_slope
 from sim.energy import mechanical, total
 from sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
@@ -38,7 +38,7 @@ def body_angles(params: Params, t_s: np.ndarray | float, n: int) -> tuple[np.nda
     return np.repeat(cs[:, 0], lengths), np.repeat(cs[:, 1], lengths)
 
 
-@kernel
+@entry
 def _terrain_height(terrain, east, north, out):
     g = Ground(0.0, terrain[0], 1.0, 0.0, 0.0, False)
     for i in range(east.shape[0]):
@@ -55,7 +55,7 @@ def terrain_height(terrain: Terrain, east_m: np.ndarray, north_m: np.ndarray) ->
     return out.reshape(e.shape)
 
 
-@kernel
+@entry
 def _site_frame(radius, om, cos_t, sin_t, p, v, pos_out, vel_out):
     for i in range(p.shape[0]):
         pi = (p[i, 0], p[i, 1], p[i, 2])
@@ -79,7 +79,7 @@ def site_frame(params: Params, p: np.ndarray, v: np.ndarray, t_s: np.ndarray | f
     return pos, vel
 
 
-@kernel
+@entry
 def _to_site(cos_t, sin_t, v, out):
     for i in range(v.shape[0]):
         a = site_axes(rotate_z((v[i, 0], v[i, 1], v[i, 2]), cos_t[i], -sin_t[i]))
@@ -94,7 +94,7 @@ def to_site(v: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.ndarray:
     return out
 
 
-@kernel
+@entry
 def _site_quats(cos_t, sin_t, q, out):
     # the site frame's axes (east, north, up) are the body-fixed (y, z, x): (0.5, -0.5, -0.5, -0.5)
     # turns body-fixed vectors into site-frame ones (a turn of -120 degrees about (1, 1, 1))
@@ -114,7 +114,7 @@ def site_quats_xyzw(q: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.n
     return out
 
 
-@kernel
+@entry
 def _feet(radius, terrain, radial, om, cos_t, sin_t, p, q, leg, height, offset, pos, pen, push):
     for i in range(p.shape[0]):
         g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
@@ -147,7 +147,7 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
     return out
 
 
-@kernel
+@entry
 def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mass, inertia, p, v, q,
             w, out):
     for i in range(p.shape[0]):
@@ -184,7 +184,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     return parts
 
 
-@kernel
+@entry
 def _gravity(gm, om2, p, out):
     for i in range(p.shape[0]):
         g = effective_gravity(gm, om2, (p[i, 0], p[i, 1], p[i, 2]))
@@ -199,7 +199,7 @@ def gravity(params: Params, p: np.ndarray) -> np.ndarray:
     return out
 
 
-@kernel
+@entry
 def _surface_velocity_rows(om, p, out):
     for i in range(p.shape[0]):
         u = _surface_velocity(om, (p[i, 0], p[i, 1], p[i, 2]))

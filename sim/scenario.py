@@ -19,7 +19,7 @@ import numpy as np
 
 from sim import constants as C
 from sim import vec
-from sim.compiled import kernel, separate
+from sim.compiled import entry, kernel, separate
 from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.errors import TouchdownError
@@ -584,7 +584,7 @@ def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     return vec.scale(r_hat, rho)
 
 
-@separate
+@entry
 def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
     """Every ship's pose and motion from its row of ``starts``: the landing-site directions at
     (east, north), the long axis tilted toward the heading and turned by yaw about itself, the

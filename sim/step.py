@@ -28,7 +28,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from sim.compiled import constructor, kernel, separate
+from sim.compiled import constructor, entry, kernel, separate
 from sim.constants import G0_MPS2
 from sim.contact import Ground, feet, foot_offsets_w, lowest_foot_penetration, under
 from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_feet, with_hold
@@ -1208,7 +1208,7 @@ def observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j,
 
 
 # -- the step ------------------------------------------------------------------------------------
-@kernel
+@constructor
 def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index, events, count):
     """One ship's tick: the phases above, in order. ``rec`` is updated in place."""
     s = load(rec)
@@ -1267,7 +1267,7 @@ def apply_commands(commands, c, tick, inputs):
     return c
 
 
-@separate
+@entry
 def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
                outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
     """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(states_out)``:
@@ -1277,6 +1277,7 @@ def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rot
     appended to ``events`` (the tick each one led to in ``event_ticks``); the loop stops early
     when fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin)
     at the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+    cfg, ter = scene[0], terrain[0]
     c = next_command
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
@@ -1284,8 +1285,13 @@ def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rot
         tick = first_tick + k
         c = apply_commands(commands, c, tick, inputs)
         n0 = count[0]
-        step_ships(scene, terrain, ships, state, inputs, outputs_out[k], rotations[k, 0],
-                   rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1], events, count)
+        # each ship's tick, one after another (as step_ships, whose own compiled library would
+        # repeat this one's: step_ship is inlined here)
+        out_k = outputs_out[k]
+        c0, s0, c1, s1 = rotations[k, 0], rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1]
+        for i in range(state.shape[0]):
+            step_ship(cfg, ter, ships[i], state[i], inputs[i], out_k[i], c0, s0, c1, s1, i,
+                      events, count)
         for e in range(n0, min(count[0], events.shape[0])):
             event_ticks[e] = tick + 1
         states_out[k, :] = state
@@ -1344,7 +1350,7 @@ def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
     return out
 
 
-@separate
+@entry
 def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""

@@ -19,7 +19,7 @@ from typing import Iterator
 import numpy as np
 
 from sim import vec
-from sim.compiled import kernel, separate
+from sim.compiled import entry, kernel, separate
 from sim.params import Params, ShipParams
 from sim.scenario import Scenario, Scene, parse, quat_from_axes
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
@@ -329,7 +329,7 @@ class World:
                      retired, block.commands)
 
 
-@separate
+@entry
 def _turn_rows(rows, cos_t, sin_t):
     """Turn ships placed at tick 0 to where the body has carried their site by a tick whose
     rotation is (cos_t, sin_t) about the spin axis z: positions, velocities and attitudes turn;
