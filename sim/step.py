@@ -49,7 +49,9 @@ from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, 
 from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, quat_rotate, \
     quat_normalize, quat_rotate_inv, scale, sub, unit
 
-FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
+#: as numpy integers: numba types a Python int global as a literal, and would compile a kernel
+#: taking states (emit) once per pair of them
+FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 
@@ -498,15 +500,26 @@ class SubStep(NamedTuple):
     hold_w: tuple  # each holding foot's static friction over it (sim.friction.Friction)
 
 
+class FootRoles(NamedTuple):
+    """How each foot takes part in a step."""
+
+    engage: tuple  # it presses from penetration > -engage (sim.contact.evaluate)
+    sliding: tuple  # its friction regime
+    dragged: tuple  # it is dragged by its kinetic friction as a force
+    absorbing: bool  # the contact is the absorbers' (SEED-NOTES 1)
+
+
 @separate
-def substep(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t_start):
-    """One step of the method, the feet pressing from ``engage`` and those of ``dragged`` dragged
-    by kinetic friction as a force (``ce_start`` evaluated so); then Coulomb's impulses at the
-    other pressing feet (or the seed's law), spread over the step, and a held footprint kept
-    where the ground carried it. ``sliding``: each foot's regime."""
+def substep(cfg, fb, roles, h, motion, ce_start, t_start):
+    """One step of the method from ``motion``, the feet pressing from ``roles.engage`` and those
+    of ``roles.dragged`` dragged by kinetic friction as a force (``ce_start`` evaluated so); then
+    Coulomb's impulses at the other pressing feet (or the seed's law), spread over the step, and
+    a held footprint kept where the ground carried it."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    res = advance(fb.method, body, h, p, v, q, w, ce_start, absorbing, t_start)
+    res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
     if not fb.touching:
@@ -628,20 +641,23 @@ class Piece(NamedTuple):
 
 
 @separate
-def to_event(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0, ev):
+def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
     """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
     pressing, and the step to it (the feet about to press kept from pressing): regula falsi
     (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
     starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
     the first), and happens where it does, not at the step's end. The step returned ends just
     past the event (its gap within EVENT_TOL_M above zero)."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
     on = ev.onset
     held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
                 NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
+    held_roles = FootRoles(held_off, sliding, dragged, absorbing)
     body = with_feet(fb, held_off, dragged)
     t_lo = 0.0
     g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
-    st_hi = substep(cfg, fb, held_off, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+    st_hi = substep(cfg, fb, held_roles, h, motion, ce_start, t0)
     g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
         return Piece(h, st_hi, False)
@@ -651,7 +667,7 @@ def to_event(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbi
         t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
         if not (t > t_lo and t < t_hi):
             t = 0.5 * (t_lo + t_hi)
-        st = substep(cfg, fb, held_off, t, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+        st = substep(cfg, fb, held_roles, t, motion, ce_start, t0)
         g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
         if g > 0.0:
             t_hi, g_hi, st_hi = t, g, st
@@ -934,7 +950,7 @@ class PieceStep(NamedTuple):
     onset: tuple  # the feet that event touched
 
 
-@kernel
+@constructor
 def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
@@ -942,8 +958,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
     (:func:`to_event`), unless ``may_split`` is False (the pieces' bound)."""
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
-    st = substep(cfg, fb, engage, rem, m.p, m.v, m.q, m.w, ce_y, ft.sliding, drag, ft.absorbing,
-                 t_abs)
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
     if fb.touching and (drag[0] or drag[1] or drag[2] or drag[3]):
         # a sliding foot that could stop within the step takes its friction as an impulse
         ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p, st.v,
@@ -953,13 +968,13 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
             drag = near
             ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m.p, m.v, m.q,
                               m.w, ft.absorbing, engage)
-            st = substep(cfg, fb, engage, rem, m.p, m.v, m.q, m.w, ce_y, ft.sliding, drag,
-                         ft.absorbing, t_abs)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                         t_abs)
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
         if ev.any:
-            pc = to_event(cfg, fb, engage, rem, m.p, m.v, m.q, m.w, ce_y, ft.sliding, drag,
-                          ft.absorbing, t_abs, ev)
+            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                          t_abs, ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset)
     return PieceStep(st, rem, False, NO_SLIP)
@@ -983,6 +998,7 @@ class Pieces(NamedTuple):
     peak_m: float  # the deepest penetration it located inside them
     friction_n: float  # the last piece's friction
     aligned: bool  # a touchdown inside the sub-step stood the ship up
+    onset: tuple  # the feet the last located event touched (they meet the ground there)
 
 
 class SubStepEnd(NamedTuple):
@@ -1035,11 +1051,12 @@ class Transitioned(NamedTuple):
 
 
 @kernel
-def in_flight_transitions(cfg, fb, ground, s, ce, e_ref, start, pieces, t_end, h, log):
+def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     """The in-flight transitions, decided on a sub-step's end state: a touchdown the onsets did
     not locate (the method's last resort), a crash in contact, a liftoff (all feet clear and
     moving away), a tip past tipped_angle (or its crash); each emitted with the instant it
-    happened inside the sub-step."""
+    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd)."""
+    s, ce, e_ref = end.ship, end.ce, end.e_ref
     om = fb.body_omega_radps
     m, ft = s.motion, s.footing
     p, v, q, w = m.p, m.v, m.q, m.w
@@ -1158,8 +1175,7 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
-        pieces = Pieces(False, True, -math.inf, friction_n, False)
-        onset_now = NO_SLIP  # the feet the last located event touched
+        pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
         stop = False
         for k in range(MAX_PIECES + 1):
             t_abs = start.t_s + t_in
@@ -1168,10 +1184,10 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
             ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False)
             if fb.touching:
-                ps = piece_start(cfg, fb_k, s, engage, onset_now, t_abs, e_ref, log)
+                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log)
                 s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
                 pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
-                                pieces.friction_n, pieces.aligned or ps.aligned)
+                                pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
                 if ps.stop:
                     stop = True
                     break
@@ -1181,10 +1197,9 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
             s = stepped(s, st)
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
-                            pieces.aligned)
+                            pieces.aligned, pc.onset)
             if not pc.split:
                 break
-            onset_now = pc.onset
             t_in = t_in + pc.tau_s  # from the event, with the feet that press there
         friction_n = pieces.friction_n
         if stop:
@@ -1193,11 +1208,11 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         t_end = (j + 1) * h
         ground = ground_at(fb_k, t_end)
         end = guard_substep(cfg, fb_k, ground, s, e_ref, passive, pieces, start)
-        s, ce, e_ref = end.ship, end.ce, end.e_ref
         guard_j = guard_j + end.removed_j
-        v_rad_end = dot(s.motion.v, unit(s.motion.p))
-        peak = fmax(peak, substep_peak(fb, start, pieces, ce.max_penetration_m, v_rad_end, h))
-        tr = in_flight_transitions(cfg, fb_k, ground, s, ce, e_ref, start, pieces, t_end, h, log)
+        m = end.ship.motion
+        peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
+                                       dot(m.v, unit(m.p)), h))
+        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
         if tr.stop:
             break
@@ -1319,8 +1334,7 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, log):
     if surf == TIPPED:  # the pivot model (an upright ship has no axis to turn about)
         i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
                       sp.mass0_kg, m)
-        ps = pivot_step(cfg.dt_s, cfg.gm_m3ps2, om, cfg.tipped_rest_rad, cfg.crash_speed_mps,
-                        cfg.cos_tipped, p_bf, q_bf, pivot, m, i_b, rate, cmd.rcs_torque_body_nm)
+        ps = pivot_step(cfg, s.pin, m, i_b, cmd.rcs_torque_body_nm)
         p_bf, q_bf, rate = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
         righted = ps.righted
         if ps.hull_crash:
