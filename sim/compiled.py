@@ -156,7 +156,7 @@ class _CompileNotice(event.Listener):
         if not self.said:
             self.said = True
             self.say("compiling the physics kernels for this CPU (once after an install or a "
-                     "change to sim/; about 20 s) ...")
+                     "change to sim/; about half a minute) ...")
 
     def on_end(self, ev: event.Event) -> None:
         pass
