@@ -230,3 +230,10 @@ class Params:
     def terrain(self) -> np.ndarray:
         """The terrain as the step reads it: one record of sim.contact.TERRAIN_DTYPE."""
         return self.body.terrain.record()
+
+    @property
+    def records(self):
+        """The scene, the terrain and the ships as the compiled step reads them
+        (sim.step.Records)."""
+        from sim.step import Records
+        return Records(self.scene, self.terrain, self.ships.rows)

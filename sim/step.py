@@ -1466,13 +1466,31 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
     observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
 
 
+class Records(NamedTuple):
+    """A scene's parameters as the compiled step reads them (Params.records)."""
+
+    scene: np.ndarray  # one record of sim.params.SCENE_DTYPE
+    terrain: np.ndarray  # one record of sim.contact.TERRAIN_DTYPE
+    ships: np.ndarray  # a record of sim.params.SHIP_DTYPE per ship
+
+
+class Written(NamedTuple):
+    """Where step_ticks writes a block of ticks: row k of each per-tick array is the k-th tick."""
+
+    states: np.ndarray  # (ticks, ships) sim.state.STATE_DTYPE
+    outputs: np.ndarray  # (ticks, ships) OUTPUTS_DTYPE
+    inputs: np.ndarray  # (ticks, ships) INPUTS_DTYPE: the commands in force
+    events: np.ndarray  # TRANSITION_DTYPE, appended
+    event_ticks: np.ndarray  # the tick each event led to
+    count: np.ndarray  # count[0]: the events so far
+
+
 @separate
-def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
-               count):
-    """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` written,
-    and the transitions appended to ``events`` (``count[0]`` of them; sim.step.emit)."""
-    cfg, ter = scene[0], terrain[0]
-    turn = Turn(cos0, sin0, cos1, sin1)
+def step_ships(recs, state, inputs, outputs, turn, events, count):
+    """Every ship's tick, one after another (``turn``: the body's angles, a :class:`Turn`):
+    ``state`` is updated in place, ``outputs`` written, and the transitions appended to
+    ``events`` (``count[0]`` of them; sim.step.emit)."""
+    cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     for i in range(state.shape[0]):
         step_ship(cfg, ter, ships[i], state[i], inputs[i], outputs[i], turn,
                   EventLog(events, count, i))
@@ -1494,16 +1512,19 @@ def apply_commands(commands, c, tick, inputs):
 
 
 @entry
-def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
-               outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
-    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(states_out)``:
-    before the step from each tick the commands for it (``commands``, sorted by tick, from index
-    ``next_command``) are applied to ``inputs``; after it the state, the telemetry and the commands
-    in force are row k of ``states_out``, ``outputs_out`` and ``inputs_out``. Transitions are
-    appended to ``events`` (the tick each one led to in ``event_ticks``); the loop stops early
-    when fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin)
-    at the k-th tick's start. Returns (ticks stepped, index of the next command)."""
-    cfg, ter = scene[0], terrain[0]
+def step_ticks(recs, state, inputs, commands, next_command, rotations, out, first_tick,
+               tick_capacity):
+    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(out.states)``
+    (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step from each tick the
+    commands for it (``commands``, sorted by tick, from index ``next_command``) are applied to
+    ``inputs``; after it the state, the telemetry and the commands in force are row k of
+    ``out.states``, ``out.outputs`` and ``out.inputs``. Transitions are appended to
+    ``out.events`` (the tick each one led to in ``out.event_ticks``); the loop stops early when
+    fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin) at
+    the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+    cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
+    states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
+    events, event_ticks, count = out.events, out.event_ticks, out.count
     c = next_command
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
@@ -1553,9 +1574,9 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     cap = tick_capacity(params)
     events, event_ticks = np.empty(cap, TRANSITION_DTYPE), np.empty(cap, np.int64)
     count = np.zeros(1, np.int64)
-    step_ticks(params.scene, params.terrain, params.ships.rows, state.rows.copy(), inputs.rows.copy(),
-               NO_COMMANDS, 0, rotations(params, state.tick, 1), states, outputs, ins, events,
-               event_ticks, count, state.tick, cap)
+    step_ticks(params.records, state.rows.copy(), inputs.rows.copy(), NO_COMMANDS, 0,
+               rotations(params, state.tick, 1),
+               Written(states, outputs, ins, events, event_ticks, count), state.tick, cap)
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
             transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))

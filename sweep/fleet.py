@@ -22,7 +22,8 @@ from sim.energy import mechanical, total
 from sim.frames import body_rotation
 from sim.params import SCENE_DTYPE
 from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import CONTACT, apply_commands, observe_ships, scene_ground, step_ships
+from sim.step import (CONTACT, Records, Turn, apply_commands, observe_ships, scene_ground,
+                      step_ships)
 from sim.vec import quat_axis_z
 from sweep.cases import Sweep
 
@@ -123,8 +124,9 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
             count[0] = 0
             # the tick of record and replay (sim.step.step_ships, already compiled for them),
             # on this one ship with its own scene
-            step_ships(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1], state[i:i + 1],
-                       inputs[i:i + 1], outs[i:i + 1], c0, s0, c1, s1, events, count)
+            step_ships(Records(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1]),
+                       state[i:i + 1], inputs[i:i + 1], outs[i:i + 1], Turn(c0, s0, c1, s1),
+                       events, count)
             a = acc[i]
             o = outs[i]
             if o.cos_tilt < a.min_cos_tilt:
