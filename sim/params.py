@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, make_dataclass
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -172,6 +172,14 @@ SCENE_DTYPE = np.dtype([record_type(s) for s in in_scene()] + _SCENE_DERIVED, al
 """The scene's constants as the compiled step reads them (one record; derived from Params)."""
 
 
+class Records(NamedTuple):
+    """A scene's parameters as the compiled step reads them (Params.records, sim.step.step_ticks)."""
+
+    scene: np.ndarray  # one record of SCENE_DTYPE
+    terrain: np.ndarray  # one record of sim.contact.TERRAIN_DTYPE
+    ships: np.ndarray  # a record of SHIP_DTYPE per ship
+
+
 @dataclass(frozen=True)
 class Params:
     sim: SimParams
@@ -232,8 +240,6 @@ class Params:
         return self.body.terrain.record()
 
     @property
-    def records(self):
-        """The scene, the terrain and the ships as the compiled step reads them
-        (sim.step.Records)."""
-        from sim.step import Records
+    def records(self) -> "Records":
+        """The scene, the terrain and the ships as the compiled step reads them."""
         return Records(self.scene, self.terrain, self.ships.rows)

@@ -41,7 +41,7 @@ from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravit
                         pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from sim.friction import coulomb, hold_footprint, seed, spread_over_step
 from sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
-from sim.params import Params
+from sim.params import Params, Records
 from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
 from sim.settings import FrictionModel, SurfaceNormal
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
@@ -1464,14 +1464,6 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
     observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
-
-
-class Records(NamedTuple):
-    """A scene's parameters as the compiled step reads them (Params.records)."""
-
-    scene: np.ndarray  # one record of sim.params.SCENE_DTYPE
-    terrain: np.ndarray  # one record of sim.contact.TERRAIN_DTYPE
-    ships: np.ndarray  # a record of sim.params.SHIP_DTYPE per ship
 
 
 class Written(NamedTuple):

@@ -20,10 +20,9 @@ import numpy as np
 from sim.compiled import separate
 from sim.energy import mechanical, total
 from sim.frames import body_rotation
-from sim.params import SCENE_DTYPE
+from sim.params import SCENE_DTYPE, Records
 from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import (CONTACT, Records, Turn, apply_commands, observe_ships, scene_ground,
-                      step_ships)
+from sim.step import CONTACT, Turn, apply_commands, observe_ships, scene_ground, step_ships
 from sim.vec import quat_axis_z
 from sweep.cases import Sweep
 
