@@ -21,11 +21,13 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import types
 from pathlib import Path
 from typing import Callable
 
 import numba
 from numba.core import event
+from numba.core.registry import CPUDispatcher
 
 _SIM_DIR = Path(__file__).resolve().parent
 
@@ -78,31 +80,71 @@ def _prune_siblings(path: Path) -> None:
 numba.config.CACHE_DIR = str(cache_dir())
 
 
+#: every kernel's options (module docstring)
+OPTIONS = dict(nopython=True, nogil=True, fastmath=False, error_model="numpy",
+               no_cfunc_wrapper=True)
+
+#: the kernels that were called from Python and so compiled a twin (:class:`_Inner`)
+CALLED_FROM_PYTHON: set[str] = set()
+
+
+class _Inner(CPUDispatcher):
+    """A kernel compiled without the CPython wrapper numba gives every function by default: the
+    kernels call each other's native code, and a wrapper (about a fifth of a first compile,
+    measured: 157 of them) is only for calls from Python. Such a call (a test calling a phase, a
+    tool calling a helper) runs a twin compiled with the wrapper, once, cached apart (its name
+    ends in ``_py``); called as it is, numba would jump to a null entry point."""
+
+    def __call__(self, *args, **kws):
+        twin = self.__dict__.get("_twin")
+        if twin is None:
+            fn = self.py_func
+            clone = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__,
+                                       fn.__closure__)
+            clone.__qualname__, clone.__module__ = fn.__qualname__ + "_py", fn.__module__
+            clone.__doc__ = fn.__doc__
+            opts = {k: v for k, v in self.targetoptions.items() if k != "no_cpython_wrapper"}
+            twin = self.__dict__["_twin"] = _dispatcher(clone, CPUDispatcher, **opts)
+            CALLED_FROM_PYTHON.add(f"{fn.__module__}.{fn.__qualname__}")
+        return twin(*args, **kws)
+
+
+def _dispatcher(fn: Callable, cls: type, **options) -> Callable:
+    disp = cls(py_func=fn, locals={}, targetoptions=options)
+    disp.enable_caching()
+    return disp
+
+
 def kernel(fn: Callable) -> Callable:
     """Compile ``fn`` as a deterministic, cached, GIL-free numba function (module docstring),
     whose machine code LLVM inlines into every caller (numba's ``forceinline``): a vector
     operation or a phase costs its arithmetic, not a call that passes its tuples through memory
-    (2 to 4 times faster than calls, measured). Numba still types it once."""
-    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
-                      no_cfunc_wrapper=True, forceinline=True)(fn)
+    (2 to 4 times faster than calls, measured). Numba still types it once. For kernels: called
+    from Python it compiles a twin (:class:`_Inner`)."""
+    return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, forceinline=True)
 
 
 def separate(fn: Callable) -> Callable:
-    """:func:`kernel` compiled as a function of its own and called, not inlined: the entry
-    points, and the large functions called from several places (a contact evaluation, the
-    friction solve, a method's sub-step), which inlined everywhere would multiply the code LLVM
-    optimizes (a first compile of two minutes instead of one) for little speed. ``forceinline``
-    is set to False explicitly: numba lets a function that does not set it inherit its caller's."""
-    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
-                      no_cfunc_wrapper=True, forceinline=False)(fn)
+    """:func:`kernel` compiled as a function of its own and called, not inlined: the large
+    functions called from several places (a contact evaluation, the friction solve, a method's
+    sub-step), which inlined everywhere would multiply the code LLVM optimizes (a first compile
+    of two minutes instead of one) for little speed. ``forceinline`` is set to False explicitly:
+    numba lets a function that does not set it inherit its caller's."""
+    return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, forceinline=False)
+
+
+def entry(fn: Callable) -> Callable:
+    """:func:`separate` for a function Python calls (an entry point: the loop over ticks, the
+    telemetry of a state, the placing of starts): compiled with numba's CPython wrapper."""
+    return _dispatcher(fn, CPUDispatcher, **OPTIONS, forceinline=False)
 
 
 def constructor(fn: Callable) -> Callable:
     """:func:`kernel` for a function that builds a tuple holding a record (``Ground``,
-    ``FreeBody``): numba cannot return such a tuple from a call, so the function's code is
-    inlined where it is called (numba's ``inline="always"``)."""
-    return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy",
-                      no_cfunc_wrapper=True, inline="always")(fn)
+    ``FreeBody``), or a phase called once whose own compiled library would only repeat its
+    caller's work (sim.step.step_ship): its code is inlined where it is called, before typing
+    (numba's ``inline="always"``; numba cannot return a tuple holding a record from a call)."""
+    return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, inline="always")
 
 
 class _CompileNotice(event.Listener):
@@ -114,7 +156,7 @@ class _CompileNotice(event.Listener):
         if not self.said:
             self.said = True
             self.say("compiling the physics kernels for this CPU (once after an install or a "
-                     "change to sim/; about 20 s) ...")
+                     "change to sim/; about half a minute) ...")
 
     def on_end(self, ev: event.Event) -> None:
         pass

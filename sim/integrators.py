@@ -21,20 +21,14 @@ from sim.dynamics import acceleration, contact_at, derivatives, ground_at, torqu
 from sim.exact import Flow, Functional, bracketed_root, first_crossing, flow_at, flow_start, \
     value_and_rate
 from sim.rotation import free_rotation
+from sim.settings import Integrator
 from sim.vec import add, div, dot, fmax, mul, quat_add_scaled, quat_integrate, \
     quat_normalize, scale, sub, unit
 
-#: Every method by name, and its code inside the kernels. An unknown name is rejected when a
-#: scenario is loaded.
-METHODS: dict[str, int] = {
-    "explicit_euler": 0,
-    "semi_implicit_euler": 1,
-    "velocity_verlet": 2,
-    "rk4": 3,
-    "exponential": 4,
-    "hybrid": 5,
-}
-EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL, HYBRID = range(6)
+#: Every method by name, and its code inside the kernels (sim.settings.Integrator). An unknown name
+#: is rejected when a scenario is loaded.
+METHODS: dict[str, int] = {m.label: int(m) for m in Integrator}
+EXPLICIT_EULER, SEMI_IMPLICIT_EULER, VELOCITY_VERLET, RK4, EXPONENTIAL, HYBRID = (int(m) for m in Integrator)
 
 
 @kernel
@@ -354,8 +348,10 @@ def deepest(flow, ce, k_u, v_n0, t_act, v_act):
 
 
 @kernel
-def advance(method, fb, h, p, v, q, w, ce, absorbing, t0):
-    """One (sub)step of the method coded ``method`` (:data:`METHODS`)."""
+def advance(method, fb, h, motion, ce, absorbing, t0):
+    """One (sub)step of the method coded ``method`` (:data:`METHODS`) from ``motion`` (p, v, q,
+    w: sim.step.Motion)."""
+    p, v, q, w = motion
     if method == EXPONENTIAL:
         return exponential(fb, h, p, v, q, w, ce, absorbing, t0)
     if method == RK4:

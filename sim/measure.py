@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.compiled import kernel
+from sim.compiled import entry
 from sim.contact import Ground, feet, height_and_slope
 from sim.energy import mechanical, total
 from sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
 from sim.frames import surface_velocity as _surface_velocity
 from sim.params import Params, Terrain
+from sim.settings import SurfaceNormal
 from sim.vec import quat_mul, sub
 
 ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
@@ -37,7 +38,7 @@ def body_angles(params: Params, t_s: np.ndarray | float, n: int) -> tuple[np.nda
     return np.repeat(cs[:, 0], lengths), np.repeat(cs[:, 1], lengths)
 
 
-@kernel
+@entry
 def _terrain_height(terrain, east, north, out):
     g = Ground(0.0, terrain[0], 1.0, 0.0, 0.0, False)
     for i in range(east.shape[0]):
@@ -54,7 +55,7 @@ def terrain_height(terrain: Terrain, east_m: np.ndarray, north_m: np.ndarray) ->
     return out.reshape(e.shape)
 
 
-@kernel
+@entry
 def _site_frame(radius, om, cos_t, sin_t, p, v, pos_out, vel_out):
     for i in range(p.shape[0]):
         pi = (p[i, 0], p[i, 1], p[i, 2])
@@ -78,7 +79,7 @@ def site_frame(params: Params, p: np.ndarray, v: np.ndarray, t_s: np.ndarray | f
     return pos, vel
 
 
-@kernel
+@entry
 def _to_site(cos_t, sin_t, v, out):
     for i in range(v.shape[0]):
         a = site_axes(rotate_z((v[i, 0], v[i, 1], v[i, 2]), cos_t[i], -sin_t[i]))
@@ -93,7 +94,7 @@ def to_site(v: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.ndarray:
     return out
 
 
-@kernel
+@entry
 def _site_quats(cos_t, sin_t, q, out):
     # the site frame's axes (east, north, up) are the body-fixed (y, z, x): (0.5, -0.5, -0.5, -0.5)
     # turns body-fixed vectors into site-frame ones (a turn of -120 degrees about (1, 1, 1))
@@ -113,7 +114,7 @@ def site_quats_xyzw(q: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.n
     return out
 
 
-@kernel
+@entry
 def _feet(radius, terrain, radial, om, cos_t, sin_t, p, q, leg, height, offset, pos, pen, push):
     for i in range(p.shape[0]):
         g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
@@ -138,7 +139,7 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
            "pen_m": np.empty((n, 4)), "push_w": np.empty((n, 4, 3))}
     body = params.body
     _feet(body.radius_m, params.terrain,
-          params.contact.surface_normal == "radial", body.omega_radps,
+          params.contact.surface_normal == SurfaceNormal.RADIAL, body.omega_radps,
           np.ascontiguousarray(cos_t, float), np.ascontiguousarray(sin_t, float), p, q,
           np.broadcast_to(np.asarray(leg_radius_m, float), (n,)).copy(),
           np.broadcast_to(np.asarray(com_height_m, float), (n,)).copy(),
@@ -146,7 +147,7 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
     return out
 
 
-@kernel
+@entry
 def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mass, inertia, p, v, q,
             w, out):
     for i in range(p.shape[0]):
@@ -175,7 +176,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     body = params.body
     out = np.empty((n, 7))
     _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, sh.stiffness_per_kg[ship].copy(),
-            params.terrain, params.contact.surface_normal == "radial",
+            params.terrain, params.contact.surface_normal == SurfaceNormal.RADIAL,
             c, s, sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(), mass,
             np.ascontiguousarray(inertia), p, v, q, w, out)
     parts = {name: out[:, k] for k, name in enumerate(ENERGY_PARTS)}
@@ -183,7 +184,7 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     return parts
 
 
-@kernel
+@entry
 def _gravity(gm, om2, p, out):
     for i in range(p.shape[0]):
         g = effective_gravity(gm, om2, (p[i, 0], p[i, 1], p[i, 2]))
@@ -198,7 +199,7 @@ def gravity(params: Params, p: np.ndarray) -> np.ndarray:
     return out
 
 
-@kernel
+@entry
 def _surface_velocity_rows(om, p, out):
     for i in range(p.shape[0]):
         u = _surface_velocity(om, (p[i, 0], p[i, 1], p[i, 2]))

@@ -1,45 +1,31 @@
 """Parameters: everything the step reads but never changes. Frozen; arrays are per ship, shape (N,...).
+Their fields and records are derived from the settings (sim.settings), declared once there.
 
 Kept apart from :mod:`sim.state` (what changes every tick), as in brax's ``base.py``.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, make_dataclass
 from functools import cached_property
-from typing import ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from sim.constants import CONTACT_STIFFNESS_PER_KG, STICK_SPEED_MPS
+from sim.settings import in_scene, landing_in, record_type
 from sim.state import Batch
 
 
-@dataclass(frozen=True)
-class SimParams:
-    """How time advances.
+def _section(cls_name: str, name: str, doc: str, base: type, extra: tuple = ()) -> type:
+    """The frozen dataclass of one section of the parameters: a field per setting landing in it
+    (sim.settings, its default the setting's), then ``extra`` fields, with ``base``'s derived
+    properties."""
+    fields_ = [(s.field, Any, field(default=s.param_default)) for s in landing_in(name)]
+    return make_dataclass(cls_name, fields_ + list(extra), bases=(base,), frozen=True,
+                          namespace={"__doc__": doc, "__module__": __name__})
 
-    ``dt_s``: the tick. ``max_substep_s``: ships in or near contact are stepped in
-    ``ceil(dt / max_substep)`` equal sub-steps (0 = never sub-step, the seed's behaviour); ships
-    far from the ground take the whole tick in one step. ``integrator``: a name in
-    :data:`sim.integrators.METHODS`.
-    """
 
-    dt_s: float = 0.05
-    integrator: str = "hybrid"
-    max_substep_s: float = 0.025
-    #: a ship that is not purely vertical takes sub-steps of at most this while it strikes the
-    #: ground or rebounds (sim.step.striking): friction's turns between holding and sliding,
-    #: first order in the sub-step, happen there (0 = max_substep everywhere; max_substep = 0, the seed's plain step, turns it
-    #: off too)
-    impact_substep_s: float = 0.005
-    duration_s: float = 30.0
-    #: with a method exact on the spring, purely vertical ships take one step per tick
-    #: (sim.step.purely_vertical); False sub-steps them like every other ship near the ground
-    vertical_one_step: bool = True
-    #: a passive ship's energy never rises over a sub-step (sim.step.passivity_guard)
-    energy_guard: bool = True
-
+class _SimDerived:
     @cached_property
     def n_ticks(self) -> int:
         return int(math.ceil(self.duration_s / self.dt_s - 1e-9))
@@ -51,37 +37,7 @@ class SimParams:
         return max(1, int(math.ceil(self.dt_s / self.max_substep_s - 1e-9)))
 
 
-@dataclass(frozen=True)
-class ContactParams:
-    """The seed's Configuration table (same names without ``contact_``, units in the names) plus
-    the settings SEED-NOTES adds. Angles are stored as cosines for the step's exact comparisons."""
-
-    crash_speed_mps: float = 50.0
-    bounce_speed_mps: float = 10.0
-    settle_tilt_deg: float = 5.0
-    settle_angular_vel_radps: float = 0.01
-    settle_linear_vel_mps: float = 0.5
-    tipped_angle_deg: float = 80.0
-    damping_ratio: float = 0.3
-    friction_static: float = 0.8
-    friction_kinetic: float = 0.5
-    #: a foot slipping slower than this is held by static friction (the seed's 0.01 m/s)
-    stick_speed_mps: float = STICK_SPEED_MPS
-    align_on_touchdown: bool = True
-    #: SEED-NOTES 3: the settle thresholds must hold this long before contact -> landed.
-    settle_time_s: float = 0.5
-    #: SEED-NOTES 1: damping ratio of the leg absorbers that take an impact slower than
-    #: ``bounce_speed``; such a contact is bilateral while the legs are compressed, so it cannot rebound.
-    absorb_damping_ratio: float = 1.0
-    #: SEED-NOTES 4: "coulomb" (a bounded force that holds exactly at rest) or "seed" (velocity reset).
-    friction_model: str = "coulomb"
-    #: Tilt at which a tipped ship lies on its side, degrees.
-    tipped_rest_deg: float = 90.0
-    stiffness_per_kg: float = CONTACT_STIFFNESS_PER_KG
-    #: "terrain": each foot is pushed along the terrain's normal under it, friction in the tangent
-    #: plane there; "radial": the seed's (surface normal = local radial, whatever the slope)
-    surface_normal: str = "terrain"
-
+class _ContactDerived:
     @cached_property
     def cos_settle_tilt(self) -> float:
         return math.cos(math.radians(self.settle_tilt_deg))
@@ -98,6 +54,18 @@ class ContactParams:
     def omega_radps(self) -> float:
         """Natural frequency of the contact spring, sqrt(k/m), rad/s."""
         return math.sqrt(self.stiffness_per_kg)
+
+
+SimParams = _section("SimParams", "sim", """How time advances (sim.settings: the ``sim`` keys and ``duration``).
+
+    ``dt_s``: the tick. ``max_substep_s``: ships in or near contact are stepped in
+    ``ceil(dt / max_substep)`` equal sub-steps (0 = never sub-step, the seed's behaviour); ships
+    far from the ground take the whole tick in one step. ``integrator``: a name in
+    :data:`sim.integrators.METHODS`.""", _SimDerived)
+ContactParams = _section("ContactParams", "contact", """The seed's Configuration table (same names without
+    ``contact_``, units in the names) plus the settings SEED-NOTES adds (sim.settings: the
+    ``contact`` keys). Angles are also given as cosines for the step's exact comparisons.""",
+                         _ContactDerived)
 
 
 @dataclass(frozen=True)
@@ -151,16 +119,7 @@ class Terrain:
         return not self.bump_height_m and self.slope_deg == 0.0
 
 
-@dataclass(frozen=True)
-class BodyParams:
-    """The planet or moon: a point mass rotating about the inertial +z axis."""
-
-    name: str = "Luna"
-    radius_m: float = 1737400.0
-    gm_m3ps2: float = 4.9048695e12
-    rotation_period_s: float = 0.0
-    terrain: Terrain = field(default_factory=Terrain)
-
+class _BodyDerived:
     @cached_property
     def omega_radps(self) -> float:
         """Spin rate about +z; 0 when ``rotation_period_s`` is 0."""
@@ -171,21 +130,18 @@ class BodyParams:
         return self.gm_m3ps2 / (self.radius_m * self.radius_m)
 
 
-SHIP_DTYPE = np.dtype([
-    ("mass0_kg", "f8"),  # wet mass at t = 0
-    ("fuel0_kg", "f8"),
-    ("com_height_m", "f8"),  # centre of mass above the feet plane
-    ("leg_radius_m", "f8"),  # radius of the landing-leg footprint
-    ("inertia0_kgm2", "f8", (3,)),  # principal moments at t = 0, body frame (z = long axis)
-    ("max_thrust_n", "f8"),  # main engine, along body +z
-    ("max_rcs_torque_nm", "f8"),  # per body axis
-    ("isp_s", "f8"),  # main engine specific impulse
-    ("rcs_isp_s", "f8"),
-    ("rcs_arm_m", "f8"),  # lever arm of the RCS thrusters (torque / arm = thrust)
-    ("stiffness_per_kg", "f8"),  # the contact spring's k / m, 1/s^2 (the seed's 100)
+BodyParams = _section("BodyParams", "body", """The planet or moon: a point mass rotating about the inertial +z
+    axis (sim.settings: the ``body`` keys), and its terrain.""", _BodyDerived,
+                      (("terrain", Terrain, field(default_factory=Terrain)),))
+
+
+SHIP_DTYPE = np.dtype([record_type(s) for s in landing_in("ships")] + [
     ("contact_omega_radps", "f8"),  # sqrt(k / m): the contact's natural frequency
     ("n_substeps", "i8"),  # sub-steps a tick near the ground, from this ship's own modes
 ], align=True)
+"""Per-ship constants: the ``ships`` settings that land in it (sim.settings, in its order), then
+what the scenario derives per ship. Its bytes are a live service's checkpoints (service.redis_io):
+the layout is kept (tests/test_settings.py)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,32 +154,30 @@ class ShipParams(Batch):
     LABELS: ClassVar[tuple[str, ...]] = ("ship_id", "player_id")
 
 
-@dataclass(frozen=True)
-class ControllerParams:
-    """Attitude hold: a critically damped PD law per body axis, saturated at ``max_rcs_torque``.
+ControllerParams = _section("ControllerParams", "controller", """Attitude hold: a critically damped PD law per
+    body axis, saturated at ``max_rcs_torque`` (sim.settings: the ``controller`` keys).
 
-    tau = -I (bandwidth^2 err + 2 bandwidth omega_rel).
-    """
-
-    bandwidth_radps: float = 1.0
+    tau = -I (bandwidth^2 err + 2 bandwidth omega_rel).""", object)
 
 
-SCENE_DTYPE = np.dtype([
-    ("dt_s", "f8"), ("method", "i8"), ("vertical_one_step", "?"), ("energy_guard", "?"),
-    ("impact_substeps", "i8"),
-    ("linear_model", "?"),
-    ("crash_speed_mps", "f8"), ("crash_speed2", "f8"), ("bounce_speed_mps", "f8"),
+#: What Params.scene derives from the parameters (the rest of SCENE_DTYPE is the settings the
+#: step reads as they are: sim.settings.in_scene).
+_SCENE_DERIVED = [
+    ("method", "i8"), ("impact_substeps", "i8"), ("linear_model", "?"), ("crash_speed2", "f8"),
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
-    ("tipped_rest_rad", "f8"), ("damping_ratio", "f8"), ("absorb_damping_ratio", "f8"),
-    ("friction_static", "f8"), ("friction_kinetic", "f8"), ("stick_speed_mps", "f8"),
-    ("align_on_touchdown", "?"),
-    ("settle_time_s", "f8"), ("seed_friction", "?"), ("radial_normal", "?"),
-    ("body_radius_m", "f8"), ("gm_m3ps2", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
-    ("surface_gravity_mps2", "f8"), ("base_height_m", "f8"), ("terrain_max_m", "f8"),
-    ("slope_tan", "f8"),
-    ("bandwidth_radps", "f8"),
-], align=True)
+    ("tipped_rest_rad", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
+    ("surface_gravity_mps2", "f8"), ("terrain_max_m", "f8"), ("slope_tan", "f8"),
+]
+SCENE_DTYPE = np.dtype([record_type(s) for s in in_scene()] + _SCENE_DERIVED, align=True)
 """The scene's constants as the compiled step reads them (one record; derived from Params)."""
+
+
+class Records(NamedTuple):
+    """A scene's parameters as the compiled step reads them (Params.records, sim.step.step_ticks)."""
+
+    scene: np.ndarray  # one record of SCENE_DTYPE
+    terrain: np.ndarray  # one record of sim.contact.TERRAIN_DTYPE
+    ships: np.ndarray  # a record of SHIP_DTYPE per ship
 
 
 @dataclass(frozen=True)
@@ -256,46 +210,36 @@ class Params:
         ter = body.terrain
         rec = np.zeros(1, SCENE_DTYPE)
         r = rec[0]
-        r["dt_s"] = sim.dt_s
+        sections = {"sim": sim, "contact": cp, "body": body, "terrain": ter,
+                    "controller": self.controller}
+        for s in in_scene():
+            r[s.scene] = getattr(sections[s.section], s.field)
+        r["method"] = METHODS[sim.integrator]
         # max_substep = 0 is the seed's plain step: no sub-steps at all, striking or not
         r["impact_substeps"] = (0 if sim.impact_substep_s <= 0.0 or sim.max_substep_s <= 0.0
                                 else max(1, int(math.ceil(sim.dt_s / sim.impact_substep_s - 1e-9))))
-        r["method"] = METHODS[sim.integrator]
-        r["vertical_one_step"] = sim.vertical_one_step
-        r["energy_guard"] = sim.energy_guard
         r["linear_model"] = sim.integrator in KICKS
-        r["crash_speed_mps"] = cp.crash_speed_mps
         r["crash_speed2"] = cp.crash_speed_mps ** 2
-        r["bounce_speed_mps"] = cp.bounce_speed_mps
         r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
         r["settle_ang2"] = cp.settle_angular_vel_radps ** 2
         r["cos_settle_tilt"] = cp.cos_settle_tilt
         r["cos_tipped"] = cp.cos_tipped
         r["tipped_rest_rad"] = math.radians(cp.tipped_rest_deg)
-        r["damping_ratio"] = cp.damping_ratio
-        r["absorb_damping_ratio"] = cp.absorb_damping_ratio
-        r["friction_static"] = cp.friction_static
-        r["friction_kinetic"] = cp.friction_kinetic
-        r["stick_speed_mps"] = cp.stick_speed_mps
-        r["align_on_touchdown"] = cp.align_on_touchdown
-        # settle_time = 0 is the seed's instantaneous rule: the first tick they hold
-        r["settle_time_s"] = cp.settle_time_s
-        r["seed_friction"] = cp.friction_model == "seed"
-        r["radial_normal"] = cp.surface_normal == "radial"
-        r["body_radius_m"] = body.radius_m
-        r["gm_m3ps2"] = body.gm_m3ps2
         r["omega_radps"] = body.omega_radps
         r["omega2"] = body.omega_radps ** 2
         r["surface_gravity_mps2"] = body.surface_gravity_mps2
-        r["base_height_m"] = ter.base_height_m
         # the highest the bumps raise the ground; a slope adds its plane's height under the ship
         # (sim.step.near_ground)
         r["terrain_max_m"] = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
         r["slope_tan"] = math.hypot(*ter.gradient)
-        r["bandwidth_radps"] = self.controller.bandwidth_radps
         return rec
 
     @cached_property
     def terrain(self) -> np.ndarray:
         """The terrain as the step reads it: one record of sim.contact.TERRAIN_DTYPE."""
         return self.body.terrain.record()
+
+    @property
+    def records(self) -> "Records":
+        """The scene, the terrain and the ships as the compiled step reads them."""
+        return Records(self.scene, self.terrain, self.ships.rows)

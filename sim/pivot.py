@@ -111,8 +111,7 @@ def _slope(pv, delta):
 
 
 @separate
-def pivot_step(dt_s, gm_m3ps2, omega_radps, tipped_rest_rad, crash_speed_mps, cos_tipped,
-               p0, q0, pivot, m, inertia_b, rate0, rcs_torque_body_nm):
+def pivot_step(cfg, pin, m, inertia_b, rcs_torque_body_nm):
     """A tipped ship turns about its pivot foot, a one-degree-of-freedom rotation by theta about
     the horizontal axis a through it:
 
@@ -131,7 +130,11 @@ def pivot_step(dt_s, gm_m3ps2, omega_radps, tipped_rest_rad, crash_speed_mps, co
     sin and 1 - cos as +,*,/ series), and the implicit step solved by fixed-point iteration
     (MAX_PIVOT_ITERATIONS). The ship rests on its hull at ``tipped_rest_deg``: a turn that would
     pass it stops there (an inelastic impact; crash above crash_speed at the centre of mass).
-    Poses are body-fixed."""
+    Poses are body-fixed: ``pin`` (sim.step.Pin) holds the pose, the pivot and the rate of turn;
+    ``cfg`` is the scene record (the tick, gravity, the body's spin, tipped_rest, crash_speed,
+    tipped_angle)."""
+    p0, q0, pivot, rate0 = pin
+    dt_s, gm_m3ps2, omega_radps = cfg.dt_s, cfg.gm_m3ps2, cfg.omega_radps
     up = unit(p0)
     ez = quat_axis_z(q0)
     axis = pivot_axis(p0, q0)
@@ -157,17 +160,17 @@ def pivot_step(dt_s, gm_m3ps2, omega_radps, tipped_rest_rad, crash_speed_mps, co
     rate1 = 2.0 * delta / dt_s - rate0
     # the hull: the turn stops at tipped_rest_deg (an angle found once, with +,*,/ and sqrt)
     tilt0 = angle(norm(cross(ez, up)), dot(ez, up))
-    to_rest = fmax(tipped_rest_rad - tilt0, 0.0)
+    to_rest = fmax(cfg.tipped_rest_rad - tilt0, 0.0)
     hull = delta > to_rest
     g_rest = _slope(pv, to_rest)[0]
     kinetic = 0.5 * i_p * rate0 * rate0 + to_rest * (tau - g_rest)
     speed_at_hull = math.sqrt(fmax(2.0 * kinetic / i_p, 0.0)) * norm(ad)
-    hull_crash = hull and speed_at_hull > crash_speed_mps
+    hull_crash = hull and speed_at_hull > cfg.crash_speed_mps
     if hull:
         delta = to_rest
         rate1 = 0.0
     dp = _slope(pv, delta)[1]
     p1 = add(p0, scale(dp, delta))
     q1 = quat_normalize(quat_mul(quat_from_rotvec(scale(axis, delta)), q0))
-    righted = (not hull_crash and dot(quat_axis_z(q1), unit(p1)) > cos_tipped and rate1 < 0.0)
+    righted = (not hull_crash and dot(quat_axis_z(q1), unit(p1)) > cfg.cos_tipped and rate1 < 0.0)
     return PivotStep(p1, q1, rate1, hull_crash, righted)

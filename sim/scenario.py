@@ -19,13 +19,13 @@ import numpy as np
 
 from sim import constants as C
 from sim import vec
-from sim.compiled import kernel, separate
+from sim.compiled import entry, kernel, separate
 from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
 from sim.enums import HoldMode, SurfaceState
 from sim.errors import TouchdownError
-from sim.integrators import METHODS
 from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
                         Terrain)
+from sim.settings import REQUIRED, SurfaceNormal, in_table, landing_in
 from sim.state import Inputs, State
 from sim.timeline import Command, Retire, Spawn, Timeline
 
@@ -38,97 +38,25 @@ class ScenarioError(TouchdownError, ValueError):
         super().__init__(f"{source}: {key}: {problem}")
 
 
-# -- key tables: name -> (kind, default, check) -------------------------------------------------
-REQUIRED = object()
+# -- key tables: name -> (kind, default, check), one per table of the document -------------------
 Check = Callable[[Any], str | None]
 
 
-def _range(lo: float | None = None, hi: float | None = None, lo_open: bool = False,
-           hi_open: bool = False) -> Check:
-    def check(x):
-        if lo is not None and (x < lo or (lo_open and x == lo)):
-            return f"must be {'>' if lo_open else '>='} {lo:g}, got {x:g}"
-        if hi is not None and (x > hi or (hi_open and x == hi)):
-            return f"must be {'<' if hi_open else '<='} {hi:g}, got {x:g}"
-        return None
-    return check
+def _spec(table: str) -> dict:
+    """The keys of one table as the reader checks them (sim.settings, declared once there)."""
+    return {s.name: (s.kind, s.default, s.check if s.checked else None) for s in in_table(table)}
 
 
-def _choice(options) -> Check:
-    opts = sorted(options)
-    return lambda x: None if x in opts else f"must be one of {', '.join(opts)}; got {x!r}"
-
-
-POS = _range(0.0, lo_open=True)
-NONNEG = _range(0.0)
-
-# Every number has a physically meaningful range (MODEL-NOTES 27, issue 13): a value outside
-# it cannot describe a ship, a body or a run, and is refused before anything is computed with it.
-TOP = {"name": ("str", REQUIRED, None), "duration": ("float", REQUIRED, _range(0.0, 1e7, lo_open=True)),
-       "description": ("str", "", None)}
-SIM = {"dt": ("float", 0.05, _range(1e-4, 1.0)),
-       "integrator": ("str", SimParams.integrator, _choice(METHODS)),
-       "max_substep": ("float", 0.025, _range(0.0, 1.0)),
-       # a tilted, turning or sliding ship's sub-step while it strikes the ground (0: as any)
-       "impact_substep": ("float", 0.005, _range(0.0, 1.0)),
-       "on_unstable": ("str", "substep", _choice({"substep", "error", "allow"})),
-       "vertical_one_step": ("bool", True, None), "energy_guard": ("bool", True, None)}
-CONTACT = {
-    "crash_speed": ("float", 50.0, _range(0.0, 1e4, lo_open=True)),
-    "bounce_speed": ("float", 10.0, _range(0.0, 1e4)),
-    "settle_tilt_deg": ("float", 5.0, _range(0.0, 90.0, lo_open=True, hi_open=True)),
-    "settle_angular_vel": ("float", 0.01, _range(0.0, 100.0, lo_open=True)),
-    "settle_linear_vel": ("float", 0.5, _range(0.0, 1e3, lo_open=True)),
-    "tipped_angle_deg": ("float", 80.0, _range(0.0, 180.0, lo_open=True, hi_open=True)),
-    "damping_ratio": ("float", 0.3, _range(0.0, 100.0)),
-    "friction_static": ("float", 0.8, _range(0.0, 10.0)),
-    "friction_kinetic": ("float", 0.5, _range(0.0, 10.0)),
-    "stick_speed": ("float", C.STICK_SPEED_MPS, _range(0.0, 10.0)),
-    "align_on_touchdown": ("bool", True, None), "settle_time": ("float", 0.5, _range(0.0, 1e4)),
-    "absorb_damping_ratio": ("float", 1.0, _range(0.0, 100.0)),
-    "friction_model": ("str", "coulomb", _choice({"coulomb", "seed"})),
-    "tipped_rest_deg": ("float", 90.0, _range(0.0, 180.0, lo_open=True)),
-    "stiffness_per_kg": ("float", C.CONTACT_STIFFNESS_PER_KG, _range(1e-2, 1e6)),
-    "surface_normal": ("str", "terrain", _choice({"terrain", "radial"}))}
-BODY = {"name": ("str", "Luna", None), "radius": ("float", C.MOON_RADIUS_M, _range(10.0, 1e9)),
-        "gm": ("float", None, _range(0.0, 1e22, lo_open=True)),
-        "surface_gravity": ("float", None, _range(1e-6, 1e4)),
-        "rotation_period": ("float", 0.0, _range(-1e12, 1e12)), "terrain": ("table", None, None)}
-TERRAIN = {"base_height": ("float", 0.0, _range(-1e4, 1e4)), "bumps": ("list", [], None),
-           # a uniform slope through the site (SPEC.md 6): degrees, and the downhill direction
-           # in degrees from north toward east
-           "slope_deg": ("float", 0.0, _range(0.0, 60.0)),
-           "slope_azimuth_deg": ("float", 0.0, _range(-360.0, 360.0))}
-BUMP = {"east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6)),
-        "radius": ("float", REQUIRED, _range(1e-2, 1e6)),
-        "height": ("float", REQUIRED, _range(-1e4, 1e4))}
-CONTROLLER = {"bandwidth": ("float", 1.0, _range(0.0, 100.0, lo_open=True))}
-SHIP = {"id": ("str", REQUIRED, None), "player_id": ("str", None, None),
-        "mass": ("float", 10000.0, _range(1.0, 1e9)),
-        "fuel_mass": ("float", 2000.0, _range(0.0, 1e9)),
-        "com_height": ("float", 3.0, _range(1e-2, 1e3)), "leg_radius": ("float", 2.26, _range(0.0, 1e3)),
-        "inertia": ("vec3", None, _range(1e-6, 1e15)),
-        "max_thrust": ("float", 60000.0, _range(0.0, 1e10)),
-        "max_rcs_torque": ("float", 20000.0, _range(0.0, 1e10)),
-        "isp": ("float", C.DEFAULT_ISP_S, _range(1.0, 1e5)),
-        "rcs_isp": ("float", C.DEFAULT_RCS_ISP_S, _range(1.0, 1e5)),
-        "rcs_arm": ("float", 2.0, _range(1e-3, 1e3)),
-        "stiffness_per_kg": ("float", None, _range(1e-2, 1e6)),  # default: contact's
-        "spawn_t": ("float", 0.0, _range(0.0, 1e7)),  # s: joins the scene (sim.timeline)
-        "retire_t": ("float?", None, _range(0.0, 1e7, lo_open=True)),  # s: leaves it (None: never)
-        "initial": ("table", None, None), "inputs": ("list", [], None)}
-INITIAL = {"state": ("str", "flying", _choice({"flying", "contact", "landed", "tipped"})),
-           "altitude": ("float", None, _range(-100.0, 1e7)),  # default: 10 flying, else 0
-           "vertical_speed": ("float", 0.0, _range(-1e4, 1e4)),
-           "horizontal_speed": ("float", 0.0, _range(-1e4, 1e4)),
-           "heading_deg": ("float", 0.0, _range(-360.0, 360.0)),
-           "yaw_deg": ("float", 0.0, _range(-360.0, 360.0)),
-           "tilt_deg": ("float", 0.0, _range(0.0, 180.0)),
-           "angular_velocity": ("vec3", [0.0, 0.0, 0.0], _range(-100.0, 100.0)),
-           "east": ("float", 0.0, _range(-1e6, 1e6)), "north": ("float", 0.0, _range(-1e6, 1e6))}
-INPUT = {"t": ("float", REQUIRED, _range(0.0, 1e7)), "throttle": ("float", 0.0, _range(0.0, 1.0)),
-         "rcs": ("vec3", [0.0, 0.0, 0.0], _range(-1.0, 1.0)),
-         "hold": ("str", "off", _choice({m.label for m in HoldMode}))}
+TOP = _spec("")
+SIM = _spec("sim")
+CONTACT = _spec("contact")
+BODY = _spec("body")
+TERRAIN = _spec("body.terrain")
+BUMP = _spec("body.terrain.bumps")
+CONTROLLER = _spec("controller")
+SHIP = _spec("ships")
+INITIAL = _spec("ships.initial")
+INPUT = _spec("ships.inputs")
 
 
 class _Reader:
@@ -578,45 +506,33 @@ def quat_from_axes(ex, ey, ez):
     return vec.quat_normalize(q)
 
 
-def _build(res: dict, n_substeps: list[int]) -> Scenario:
-    sim, con, body, ships = res["sim"], res["contact"], res["body"], res["ships"]
-    ter = body["terrain"]
-    terrain = Terrain(
-        base_height_m=ter["base_height"], slope_deg=ter["slope_deg"],
-        slope_azimuth_deg=ter["slope_azimuth_deg"],
-        bump_east_m=tuple(b["east"] for b in ter["bumps"]),
-        bump_north_m=tuple(b["north"] for b in ter["bumps"]),
-        bump_radius_m=tuple(b["radius"] for b in ter["bumps"]),
-        bump_height_m=tuple(b["height"] for b in ter["bumps"]))
-    bp = BodyParams(name=body["name"], radius_m=body["radius"], gm_m3ps2=body["gm"],
-                    rotation_period_s=body["rotation_period"], terrain=terrain)
-    cp = ContactParams(
-        crash_speed_mps=con["crash_speed"], bounce_speed_mps=con["bounce_speed"],
-        settle_tilt_deg=con["settle_tilt_deg"], settle_angular_vel_radps=con["settle_angular_vel"],
-        settle_linear_vel_mps=con["settle_linear_vel"], tipped_angle_deg=con["tipped_angle_deg"],
-        damping_ratio=con["damping_ratio"], friction_static=con["friction_static"],
-        friction_kinetic=con["friction_kinetic"],
-        stick_speed_mps=con["stick_speed"], align_on_touchdown=con["align_on_touchdown"],
-        settle_time_s=con["settle_time"], absorb_damping_ratio=con["absorb_damping_ratio"],
-        friction_model=con["friction_model"], tipped_rest_deg=con["tipped_rest_deg"],
-        stiffness_per_kg=con["stiffness_per_kg"], surface_normal=con["surface_normal"])
-    spar = SimParams(dt_s=sim["dt"], integrator=sim["integrator"], max_substep_s=sim["max_substep"],
-                     impact_substep_s=sim["impact_substep"],
-                     duration_s=res["duration"], vertical_one_step=sim["vertical_one_step"],
-                     energy_guard=sim["energy_guard"])
+def _params_of(cls, section: str, tables: dict, **extra):
+    """The dataclass of one section of the parameters from the resolved document: each setting
+    landing there (sim.settings), its value converted (an enum's member for its string)."""
+    return cls(**{s.field: s.to_param(tables[s.table][s.name]) for s in landing_in(section)},
+               **extra)
 
+
+def _build(res: dict, n_substeps: list[int]) -> Scenario:
+    sim, ships = res["sim"], res["ships"]
+    tables = {"": res, "sim": sim, "contact": res["contact"], "body": res["body"],
+              "controller": res["controller"]}
+    ter = res["body"]["terrain"]
+    # a bump's keys land in the terrain's columns (a tuple over the bumps)
+    terrain = Terrain(**{s.field: (tuple(b[s.name] for b in ter["bumps"])
+                                   if s.table == "body.terrain.bumps" else ter[s.name])
+                         for s in landing_in("terrain")})
+    bp = _params_of(BodyParams, "body", tables, terrain=terrain)
+    cp = _params_of(ContactParams, "contact", tables)
+    spar = _params_of(SimParams, "sim", tables)
     shp = ShipParams.of(
         len(ships), ship_id=tuple(s["id"] for s in ships),
         player_id=tuple(s["player_id"] for s in ships),
-        mass0_kg=[s["mass"] for s in ships], fuel0_kg=[s["fuel_mass"] for s in ships],
-        com_height_m=[s["com_height"] for s in ships], leg_radius_m=[s["leg_radius"] for s in ships],
-        inertia0_kgm2=[s["inertia"] for s in ships], max_thrust_n=[s["max_thrust"] for s in ships],
-        max_rcs_torque_nm=[s["max_rcs_torque"] for s in ships], isp_s=[s["isp"] for s in ships],
-        rcs_isp_s=[s["rcs_isp"] for s in ships], rcs_arm_m=[s["rcs_arm"] for s in ships],
-        stiffness_per_kg=[s["stiffness_per_kg"] for s in ships],
+        **{st.field: [s[st.name] for s in ships] for st in landing_in("ships")},
         contact_omega_radps=[math.sqrt(s["stiffness_per_kg"]) for s in ships],
         n_substeps=n_substeps)
-    params = Params(spar, cp, bp, shp, ControllerParams(res["controller"]["bandwidth"]))
+    ctl = _params_of(ControllerParams, "controller", tables)
+    params = Params(spar, cp, bp, shp, ctl)
     initial = _initial_state(params, ships)
     spawns, retires, commands = [], [], []
     at_start = []
@@ -668,7 +584,7 @@ def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
     return vec.scale(r_hat, rho)
 
 
-@separate
+@entry
 def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
     """Every ship's pose and motion from its row of ``starts``: the landing-site directions at
     (east, north), the long axis tilted toward the heading and turned by yaw about itself, the
@@ -720,7 +636,7 @@ def _initial_state(params: Params, ships: list[dict]) -> State:
                      ini["horizontal_speed"], *ini["angular_velocity"])
     st = State.zeros(len(ships))
     _place_ships(params.terrain, params.body.radius_m, params.body.omega_radps,
-                 params.contact.surface_normal == "radial", starts, st.rows)
+                 params.contact.surface_normal == SurfaceNormal.RADIAL, starts, st.rows)
     rows = st.rows
     rows["surface_state"] = [SurfaceState.from_label(s["initial"]["state"]) for s in ships]
     rows["mass_kg"], rows["fuel_kg"] = sh.mass0_kg, sh.fuel0_kg

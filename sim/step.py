@@ -1,14 +1,17 @@
 """The tick: ``step(params, state, inputs) -> (state, outputs, events)``, a pure function.
 
-The batch is stepped by one loop over its ships (:func:`step_ships`), compiled (sim.compiled);
-inside it, one ship's tick is a chain of phases, in order, each a function below:
+The batch is stepped by one loop over its ships (:func:`step_ticks`, :func:`step_ships`), compiled
+(sim.compiled); inside it, one ship's tick (:func:`step_ship`: its record loaded into a
+:class:`Ship`, stored back in place) is a chain of phases, in order, each a function below:
 
 1. ``commands``     throttle and RCS torque actually applied (fuel, hold-mode controller)
-2. ``free_flight``  flying and contact ships: integrate, friction at the feet, the passivity
-                    guard, and the in-flight transitions (contact, crash, liftoff, tipped) at
-                    every sub-step; a ship near the ground takes its own ``n_substeps``
-                    sub-steps, a purely vertical one a single exact step, and a ship far above
-                    one step with no contact work
+2. ``free_flight``  flying and contact ships, sub-step by sub-step, in three stages: (a) the
+                    touchdown instant (``piece_start``), (b) integrating, friction at the feet and
+                    the passivity guard (``step_piece``, ``guard_substep``), (c) the in-flight
+                    transitions (contact, crash, liftoff, tipped) and their events
+                    (``in_flight_transitions``); a ship near the ground takes its own
+                    ``n_substeps`` sub-steps, a purely vertical one a single exact step, and a
+                    ship far above one step with no contact work
 3. ``settle``       contact -> landed once the settle thresholds have held for ``settle_time``
                     with the centre of mass over the footprint
 4. ``pinned``       landed, tipped and crashed ships turn with the body; tipped ships' pivot
@@ -28,9 +31,9 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from sim.compiled import constructor, kernel, separate
+from sim.compiled import constructor, entry, kernel, separate
 from sim.constants import G0_MPS2
-from sim.contact import Ground, feet, foot_offsets_w, lowest_foot_penetration, under
+from sim.contact import ContactEval, Ground, feet, foot_offsets_w, lowest_foot_penetration, under
 from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_feet, with_hold
 from sim.energy import mechanical, rotation, total, translation
 from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
@@ -38,15 +41,19 @@ from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravit
                         pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from sim.friction import coulomb, hold_footprint, seed, spread_over_step
 from sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
-from sim.params import Params
+from sim.params import Params, Records
 from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
+from sim.settings import FrictionModel, SurfaceNormal
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
                        Event, Inputs, Outputs, State)
 from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, quat_rotate, \
     quat_normalize, quat_rotate_inv, scale, sub, unit
 
-FLYING, CONTACT, LANDED, TIPPED, CRASHED = (int(s) for s in SurfaceState)
+#: as numpy integers: numba types a Python int global as a literal, and would compile a kernel
+#: taking states (emit) once per pair of them
+FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
+SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -70,88 +77,141 @@ ENGAGE_AT_GROUND = (0.0, 0.0, 0.0, 0.0)
 NO_COMMANDS = np.zeros(0, COMMAND_DTYPE)
 
 
-class Ship(NamedTuple):
-    """One ship's state inside the kernels (sim.state.STATE_DTYPE, as numbers and tuples)."""
+class Motion(NamedTuple):
+    """A ship's motion: where it is, how it moves, how it is turned and turns."""
 
-    surface_state: int
     p: tuple  # centre of mass, inertial, m
     v: tuple  # m/s
-    q: tuple  # body -> inertial
+    q: tuple  # attitude, body -> inertial
     w: tuple  # body-frame angular velocity, rad/s
-    mass_kg: float
-    fuel_kg: float
-    absorbing: bool
+
+
+class Footing(NamedTuple):
+    """What a ship's contact with the ground carries from step to step."""
+
+    absorbing: bool  # the contact began slower than bounce_speed (SEED-NOTES 1)
     sliding: tuple  # each foot's friction regime
     settle_ticks: int
     settle_for_s: float  # how long the settle thresholds have held (sim.fields)
     settle_margin: float
     hold_w: tuple  # each holding foot's static friction over the last step (sim.fields)
-    pivot_rate_radps: float
-    pin_pos_bf_m: tuple
-    pin_quat_bf: tuple
-    pin_pivot_bf_m: tuple
+
+
+class Pin(NamedTuple):
+    """A landed, tipped or crashed ship's pose in the body-fixed frame, and a tipped ship's turn."""
+
+    pos_bf_m: tuple
+    quat_bf: tuple
+    pivot_bf_m: tuple  # tipped only: the pivot (lowest foot)
+    rate_radps: float  # tipped only: rate of turn about the pivot (+ = toppling)
+
+
+class Ship(NamedTuple):
+    """One ship's state inside the kernels (sim.state.STATE_DTYPE, as numbers and tuples, in
+    groups: a phase that changes one group passes the others on)."""
+
+    surface_state: int
+    motion: Motion
+    mass_kg: float
+    fuel_kg: float
+    footing: Footing
+    pin: Pin
+
+
+#: no foot slides (each foot's regime)
+NO_SLIP = (False, False, False, False)
+
+
+@kernel
+def fresh_footing(absorbing):
+    """A contact's footing as it begins (a touchdown, a righting) or ends (a liftoff): no foot
+    sliding or holding, the settle thresholds not yet held."""
+    return Footing(absorbing, NO_SLIP, 0, 0.0, -1.0, NO_HOLD)
+
+
+@kernel
+def with_motion(s, surface_state, motion):
+    """``s`` in ``surface_state`` with ``motion``, its other groups passed on."""
+    return Ship(surface_state, motion, s.mass_kg, s.fuel_kg, s.footing, s.pin)
 
 
 @kernel
 def load(rec):
-    """A ship's record as a :class:`Ship`."""
-    return Ship(np.int64(rec.surface_state), (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
-                (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
-                (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
-                (rec.omega_body_radps[0], rec.omega_body_radps[1], rec.omega_body_radps[2]),
-                rec.mass_kg, rec.fuel_kg, bool(rec.absorbing),
-                (rec.sliding[0] != 0, rec.sliding[1] != 0, rec.sliding[2] != 0,
-                 rec.sliding[3] != 0),
-                np.int64(rec.settle_ticks), rec.settle_for_s, rec.settle_margin,
-                ((rec.hold_force_n[0], rec.hold_force_n[1], rec.hold_force_n[2]),
-                 (rec.hold_force_n[3], rec.hold_force_n[4], rec.hold_force_n[5]),
-                 (rec.hold_force_n[6], rec.hold_force_n[7], rec.hold_force_n[8]),
-                 (rec.hold_force_n[9], rec.hold_force_n[10], rec.hold_force_n[11])),
-                rec.pivot_rate_radps,
-                (rec.pin_pos_bf_m[0], rec.pin_pos_bf_m[1], rec.pin_pos_bf_m[2]),
-                (rec.pin_quat_bf[0], rec.pin_quat_bf[1], rec.pin_quat_bf[2], rec.pin_quat_bf[3]),
-                (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]))
+    """A ship's record as a :class:`Ship` (the one place a record is read)."""
+    motion = Motion((rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
+                    (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
+                    (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
+                    (rec.omega_body_radps[0], rec.omega_body_radps[1], rec.omega_body_radps[2]))
+    hf = rec.hold_force_n
+    footing = Footing(bool(rec.absorbing),
+                      (rec.sliding[0] != 0, rec.sliding[1] != 0, rec.sliding[2] != 0,
+                       rec.sliding[3] != 0),
+                      np.int64(rec.settle_ticks), rec.settle_for_s, rec.settle_margin,
+                      ((hf[0], hf[1], hf[2]), (hf[3], hf[4], hf[5]), (hf[6], hf[7], hf[8]),
+                       (hf[9], hf[10], hf[11])))
+    pin = Pin((rec.pin_pos_bf_m[0], rec.pin_pos_bf_m[1], rec.pin_pos_bf_m[2]),
+              (rec.pin_quat_bf[0], rec.pin_quat_bf[1], rec.pin_quat_bf[2], rec.pin_quat_bf[3]),
+              (rec.pin_pivot_bf_m[0], rec.pin_pivot_bf_m[1], rec.pin_pivot_bf_m[2]),
+              rec.pivot_rate_radps)
+    return Ship(np.int64(rec.surface_state), motion, rec.mass_kg, rec.fuel_kg, footing, pin)
 
 
 @kernel
 def store(s, rec):
-    """Write a :class:`Ship` into its record."""
+    """Write a :class:`Ship` into its record, in place (the one place a record is written)."""
+    m, ft, pin = s.motion, s.footing, s.pin
     rec.surface_state = s.surface_state
     for k in range(3):
-        rec.pos_m[k] = s.p[k]
-        rec.vel_mps[k] = s.v[k]
-        rec.omega_body_radps[k] = s.w[k]
-        rec.pin_pos_bf_m[k] = s.pin_pos_bf_m[k]
-        rec.pin_pivot_bf_m[k] = s.pin_pivot_bf_m[k]
+        rec.pos_m[k] = m.p[k]
+        rec.vel_mps[k] = m.v[k]
+        rec.omega_body_radps[k] = m.w[k]
+        rec.pin_pos_bf_m[k] = pin.pos_bf_m[k]
+        rec.pin_pivot_bf_m[k] = pin.pivot_bf_m[k]
     for k in range(4):
-        rec.quat[k] = s.q[k]
-        rec.pin_quat_bf[k] = s.pin_quat_bf[k]
-        rec.sliding[k] = 1 if s.sliding[k] else 0
+        rec.quat[k] = m.q[k]
+        rec.pin_quat_bf[k] = pin.quat_bf[k]
+        rec.sliding[k] = 1 if ft.sliding[k] else 0
     rec.mass_kg = s.mass_kg
     rec.fuel_kg = s.fuel_kg
-    rec.absorbing = s.absorbing
-    rec.settle_ticks = s.settle_ticks
-    rec.settle_for_s = s.settle_for_s
-    rec.settle_margin = s.settle_margin
+    rec.absorbing = ft.absorbing
+    rec.settle_ticks = ft.settle_ticks
+    rec.settle_for_s = ft.settle_for_s
+    rec.settle_margin = ft.settle_margin
     for i in range(4):
         for k in range(3):
-            rec.hold_force_n[3 * i + k] = s.hold_w[i][k]
-    rec.pivot_rate_radps = s.pivot_rate_radps
+            rec.hold_force_n[3 * i + k] = ft.hold_w[i][k]
+    rec.pivot_rate_radps = pin.rate_radps
+
+
+class EventLog(NamedTuple):
+    """Where a ship's transitions go: ``events`` (sim.state.TRANSITION_DTYPE), ``count[0]`` of
+    them so far, and the ship's index in its batch."""
+
+    events: np.ndarray
+    count: np.ndarray
+    ship: int
 
 
 @kernel
-def emit(events, count, ship, from_state, to_state, v_radial_mps, t_offset_s):
-    """Append a transition to ``events``, ``t_offset_s`` after the tick's start; ``count[0]`` is
-    how many there are (those past the array's end are counted, not written)."""
-    n = count[0]
-    if n < events.shape[0]:
-        e = events[n]
-        e.ship = ship
+def emit(log, from_state, to_state, v_radial_mps, t_offset_s):
+    """Append a transition to the log, ``t_offset_s`` after the tick's start (those past the
+    array's end are counted, not written)."""
+    n = log.count[0]
+    if n < log.events.shape[0]:
+        e = log.events[n]
+        e.ship = log.ship
         e.from_state = from_state
         e.to_state = to_state
         e.v_radial_mps = v_radial_mps
         e.t_offset_s = t_offset_s
-    count[0] = n + 1
+    log.count[0] = n + 1
+
+
+@constructor
+def scene_ground(cfg, terrain, cos_theta, sin_theta):
+    """The ground of the scene record ``cfg`` with the body turned to (cos, sin)."""
+    return Ground(cfg.body_radius_m, terrain, cos_theta, sin_theta, cfg.omega_radps,
+                  cfg.surface_normal == RADIAL_NORMAL)
 
 
 # -- 1. commands ---------------------------------------------------------------------------------
@@ -175,8 +235,8 @@ def commands(cfg, sp, s, inp):
     hold = int(inp.hold)
     if hold != HOLD_OFF and (s.surface_state == FLYING or s.surface_state == CONTACT):
         bw = cfg.bandwidth_radps
-        omega_rel = sub(s.w, body_spin_in_body_frame(cfg.omega_radps, s.q))
-        up_b = quat_rotate_inv(s.q, unit(s.p))
+        omega_rel = sub(s.motion.w, body_spin_in_body_frame(cfg.omega_radps, s.motion.q))
+        up_b = quat_rotate_inv(s.motion.q, unit(s.motion.p))
         err = cross((0.0, 0.0, 1.0), up_b) if hold == HOLD_RADIAL else (0.0, 0.0, 0.0)
         i_ctl = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
                         sp.mass0_kg, s.mass_kg)
@@ -202,15 +262,15 @@ def near_ground(cfg, terrain, sp, s, cmd, cos0, sin0):
     feet and the tick's motion can reach sideways."""
     dt = cfg.dt_s
     reach_down = sp.com_height_m + sp.leg_radius_m
-    speed = norm(s.v)
+    speed = norm(s.motion.v)
     accel = cfg.surface_gravity_mps2 + cmd.thrust_n / s.mass_kg
     reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
     plane = 0.0
     if cfg.slope_tan != 0.0:
-        east = -sin0 * s.p[0] + cos0 * s.p[1]
-        plane = (terrain.slope_east * east + terrain.slope_north * s.p[2]
+        east = -sin0 * s.motion.p[0] + cos0 * s.motion.p[1]
+        plane = (terrain.slope_east * east + terrain.slope_north * s.motion.p[2]
                  + cfg.slope_tan * (reach_down + reach))
-    clearance = norm(s.p) - cfg.body_radius_m - cfg.terrain_max_m - plane - reach_down
+    clearance = norm(s.motion.p) - cfg.body_radius_m - cfg.terrain_max_m - plane - reach_down
     return clearance < reach
 
 
@@ -222,19 +282,19 @@ def purely_vertical(cfg, terrain, sp, s, cmd):
     exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
     if cfg.omega_radps != 0.0 or cfg.slope_tan != 0.0:
         return False
-    r_hat = unit(s.p)
-    tilt = cross(quat_axis_z(s.q), r_hat)
-    v_rad = dot(s.v, r_hat)
-    slip = sub(s.v, scale(r_hat, v_rad))
+    r_hat = unit(s.motion.p)
+    tilt = cross(quat_axis_z(s.motion.q), r_hat)
+    v_rad = dot(s.motion.v, r_hat)
+    slip = sub(s.motion.v, scale(r_hat, v_rad))
     rcs = cmd.rcs_torque_body_nm
-    if not (dot(tilt, tilt) < VERTICAL_TOL2 and dot(s.w, s.w) < VERTICAL_TOL2
+    if not (dot(tilt, tilt) < VERTICAL_TOL2 and dot(s.motion.w, s.motion.w) < VERTICAL_TOL2
             and dot(slip, slip) < VERTICAL_TOL2 and rcs[0] == 0.0 and rcs[1] == 0.0
             and rcs[2] == 0.0):
         return False
     # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
     for j in range(terrain.n_bumps):
-        de = s.p[1] - terrain.bumps[j, 0]
-        dn = s.p[2] - terrain.bumps[j, 1]
+        de = s.motion.p[1] - terrain.bumps[j, 0]
+        dn = s.motion.p[2] - terrain.bumps[j, 1]
         clear = terrain.bumps[j, 2] + sp.leg_radius_m + 1.0
         if not de * de + dn * dn > clear * clear:
             return False
@@ -253,12 +313,12 @@ def striking(cfg, terrain, sp, s, cos0, sin0):
     local up faster than IMPACT_SPEED_MPS, or its deepest foot pressed deeper than IMPACT_SAGS
     times its static sag g / w^2 (a ship at rest, even on a slope that loads its downhill feet
     more, is far from either)."""
-    r_hat = unit(s.p)
-    v_rad = dot(sub(s.v, surface_velocity(cfg.omega_radps, s.p)), r_hat)
+    r_hat = unit(s.motion.p)
+    v_rad = dot(sub(s.motion.v, surface_velocity(cfg.omega_radps, s.motion.p)), r_hat)
     if abs(v_rad) > IMPACT_SPEED_MPS:
         return True
-    ground = Ground(cfg.body_radius_m, terrain, cos0, sin0, cfg.omega_radps, cfg.radial_normal)
-    pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
+    ground = scene_ground(cfg, terrain, cos0, sin0)
+    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
     return pen > IMPACT_SAGS * cfg.surface_gravity_mps2 / sp.stiffness_per_kg
 
 
@@ -272,9 +332,10 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
                     cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, terrain,
-                    cfg.radial_normal, cos0, sin0, touching, ENGAGE_AT_GROUND,
+                    cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
-                    0.0 if cfg.seed_friction else cfg.friction_kinetic, s.sliding, s.hold_w)
+                    0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
+                    s.footing.sliding, s.footing.hold_w)
 
 
 @kernel
@@ -439,15 +500,26 @@ class SubStep(NamedTuple):
     hold_w: tuple  # each holding foot's static friction over it (sim.friction.Friction)
 
 
+class FootRoles(NamedTuple):
+    """How each foot takes part in a step."""
+
+    engage: tuple  # it presses from penetration > -engage (sim.contact.evaluate)
+    sliding: tuple  # its friction regime
+    dragged: tuple  # it is dragged by its kinetic friction as a force
+    absorbing: bool  # the contact is the absorbers' (SEED-NOTES 1)
+
+
 @separate
-def substep(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t_start):
-    """One step of the method, the feet pressing from ``engage`` and those of ``dragged`` dragged
-    by kinetic friction as a force (``ce_start`` evaluated so); then Coulomb's impulses at the
-    other pressing feet (or the seed's law), spread over the step, and a held footprint kept
-    where the ground carried it. ``sliding``: each foot's regime."""
+def substep(cfg, fb, roles, h, motion, ce_start, t_start):
+    """One step of the method from ``motion``, the feet pressing from ``roles.engage`` and those
+    of ``roles.dragged`` dragged by kinetic friction as a force (``ce_start`` evaluated so); then
+    Coulomb's impulses at the other pressing feet (or the seed's law), spread over the step, and
+    a held footprint kept where the ground carried it."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    res = advance(fb.method, body, h, p, v, q, w, ce_start, absorbing, t_start)
+    res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
     if not fb.touching:
@@ -457,7 +529,7 @@ def substep(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbin
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
                        pressed, NO_HOLD)
     ground_end = ground_at(fb, t_start + h)
-    if cfg.seed_friction:
+    if cfg.friction_model == SEED_FRICTION:
         j_n = j[0] + j[1] + j[2] + j[3]
         fr = seed(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
                   res.p, res.v, res.w, j_n, ground_end)
@@ -569,20 +641,23 @@ class Piece(NamedTuple):
 
 
 @separate
-def to_event(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0, ev):
+def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
     """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
     pressing, and the step to it (the feet about to press kept from pressing): regula falsi
     (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
     starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
     the first), and happens where it does, not at the step's end. The step returned ends just
     past the event (its gap within EVENT_TOL_M above zero)."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
     on = ev.onset
     held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
                 NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
+    held_roles = FootRoles(held_off, sliding, dragged, absorbing)
     body = with_feet(fb, held_off, dragged)
     t_lo = 0.0
     g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
-    st_hi = substep(cfg, fb, held_off, h, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+    st_hi = substep(cfg, fb, held_roles, h, motion, ce_start, t0)
     g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
         return Piece(h, st_hi, False)
@@ -592,7 +667,7 @@ def to_event(cfg, fb, engage, h, p, v, q, w, ce_start, sliding, dragged, absorbi
         t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
         if not (t > t_lo and t < t_hi):
             t = 0.5 * (t_lo + t_hi)
-        st = substep(cfg, fb, held_off, t, p, v, q, w, ce_start, sliding, dragged, absorbing, t0)
+        st = substep(cfg, fb, held_roles, t, motion, ce_start, t0)
         g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
         if g > 0.0:
             t_hi, g_hi, st_hi = t, g, st
@@ -740,270 +815,425 @@ def crossed_at(a0, a1, level, t0, t1):
     return t0 + f * (t1 - t0)
 
 
-class Flight(NamedTuple):
-    """A free ship after its tick of flight."""
+class Report(NamedTuple):
+    """What a free ship's tick of flight reports (sim.step.observe)."""
 
-    ship: Ship
     friction_n: float  # the last sub-step's friction force (the feet's sum)
     normal_n: float  # the normal force at the end
     peak_penetration_m: float  # the deepest penetration of any sub-step
     guard_j: float  # what the passivity guard removed
 
 
+#: a tick without flight (pinned ships; a state at rest)
+NO_REPORT = Report(0.0, 0.0, 0.0, 0.0)
+
+
+class Flight(NamedTuple):
+    """A free ship after its tick of flight."""
+
+    ship: Ship
+    report: Report
+
+
+class SubStepStart(NamedTuple):
+    """A sub-step's start, as its end's transitions compare with it."""
+
+    t_s: float  # from the tick's start
+    pen_m: float  # the deepest foot's penetration
+    v_rad_mps: float  # velocity along local up
+    cos_tilt: float
+
+
+# -- 2a. the touchdown instant: a piece of a sub-step at its start -------------------------------
+class PieceStart(NamedTuple):
+    """A piece of a sub-step at its start: the seed's touchdown rules applied if the first foot is
+    at the ground here, each foot's friction regime as it meets it, and the contact the piece is
+    stepped from."""
+
+    ship: Ship
+    engage: tuple  # each foot's engage threshold from here (sim.contact.evaluate)
+    drag: tuple  # the sliding feet dragged by kinetic friction as a force
+    ce: ContactEval  # the contact at this instant
+    carried: tuple  # the holding feet's friction the piece's FreeBody carries
+    aligned: bool  # a touchdown here stood the ship up (align_on_touchdown)
+    e_ref: EnergyRef  # the passivity guard's reference (measured anew after an alignment)
+    stop: bool  # tipped or crashed at the touchdown: pinned for the rest of the tick
+
+
+@kernel
+def touchdown_transitions(cfg, fb, s, td, t_abs, log):
+    """The transitions of a touchdown at ``t_abs`` (``s`` already aligned), in order, and the
+    state they lead to: crashed above crash_speed, else contact, and a ship lying down already
+    (not stood up) tips over or crashes at once: its hull, which the model does not have, is
+    what touches (MODEL-NOTES 12)."""
+    m = s.motion
+    if td.impact_mps > cfg.crash_speed_mps:
+        emit(log, FLYING, CRASHED, -td.impact_mps, t_abs)
+        return CRASHED
+    emit(log, FLYING, CONTACT, -td.impact_mps, t_abs)
+    if not td.aligned and dot(quat_axis_z(m.q), unit(m.p)) < cfg.cos_tipped:
+        v_rel = sub(m.v, surface_velocity(fb.body_omega_radps, m.p))
+        surf = CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED
+        emit(log, CONTACT, surf, -td.impact_mps, t_abs)
+        return surf
+    return CONTACT
+
+
+@kernel
+def pinned_at(fb, s, ce, t_s):
+    """The pin of a ship that tips or crashes ``t_s`` into the tick: its pose in the body-fixed
+    frame, and a tipped ship's pivot (its lowest foot) and rate of turn about it."""
+    m = s.motion
+    c, s_ = turned(fb.cos0, fb.sin0, fb.body_omega_radps, t_s)
+    pin_p, pin_q = pin_pose(m.p, m.q, c, s_)
+    if s.surface_state != TIPPED:
+        return Pin(pin_p, pin_q, s.pin.pivot_bf_m, s.pin.rate_radps)
+    return Pin(pin_p, pin_q, rotate_z(ce.lowest_foot_w, c, -s_),
+               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m.p, m.v,
+                                  m.q, m.w, ce.lowest_foot_w))
+
+
+@kernel
+def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
+    """A piece's start ``t_abs`` into the tick (``fb`` carrying the held feet's friction): where
+    the first foot is at the ground while the ship flies, the seed's touchdown (its alignment,
+    the absorbers, its transitions: MODEL-NOTES 18); then the feet that meet the ground sliding
+    or holding (``onset_now``: those the last located event touched)."""
+    ground_y = ground_at(fb, t_abs)
+    m, ft = s.motion, s.footing
+    drag = ft.sliding
+    carried = fb.hold_w
+    aligned = False
+    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, m.p, m.v, m.q, m.w, ft.absorbing,
+                      engage)
+    was = engage
+    engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
+    if reach and s.surface_state == FLYING:
+        # the first foot is at the ground: the seed's touchdown, here and now
+        td = touchdown(cfg, fb, ground_y, m.p, m.v, m.q, m.w)
+        m = Motion(td.p, td.v, td.q, td.w)
+        aligned = td.aligned
+        carried = NO_HOLD
+        fb = with_hold(fb, NO_HOLD)
+        ft = fresh_footing(td.absorbing)
+        drag = ft.sliding
+        s = Ship(FLYING, m, s.mass_kg, s.fuel_kg, ft, s.pin)
+        ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m.p, m.v, m.q, m.w,
+                          ft.absorbing, ENGAGE_AT_GROUND)
+        engage = engaged_near(ce_y)
+        was = ENGAGE_AT_GROUND
+        s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
+        if s.surface_state != CONTACT:
+            s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
+            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True)
+        if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
+            e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
+    if cfg.friction_model != SEED_FRICTION:  # a foot meets the ground sliding or holding
+        fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
+                 engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
+        drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
+        s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
+                 Footing(ft.absorbing, drag, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
+                         ft.hold_w), s.pin)
+    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, m.p, m.v, m.q, m.w, ft.absorbing,
+                      engage)
+    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False)
+
+
+# -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
+class PieceStep(NamedTuple):
+    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing."""
+
+    step: SubStep
+    tau_s: float  # how far it went
+    split: bool  # it ended at a foot's event before the sub-step's end
+    onset: tuple  # the feet that event touched
+
+
+@constructor
+def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
+    """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
+    :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
+    impulse instead; cut at the first foot that starts or stops pressing inside it, located
+    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound)."""
+    m, ft = s.motion, s.footing
+    engage, drag, ce_y = start.engage, start.drag, start.ce
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
+    if fb.touching and (drag[0] or drag[1] or drag[2] or drag[3]):
+        # a sliding foot that could stop within the step takes its friction as an impulse
+        ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p, st.v,
+                          st.q, st.w, ft.absorbing, engage)
+        near = dragged_feet(cfg, with_feet(fb, engage, drag), drag, ce_y, ce_e, m.q, rem)
+        if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
+            drag = near
+            ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m.p, m.v, m.q,
+                              m.w, ft.absorbing, engage)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                         t_abs)
+    if fb.touching and may_split:
+        ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
+        if ev.any:
+            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                          t_abs, ev)
+            if pc.found and pc.tau_s < rem:
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset)
+    return PieceStep(st, rem, False, NO_SLIP)
+
+
+@kernel
+def stepped(s, st):
+    """``s`` moved by a (piece of a) sub-step ``st``: its motion, each foot's regime and the held
+    feet's friction."""
+    ft = s.footing
+    return Ship(s.surface_state, Motion(st.p, st.v, st.q, st.w), s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, st.sliding, ft.settle_ticks, ft.settle_for_s,
+                        ft.settle_margin, st.hold_w), s.pin)
+
+
+class Pieces(NamedTuple):
+    """What the pieces of one sub-step did together."""
+
+    touched: bool  # a foot pressed during any of them
+    located: bool  # the method located every piece's deepest penetration
+    peak_m: float  # the deepest penetration it located inside them
+    friction_n: float  # the last piece's friction
+    aligned: bool  # a touchdown inside the sub-step stood the ship up
+    onset: tuple  # the feet the last located event touched (they meet the ground there)
+
+
+class SubStepEnd(NamedTuple):
+    """A sub-step's end after the passivity guard."""
+
+    ship: Ship
+    ce: ContactEval  # the contact there (the dampers following any velocity the guard scaled)
+    e_ref: EnergyRef
+    removed_j: float  # what the guard took
+
+
+@kernel
+def guard_substep(cfg, fb, ground, s, e_ref, passive, pieces, start):
+    """The contact at a sub-step's end, and the passivity guard there (``sim.energy_guard``)."""
+    m, ft = s.motion, s.footing
+    fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
+    ce = contact_at(fb_now, ground, m.p, m.v, m.q, m.w, ft.absorbing, ENGAGE_AT_GROUND)
+    if not cfg.energy_guard:
+        return SubStepEnd(s, ce, e_ref, 0.0)
+    # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
+    # absorber's pull passes no positive impulse, yet trades translation for rotation)
+    airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
+    gd = passivity_guard(fb, ground, m.p, m.v, m.q, m.w, e_ref, passive, airborne)
+    s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
+    if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
+        ce = contact_at(fb_now, ground, m.p, gd.v, m.q, gd.w, ft.absorbing, ENGAGE_AT_GROUND)
+    return SubStepEnd(s, ce, gd.ref, gd.removed_j)
+
+
+@kernel
+def substep_peak(fb, start, pieces, pen, v_rad, h):
+    """The deepest penetration over a sub-step: located by the method, or interpolated between
+    its ends (telemetry)."""
+    if not fb.touching:
+        return 0.0
+    if pieces.located:
+        return fmax(fmax(start.pen_m, pen), pieces.peak_m)
+    return hermite_peak(start.pen_m, -start.v_rad_mps, pen, -v_rad, h)
+
+
+# -- 2c. transitions and their events at a sub-step's end ----------------------------------------
+class Transitioned(NamedTuple):
+    """A sub-step's end after the in-flight transitions."""
+
+    ship: Ship
+    ce: ContactEval
+    e_ref: EnergyRef
+    v_rad_mps: float  # velocity along local up before any touchdown's alignment
+    stop: bool  # tipped or crashed: pinned for the rest of the tick
+
+
+@kernel
+def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
+    """The in-flight transitions, decided on a sub-step's end state: a touchdown the onsets did
+    not locate (the method's last resort), a crash in contact, a liftoff (all feet clear and
+    moving away), a tip past tipped_angle (or its crash); each emitted with the instant it
+    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd)."""
+    s, ce, e_ref = end.ship, end.ce, end.e_ref
+    om = fb.body_omega_radps
+    m, ft = s.motion, s.footing
+    p, v, q, w = m.p, m.v, m.q, m.w
+    surf = s.surface_state
+    aligned = pieces.aligned
+    r_hat = unit(p)
+    v_rad = dot(v, r_hat)
+    v_rad_before = start.v_rad_mps
+    pen = ce.max_penetration_m
+    was = surf
+    cos_tilt = dot(quat_axis_z(q), r_hat)
+    # a touchdown the onsets did not locate (the method's last resort): at the step's end
+    touch = was == FLYING and pen > 0.0 and v_rad < 0.0
+    a_down = _a_down(fb, p, q, r_hat)
+    impact = -v_rad
+    if touch and v_rad_before < 0.0:
+        # the speed at the crossing, from the ballistic motion on the clear side of it
+        above_before = fmax(-start.pen_m, 0.0)
+        impact = math.sqrt(fmax(v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0))
+    separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
+    # in contact: descending faster than crash_speed at either end of the sub-step (the
+    # damper may already have slowed it by the end)
+    crash_in_contact = was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps
+    crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
+    touch_ok = touch and not crash
+    if touch_ok:
+        ft = fresh_footing(impact < cfg.bounce_speed_mps)
+        if cfg.align_on_touchdown:
+            al = align_at_touchdown(fb, ground, p, v, q, w)
+            p, v, q, w = al.p, al.v, al.q, al.w
+            aligned = al.aligned
+            ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground, p, v, q, w,
+                            ft.absorbing, ENGAGE_AT_GROUND)
+            if cfg.energy_guard and al.aligned:  # the snap never adds energy; from after it
+                e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
+        cos_tilt = dot(quat_axis_z(q), r_hat)
+    # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
+    # lift a foot clear while the ship still descends; that is not a liftoff)
+    lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
+    # past tipped_angle in contact; a touchdown already past it that was not stood up by the
+    # alignment lies down at once (its hull, which the model does not have, is what touches)
+    lying_down = touch and not aligned
+    tip = (((was == CONTACT and not lift) or lying_down) and not crash
+           and cos_tilt < cfg.cos_tipped)
+    v_rel = sub(v, surface_velocity(om, p))
+    tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
+    crash = crash or tip_crash
+    tip = tip and not tip_crash
+    if touch_ok:
+        surf = CONTACT
+    if lift:
+        surf = FLYING
+    if tip:
+        surf = TIPPED
+    if crash:
+        surf = CRASHED
+    s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
+    if tip or crash:
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce, t_end))
+    # when each happened inside the sub-step
+    if touch:
+        t_ev = t_end
+    elif lift:
+        t_ev = t_end - clear_instant(fb, ce, p, v, q, w, h)
+    elif crash_in_contact:
+        t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, start.t_s, t_end)
+    else:  # tipped (or its crash): the tilt passing tipped_angle
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
+    if touch_ok and tip:  # two transitions in one sub-step
+        emit(log, FLYING, CONTACT, -impact, t_end)
+        was = CONTACT
+    if surf != was:
+        if was == FLYING:
+            speed = -impact
+        elif surf == FLYING:
+            speed = separation
+        else:
+            speed = v_rad
+        emit(log, was, surf, speed, t_ev)
+    return Transitioned(s, ce, e_ref, v_rad, tip or crash)
+
+
+# -- 2. free flight: the stages in order ----------------------------------------------------------
 @separate
-def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, ship_index, events, count):
-    """Advance a free ship by one tick in ``n_sub`` equal sub-steps. Inside each, every foot that
-    starts or stops pressing is located and stepped to (:func:`to_event`), the seed's touchdown
-    rules applied where the first foot reaches the ground; the in-flight transitions (liftoff, tipped,
-    crash) are decided on each sub-step's end state. Transitions are emitted in the order they
-    happen, each with the instant it happened. ``carry``: the holding feet's friction is carried
-    from step to step as a force (sim.friction.coulomb); without it, impulses alone."""
+def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
+    """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
+
+    a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
+       seed's touchdown rules apply there;
+    b. integrating (:func:`step_piece`, then :func:`guard_substep`): every foot that starts or
+       stops pressing inside the sub-step is located and stepped to, the sub-step going on from
+       there in pieces (a. again at each); the passivity guard at its end;
+    c. the transitions and their events (:func:`in_flight_transitions`), on the sub-step's end
+       state.
+
+    Transitions are emitted in the order they happen, each with the instant it happened. ``carry``:
+    the holding feet's friction is carried from step to step as a force (sim.friction.coulomb);
+    without it, impulses alone."""
     dt = cfg.dt_s
     h = dt / n_sub
-    touching = fb.touching
     om = fb.body_omega_radps
-    p, v, q, w = s.p, s.v, s.q, s.w
-    surf = s.surface_state
-    absorbing = s.absorbing
-    sliding = s.sliding
-    settle = s.settle_ticks
-    settle_for, settle_margin = s.settle_for_s, s.settle_margin
-    hold = s.hold_w
-    pin_p, pin_q, pin_pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
-    pivot_rate = s.pivot_rate_radps
+    m = s.motion
     friction_n = 0.0
     peak = 0.0
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
-    ce = contact_at(fb, ground0, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
-    v_rad = dot(v, unit(p))
-    guard = cfg.energy_guard
+    ce = contact_at(fb, ground0, m.p, m.v, m.q, m.w, s.footing.absorbing, ENGAGE_AT_GROUND)
+    v_rad = dot(m.v, unit(m.p))
     passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
                and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
-    e_ref = energy_ref(ship_energy(fb, ground0, p, v, q, w)) if guard else EnergyRef(0.0, 0.0, 0.0)
-    stop = False  # tipped or crashed: pinned for the rest of the tick
-
+    e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
+             else EnergyRef(0.0, 0.0, 0.0))
+    carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
     for j in range(n_sub):
-        t_off = j * h  # this sub-step's start, from the tick's start
-        pen_before, v_rad_before = ce.max_penetration_m, v_rad
-        cos_before = dot(quat_axis_z(q), unit(p))
+        m = s.motion
+        start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
-        touched = False
-        inner_peak = -math.inf
-        located = True
-        touch_here = False  # a touchdown was located inside this sub-step
-        aligned = False
-        ce_y = ce
-        onset_now = (False, False, False, False)  # the feet the last located event touched
+        pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
+        stop = False
         for k in range(MAX_PIECES + 1):
-            t_abs = t_off + t_in
-            fb = with_hold(fb, hold if carry else NO_HOLD)
-            ground_y = ground_at(fb, t_abs)
-            drag = sliding
-            if touching:
-                ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w, absorbing,
-                                  engage)
-                was = engage
-                engage, reach = at_ground(ce_y, engage, _a_down(fb, p, q, unit(p)))
-                if reach and surf == FLYING:
-                    # the first foot is at the ground: the seed's touchdown, here and now
-                    td = touchdown(cfg, fb, ground_y, p, v, q, w)
-                    p, v, q, w = td.p, td.v, td.q, td.w
-                    absorbing, aligned, touch_here = td.absorbing, td.aligned, True
-                    sliding = drag = (False, False, False, False)
-                    settle, settle_for, settle_margin = 0, 0.0, -1.0
-                    hold = NO_HOLD
-                    fb = with_hold(fb, NO_HOLD)
-                    ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, p, v,
-                                      q, w, absorbing, ENGAGE_AT_GROUND)
-                    engage = engaged_near(ce_y)
-                    was = ENGAGE_AT_GROUND
-                    if td.impact_mps > cfg.crash_speed_mps:
-                        surf = CRASHED
-                        emit(events, count, ship_index, FLYING, CRASHED, -td.impact_mps, t_abs)
-                    else:
-                        surf = CONTACT
-                        emit(events, count, ship_index, FLYING, CONTACT, -td.impact_mps, t_abs)
-                        if not aligned and dot(quat_axis_z(q), unit(p)) < cfg.cos_tipped:
-                            # lying down already: its hull, which the model does not have, is what
-                            # touches (MODEL-NOTES 12)
-                            v_rel = sub(v, surface_velocity(om, p))
-                            surf = CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED
-                            emit(events, count, ship_index, CONTACT, surf, -td.impact_mps, t_abs)
-                    if surf != CONTACT:
-                        c, s_ = turned(fb.cos0, fb.sin0, om, t_abs)
-                        pin_p, pin_q = pin_pose(p, q, c, s_)
-                        if surf == TIPPED:
-                            pin_pivot = rotate_z(ce_y.lowest_foot_w, c, -s_)
-                            pivot_rate = rate_from_momentum(om, fb.mass_kg, fb.inertia_kgm2, p,
-                                                            v, q, w, ce_y.lowest_foot_w)
-                        stop = True
-                        break
-                    if guard and aligned:  # the snap never adds energy; measure from after it
-                        e_ref = energy_ref(ship_energy(fb, ground_y, p, v, q, w))
-                if not cfg.seed_friction:  # a foot meets the ground sliding or holding
-                    fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
-                             engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
-                    sliding = drag = regimes_on_touch(cfg, ce_y, sliding, fresh)
-                ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w, absorbing,
-                                  engage)
-            rem = h - t_in
-            st = substep(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag, absorbing, t_abs)
-            if touching and (drag[0] or drag[1] or drag[2] or drag[3]):
-                # a sliding foot that could stop within the step takes its friction as an impulse
-                ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p,
-                                  st.v, st.q, st.w, absorbing, engage)
-                near = dragged_feet(cfg, with_feet(fb, engage, drag), drag, ce_y, ce_e, q, rem)
-                if (near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2]
-                        or near[3] != drag[3]):
-                    drag = near
-                    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, p, v, q, w,
-                                      absorbing, engage)
-                    st = substep(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag,
-                                 absorbing, t_abs)
-            if touching and k < MAX_PIECES:
-                ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, absorbing,
-                                 engage)
-                if ev.any:
-                    pc = to_event(cfg, fb, engage, rem, p, v, q, w, ce_y, sliding, drag,
-                                  absorbing, t_abs, ev)
-                    if pc.found and pc.tau_s < rem:
-                        st = pc.step
-                        p, v, q, w, sliding, hold = st.p, st.v, st.q, st.w, st.sliding, st.hold_w
-                        onset_now = ev.onset
-                        touched = touched or st.pressed
-                        friction_n = st.friction_n
-                        inner_peak = fmax(inner_peak, st.peak_penetration_m)
-                        located = located and st.located
-                        t_in = t_in + pc.tau_s
-                        continue  # from the event, with the feet that press there
-            p, v, q, w, sliding, hold = st.p, st.v, st.q, st.w, st.sliding, st.hold_w
-            touched = touched or st.pressed
-            friction_n = st.friction_n
-            inner_peak = fmax(inner_peak, st.peak_penetration_m)
-            located = located and st.located
-            break
+            t_abs = start.t_s + t_in
+            carried = s.footing.hold_w if carry else NO_HOLD
+            fb_k = with_hold(fb, carried)
+            ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
+                            False)
+            if fb.touching:
+                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log)
+                s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
+                pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
+                                pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
+                if ps.stop:
+                    stop = True
+                    break
+                fb_k = with_hold(fb, carried)
+            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES)
+            st = pc.step
+            s = stepped(s, st)
+            pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
+                            fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
+                            pieces.aligned, pc.onset)
+            if not pc.split:
+                break
+            t_in = t_in + pc.tau_s  # from the event, with the feet that press there
+        friction_n = pieces.friction_n
         if stop:
             break
-
-        t_end_off = (j + 1) * h
-        ground = ground_at(fb, t_end_off)
-        fb_now = with_feet(fb, ENGAGE_AT_GROUND, sliding)
-        ce = contact_at(fb_now, ground, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
-        if guard:
-            # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
-            # absorber's pull passes no positive impulse, yet trades translation for rotation)
-            airborne = not touched and pen_before < 0.0 and ce.max_penetration_m < 0.0
-            gd = passivity_guard(fb, ground, p, v, q, w, e_ref, passive, airborne)
-            v, w, e_ref = gd.v, gd.w, gd.ref
-            guard_j = guard_j + gd.removed_j
-            if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
-                ce = contact_at(fb_now, ground, p, v, q, w, absorbing, ENGAGE_AT_GROUND)
-
-        # in-flight transitions, decided on this sub-step's end state
-        r_hat = unit(p)
-        v_rad = dot(v, r_hat)
-        pen = ce.max_penetration_m
-        if touching:
-            if located:
-                step_peak = fmax(fmax(pen_before, pen), inner_peak)
-            else:  # interpolate between the sub-step's ends
-                step_peak = hermite_peak(pen_before, -v_rad_before, pen, -v_rad, h)
-            peak = fmax(peak, step_peak)
-        was = surf
-        cos_tilt = dot(quat_axis_z(q), r_hat)
-        # a touchdown the onsets did not locate (the method's last resort): at the step's end
-        touch = was == FLYING and pen > 0.0 and v_rad < 0.0
-        a_down = _a_down(fb, p, q, r_hat)
-        impact = -v_rad
-        if touch and v_rad_before < 0.0:
-            # the speed at the crossing, from the ballistic motion on the clear side of it
-            above_before = fmax(-pen_before, 0.0)
-            impact = math.sqrt(fmax(v_rad_before * v_rad_before + 2.0 * a_down * above_before,
-                                    0.0))
-        separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
-        # in contact: descending faster than crash_speed at either end of the sub-step (the
-        # damper may already have slowed it by the end)
-        crash_in_contact = was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps
-        crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
-        touch_ok = touch and not crash
-        if touch_ok:
-            absorbing = impact < cfg.bounce_speed_mps
-            sliding = (False, False, False, False)
-            settle, settle_for, settle_margin = 0, 0.0, -1.0
-            hold = NO_HOLD
-            if cfg.align_on_touchdown:
-                al = align_at_touchdown(fb, ground, p, v, q, w)
-                p, v, q, w = al.p, al.v, al.q, al.w
-                aligned = al.aligned
-                ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, sliding), ground, p, v, q, w,
-                                absorbing, ENGAGE_AT_GROUND)
-                if guard and al.aligned:  # the snap never adds energy; measure from after it
-                    e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
-            cos_tilt = dot(quat_axis_z(q), r_hat)
-        # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
-        # lift a foot clear while the ship still descends; that is not a liftoff)
-        lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
-        # past tipped_angle in contact; a touchdown already past it that was not stood up by the
-        # alignment lies down at once (its hull, which the model does not have, is what touches)
-        lying_down = touch and not aligned
-        tip = (((was == CONTACT and not lift) or lying_down) and not crash
-               and cos_tilt < cfg.cos_tipped)
-        v_rel = sub(v, surface_velocity(om, p))
-        tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
-        crash = crash or tip_crash
-        tip = tip and not tip_crash
-        if tip or crash:
-            c, s_ = turned(fb.cos0, fb.sin0, om, t_end_off)
-            pin_p, pin_q = pin_pose(p, q, c, s_)
-            if tip:
-                pin_pivot = rotate_z(ce.lowest_foot_w, c, -s_)
-                pivot_rate = rate_from_momentum(om, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                                                ce.lowest_foot_w)
-        if touch_ok:
-            surf = CONTACT
-        if lift:
-            surf = FLYING
-        if tip:
-            surf = TIPPED
-        if crash:
-            surf = CRASHED
-        # when each happened inside the sub-step
-        if touch:
-            t_ev = t_end_off
-        elif lift:
-            t_ev = t_end_off - clear_instant(fb, ce, p, v, q, w, h)
-        elif crash_in_contact:
-            t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, t_off, t_end_off)
-        else:  # tipped (or its crash): the tilt passing tipped_angle
-            t_ev = crossed_at(cos_before, cos_tilt, cfg.cos_tipped, t_off, t_end_off)
-        if touch_ok and tip:  # two transitions in one sub-step
-            emit(events, count, ship_index, FLYING, CONTACT, -impact, t_end_off)
-            was = CONTACT
-        if surf != was:
-            if was == FLYING:
-                speed = -impact
-            elif surf == FLYING:
-                speed = separation
-            else:
-                speed = v_rad
-            emit(events, count, ship_index, was, surf, speed, t_ev)
-        if tip or crash:
+        fb_k = with_hold(fb, carried)
+        t_end = (j + 1) * h
+        ground = ground_at(fb_k, t_end)
+        end = guard_substep(cfg, fb_k, ground, s, e_ref, passive, pieces, start)
+        guard_j = guard_j + end.removed_j
+        m = end.ship.motion
+        peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
+                                       dot(m.v, unit(m.p)), h))
+        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
+        s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
+        if tr.stop:
             break
+    fb_k = with_hold(fb, carried)
+    surf = s.surface_state
+    ft = s.footing
     if surf == CRASHED or surf == TIPPED:
         # pinned during the tick: carried with the body to the tick's end, moving as pinned
-        p = rotate_z(pin_p, cos1, sin1)
-        q = quat_mul(quat_z(cos1, sin1), pin_q)
-        v, w = pinned_motion(om, p, q, rotate_z(pin_pivot, cos1, sin1),
-                             pivot_rate if surf == TIPPED else 0.0)
-        ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, sliding), ground_at(fb, dt), p, v, q, w,
-                        absorbing, ENGAGE_AT_GROUND)
+        pin = s.pin
+        p = rotate_z(pin.pos_bf_m, cos1, sin1)
+        q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
+        v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
+                             pin.rate_radps if surf == TIPPED else 0.0)
+        s = with_motion(s, surf, Motion(p, v, q, w))
+        ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt), p, v,
+                        q, w, ft.absorbing, ENGAGE_AT_GROUND)
     if surf != CONTACT:  # flying, tipped or crashed: no foot holds
-        hold = NO_HOLD
-    out = Ship(surf, p, v, q, w, s.mass_kg, s.fuel_kg, absorbing, sliding, settle, settle_for,
-               settle_margin, hold, pivot_rate, pin_p, pin_q, pin_pivot)
-    return Flight(out, friction_n, abs(ce.normal_n), peak, guard_j)
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
+                 Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
+                         ft.settle_margin, NO_HOLD), s.pin)
+    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j))
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
@@ -1035,27 +1265,27 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     standing square on a slope lands; on level ground it is local vertical, the seed's
     (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
     om = cfg.omega_radps
-    r_hat = unit(s.p)
-    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
-    up_ground = unit(under(ground, s.p)[1])
-    v_rel = sub(s.v, surface_velocity(om, s.p))
+    r_hat = unit(s.motion.p)
+    ground = scene_ground(cfg, terrain, cos1, sin1)
+    up_ground = unit(under(ground, s.motion.p)[1])
+    v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
     v_tan = sub(v_rel, scale(r_hat, v_rad))
-    omega_rel = sub(s.w, body_spin_in_body_frame(om, s.q))
+    omega_rel = sub(s.motion.w, body_spin_in_body_frame(om, s.motion.q))
     lin2, ang2 = cfg.settle_lin2, cfg.settle_ang2
     m = fmin((lin2 - v_rad * v_rad) / lin2, (lin2 - dot(v_tan, v_tan)) / lin2)
     m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
-    m = fmin(m, (dot(quat_axis_z(s.q), up_ground) - cfg.cos_settle_tilt)
+    m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
-    slides = not cfg.seed_friction and (s.sliding[0] or s.sliding[1] or s.sliding[2]
-                                        or s.sliding[3])
+    slides = cfg.friction_model != SEED_FRICTION and (s.footing.sliding[0] or s.footing.sliding[1]
+                                                      or s.footing.sliding[2] or s.footing.sliding[3])
     # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
     # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44)
-    return m if over_footprint(cfg, sp, s.p, s.q) and not slides else fmin(m, -1.0)
+    return m if over_footprint(cfg, sp, s.motion.p, s.motion.q) and not slides else fmin(m, -1.0)
 
 
 @kernel
-def settle(cfg, terrain, sp, s, cos1, sin1, ship_index, events, count):
+def settle(cfg, terrain, sp, s, cos1, sin1, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
@@ -1068,44 +1298,43 @@ def settle(cfg, terrain, sp, s, cos1, sin1, ship_index, events, count):
     dt = cfg.dt_s
     if not ok:
         held = 0.0
-    elif s.settle_ticks > 0:
-        held = s.settle_for_s + dt
+    elif s.footing.settle_ticks > 0:
+        held = s.footing.settle_for_s + dt
     else:  # they began to hold inside this tick: where the margin crossed zero
-        prev = s.settle_margin
+        prev = s.footing.settle_margin
         f = prev / (prev - margin) if prev < 0.0 else 0.0
         held = (1.0 - fmin(fmax(f, 0.0), 1.0)) * dt
-    ticks = s.settle_ticks + 1 if ok else 0
+    ticks = s.footing.settle_ticks + 1 if ok else 0
+    ft = s.footing
     if not (ok and held >= cfg.settle_time_s - 1e-9 * dt):
-        return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, s.absorbing,
-                    s.sliding, ticks, held, margin, s.hold_w, s.pivot_rate_radps, s.pin_pos_bf_m,
-                    s.pin_quat_bf, s.pin_pivot_bf_m)
-    pp, pq = pin_pose(s.p, s.q, cos1, sin1)
+        return Ship(s.surface_state, s.motion, s.mass_kg, s.fuel_kg,
+                    Footing(ft.absorbing, ft.sliding, ticks, held, margin, ft.hold_w), s.pin)
+    m = s.motion
+    pp, pq = pin_pose(m.p, m.q, cos1, sin1)
     om = cfg.omega_radps
-    emit(events, count, ship_index, CONTACT, LANDED, 0.0,
-         fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
-    return Ship(LANDED, s.p, surface_velocity(om, s.p), s.q, body_spin_in_body_frame(om, s.q),
-                s.mass_kg, s.fuel_kg, s.absorbing, s.sliding, 0, 0.0, margin, NO_HOLD,
-                s.pivot_rate_radps, pp, pq, s.pin_pivot_bf_m)
+    emit(log, CONTACT, LANDED, 0.0, fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
+    return Ship(LANDED, Motion(m.p, surface_velocity(om, m.p), m.q, body_spin_in_body_frame(om, m.q)),
+                s.mass_kg, s.fuel_kg, Footing(ft.absorbing, ft.sliding, 0, 0.0, margin, NO_HOLD),
+                Pin(pp, pq, s.pin.pivot_bf_m, s.pin.rate_radps))
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 @kernel
-def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
+def pinned(cfg, sp, s, cmd, cos1, sin1, log):
     """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
     tick's end; tipped ships turn about their pivot foot (sim.pivot.pivot_step), righted (back to
     contact) when tilt < tipped_angle while turning upright. Velocities are those of the pinned
     motion (a tipped ship's turn included). (Liftoff: :func:`lift_off`, at the tick's start.)"""
     om = cfg.omega_radps
     surf = s.surface_state
-    p_bf, q_bf, pivot = s.pin_pos_bf_m, s.pin_quat_bf, s.pin_pivot_bf_m
-    rate = s.pivot_rate_radps
+    p_bf, q_bf, pivot = s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m
+    rate = s.pin.rate_radps
     m = s.mass_kg
     righted = False
     if surf == TIPPED:  # the pivot model (an upright ship has no axis to turn about)
         i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
                       sp.mass0_kg, m)
-        ps = pivot_step(cfg.dt_s, cfg.gm_m3ps2, om, cfg.tipped_rest_rad, cfg.crash_speed_mps,
-                        cfg.cos_tipped, p_bf, q_bf, pivot, m, i_b, rate, cmd.rcs_torque_body_nm)
+        ps = pivot_step(cfg, s.pin, m, i_b, cmd.rcs_torque_body_nm)
         p_bf, q_bf, rate = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
         righted = ps.righted
         if ps.hull_crash:
@@ -1126,29 +1355,29 @@ def pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count):
         # the tilt passing tipped_angle (righted) inside the tick; a hull crash at its end
         t_ev = cfg.dt_s
         if righted:
-            t_ev = crossed_at(dot(quat_axis_z(s.pin_quat_bf), unit(s.pin_pos_bf_m)),
+            t_ev = crossed_at(dot(quat_axis_z(s.pin.quat_bf), unit(s.pin.pos_bf_m)),
                               dot(quat_axis_z(q_bf), unit(p_bf)), cfg.cos_tipped, 0.0, cfg.dt_s)
-        emit(events, count, ship_index, s.surface_state, surf, v_rad, t_ev)
-    return Ship(surf, p, v, q, w, m, s.fuel_kg, True if righted else s.absorbing,
-                (False, False, False, False) if righted else s.sliding,
-                0 if righted else s.settle_ticks, 0.0 if righted else s.settle_for_s,
-                -1.0 if righted else s.settle_margin, NO_HOLD,
-                0.0 if (righted or surf == CRASHED) else rate, p_bf, q_bf, pivot)
+        emit(log, s.surface_state, surf, v_rad, t_ev)
+    ft = s.footing
+    footing = (fresh_footing(True) if righted else
+               Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
+                       ft.settle_margin, NO_HOLD))
+    return Ship(surf, Motion(p, v, q, w), m, s.fuel_kg, footing,
+                Pin(p_bf, q_bf, pivot, 0.0 if (righted or surf == CRASHED) else rate))
 
 
 @kernel
-def lift_off(cfg, s, cmd, ship_index, events, count):
+def lift_off(cfg, s, cmd, log):
     """Landed or tipped -> flying at the tick's start, when the engine's push along local up beats
     the weight in the effective gravity (MODEL-NOTES 25): the tick is then flown with its thrust
     (its fuel buys its motion), from the pinned pose and motion at that instant."""
-    up = unit(s.p)
-    weight = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.p), up)
-    if not cmd.thrust_n * dot(quat_axis_z(s.q), up) > weight:
+    up = unit(s.motion.p)
+    weight = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), up)
+    if not cmd.thrust_n * dot(quat_axis_z(s.motion.q), up) > weight:
         return s
-    emit(events, count, ship_index, s.surface_state, FLYING, 0.0, 0.0)
-    return Ship(FLYING, s.p, s.v, s.q, s.w, s.mass_kg, s.fuel_kg, True,
-                (False, False, False, False), 0, 0.0, -1.0, NO_HOLD, 0.0, s.pin_pos_bf_m,
-                s.pin_quat_bf, s.pin_pivot_bf_m)
+    emit(log, s.surface_state, FLYING, 0.0, 0.0)
+    return Ship(FLYING, s.motion, s.mass_kg, s.fuel_kg, fresh_footing(True),
+                Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
@@ -1159,53 +1388,61 @@ def burn(cfg, sp, s, cmd):
     rcs_thrust = (abs(rcs[0]) + abs(rcs[1]) + abs(rcs[2])) / sp.rcs_arm_m
     flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
     used = fmin(flow * cfg.dt_s, s.fuel_kg)
-    return Ship(s.surface_state, s.p, s.v, s.q, s.w, s.mass_kg - used, s.fuel_kg - used,
-                s.absorbing, s.sliding, s.settle_ticks, s.settle_for_s, s.settle_margin,
-                s.hold_w, s.pivot_rate_radps, s.pin_pos_bf_m,
-                s.pin_quat_bf, s.pin_pivot_bf_m)
+    return Ship(s.surface_state, s.motion, s.mass_kg - used, s.fuel_kg - used, s.footing, s.pin)
 
 
 # -- 6. observe ----------------------------------------------------------------------------------
 @kernel
-def observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak_pen_m, guard_j, cos1, sin1, out):
-    """Telemetry at the end of the tick, into the ship's output record. Forces come from the
-    free-flight phase (free ships) or are the weight (landed, tipped)."""
+def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
+    """Telemetry at the end of the tick, into the ship's output record, in place. Forces come from
+    the free-flight phase's ``report`` (free ships) or are the weight (landed, tipped)."""
     om = cfg.omega_radps
-    ground = Ground(cfg.body_radius_m, terrain, cos1, sin1, om, cfg.radial_normal)
-    pen = lowest_foot_penetration(ground, s.p, s.q, sp.leg_radius_m, sp.com_height_m)
-    r_hat = unit(s.p)
-    v_rel = sub(s.v, surface_velocity(om, s.p))
+    ground = scene_ground(cfg, terrain, cos1, sin1)
+    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+    r_hat = unit(s.motion.p)
+    v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
     held = s.surface_state == LANDED or s.surface_state == TIPPED
     if held:
-        normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.p), r_hat)
+        normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), r_hat)
     elif s.surface_state == CRASHED:
         normal = 0.0
     else:
-        normal = normal_n
+        normal = report.normal_n
     out.altitude_m = -pen
     out.penetration_m = fmax(pen, 0.0)
-    out.peak_penetration_m = fmax(fmax(peak_pen_m, pen), 0.0)
-    out.cos_tilt = dot(quat_axis_z(s.q), r_hat)
+    out.peak_penetration_m = fmax(fmax(report.peak_penetration_m, pen), 0.0)
+    out.cos_tilt = dot(quat_axis_z(s.motion.q), r_hat)
     out.v_radial_mps = v_rad
     out.v_tangential_mps = norm(sub(v_rel, scale(r_hat, v_rad)))
     out.normal_force_n = normal
-    out.friction_force_n = 0.0 if held else friction_n
+    out.friction_force_n = 0.0 if held else report.friction_n
     out.throttle = cmd.throttle
     for k in range(3):
         out.rcs_torque_body_nm[k] = cmd.rcs_torque_body_nm[k]
-    out.energy_guard_j = guard_j
+    out.energy_guard_j = report.guard_j
 
 
 # -- the step ------------------------------------------------------------------------------------
-@kernel
-def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_index, events, count):
-    """One ship's tick: the phases above, in order. ``rec`` is updated in place."""
+class Turn(NamedTuple):
+    """The body's angle at the tick's start (cos0, sin0) and end (cos1, sin1)."""
+
+    cos0: float
+    sin0: float
+    cos1: float
+    sin1: float
+
+
+@constructor
+def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
+    """One ship's tick: the phases above, in order. ``rec`` is updated in place, ``out`` written,
+    the transitions appended to ``log`` (an :class:`EventLog`)."""
+    cos0, sin0, cos1, sin1 = turn
     s = load(rec)
     cmd = commands(cfg, sp, s, inp)
-    friction_n = normal_n = peak = guard_j = 0.0
+    report = NO_REPORT
     if s.surface_state == LANDED or s.surface_state == TIPPED:
-        s = lift_off(cfg, s, cmd, ship_index, events, count)
+        s = lift_off(cfg, s, cmd, log)
     if s.surface_state == FLYING or s.surface_state == CONTACT:
         fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
         exact_one = (fine and cfg.vertical_one_step
@@ -1218,28 +1455,37 @@ def step_ship(cfg, terrain, sp, rec, inp, out, cos0, sin0, cos1, sin1, ship_inde
         method = sub_method(cfg.method, fine and not exact_one)
         fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
         # an impact's static friction changes too fast to be carried over: impulses alone
-        fl = free_flight(cfg, fb, s, n_sub, not strikes, cos1, sin1, ship_index, events, count)
-        s = fl.ship
-        friction_n, normal_n, peak, guard_j = (fl.friction_n, fl.normal_n, fl.peak_penetration_m,
-                                               fl.guard_j)
+        fl = free_flight(cfg, fb, s, n_sub, not strikes, cos1, sin1, log)
+        s, report = fl.ship, fl.report
         if fine:
-            s = settle(cfg, terrain, sp, s, cos1, sin1, ship_index, events, count)
+            s = settle(cfg, terrain, sp, s, cos1, sin1, log)
     else:
-        s = pinned(cfg, sp, s, cmd, cos1, sin1, ship_index, events, count)
+        s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
-    observe(cfg, terrain, sp, s, cmd, friction_n, normal_n, peak, guard_j, cos1, sin1, out)
+    observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
+
+
+class Written(NamedTuple):
+    """Where step_ticks writes a block of ticks: row k of each per-tick array is the k-th tick."""
+
+    states: np.ndarray  # (ticks, ships) sim.state.STATE_DTYPE
+    outputs: np.ndarray  # (ticks, ships) OUTPUTS_DTYPE
+    inputs: np.ndarray  # (ticks, ships) INPUTS_DTYPE: the commands in force
+    events: np.ndarray  # TRANSITION_DTYPE, appended
+    event_ticks: np.ndarray  # the tick each event led to
+    count: np.ndarray  # count[0]: the events so far
 
 
 @separate
-def step_ships(scene, terrain, ships, state, inputs, outputs, cos0, sin0, cos1, sin1, events,
-               count):
-    """Every ship's tick, one after another: ``state`` is updated in place, ``outputs`` written,
-    and the transitions appended to ``events`` (``count[0]`` of them; sim.step.emit)."""
-    cfg, ter = scene[0], terrain[0]
+def step_ships(recs, state, inputs, outputs, turn, events, count):
+    """Every ship's tick, one after another (``turn``: the body's angles, a :class:`Turn`):
+    ``state`` is updated in place, ``outputs`` written, and the transitions appended to
+    ``events`` (``count[0]`` of them; sim.step.emit)."""
+    cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     for i in range(state.shape[0]):
-        step_ship(cfg, ter, ships[i], state[i], inputs[i], outputs[i], cos0, sin0, cos1, sin1, i,
-                  events, count)
+        step_ship(cfg, ter, ships[i], state[i], inputs[i], outputs[i], turn,
+                  EventLog(events, count, i))
 
 
 @kernel
@@ -1257,16 +1503,20 @@ def apply_commands(commands, c, tick, inputs):
     return c
 
 
-@separate
-def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rotations, states_out,
-               outputs_out, inputs_out, events, event_ticks, count, first_tick, tick_capacity):
-    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(states_out)``:
-    before the step from each tick the commands for it (``commands``, sorted by tick, from index
-    ``next_command``) are applied to ``inputs``; after it the state, the telemetry and the commands
-    in force are row k of ``states_out``, ``outputs_out`` and ``inputs_out``. Transitions are
-    appended to ``events`` (the tick each one led to in ``event_ticks``); the loop stops early
-    when fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin)
-    at the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+@entry
+def step_ticks(recs, state, inputs, commands, next_command, rotations, out, first_tick,
+               tick_capacity):
+    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(out.states)``
+    (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step from each tick the
+    commands for it (``commands``, sorted by tick, from index ``next_command``) are applied to
+    ``inputs``; after it the state, the telemetry and the commands in force are row k of
+    ``out.states``, ``out.outputs`` and ``out.inputs``. Transitions are appended to
+    ``out.events`` (the tick each one led to in ``out.event_ticks``); the loop stops early when
+    fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin) at
+    the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+    cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
+    states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
+    events, event_ticks, count = out.events, out.event_ticks, out.count
     c = next_command
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
@@ -1274,8 +1524,13 @@ def step_ticks(scene, terrain, ships, state, inputs, commands, next_command, rot
         tick = first_tick + k
         c = apply_commands(commands, c, tick, inputs)
         n0 = count[0]
-        step_ships(scene, terrain, ships, state, inputs, outputs_out[k], rotations[k, 0],
-                   rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1], events, count)
+        # each ship's tick, one after another (as step_ships, whose own compiled library would
+        # repeat this one's: step_ship is inlined here)
+        out_k = outputs_out[k]
+        turn = Turn(rotations[k, 0], rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1])
+        for i in range(state.shape[0]):
+            step_ship(cfg, ter, ships[i], state[i], inputs[i], out_k[i], turn,
+                      EventLog(events, count, i))
         for e in range(n0, min(count[0], events.shape[0])):
             event_ticks[e] = tick + 1
         states_out[k, :] = state
@@ -1311,9 +1566,9 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     cap = tick_capacity(params)
     events, event_ticks = np.empty(cap, TRANSITION_DTYPE), np.empty(cap, np.int64)
     count = np.zeros(1, np.int64)
-    step_ticks(params.scene, params.terrain, params.ships.rows, state.rows.copy(), inputs.rows.copy(),
-               NO_COMMANDS, 0, rotations(params, state.tick, 1), states, outputs, ins, events,
-               event_ticks, count, state.tick, cap)
+    step_ticks(params.records, state.rows.copy(), inputs.rows.copy(), NO_COMMANDS, 0,
+               rotations(params, state.tick, 1),
+               Written(states, outputs, ins, events, event_ticks, count), state.tick, cap)
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
             transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))
@@ -1334,15 +1589,14 @@ def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
     return out
 
 
-@separate
+@entry
 def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""
     cfg, ter = scene[0], terrain[0]
     idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0))
     for i in range(state.shape[0]):
-        observe(cfg, ter, ships[i], load(state[i]), idle, 0.0, 0.0, 0.0, 0.0, cos_t, sin_t,
-                outputs[i])
+        observe(cfg, ter, ships[i], load(state[i]), idle, NO_REPORT, cos_t, sin_t, outputs[i])
 
 
 def outputs_at(params: Params, state: State) -> Outputs:

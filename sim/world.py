@@ -19,12 +19,12 @@ from typing import Iterator
 import numpy as np
 
 from sim import vec
-from sim.compiled import kernel, separate
+from sim.compiled import entry, kernel, separate
 from sim.params import Params, ShipParams
 from sim.scenario import Scenario, Scene, parse, quat_from_axes
 from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
                        Event, Inputs, Outputs, State, concatenate)
-from sim.step import outputs_at, rotations, step_ticks, tick_capacity, transitions
+from sim.step import Written, outputs_at, rotations, step_ticks, tick_capacity, transitions
 from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: A block holds about this many bytes of records: long enough that the interpreter's share of a
@@ -253,9 +253,9 @@ class World:
         events = np.empty(cap * min(k_max, 8), TRANSITION_DTYPE)
         event_ticks = np.empty(events.shape[0], np.int64)
         count = np.zeros(1, np.int64)
-        done, c = step_ticks(params.scene, params.terrain, params.ships.rows, state, inputs, table,
-                             0, rotations(params, first, k_max), states, outputs, ins, events,
-                             event_ticks, count, first, cap)
+        done, c = step_ticks(params.records, state, inputs, table, 0,
+                             rotations(params, first, k_max),
+                             Written(states, outputs, ins, events, event_ticks, count), first, cap)
         applied = commands[:c]
         self.timeline = Timeline(self.timeline.spawns, self.timeline.retires,
                                  commands[c:] + rest)
@@ -329,7 +329,7 @@ class World:
                      retired, block.commands)
 
 
-@separate
+@entry
 def _turn_rows(rows, cos_t, sin_t):
     """Turn ships placed at tick 0 to where the body has carried their site by a tick whose
     rotation is (cos_t, sin_t) about the spin axis z: positions, velocities and attitudes turn;

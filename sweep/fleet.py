@@ -18,12 +18,11 @@ from typing import Callable, Sequence
 import numpy as np
 
 from sim.compiled import separate
-from sim.contact import Ground
 from sim.energy import mechanical, total
 from sim.frames import body_rotation
-from sim.params import SCENE_DTYPE
+from sim.params import SCENE_DTYPE, Records
 from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import CONTACT, apply_commands, observe_ships, step_ships
+from sim.step import CONTACT, Turn, apply_commands, observe_ships, scene_ground, step_ships
 from sim.vec import quat_axis_z
 from sweep.cases import Sweep
 
@@ -54,8 +53,7 @@ def _energy_into(scenes, terrains, group, rot_index, rot, ships, state, acc, end
         sp = ships[i]
         rec = state[i]
         r = rot_index[i]
-        ground = Ground(cfg.body_radius_m, terrains[g], rot[r, 0], rot[r, 1], cfg.omega_radps,
-                        cfg.radial_normal)
+        ground = scene_ground(cfg, terrains[g], rot[r, 0], rot[r, 1])
         ratio = rec.mass_kg / sp.mass0_kg
         e = mechanical(cfg.gm_m3ps2, cfg.body_radius_m, cfg.omega_radps, sp.stiffness_per_kg,
                        sp.leg_radius_m, sp.com_height_m, rec.mass_kg,
@@ -125,8 +123,9 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
             count[0] = 0
             # the tick of record and replay (sim.step.step_ships, already compiled for them),
             # on this one ship with its own scene
-            step_ships(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1], state[i:i + 1],
-                       inputs[i:i + 1], outs[i:i + 1], c0, s0, c1, s1, events, count)
+            step_ships(Records(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1]),
+                       state[i:i + 1], inputs[i:i + 1], outs[i:i + 1], Turn(c0, s0, c1, s1),
+                       events, count)
             a = acc[i]
             o = outs[i]
             if o.cos_tilt < a.min_cos_tilt:

@@ -9,7 +9,7 @@ from scenes import events, final_state, one_ship, records, scene, tilt_deg, topi
 from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from sim.enums import SurfaceState
 from sim.state import TRANSITION_DTYPE
-from sim.step import settle
+from sim.step import EventLog, settle
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 M = 10000.0
@@ -97,7 +97,7 @@ def _settles(params, st, ticks=1):
     cfg, terrain, sp, ship, _ = one_ship(params, st)
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship = settle(cfg, terrain, sp, ship, 1.0, 0.0, 0, events, count)
+        ship = settle(cfg, terrain, sp, ship, 1.0, 0.0, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
@@ -159,7 +159,8 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     speeds = [0.6, 0.55, 0.45]  # at the ends of the first three ticks; then 0.45 on
     for k in range(40):
         v = -speeds[min(k, 2)] * r_hat
-        ship = settle(cfg, terrain, sp, ship._replace(v=(v[0], v[1], v[2])), 1.0, 0.0, 0, events, count)
+        moved = ship._replace(motion=ship.motion._replace(v=(v[0], v[1], v[2])))
+        ship = settle(cfg, terrain, sp, moved, 1.0, 0.0, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             break
     began = 2 * dt + 0.525 * dt
