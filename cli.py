@@ -621,6 +621,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
     if stats_json:
         Path(stats_json).write_text(json.dumps({
             "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
+            "phases": stats.phases, "cpu_s": time.process_time(),
+            "loop_cpu_s": time.thread_time(),
             "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,
             "recent": [[round(t, 4), d] for t, d in stats.recent],

@@ -27,6 +27,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
+from logs.encode import chunk_level
 from logs.codec import PACKED, BlockEncoder, decode_tick
 from logs.decode import TickBlock, decode_block
 from logs.safe_read import ReadLimits, ReadStatus, iter_messages
@@ -235,7 +236,8 @@ class LogWriter(FinishedOrGone):
     from the caller (write, close)."""
 
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
-                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
+                 zstd_level: int | None = None):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.header = header
@@ -244,6 +246,7 @@ class LogWriter(FinishedOrGone):
         self._dt_ns = int(round(header.dt_s * 1e9))
         keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
+        self._zstd_level = zstd_level  # the chunks' (logs.encode; None: the library's, 3)
         self._stream = open(self.partial, "wb")
         try:
             self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
@@ -278,6 +281,7 @@ class LogWriter(FinishedOrGone):
 
     def _drain(self) -> None:
         """The writer's thread: add every queued block's messages, until the end marker."""
+        chunk_level(self._zstd_level)
         while True:
             item = self._queue.get()
             if item is None:

@@ -33,6 +33,7 @@ import sys
 import threading
 import time
 from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -42,7 +43,9 @@ import redis
 
 from service import redis_io as rio
 from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
-from service.flightlog import ServiceLog
+from service.flightlog import ServiceLog, lower_priority
+from service.phases import Phases
+from service.telemetry import TelemetryEncoder
 from service.shard import Limits, Shard, TickOut
 from sim.errors import TouchdownError
 from sim.scenario import Scenario, Scene, parse as parse_doc
@@ -90,6 +93,8 @@ class ServeConfig:
     log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
     keyframe_every: int = 10
+    #: the flight log's zstd level (logs.encode): a fast one, the log's largest cost at scale
+    log_zstd_level: int | None = -3
     worker_id: str = ""
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
@@ -119,6 +124,9 @@ class Stats:
     takeovers: int = 0
     lag_s: float = 0.0  # how far behind its schedule the last loop began
     recent: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))  # (time, seconds)
+    #: where the loop's time goes: phase -> [wall seconds, the loop thread's CPU seconds]
+    #: summed over every loop (service.phases.Phases)
+    phases: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -130,6 +138,7 @@ class _Owned:
     params: dict = field(default_factory=dict)  # ship id -> its parameter record, to write
     hashes: dict = field(default_factory=dict)  # ship id -> fields or None, to write
     telemetry: list = field(default_factory=list)  # serialized samples to add
+    tele: TelemetryEncoder = field(default_factory=TelemetryEncoder)
     backlog: deque = field(default_factory=deque)  # requests read, waiting for their tick
     inflight: set = field(default_factory=set)  # entry ids read and not yet acknowledged
     #: the start id of a re-read of this worker's own pending entries (after a Redis error: a
@@ -151,6 +160,8 @@ class Worker:
         self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream, cfg.cluster)
         self.owned: dict[int, _Owned] = {}
         self.stats = Stats()
+        self.phase = Phases(self.stats.phases)
+        self._pack_pool: ThreadPoolExecutor | None = None
         self.stop = threading.Event()
         self.redis_up = True
         self._down_since = 0.0
@@ -328,18 +339,22 @@ class Worker:
             lost, self._lease_lost = self._lease_lost, set()
             for k in sorted(lost & set(self.owned)):
                 self._redis(self._relet, k)
+        ph = self.phase
         if self.redis_up and now >= self._next_lease:
-            self._redis(self._leases)
+            with ph("leases"):
+                self._redis(self._leases)
             self._next_lease = now + self.cfg.lease_s / 4
         if self.redis_up:
-            self._redis(self._read_commands)
-            if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
-                self._redis(self._route)
+            with ph("read"):
+                self._redis(self._read_commands)
+                if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
+                    self._redis(self._route)
         for k in sorted(self.owned):
             o = self.owned[k]
             self._step(o, self._admit(o))
         if self.redis_up:
-            self._redis(self._flush, clears=True)
+            with ph("flush"):
+                self._redis(self._flush, clears=True)
 
     def _admit(self, o: _Owned) -> list:
         """The backlog's requests for this tick, in order, within the tick's budget of
@@ -366,16 +381,20 @@ class Worker:
         sh = o.shard
         if requests:
             o.journal.append((sh.tick, requests, [r.entry_id for r in requests]))
-        out = sh.step(requests)
-        self._take(o, out)
+        out = sh.step(requests, self.phase)
+        with self.phase("take"):
+            self._take(o, out)
         every = self.telemetry_every
         if every and sh.world.state.n:
-            # a rolling slice: each ship once per period, the work spread over its ticks
-            rows = np.arange(sh.tick % every, sh.world.state.n, every)
-            if rows.size and out.blocks:
-                o.telemetry.append(sh.telemetry(out.blocks[-1], rows, self.dt_s, sh.index)
-                                   .SerializeToString())
-                del o.telemetry[:-4 * every]  # a sample: only the latest wait for Redis
+            with self.phase("telemetry"):
+                # a rolling slice: each ship once per period, the work spread over its ticks
+                offset = sh.tick % every
+                if offset < sh.world.state.n and out.blocks:
+                    b = out.blocks[-1]
+                    o.telemetry.append(o.tele.encode(b.states[-1], b.outputs[-1], b.ship_ids,
+                                                     b.last_tick, self.dt_s, sh.index, offset,
+                                                     every))
+                    del o.telemetry[:-4 * every]  # a sample: only the latest wait for Redis
 
     def _take(self, o: _Owned, out: TickOut) -> None:
         o.unsent.extend(out.entries)
@@ -626,17 +645,22 @@ class Worker:
                 # taken now, sent once the log has this tick on disk (no waiting on the log's
                 # thread here: that was the slowest tick's time)
                 gone = [sid for t, sid in o.retired if t <= sh.tick]
-                o.checkpoint = (rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland,
-                                                    sh.published),
-                                sh.tick, sh.published, sh.log.flush(wait=False), gone)
-            if o.checkpoint is not None and o.checkpoint[3].is_set():
-                blob, tick, published, _, gone = o.checkpoint
+                with self.phase("checkpoint"):  # the records copied; packed on a thread
+                    pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
+                                                sh.published)
+                    o.checkpoint = (self._packer().submit(pack), sh.tick, sh.published,
+                                    sh.log.flush(wait=False), gone)
+            if (o.checkpoint is not None and o.checkpoint[3].is_set()
+                    and o.checkpoint[0].done()):
+                packed, tick, published, _, gone = o.checkpoint
+                blob = packed.result()
                 self._script("CHECKPOINT", self._checkpoint_keys(k),
                              [self.id, blob, tick, published, *gone], client=pipe)
                 plan.append(("checkpoint", k, 0))
         if not plan:
             return
-        replies = pipe.execute(raise_on_error=False)
+        with self.phase("redis_io"):
+            replies = pipe.execute(raise_on_error=False)
         failed: set[int] = set()
         first_error = None
         for (what, k, n), reply in zip(plan, replies):
@@ -665,6 +689,14 @@ class Worker:
             self._lose(k, "its lease passed to another worker")
         if first_error is not None:
             raise first_error  # said once by _redis; what failed stays held
+
+    def _packer(self) -> ThreadPoolExecutor:
+        """The thread that packs checkpoints (zstd; off the tick)."""
+        if self._pack_pool is None:
+            self._pack_pool = ThreadPoolExecutor(
+                1, thread_name_prefix="touchdown-checkpoint",
+                initializer=lambda: lower_priority(threading.get_native_id()))
+        return self._pack_pool
 
     def _checkpoint_due(self, k: int, tick: int) -> bool:
         """Every ``checkpoint_every`` ticks, the shards staggered across that period (the work
@@ -833,7 +865,8 @@ class Worker:
             prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
             max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
             source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
-            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes)
+            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes,
+            zstd_level=self.cfg.log_zstd_level)
         shard.log.start()  # the file's first record: the state it starts at
         o = _Owned(shard)
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
@@ -1005,6 +1038,8 @@ class Worker:
                 pass
         if self._metrics_server is not None:
             self._metrics_server.shutdown()
+        if self._pack_pool is not None:
+            self._pack_pool.shutdown(wait=False)
 
     def _final_flush(self) -> bool:
         self._flush()
