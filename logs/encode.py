@@ -13,6 +13,7 @@ the library's own level 3 otherwise: a writer that asks nothing writes what it a
 """
 from __future__ import annotations
 
+import json
 import threading
 
 import mcap.writer
@@ -42,3 +43,34 @@ def chunk_level(level: int | None) -> None:
 
 if not isinstance(mcap.writer.zstandard, _Zstandard):
     mcap.writer.zstandard = _Zstandard()
+
+
+class ShipTables(dict):
+    """Ship id -> its resolved table (``world_header``'s cache across the headers of one
+    world), and each table's JSON kept beside it: a rotating log's header lists the tables of
+    every ship present (7.6 MB of JSON at 12,500 ships, 140 ms to encode), and with each
+    ship's JSON kept the next header is a join (a few milliseconds)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.json: dict[str, str] = {}
+
+
+_SHIPS = "\x00touchdown-ships\x00"
+
+
+def resolved_json(resolved: dict, ids: list[str], tables: dict | None) -> str:
+    """``json.dumps(resolved, sort_keys=True)``, the same string, with the ships' tables
+    (``resolved["ships"]``, those of ``ids`` in order) encoded once each when ``tables`` is a
+    ShipTables."""
+    if not isinstance(tables, ShipTables) or not ids:
+        return json.dumps(resolved, sort_keys=True)
+    cache = tables.json
+    parts = []
+    for sid, table in zip(ids, resolved["ships"]):
+        s = cache.get(sid)
+        if s is None:
+            s = cache[sid] = json.dumps(table, sort_keys=True)
+        parts.append(s)
+    head = json.dumps({**resolved, "ships": _SHIPS}, sort_keys=True)
+    return head.replace(json.dumps(_SHIPS), "[" + ", ".join(parts) + "]", 1)

@@ -27,7 +27,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs import LogError
-from logs.encode import chunk_level
+from logs.encode import chunk_level, resolved_json
 from logs.codec import PACKED, BlockEncoder, decode_tick
 from logs.decode import TickBlock, decode_block
 from logs.safe_read import ReadLimits, ReadStatus, iter_messages
@@ -166,7 +166,7 @@ def world_header(world: World, name: str, source: str, keyframe_interval: int = 
     return pb.ScenarioRecord(
         log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=name,
         description=resolved.get("description", ""),
-        resolved_json=json.dumps(resolved, sort_keys=True), integrator=sim.integrator,
+        resolved_json=resolved_json(resolved, ids, tables), integrator=sim.integrator,
         dt_s=sim.dt_s, ship_ids=ids, player_ids=list(world.params.ships.player_id),
         body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
         keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended)
@@ -247,6 +247,7 @@ class LogWriter(FinishedOrGone):
         keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
         self._zstd_level = zstd_level  # the chunks' (logs.encode; None: the library's, 3)
+        chunk_level(zstd_level)  # (the header's chunk is compressed on this thread)
         self._stream = open(self.partial, "wb")
         try:
             self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
@@ -298,7 +299,11 @@ class LogWriter(FinishedOrGone):
             if self._error is not None or self._abort:
                 continue  # drop the rest; the caller hears of the error
             try:
-                self._write_encoded(*item)
+                block, keys, first_keyframe, events, inputs = item
+                data, offsets = self._encoder.encode(block.first_tick, block.states,
+                                                     block.outputs, block.inputs, keys,
+                                                     first_keyframe=first_keyframe)
+                self._write_encoded(block.first_tick, data, offsets, events, inputs)
                 self._size = self._stream.tell()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self._error = exc
@@ -354,9 +359,6 @@ class LogWriter(FinishedOrGone):
         inputs = self._inputs(block)
         if self._keys_of[0] is not block.ship_ids:  # the same tuple while the fleet is the same
             self._keys_of = (block.ship_ids, self.ships.keys(block.ship_ids))
-        data, offsets = self._encoder.encode(block.first_tick, block.states, block.outputs,
-                                             block.inputs, self._keys_of[1],
-                                             first_keyframe=self.last_tick < 0)
         msgs = []
         events: dict[int, list[bytes]] = {}
         body = self.header.body
@@ -365,7 +367,8 @@ class LogWriter(FinishedOrGone):
             m = event_message(self.ships, body, self.header.dt_s, state, ev)
             events.setdefault(ev.tick, []).append(m.SerializeToString())
             msgs.append(m)
-        self._queue.put((block.first_tick, data, offsets, events, inputs))
+        # encoded on the writer's thread (compiled, without the GIL): off the caller's tick
+        self._queue.put((block, self._keys_of[1], self.last_tick < 0, events, inputs))
         self.event_count += len(msgs)
         self.last_tick = block.last_tick
         return msgs

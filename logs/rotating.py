@@ -28,6 +28,7 @@ import threading
 from pathlib import Path
 from typing import Callable
 
+from logs.encode import ShipTables
 from logs.mcap_log import FinishedOrGone, LogWriter, world_header
 from proto import touchdown_pb2 as pb
 from sim.world import Block, World
@@ -73,7 +74,8 @@ class RotatingLog(FinishedOrGone):
         self.zstd_level = zstd_level
         self.files: list[Path] = []
         self.writer: LogWriter | None = None
-        self._tables: dict[str, dict] = {}  # ship id -> its resolved table (world_header)
+        # ship id -> its resolved table (world_header), and its JSON
+        self._tables: dict[str, dict] = ShipTables()
         self.event_count = 0
         self._closed = False
 

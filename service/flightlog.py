@@ -62,13 +62,17 @@ class ServiceLog:
     def __init__(self, directory: Path, world: Callable[[], World], say: Callable[[str], None],
                  *, prefix: str, keyframe_interval: int, max_bytes: int, name: str, source: str,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
-                 retry_s: float = 2.0, zstd_level: int | None = None):
+                 retry_s: float = 2.0, zstd_level: int | None = None,
+                 first_bytes: int | None = None):
         self.directory = Path(directory)
         self._world = world
         self.say = say
         self.opts = dict(prefix=prefix, keyframe_interval=keyframe_interval, max_bytes=max_bytes,
                          name=name, source=source, open_ended=True, zstd_level=zstd_level)
         self._niced = None  # the writer whose thread was last given a lower priority
+        # the first file's bound (the shards' files staggered: their rotations, each a header
+        # of every ship's table and a keyframe, fall on different ticks)
+        self.first_bytes = first_bytes
         self.max_total_bytes = max_total_bytes
         self.max_age_s = max_age_s
         self.min_free_bytes = min_free_bytes
@@ -103,6 +107,7 @@ class ServiceLog:
             self._pause(block.first_tick, _oserror(exc))
             return events_of(world, block)
         if len(self.log.files) != files:
+            self.log.max_bytes = self.opts["max_bytes"]
             self._retain()
         if self.log.writer is not self._niced:  # a new file: a new writer's thread
             self._niced = self.log.writer
@@ -163,6 +168,8 @@ class ServiceLog:
                          f"log is paused, the ships go on; trying again every "
                          f"{self.retry_s:g} s", "error")
             return
+        if self.first_bytes and not self.gaps and self.paused_since is None:
+            log.max_bytes = min(self.first_bytes, log.max_bytes)
         self.log = log
         if self.paused_since is not None:
             self.gaps.append((self.paused_since, world.tick))

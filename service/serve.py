@@ -88,7 +88,7 @@ class ServeConfig:
     telemetry_maxlen: int = 10_000
     events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
     buffer_max: int = 100_000  # unsent entries held while Redis is away
-    log_max_bytes: int = 64 << 20
+    log_max_bytes: int = 256 << 20  # a flight-log file's bound (rotations are rare at scale)
     log_max_total_bytes: int = 0  # a shard's flight-log folder, oldest files removed (0: all kept)
     log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
@@ -172,6 +172,7 @@ class Worker:
         self._loop_refused = False
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
+        self._taking: set[int] = set()  # shards being taken over (their leases renewed too)
         self._lease_stop = threading.Event()
         self._lease_thread: threading.Thread | None = None
         self._live = 1
@@ -746,7 +747,8 @@ class Worker:
                     pipe.zremrangebyscore(self.keys.workers, "-inf", server_s)
                     pipe.zcard(self.keys.workers)
                     self._live = pipe.execute()[2]
-                    order = sorted(list(self.owned))
+                    # (and a shard being taken: restoring a large one outlasts a lease)
+                    order = sorted(set(self.owned) | self._taking)
                     if order and cfg.cluster:  # each shard's lease in its own slot
                         pipe = r.pipeline()
                         for k in order:
@@ -757,6 +759,7 @@ class Worker:
                         kept = r.eval(rio.RENEW, len(order),
                                       *[self.keys.shard(k, "owner") for k in order],
                                       self.id, lease_ms)
+                    if order:
                         self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
                 except REDIS_ERRORS:
                     pass  # the loop says Redis is away
@@ -791,11 +794,14 @@ class Worker:
                 break
             if k not in self.owned and self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
                                                   px=lease_ms):
+                self._taking.add(k)  # the lease thread renews it meanwhile
                 try:
                     self._take_over(k)
                 except BaseException:
                     self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
                     raise
+                finally:
+                    self._taking.discard(k)
 
     def _take_over(self, k: int) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
@@ -866,7 +872,8 @@ class Worker:
             max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
             source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
             max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes,
-            zstd_level=self.cfg.log_zstd_level)
+            zstd_level=self.cfg.log_zstd_level,
+            first_bytes=self.cfg.log_max_bytes * (k + 1) // self.cfg.shards)
         shard.log.start()  # the file's first record: the state it starts at
         o = _Owned(shard)
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
