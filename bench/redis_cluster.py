@@ -5,6 +5,7 @@ on every write: a master stopped and started again keeps what it acknowledged). 
 redis-server or redis-cli is a failure, never a skip."""
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import socket
@@ -30,8 +31,9 @@ def _free_ports(n: int) -> list[int]:
 
 class Cluster:
     def __init__(self, folder: Path, masters: int = 3, node_timeout_ms: int = 3000,
-                 fsync: str = "always"):
+                 fsync: str = "always", cpus: set[int] | None = None):
         self.fsync = fsync
+        self.cpus = cpus  # the CPUs the masters are pinned to (None: not pinned)
         self.binary = shutil.which("redis-server")
         self.cli = shutil.which("redis-cli")
         if self.binary is None or self.cli is None:
@@ -68,7 +70,8 @@ class Cluster:
              "--cluster-config-file", "nodes.conf",
              "--cluster-node-timeout", str(self.node_timeout_ms),
              "--appendonly", "yes", "--appendfsync", self.fsync, "--save", ""],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            preexec_fn=(lambda c=self.cpus: os.sched_setaffinity(0, c)) if self.cpus else None)
 
     def kill(self, i: int) -> None:
         p = self.procs[i]

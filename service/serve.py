@@ -85,7 +85,9 @@ class ServeConfig:
     lease_s: float = 2.0
     checkpoint_every: int = 50  # ticks
     telemetry_hz: float = 1.0  # samples of each ship per simulated second (0: none)
-    telemetry_maxlen: int = 10_000
+    #: the telemetry stream's cap, in entries (each one shard's slice of one tick); None: what
+    #: the service sends in TELEMETRY_KEEP_S simulated seconds (100 per shard at dt 0.1 s)
+    telemetry_maxlen: int | None = None
     events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
     buffer_max: int = 100_000  # unsent entries held while Redis is away
     log_max_bytes: int = 256 << 20  # a flight-log file's bound (rotations are rare at scale)
@@ -107,6 +109,7 @@ class ServeConfig:
     cluster: bool = False  # url is a node of a Redis Cluster (--redis-cluster)
 
 
+TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 
 
@@ -207,6 +210,7 @@ class Worker:
         self.body = self.scenario.params.body.name
         period = 1.0 / (cfg.telemetry_hz * self.dt_s) if cfg.telemetry_hz > 0 else 0
         self.telemetry_every = max(1, int(round(period))) if period else 0
+        self.telemetry_maxlen = telemetry_maxlen(cfg, self.dt_s)
         if cfg.metrics_port is not None:
             self._start_metrics(cfg.metrics_port)
 
@@ -640,7 +644,7 @@ class Worker:
             for sample in o.telemetry:
                 pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
                                                 "proto": sample},
-                          maxlen=self.cfg.telemetry_maxlen, approximate=True)
+                          maxlen=self.telemetry_maxlen, approximate=True)
                 plan.append(("telemetry", k, 0))
             if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
                 # taken now, sent once the log has this tick on disk (no waiting on the log's
@@ -1057,6 +1061,16 @@ class Worker:
             if self._checkpoint(k) == 1:
                 self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         return True
+
+
+def telemetry_maxlen(cfg: ServeConfig, dt_s: float) -> int:
+    """The telemetry stream's cap in entries: ``cfg.telemetry_maxlen``, or by default what the
+    shards send in TELEMETRY_KEEP_S simulated seconds (one entry a shard a tick): with 1 Hz
+    samples of about 100 bytes a ship, about 1 kB a ship (10 MB per 10,000 ships), whatever the
+    fleet and the shard count."""
+    if cfg.telemetry_maxlen is not None:
+        return cfg.telemetry_maxlen
+    return max(1, int(round(TELEMETRY_KEEP_S / dt_s)) * cfg.shards)
 
 
 def _server_time(r: redis.Redis) -> float:
