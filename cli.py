@@ -629,6 +629,7 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
         Path(stats_json).write_text(json.dumps({
             "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
             "phases": stats.phases, "cpu_s": time.process_time(),
+            "cpu_s_at_tick": list(stats.cpu_s),
             "loop_cpu_s": time.thread_time(),
             "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,

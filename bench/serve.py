@@ -179,6 +179,13 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
         for name, (_w, c) in r.get("phases", {}).items():
             phases[name] = phases.get(name, 0.0) + c
     ship_ticks = n_ships * n_ticks
+    # the CPU after the warm-up, where the worker says it (every thread: the loop, the log's
+    # writer, the checkpoint packer, the leases)
+    steady = [(r["cpu_s_at_tick"][-1] - r["cpu_s_at_tick"][skip],
+               len(r["cpu_s_at_tick"]) - 1 - skip) for r in results
+              if len(r.get("cpu_s_at_tick", ())) > skip + 1]
+    steady_us = (sum(c for c, _ in steady) / sum(n for _, n in steady) / n_ships * 1e6
+                 if steady else float("nan"))
     late_ticks = sum(x >= 1.0 / RATE_HZ for x in lates)
 
     def pct(q: float) -> float:
@@ -194,6 +201,7 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
             # CPU per ship-tick over the whole run (start-up included), all threads and the
             # loop's own; the loop's CPU per tick by phase (ms)
             "cpu_us_per_ship_tick": cpu / ship_ticks * 1e6 if ship_ticks else float("nan"),
+            "steady_cpu_us_per_ship_tick": steady_us,
             "loop_cpu_us_per_ship_tick": loop_cpu / ship_ticks * 1e6 if ship_ticks else
             float("nan"),
             "phases_ms": {k: v / n_ticks / max(1, len(results)) * 1e3
@@ -207,7 +215,9 @@ def _line(r: dict) -> str:
     cpu = ""
     if r["cpu_us_per_ship_tick"] == r["cpu_us_per_ship_tick"]:  # (not NaN: a worker that says)
         top = ", ".join(f"{k} {v:.1f}" for k, v in list(r["phases_ms"].items())[:6])
-        cpu = (f"\n           CPU {r['cpu_us_per_ship_tick']:.2f} us a ship-tick (loop thread "
+        cpu = (f"\n           CPU after the warm-up {r['steady_cpu_us_per_ship_tick']:.2f} us a "
+               f"ship-tick (every thread; the run with its start-up "
+               f"{r['cpu_us_per_ship_tick']:.2f}, its loop thread "
                f"{r['loop_cpu_us_per_ship_tick']:.2f}); loop CPU a tick per worker, ms: {top}")
     return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s), {r['seconds']:g} s: tick p50 "
             f"{r['p50_ms']:6.1f} ms, p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; "
@@ -410,33 +420,45 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
                   max_late=max_late)
     opts = dict(quick=quick, seconds=seconds, confirm_s=confirm_s, start=start, limit=limit,
                 workers=workers, burst_spawns=burst_spawns, label=label)
-    # Redis placement is decided for the most workers run (one pinning for the whole bench)
-    pin, said = _placement(max(workers), redis_cpus) if (cluster or private_redis) else \
-        (None, _placement(max(workers), "none")[1].split(";")[0] +
-         f"; Redis at {url}: started elsewhere, not pinned by the bench")
+
+    def placer(pids):
+        """For n workers: pin the bench's Redis processes apart from them (where a CPU is
+        free); returns how the CPUs are shared."""
+        def place(n: int) -> str:
+            pin, said = _placement(n, redis_cpus)
+            every = set(sorted(os.sched_getaffinity(0)))
+            for pid in pids():
+                try:
+                    os.sched_setaffinity(pid, pin or every)
+                except OSError:
+                    pass
+            return said
+        return place
     if cluster:
         from bench.redis_cluster import Cluster
         with tempfile.TemporaryDirectory(prefix="touchdown-bench-cluster-") as tmp:
-            c = Cluster(Path(tmp), fsync="everysec", cpus=pin)
+            c = Cluster(Path(tmp), fsync="everysec")
             CLUSTER["on"] = True
             try:
                 return _main(c.url, "a Redis Cluster of 3 masters (no replicas; AOF, fsync "
-                             f"every second) on loopback, {c.url}", said, **opts)
+                             f"every second) on loopback, {c.url}",
+                             placer(lambda: [p.pid for p in c.procs if p is not None]), **opts)
             finally:
                 CLUSTER["on"] = False
                 c.stop()
     if private_redis:
         with tempfile.TemporaryDirectory(prefix="touchdown-bench-redis-") as tmp:
-            r = PrivateRedis(Path(tmp), pin)
+            r = PrivateRedis(Path(tmp))
             try:
                 return _main(r.url, f"a private redis-server (no persistence) at {r.url}",
-                             said, **opts)
+                             placer(lambda: [r.proc.pid]), **opts)
             finally:
                 r.stop()
-    return _main(url, f"Redis at {url}", said, **opts)
+    return _main(url, f"Redis at {url}", lambda n: _placement(n, "none")[1].split(";")[0] +
+                 f"; Redis at {url} was started elsewhere: not pinned by the bench", **opts)
 
 
-def _main(url: str, where: str, placement: str, quick: bool, seconds: float | None,
+def _main(url: str, where: str, place, quick: bool, seconds: float | None,
           confirm_s: float, start: int | None, limit: int, workers: tuple[int, ...],
           burst_spawns: int | None, label: str) -> dict:
     print(f"machine: {machine()}; load average {os.getloadavg()[0]:.1f} at the start")
@@ -445,7 +467,6 @@ def _main(url: str, where: str, placement: str, quick: bool, seconds: float | No
     print(f"worker: {who}")
     print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
           f"flight logs, checkpoints every 5 s (50 ticks); {where}")
-    print(f"pinning: {placement}")
     seconds = seconds or (6.0 if quick else 20.0)
     if quick:
         confirm_s = min(confirm_s, 10.0)
@@ -458,7 +479,8 @@ def _main(url: str, where: str, placement: str, quick: bool, seconds: float | No
     kept: dict[int, int] = {}
     out: dict = {"kept": kept, "trials": {}}
     for n_workers in workers:
-        print(f"{n_workers} worker(s) (one CPU each, {4 // n_workers} shards each):")
+        print(f"{n_workers} worker(s) (one CPU each, {4 // n_workers} shards each); pinning: "
+              f"{place(n_workers)}:")
         n, rows = largest(url, n_workers, start, seconds, limit, confirm_s)
         kept[n_workers] = n
         out["trials"][n_workers] = rows

@@ -130,6 +130,8 @@ class Stats:
     #: where the loop's time goes: phase -> [wall seconds, the loop thread's CPU seconds]
     #: summed over every loop (service.phases.Phases)
     phases: dict = field(default_factory=dict)
+    #: the process's CPU seconds (every thread) at the end of each loop, the latest STATS_KEPT
+    cpu_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
 
 
 @dataclass
@@ -324,6 +326,7 @@ class Worker:
                 self.loop_once()
                 dt = time.perf_counter() - t0
                 self.stats.tick_s.append(dt)
+                self.stats.cpu_s.append(time.process_time())
                 self.stats.recent.append((time.monotonic(), dt))
                 if self._metrics:
                     self._metrics["tick"].observe(dt)
