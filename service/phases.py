@@ -3,6 +3,7 @@
 keep on (a few dozen per tick). ``bench serve`` prints the breakdown; the stats line does not."""
 from __future__ import annotations
 
+import gc
 import time
 from contextlib import contextmanager
 
@@ -30,3 +31,32 @@ class Phases:
         acc = self.into.setdefault(name, [0.0, 0.0])
         acc[0] += wall
         acc[1] += cpu
+
+
+class GcTimer:
+    """Adds the garbage collector's pauses to ``phases`` as ``gc`` (the wall time of each
+    collection, in whichever phase it struck; its generation 2 ones as ``gc2`` too) and
+    counts them."""
+
+    def __init__(self, phases: Phases):
+        self.phases = phases
+        self._t0 = 0.0
+        self.longest_s = 0.0
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._t0 = _wall()
+            return
+        dt = _wall() - self._t0
+        self.phases.add("gc", dt, dt)
+        if info.get("generation") == 2:
+            self.phases.add("gc2", dt, dt)
+        self.longest_s = max(self.longest_s, dt)
+
+    def install(self) -> None:
+        if self not in gc.callbacks:
+            gc.callbacks.append(self)
+
+    def remove(self) -> None:
+        if self in gc.callbacks:
+            gc.callbacks.remove(self)

@@ -44,7 +44,7 @@ import redis
 from service import redis_io as rio
 from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
 from service.flightlog import ServiceLog, lower_priority
-from service.phases import Phases
+from service.phases import GcTimer, Phases
 from service.telemetry import TelemetryEncoder
 from service.shard import Limits, Shard, TickOut
 from sim.errors import TouchdownError
@@ -302,6 +302,8 @@ class Worker:
         self._lease_thread = threading.Thread(target=self._lease_loop, daemon=True,
                                               name=f"touchdown-leases-{self.id}")
         self._lease_thread.start()
+        gc_timer = GcTimer(self.phase)
+        gc_timer.install()
         try:
             while not self.stop.is_set() and (cfg.ticks is None or loops < cfg.ticks):
                 if period:
@@ -335,6 +337,7 @@ class Worker:
                 if time.monotonic() >= self._next_stats:
                     self._report()
         finally:
+            gc_timer.remove()
             self.shutdown()
         return self.stats
 
@@ -707,10 +710,7 @@ class Worker:
         return self._pack_pool
 
     def _checkpoint_due(self, k: int, tick: int) -> bool:
-        """Every ``checkpoint_every`` ticks, the shards staggered across that period (the work
-        of a tick stays even)."""
-        every = self.cfg.checkpoint_every
-        return (tick + k * every // self.cfg.shards) % every == 0
+        return checkpoint_due(k, tick, self.cfg.checkpoint_every, self.cfg.shards)
 
     def _checkpoint(self, k: int, client=None) -> int:
         """Shard k's checkpoint (refused by the script unless every entry it counts is out)."""
@@ -1064,6 +1064,13 @@ class Worker:
             if self._checkpoint(k) == 1:
                 self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         return True
+
+
+def checkpoint_due(k: int, tick: int, every: int, shards: int) -> bool:
+    """Shard k's checkpoint is due at ``tick``: every ``every`` ticks, the shards staggered
+    across that period (shard k at ticks = -k * every / shards mod every), so that no tick
+    takes two shards' checkpoints while there are no more shards than ticks in the period."""
+    return (tick + k * every // shards) % every == 0
 
 
 def telemetry_maxlen(cfg: ServeConfig, dt_s: float) -> int:
