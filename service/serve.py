@@ -111,6 +111,7 @@ class ServeConfig:
 
 
 TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
+GC_EVERY = 50  # loops between the full collections a worker runs between its ticks
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 
 
@@ -179,6 +180,7 @@ class Worker:
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
         self._taking: set[int] = set()  # shards being taken over (their leases renewed too)
+        self._collected = 0  # the loop of the last full collection (_collect)
         self._lease_stop = threading.Event()
         self._lease_thread: threading.Thread | None = None
         self._live = 1
@@ -303,8 +305,11 @@ class Worker:
         self._lease_thread = threading.Thread(target=self._lease_loop, daemon=True,
                                               name=f"touchdown-leases-{self.id}")
         self._lease_thread.start()
-        gc_timer = GcTimer(self.phase)
+        gc_timer = self._gc_timer = GcTimer(self.phase)
         gc_timer.install()
+        thresholds = gc.get_threshold()
+        # no full collection in the middle of a tick: they are run between ticks (_collect)
+        gc.set_threshold(thresholds[0], thresholds[1], 1 << 30)
         try:
             while not self.stop.is_set() and (cfg.ticks is None or loops < cfg.ticks):
                 if period:
@@ -337,10 +342,29 @@ class Worker:
                 self.stats.ticks = loops
                 if time.monotonic() >= self._next_stats:
                     self._report()
+                if loops % GC_EVERY == 0 or loops - self._collected >= 4 * GC_EVERY:
+                    self._collect(loops, due - time.monotonic() if period else 0.0, period)
         finally:
+            gc.set_threshold(*thresholds)
             gc_timer.remove()
             self.shutdown()
         return self.stats
+
+    def _collect(self, loops: int, slack_s: float, period: float) -> None:
+        """A full collection between ticks, when half a period is left before the next (or at
+        the latest every 4 x GC_EVERY loops), then what survived it frozen (gc.freeze: out of
+        the next collections' way; reference counting still frees it). Python's own full
+        collections struck in whichever tick they fell, for tens of milliseconds."""
+        if period and slack_s < period / 2 and loops - self._collected < 4 * GC_EVERY:
+            return
+        self._collected = loops
+        self._gc_timer.remove()  # (not a pause in a tick: a phase of its own)
+        try:
+            with self.phase("gc_between_ticks"):
+                gc.collect()
+                gc.freeze()
+        finally:
+            self._gc_timer.install()
 
     def loop_once(self) -> None:
         now = time.monotonic()
