@@ -184,8 +184,9 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     steady = [(r["cpu_s_at_tick"][-1] - r["cpu_s_at_tick"][skip],
                len(r["cpu_s_at_tick"]) - 1 - skip) for r in results
               if len(r.get("cpu_s_at_tick", ())) > skip + 1]
-    steady_us = (sum(c for c, _ in steady) / sum(n for _, n in steady) / n_ships * 1e6
-                 if steady else float("nan"))
+    # (every worker's CPU over the ticks they ran side by side: a worker's own count)
+    steady_us = (sum(c for c, _ in steady) / (sum(n for _, n in steady) / len(steady))
+                 / n_ships * 1e6 if steady else float("nan"))
     late_ticks = sum(x >= 1.0 / RATE_HZ for x in lates)
 
     def pct(q: float) -> float:
