@@ -549,11 +549,16 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
               help="ticks between a shard's checkpoints in Redis")
 @click.option("--telemetry-hz", type=click.FloatRange(min=0.0), default=1.0, show_default=True,
               help="telemetry samples per simulated second (0: none)")
+@click.option("--telemetry-maxlen", type=click.IntRange(min=1), default=None,
+              help="the telemetry stream is trimmed to about this many entries, each one "
+                   "shard's slice of a tick (default: 10 simulated seconds of them, 100 per "
+                   "shard at dt 0.1 s: about 1 kB of Redis a ship)")
 @click.option("--events-maxlen", type=click.IntRange(min=0), default=1_000_000,
               show_default=True, help="the event stream is trimmed to about this many entries "
                                       "(0: never)")
-@click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=64.0, show_default=True,
-              help="a flight log file is closed and the next begun past this size")
+@click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=256.0, show_default=True,
+              help="a flight log file is closed and the next begun past this size (each "
+                   "shard's first file at (k+1)/S of it: the shards' rotations staggered)")
 @click.option("--log-keep-mb", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="a shard's flight logs are kept under this total, oldest removed (0: all)")
 @click.option("--log-keep-hours", type=click.FloatRange(min=0.0), default=0.0,
@@ -581,7 +586,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
           scenario: str | None,
           ticks: int | None, rate: float | None, log_dir: str, prefix: str,
           events_stream: str | None, commands_stream: str | None, shards: int, lease_s: float,
-          checkpoint_every: int, telemetry_hz: float, events_maxlen: int, log_max_mb: float,
+          checkpoint_every: int, telemetry_hz: float, telemetry_maxlen: int | None,
+          events_maxlen: int, log_max_mb: float,
           log_keep_mb: float, log_keep_hours: float, log_min_free_mb: float, max_ships: int,
           max_commands_per_ship: int, max_spawns_per_tick: int, max_commands_per_tick: int,
           max_shards: int | None, worker_id: str, metrics_port: int | None, stats_every: float,
@@ -605,7 +611,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
                       rate_hz=rate, log_dir=Path(log_dir), prefix=prefix,
                       events_stream=events_stream, commands_stream=commands_stream,
                       shards=shards, lease_s=lease_s, checkpoint_every=checkpoint_every,
-                      telemetry_hz=telemetry_hz, events_maxlen=events_maxlen,
+                      telemetry_hz=telemetry_hz, telemetry_maxlen=telemetry_maxlen,
+                      events_maxlen=events_maxlen,
                       log_max_bytes=int(log_max_mb * (1 << 20)),
                       log_max_total_bytes=int(log_keep_mb * (1 << 20)),
                       log_max_age_s=log_keep_hours * 3600.0,
@@ -622,6 +629,9 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
     if stats_json:
         Path(stats_json).write_text(json.dumps({
             "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
+            "phases": stats.phases, "cpu_s": time.process_time(),
+            "cpu_s_at_tick": list(stats.cpu_s),
+            "loop_cpu_s": time.thread_time(),
             "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,
             "recent": [[round(t, 4), d] for t, d in stats.recent],

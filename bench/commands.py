@@ -95,12 +95,46 @@ def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib
 @click.option("--cluster", is_flag=True,
               help="on a private Redis Cluster of three masters started for the bench "
                    "(needs redis-server and redis-cli on PATH)")
-def serve(quick: bool, redis_url: str, cluster: bool) -> None:
-    """The most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real time,
-    with tick-time percentiles, events per second and Redis memory and traffic per 10,000 ships
-    (needs a Redis; `--cluster`: the same on a private three-master Redis Cluster)."""
+@click.option("--private-redis", is_flag=True,
+              help="on a redis-server of the bench's own (no persistence), pinned to a CPU no "
+                   "worker has when there is one")
+@click.option("--redis-cpus", default=None, metavar="LIST",
+              help="pin the private Redis (or the cluster's masters) to these CPUs "
+                   "(e.g. 1 or 0,1; 'none': not pinned; default: a CPU free of workers)")
+@click.option("--workers", "workers", default="1,2", show_default=True,
+              help="the worker counts to find the largest fleet for")
+@click.option("--seconds", type=click.FloatRange(min=3.0), default=None,
+              help="each search trial (default 20, --quick 6)")
+@click.option("--confirm-seconds", type=click.FloatRange(min=0.0), default=300.0,
+              show_default=True, help="the confirming run at the size found (0: none)")
+@click.option("--start", type=click.IntRange(min=1), default=None,
+              help="the first fleet tried (default 12,500)")
+@click.option("--max-late", type=click.IntRange(min=0), default=0, show_default=True,
+              help="late ticks a kept fleet may have (a tick begun a whole period late)")
+@click.option("--burst", "burst_spawns", type=click.IntRange(min=0), default=None,
+              help="spawns sent at once to two idle workers at the end (default 50,000; "
+                   "0: no burst)")
+@click.option("--worker-python", default=None, metavar="PYTHON",
+              help="run the workers with this Python (another checkout's venv)")
+@click.option("--worker-cwd", default=None, metavar="DIR",
+              help="run DIR/cli.py serve (another checkout: the version before, measured in "
+                   "the same session)")
+@click.option("--label", default="", help="a name for the workers measured, printed")
+def serve(quick: bool, redis_url: str, cluster: bool, private_redis: bool,
+          redis_cpus: str | None, workers: str, seconds: float | None, confirm_seconds: float,
+          start: int | None, max_late: int, burst_spawns: int | None,
+          worker_python: str | None, worker_cwd: str | None, label: str) -> None:
+    """The most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real time
+    (tick p99 under 100 ms, no late tick; bisected, then confirmed by a 5-minute run), with
+    tick-time percentiles, CPU per ship-tick, events per second and Redis memory and traffic
+    per 10,000 ships (needs a Redis; `--cluster`: a private three-master Redis Cluster)."""
     from bench import serve as bench_serve
-    bench_serve.main(quick=quick, url=redis_url, cluster=cluster)
+    counts = tuple(int(x) for x in workers.split(",") if x.strip())
+    bench_serve.main(quick=quick, url=redis_url, cluster=cluster, seconds=seconds,
+                     confirm_s=confirm_seconds, start=start, workers=counts,
+                     burst_spawns=burst_spawns, private_redis=private_redis,
+                     redis_cpus=redis_cpus, worker_python=worker_python,
+                     worker_cwd=worker_cwd, max_late=max_late, label=label)
 
 
 @bench.command()

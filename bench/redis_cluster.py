@@ -5,6 +5,7 @@ on every write: a master stopped and started again keeps what it acknowledged). 
 redis-server or redis-cli is a failure, never a skip."""
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import socket
@@ -16,7 +17,7 @@ import redis
 from redis.cluster import RedisCluster
 
 
-def _free_ports(n: int) -> list[int]:
+def free_ports(n: int) -> list[int]:
     socks, ports = [], []
     for _ in range(n):
         s = socket.socket()
@@ -30,15 +31,16 @@ def _free_ports(n: int) -> list[int]:
 
 class Cluster:
     def __init__(self, folder: Path, masters: int = 3, node_timeout_ms: int = 3000,
-                 fsync: str = "always"):
+                 fsync: str = "always", cpus: set[int] | None = None):
         self.fsync = fsync
+        self.cpus = cpus  # the CPUs the masters are pinned to (None: not pinned)
         self.binary = shutil.which("redis-server")
         self.cli = shutil.which("redis-cli")
         if self.binary is None or self.cli is None:
             raise RuntimeError("a Redis Cluster needs redis-server and redis-cli on PATH")
         self.folder = folder
         self.node_timeout_ms = node_timeout_ms
-        ports = _free_ports(2 * masters)
+        ports = free_ports(2 * masters)
         self.ports, self.bus = ports[:masters], ports[masters:]
         self.procs: list[subprocess.Popen | None] = [None] * masters
         for i in range(masters):
@@ -68,7 +70,8 @@ class Cluster:
              "--cluster-config-file", "nodes.conf",
              "--cluster-node-timeout", str(self.node_timeout_ms),
              "--appendonly", "yes", "--appendfsync", self.fsync, "--save", ""],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            preexec_fn=(lambda c=self.cpus: os.sched_setaffinity(0, c)) if self.cpus else None)
 
     def kill(self, i: int) -> None:
         p = self.procs[i]

@@ -10,6 +10,21 @@ worker's p99 tick time is under the 100 ms period and no more than 1% of ticks b
 period late.
 The first 2 s (taking the shards, writing every ship's hash) are left out of the percentiles.
 
+A fleet is kept when, after the warm-up, the workers' tick p99 is under the 100 ms period and no
+tick began a whole period late (``--max-late``, default 0). ``largest`` doubles the fleet with
+short trials until one is not kept, bisects to within about 3%, then confirms the size found with
+one long trial (``--confirm-seconds``, default 300: the issue's 5 minutes), stepping down 5% at a
+time while the confirmation fails. Each trial's line also gives the CPU the workers used (all
+their threads; ``process_time``) per ship-tick and where the loop's thread spent its CPU: read
+those beside the wall-clock figures on a shared machine.
+
+Pinning (``os.sched_setaffinity``, as ``taskset`` does): worker w is pinned to CPU ``cpus[w]``
+of the bench's own CPUs; with ``--private-redis`` the bench starts its own redis-server (no
+persistence) pinned to a CPU no worker has when there is one (with two workers on two cores there
+is none: it shares them, and the bench says so). ``--worker-python``/``--worker-cwd`` run another
+checkout's worker (``PYTHON DIR/cli.py serve``: the version before a change, measured in the
+same session).
+
 The fleet is bench.speed's mix: 40% flying high, 40% landed, 10% tipped, 10% arriving at 2-49
 m/s (touchdowns, bounces and crashes: events). Redis runs on the same 2-core machine: with one
 worker, Redis has the other core; with two workers (pinned one to each core), Redis shares them.
@@ -21,6 +36,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -98,6 +114,15 @@ def _cleanup(url: str, prefix: str) -> None:
     client.close()
 
 
+#: how the workers are run (``main``'s options): their Python and checkout, the late ticks a
+#: kept fleet may have, and the CPUs the workers are pinned to
+WORKER = {"python": sys.executable, "cwd": str(ROOT), "max_late": 0, "cpus": None}
+
+
+def _worker_cpus() -> list[int]:
+    return WORKER["cpus"] or sorted(os.sched_getaffinity(0))
+
+
 def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int = 4,
           warmup_s: float = 2.0) -> dict:
     """One service of ``n_ships`` run for ``seconds`` with ``workers`` workers (each pinned to
@@ -105,7 +130,7 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     late fraction and the entries delivered per second."""
     prefix = f"bench:serve:{uuid.uuid4().hex[:8]}"
     _config(url, prefix, n_ships, shards)
-    cpus = sorted(os.sched_getaffinity(0))
+    cpus = _worker_cpus()
     ticks = int(seconds * RATE_HZ)
     procs = []
     before = _redis_figures(url)
@@ -115,7 +140,8 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
             for w in range(workers):
                 stats = Path(tmp) / f"stats-{w}.json"
                 cpu = cpus[w % len(cpus)]
-                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", *_redis_args(url),
+                cmd = [WORKER["python"], str(Path(WORKER["cwd"]) / "cli.py"), "serve",
+                       *_redis_args(url),
                        "--prefix", prefix, "--rate", str(RATE_HZ), "--ticks", str(ticks),
                        "--log-dir", str(Path(tmp) / "flight"), "--shards", str(shards),
                        "--worker-id", f"w{w}", "--stats-json", str(stats)]
@@ -123,6 +149,7 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
                     cmd += ["--max-shards", str(shards // workers)]
                 procs.append((subprocess.Popen(
                     cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                    cwd=WORKER["cwd"],
                     preexec_fn=lambda c=cpu: os.sched_setaffinity(0, {c})), stats))
             results = []
             for proc, stats in procs:
@@ -143,6 +170,24 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     late = sum(x >= 1.0 / RATE_HZ for x in lates) / max(1, len(lates))
     sent = sum(r["entries_sent"] for r in results)
     wall = max(r["wall_s"] for r in results)
+    n_ticks = sum(len(r["tick_s"]) for r in results) / max(1, len(results))
+    # CPU of every thread of the workers (older workers do not report it)
+    cpu = sum(r.get("cpu_s", float("nan")) for r in results)
+    loop_cpu = sum(r.get("loop_cpu_s", float("nan")) for r in results)
+    phases: dict[str, float] = {}
+    for r in results:
+        for name, (_w, c) in r.get("phases", {}).items():
+            phases[name] = phases.get(name, 0.0) + c
+    ship_ticks = n_ships * n_ticks
+    # the CPU after the warm-up, where the worker says it (every thread: the loop, the log's
+    # writer, the checkpoint packer, the leases)
+    steady = [(r["cpu_s_at_tick"][-1] - r["cpu_s_at_tick"][skip],
+               len(r["cpu_s_at_tick"]) - 1 - skip) for r in results
+              if len(r.get("cpu_s_at_tick", ())) > skip + 1]
+    # (every worker's CPU over the ticks they ran side by side: a worker's own count)
+    steady_us = (sum(c for c, _ in steady) / (sum(n for _, n in steady) / len(steady))
+                 / n_ships * 1e6 if steady else float("nan"))
+    late_ticks = sum(x >= 1.0 / RATE_HZ for x in lates)
 
     def pct(q: float) -> float:
         return times[min(len(times) - 1, int(q * len(times)))] * 1e3 if times else float("nan")
@@ -154,40 +199,69 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
             "redis_mb_per_10k": (after[0] - before[0]) / 1e6 * 1e4 / n_ships,
             "redis_in_mbps_per_10k": (after[1] - before[1]) / span / 1e6 * 1e4 / n_ships,
             "redis_out_mbps_per_10k": (after[2] - before[2]) / span / 1e6 * 1e4 / n_ships,
-            "keeps_up": bool(times) and pct(0.99) < 1e3 / RATE_HZ and late <= 0.01}
+            # CPU per ship-tick over the whole run (start-up included), all threads and the
+            # loop's own; the loop's CPU per tick by phase (ms)
+            "cpu_us_per_ship_tick": cpu / ship_ticks * 1e6 if ship_ticks else float("nan"),
+            "steady_cpu_us_per_ship_tick": steady_us,
+            "loop_cpu_us_per_ship_tick": loop_cpu / ship_ticks * 1e6 if ship_ticks else
+            float("nan"),
+            "phases_ms": {k: v / n_ticks / max(1, len(results)) * 1e3
+                          for k, v in sorted(phases.items(), key=lambda kv: -kv[1])},
+            "late_ticks": late_ticks, "seconds": seconds,
+            "keeps_up": bool(times) and pct(0.99) < 1e3 / RATE_HZ
+            and late_ticks <= WORKER["max_late"]}
 
 
 def _line(r: dict) -> str:
-    return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s): tick p50 {r['p50_ms']:6.1f} ms, "
-            f"p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; late {r['late']:.1%}; "
+    cpu = ""
+    if r["cpu_us_per_ship_tick"] == r["cpu_us_per_ship_tick"]:  # (not NaN: a worker that says)
+        top = ", ".join(f"{k} {v:.1f}" for k, v in list(r["phases_ms"].items())[:6])
+        cpu = (f"\n           CPU after the warm-up {r['steady_cpu_us_per_ship_tick']:.2f} us a "
+               f"ship-tick (every thread; the run with its start-up "
+               f"{r['cpu_us_per_ship_tick']:.2f}, its loop thread "
+               f"{r['loop_cpu_us_per_ship_tick']:.2f}); loop CPU a tick per worker, ms: {top}")
+    return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s), {r['seconds']:g} s: tick p50 "
+            f"{r['p50_ms']:6.1f} ms, p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; "
+            f"late {r['late_ticks']} ({r['late']:.1%}); "
             f"{r['entries_per_s']:,.0f} entries/s to Redis; per 10,000 ships Redis holds "
             f"{r['redis_mb_per_10k']:.1f} MB, takes in {r['redis_in_mbps_per_10k']:.2f} MB/s, "
             f"sends {r['redis_out_mbps_per_10k']:.2f} MB/s  "
-            f"{'keeps 10 Hz' if r['keeps_up'] else 'FALLS BEHIND'}")
+            f"{'keeps 10 Hz' if r['keeps_up'] else 'FALLS BEHIND'}{cpu}")
 
 
-def largest(url: str, workers: int, start: int, seconds: float, limit: int) -> tuple[int, list]:
-    """Double the fleet until a trial falls behind, then bisect twice: the largest kept."""
+def largest(url: str, workers: int, start: int, seconds: float, limit: int,
+            confirm_s: float = 0.0, precision: float = 0.03) -> tuple[int, list]:
+    """Double the fleet until a short trial falls behind, bisect to within ``precision``, then
+    (``confirm_s``) confirm the size found with one long trial, 5% less at a time while it
+    fails: the largest fleet kept."""
     rows, good, bad = [], 0, None
-    n = start
-    while n <= limit:
-        r = trial(url, n, seconds, workers)
+
+    def run(n: int, secs: float) -> bool:
+        r = trial(url, n, secs, workers)
         rows.append(r)
         print(_line(r), flush=True)
-        if not r["keeps_up"]:
+        return r["keeps_up"]
+    n = start
+    while n <= limit:
+        if not run(n, seconds):
             bad = n
             break
         good = n
         n *= 2
-    for _ in range(2 if bad else 0):
+    while bad is not None and bad - good > max(good, start / 2) * precision:
         mid = (good + bad) // 2
-        r = trial(url, mid, seconds, workers)
-        rows.append(r)
-        print(_line(r), flush=True)
-        if r["keeps_up"]:
+        if run(mid, seconds):
             good = mid
         else:
             bad = mid
+    if confirm_s and good:
+        for _ in range(6):
+            print(f"  confirming {good:,} ships for {confirm_s:g} s:", flush=True)
+            if run(good, confirm_s):
+                break
+            good = int(good * 0.95)
+        else:
+            good = 0
     return good, rows
 
 
@@ -202,13 +276,14 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
     prefix = f"bench:burst:{uuid.uuid4().hex[:8]}"
     keys = Keys(prefix, cluster=CLUSTER["on"])
     client = _client(url)
-    cpus = sorted(os.sched_getaffinity(0))
+    cpus = _worker_cpus()
     procs = []
     with tempfile.TemporaryDirectory(prefix="touchdown-bench-burst-") as tmp:
         try:
             for w in range(2):
                 stats = Path(tmp) / f"stats-{w}.json"
-                cmd = [sys.executable, str(ROOT / "cli.py"), "serve", *_redis_args(url),
+                cmd = [WORKER["python"], str(Path(WORKER["cwd"]) / "cli.py"), "serve",
+                       *_redis_args(url),
                        "--prefix", prefix, "--rate", str(RATE_HZ), "--shards", str(shards),
                        "--lease", str(lease_s), "--log-dir", str(Path(tmp) / "flight"),
                        "--worker-id", f"w{w}", "--max-shards", str(shards // 2),
@@ -270,44 +345,160 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
             "rejected": rejected}
 
 
+class PrivateRedis:
+    """A redis-server of the bench's own on a free loopback port (no persistence), pinned to
+    ``cpus`` when given."""
+
+    def __init__(self, folder: Path, cpus: set[int] | None = None):
+        from bench.redis_cluster import free_ports
+        binary = shutil.which("redis-server")
+        if binary is None:
+            raise RuntimeError("--private-redis needs redis-server on PATH")
+        self.port = free_ports(1)[0]
+        self.proc = subprocess.Popen(
+            [binary, "--port", str(self.port), "--bind", "127.0.0.1", "--dir", str(folder),
+             "--save", "", "--appendonly", "no"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            preexec_fn=(lambda: os.sched_setaffinity(0, cpus)) if cpus else None)
+        end = time.monotonic() + 10
+        while True:
+            try:
+                c = redis.Redis(port=self.port, socket_connect_timeout=0.5)
+                c.ping()
+                c.close()
+                break
+            except redis.exceptions.RedisError:
+                if time.monotonic() > end:
+                    self.stop()
+                    raise RuntimeError("the private redis-server did not start") from None
+                time.sleep(0.05)
+
+    @property
+    def url(self) -> str:
+        return f"redis://127.0.0.1:{self.port}/0"
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+
+def _placement(workers: int, redis_cpus: str | None) -> tuple[set[int] | None, str]:
+    """The CPUs Redis is pinned to (None: not pinned) and a sentence saying how the workers
+    and Redis share the machine's CPUs."""
+    cpus = _worker_cpus()
+    used = {cpus[w % len(cpus)] for w in range(workers)}
+    free = [c for c in cpus if c not in used]
+    if redis_cpus == "none":
+        pin = None
+    elif redis_cpus:
+        pin = {int(c) for c in redis_cpus.split(",")}
+    else:
+        pin = {free[0]} if free else None
+    said = ", ".join(f"worker {w} on CPU {cpus[w % len(cpus)]}" for w in range(workers))
+    if pin is None:
+        said += "; Redis not pinned (no CPU free of workers: it shares theirs)" if not free \
+            else "; Redis not pinned"
+    else:
+        shared = pin & used
+        said += f"; Redis pinned to CPU {','.join(map(str, sorted(pin)))}" + (
+            " (shared with a worker)" if shared else " (no worker there)")
+    return pin, said
+
+
 def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
-         cluster: bool = False) -> None:
+         cluster: bool = False, seconds: float | None = None, confirm_s: float = 300.0,
+         start: int | None = None, limit: int = 400_000, workers: tuple[int, ...] = (1, 2),
+         burst_spawns: int | None = None, private_redis: bool = False,
+         redis_cpus: str | None = None, worker_python: str | None = None,
+         worker_cwd: str | None = None, max_late: int = 0, label: str = "") -> dict:
     """``cluster``: the same figures on a private Redis Cluster of three masters (no replicas,
     AOF with fsync every second as a deployment would run) started on free loopback ports for
-    the bench, the workers on ``--redis-cluster``."""
+    the bench, the workers on ``--redis-cluster``. ``private_redis``: on a redis-server of the
+    bench's own, pinned apart from the workers where the machine has a CPU for it. Returns
+    the figures (workers -> ships kept, and every trial)."""
+    WORKER.update(python=worker_python or sys.executable, cwd=worker_cwd or str(ROOT),
+                  max_late=max_late)
+    opts = dict(quick=quick, seconds=seconds, confirm_s=confirm_s, start=start, limit=limit,
+                workers=workers, burst_spawns=burst_spawns, label=label)
+
+    def placer(pids):
+        """For n workers: pin the bench's Redis processes apart from them (where a CPU is
+        free); returns how the CPUs are shared."""
+        def place(n: int) -> str:
+            pin, said = _placement(n, redis_cpus)
+            every = set(sorted(os.sched_getaffinity(0)))
+            for pid in pids():
+                try:
+                    os.sched_setaffinity(pid, pin or every)
+                except OSError:
+                    pass
+            return said
+        return place
     if cluster:
         from bench.redis_cluster import Cluster
         with tempfile.TemporaryDirectory(prefix="touchdown-bench-cluster-") as tmp:
             c = Cluster(Path(tmp), fsync="everysec")
             CLUSTER["on"] = True
             try:
-                _main(quick, c.url, "a Redis Cluster of 3 masters (no replicas; AOF, fsync "
-                      f"every second) on loopback, {c.url}")
+                return _main(c.url, "a Redis Cluster of 3 masters (no replicas; AOF, fsync "
+                             f"every second) on loopback, {c.url}",
+                             placer(lambda: [p.pid for p in c.procs if p is not None]), **opts)
             finally:
                 CLUSTER["on"] = False
                 c.stop()
-        return
-    _main(quick, url, f"Redis at {url}")
+    if private_redis:
+        with tempfile.TemporaryDirectory(prefix="touchdown-bench-redis-") as tmp:
+            r = PrivateRedis(Path(tmp))
+            try:
+                return _main(r.url, f"a private redis-server (no persistence) at {r.url}",
+                             placer(lambda: [r.proc.pid]), **opts)
+            finally:
+                r.stop()
+    return _main(url, f"Redis at {url}", lambda n: _placement(n, "none")[1].split(";")[0] +
+                 f"; Redis at {url} was started elsewhere: not pinned by the bench", **opts)
 
 
-def _main(quick: bool, url: str, where: str) -> None:
-    print(f"machine: {machine()}")
+def _main(url: str, where: str, place, quick: bool, seconds: float | None,
+          confirm_s: float, start: int | None, limit: int, workers: tuple[int, ...],
+          burst_spawns: int | None, label: str) -> dict:
+    print(f"machine: {machine()}; load average {os.getloadavg()[0]:.1f} at the start")
+    who = (f"{WORKER['python']} {WORKER['cwd']}/cli.py serve"
+           + (f" ({label})" if label else ""))
+    print(f"worker: {who}")
     print(f"touchdown serve at {RATE_HZ:g} Hz (dt {DT_S} s: real time), events, 1 Hz telemetry, "
           f"flight logs, checkpoints every 5 s (50 ticks); {where}")
-    seconds = 6.0 if quick else 20.0
-    start, limit = (1000, 4000) if quick else (12_500, 400_000)
+    seconds = seconds or (6.0 if quick else 20.0)
+    if quick:
+        confirm_s = min(confirm_s, 10.0)
+    start = start or (1000 if quick else 12_500)
+    limit = 4000 if quick else limit
+    print(f"kept: tick p99 < {1e3 / RATE_HZ:.0f} ms and at most {WORKER['max_late']} late "
+          f"tick(s) after a {2:g} s warm-up; search trials {seconds:g} s, confirmation "
+          f"{confirm_s:g} s")
     t0 = time.perf_counter()
-    print("one worker (one CPU):")
-    one, _ = largest(url, 1, start, seconds, limit)
-    print(f"=> one worker keeps {one:,} ships at 10 Hz [aim: 50,000]")
-    print("two workers (one CPU each, two shards each):")
-    two, _ = largest(url, 2, start, seconds, limit)
-    print(f"=> two workers keep {two:,} ships at 10 Hz ({two / max(one, 1):.2f}x one worker)")
-    n = 5000 if quick else 50_000
-    b = burst(url, n)
-    print(f"burst: {b['spawns']:,} spawns at once into two idle workers (4 shards, 10 Hz, lease "
-          f"2 s): all joined in {b['join_s']:.1f} s; tick p99 {b['p99_during_ms']:.0f} ms "
-          f"during it, {b['p99_after_ms']:.0f} ms in the 10 s after (with {b['spawns']:,} "
-          f"ships); leases changed hands {b['leases_changed']}, shards lost "
-          f"{b['shards_lost']}, spawns rejected {b['rejected']}")
+    kept: dict[int, int] = {}
+    out: dict = {"kept": kept, "trials": {}}
+    for n_workers in workers:
+        print(f"{n_workers} worker(s) (one CPU each, {4 // n_workers} shards each); pinning: "
+              f"{place(n_workers)}:")
+        n, rows = largest(url, n_workers, start, seconds, limit, confirm_s)
+        kept[n_workers] = n
+        out["trials"][n_workers] = rows
+        ratio = f" ({n / max(kept.get(1, 0), 1):.2f}x one worker)" if n_workers > 1 and \
+            kept.get(1) else ""
+        aim = " [aim: 50,000]" if n_workers == 1 else ""
+        print(f"=> {n_workers} worker(s) keep {n:,} ships at 10 Hz{ratio}{aim}", flush=True)
+    if burst_spawns is None:
+        burst_spawns = 5000 if quick else 50_000
+    if burst_spawns:
+        b = burst(url, burst_spawns)
+        out["burst"] = b
+        print(f"burst: {b['spawns']:,} spawns at once into two idle workers (4 shards, 10 Hz, "
+              f"lease 2 s): all joined in {b['join_s']:.1f} s; tick p99 "
+              f"{b['p99_during_ms']:.0f} ms during it, {b['p99_after_ms']:.0f} ms in the 10 s "
+              f"after (with {b['spawns']:,} ships); leases changed hands "
+              f"{b['leases_changed']}, shards lost {b['shards_lost']}, spawns rejected "
+              f"{b['rejected']}")
     print(f"(bench took {time.perf_counter() - t0:.0f} s)")
+    return out

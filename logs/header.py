@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from logs.encode import resolved_json
 from proto import touchdown_pb2 as pb
 from sim import __version__ as PROJECT_VERSION
 from sim import fields
@@ -144,7 +145,7 @@ def world_header(world: World, name: str, source: str, keyframe_interval: int = 
     return pb.ScenarioRecord(
         log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=name,
         description=resolved.get("description", ""),
-        resolved_json=json.dumps(resolved, sort_keys=True), integrator=sim.integrator,
+        resolved_json=resolved_json(resolved, ids, tables), integrator=sim.integrator,
         dt_s=sim.dt_s, ship_ids=ids, player_ids=list(world.params.ships.player_id),
         body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
         keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended)

@@ -31,6 +31,13 @@ def entry_fields(ev: pb.TransitionEvent) -> dict[str, str | bytes]:
             "to_state": SurfaceState(ev.to_state).label, "proto": ev.SerializeToString()}
 
 
+def _cluster_enabled(client: redis.Redis) -> bool:
+    try:
+        return bool(int(client.info("cluster").get("cluster_enabled", 0)))
+    except (redis.exceptions.RedisError, ValueError, TypeError):
+        return False
+
+
 class EventPublisher:
     """XADD each event to ``stream``; errors become one-line :class:`LogError`s naming the URL."""
 
@@ -39,7 +46,12 @@ class EventPublisher:
         try:
             self._client = redis.Redis.from_url(url, socket_connect_timeout=3)
             self._client.ping()
-        except (redis.exceptions.RedisError, ValueError) as exc:
+            if _cluster_enabled(self._client):  # a node of a Redis Cluster: its slot map
+                from redis.cluster import RedisCluster
+                self._client.close()
+                self._client = RedisCluster.from_url(url, socket_connect_timeout=3)
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
+                ValueError) as exc:
             raise LogError(f"redis {url}: {exc}") from None
 
     def publish(self, events: Sequence[pb.TransitionEvent]) -> None:
@@ -50,7 +62,7 @@ class EventPublisher:
             for ev in events:
                 pipe.xadd(self.stream, entry_fields(ev))
             pipe.execute()
-        except redis.exceptions.RedisError as exc:
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException) as exc:
             raise LogError(f"redis {self.url}: {exc}") from None
 
     def close(self) -> None:

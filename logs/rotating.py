@@ -28,6 +28,7 @@ import threading
 from pathlib import Path
 from typing import Callable
 
+from logs.encode import ShipTables
 from logs.header import world_header
 from logs.writer import FinishedOrGone, LogWriter
 from proto import touchdown_pb2 as pb
@@ -54,7 +55,7 @@ class RotatingLog(FinishedOrGone):
                  prefix: str = "flight", keyframe_interval: int = 1, max_bytes: int = MAX_BYTES,
                  name: str | None = None, source: str = "", open_ended: bool = False,
                  description: str = "", chunk_size: int | None = None,
-                 flush_every_ticks: int = 200):
+                 flush_every_ticks: int = 200, zstd_level: int | None = None):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -71,9 +72,11 @@ class RotatingLog(FinishedOrGone):
         # chunks well under the bound, so that a file's size on disk follows what it holds
         self.chunk_size = chunk_size or max(4096, min(1 << 20, max_bytes // 8))
         self.flush_every_ticks = flush_every_ticks
+        self.zstd_level = zstd_level
         self.files: list[Path] = []
         self.writer: LogWriter | None = None
-        self._tables: dict[str, dict] = {}  # ship id -> its resolved table (world_header)
+        # ship id -> its resolved table (world_header), and its JSON
+        self._tables: dict[str, dict] = ShipTables()
         self.event_count = 0
         self._closed = False
 
@@ -145,7 +148,8 @@ class RotatingLog(FinishedOrGone):
         path = self._path(world.tick)
         self.directory.mkdir(parents=True, exist_ok=True)
         writer = LogWriter(path, header, chunk_size=self.chunk_size,
-                           flush_every_ticks=self.flush_every_ticks)
+                           flush_every_ticks=self.flush_every_ticks,
+                           zstd_level=self.zstd_level)
         try:
             writer.write_block(first)
         except BaseException:

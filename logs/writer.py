@@ -17,6 +17,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
 from logs.codec import PACKED, BlockEncoder
+from logs.encode import chunk_level
 from logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
                          event_message)
@@ -56,7 +57,8 @@ class LogWriter(FinishedOrGone):
     from the caller (write, close)."""
 
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
-                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200):
+                 chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
+                 zstd_level: int | None = None):
         self.path = Path(path)
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.header = header
@@ -65,6 +67,8 @@ class LogWriter(FinishedOrGone):
         self._dt_ns = int(round(header.dt_s * 1e9))
         keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
+        self._zstd_level = zstd_level  # the chunks' (logs.encode; None: the library's, 3)
+        chunk_level(zstd_level)  # (the header's chunk is compressed on this thread)
         self._stream = open(self.partial, "wb")
         try:
             self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
@@ -99,6 +103,7 @@ class LogWriter(FinishedOrGone):
 
     def _drain(self) -> None:
         """The writer's thread: add every queued block's messages, until the end marker."""
+        chunk_level(self._zstd_level)
         while True:
             item = self._queue.get()
             if item is None:
@@ -115,7 +120,11 @@ class LogWriter(FinishedOrGone):
             if self._error is not None or self._abort:
                 continue  # drop the rest; the caller hears of the error
             try:
-                self._write_encoded(*item)
+                block, keys, first_keyframe, events, inputs = item
+                data, offsets = self._encoder.encode(block.first_tick, block.states,
+                                                     block.outputs, block.inputs, keys,
+                                                     first_keyframe=first_keyframe)
+                self._write_encoded(block.first_tick, data, offsets, events, inputs)
                 self._size = self._stream.tell()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self._error = exc
@@ -171,9 +180,6 @@ class LogWriter(FinishedOrGone):
         inputs = self._inputs(block)
         if self._keys_of[0] is not block.ship_ids:  # the same tuple while the fleet is the same
             self._keys_of = (block.ship_ids, self.ships.keys(block.ship_ids))
-        data, offsets = self._encoder.encode(block.first_tick, block.states, block.outputs,
-                                             block.inputs, self._keys_of[1],
-                                             first_keyframe=self.last_tick < 0)
         msgs = []
         events: dict[int, list[bytes]] = {}
         body = self.header.body
@@ -182,7 +188,8 @@ class LogWriter(FinishedOrGone):
             m = event_message(self.ships, body, self.header.dt_s, state, ev)
             events.setdefault(ev.tick, []).append(m.SerializeToString())
             msgs.append(m)
-        self._queue.put((block.first_tick, data, offsets, events, inputs))
+        # encoded on the writer's thread (compiled, without the GIL): off the caller's tick
+        self._queue.put((block, self._keys_of[1], self.last_tick < 0, events, inputs))
         self.event_count += len(msgs)
         self.last_tick = block.last_tick
         return msgs

@@ -21,6 +21,7 @@ The transition events come from the log's writer when it is writing, and are mad
 from __future__ import annotations
 
 import os
+import sys
 import threading
 import time
 from pathlib import Path
@@ -61,12 +62,17 @@ class ServiceLog:
     def __init__(self, directory: Path, world: Callable[[], World], say: Callable[[str], None],
                  *, prefix: str, keyframe_interval: int, max_bytes: int, name: str, source: str,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
-                 retry_s: float = 2.0):
+                 retry_s: float = 2.0, zstd_level: int | None = None,
+                 first_bytes: int | None = None):
         self.directory = Path(directory)
         self._world = world
         self.say = say
         self.opts = dict(prefix=prefix, keyframe_interval=keyframe_interval, max_bytes=max_bytes,
-                         name=name, source=source, open_ended=True)
+                         name=name, source=source, open_ended=True, zstd_level=zstd_level)
+        self._niced = None  # the writer whose thread was last given a lower priority
+        # the first file's bound (the shards' files staggered: their rotations, each a header
+        # of every ship's table and a keyframe, fall on different ticks)
+        self.first_bytes = first_bytes
         self.max_total_bytes = max_total_bytes
         self.max_age_s = max_age_s
         self.min_free_bytes = min_free_bytes
@@ -101,7 +107,13 @@ class ServiceLog:
             self._pause(block.first_tick, _oserror(exc))
             return events_of(world, block)
         if len(self.log.files) != files:
+            self.log.max_bytes = self.opts["max_bytes"]
             self._retain()
+        if self.log.writer is not self._niced:  # a new file: a new writer's thread
+            self._niced = self.log.writer
+            thread = getattr(self._niced, "_thread", None)
+            if thread is not None:
+                lower_priority(thread.native_id)
         return msgs
 
     def flush(self, wait: bool = True) -> threading.Event:
@@ -156,6 +168,8 @@ class ServiceLog:
                          f"log is paused, the ships go on; trying again every "
                          f"{self.retry_s:g} s", "error")
             return
+        if self.first_bytes and not self.gaps and self.paused_since is None:
+            log.max_bytes = min(self.first_bytes, log.max_bytes)
         self.log = log
         if self.paused_since is not None:
             self.gaps.append((self.paused_since, world.tick))
@@ -217,6 +231,24 @@ class ServiceLog:
                 self.removed_files += 1
             except OSError:
                 pass
+
+
+#: how much less CPU priority the threads that work off the tick get (the flight log's writer,
+#: the checkpoint packer): on a worker given one core, the loop's thread then runs first and
+#: they take the time it leaves (``nice`` is per thread on Linux)
+BACKGROUND_NICE = 10
+
+
+def lower_priority(native_id: int | None, by: int = BACKGROUND_NICE) -> None:
+    """Give thread ``native_id`` (``threading.Thread.native_id``) a lower CPU priority; nothing
+    where the system does not have per-thread priorities."""
+    if not native_id or not hasattr(os, "setpriority") or not sys.platform.startswith("linux"):
+        return
+    try:
+        os.setpriority(os.PRIO_PROCESS, native_id,
+                       min(19, os.getpriority(os.PRIO_PROCESS, native_id) + by))
+    except OSError:
+        pass
 
 
 def _detach(log: RotatingLog) -> None:

@@ -24,6 +24,7 @@ of an outage are dropped.
 from __future__ import annotations
 
 import dataclasses
+import gc
 import json
 import math
 import os
@@ -33,6 +34,7 @@ import sys
 import threading
 import time
 from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -42,10 +44,12 @@ import redis
 
 from service import redis_io as rio
 from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
-from service.flightlog import ServiceLog
+from service.flightlog import ServiceLog, lower_priority
+from service.phases import GcTimer, Phases
+from service.telemetry import TelemetryEncoder
 from service.shard import Limits, Shard, TickOut
 from sim.errors import TouchdownError
-from sim.scenario import Scenario, Scene, parse as parse_doc
+from sim.scenario import Scenario, parse as parse_doc
 from sim.timeline import Timeline
 from sim.world import World
 
@@ -82,14 +86,18 @@ class ServeConfig:
     lease_s: float = 2.0
     checkpoint_every: int = 50  # ticks
     telemetry_hz: float = 1.0  # samples of each ship per simulated second (0: none)
-    telemetry_maxlen: int = 10_000
+    #: the telemetry stream's cap, in entries (each one shard's slice of one tick); None: what
+    #: the service sends in TELEMETRY_KEEP_S simulated seconds (100 per shard at dt 0.1 s)
+    telemetry_maxlen: int | None = None
     events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
     buffer_max: int = 100_000  # unsent entries held while Redis is away
-    log_max_bytes: int = 64 << 20
+    log_max_bytes: int = 256 << 20  # a flight-log file's bound (rotations are rare at scale)
     log_max_total_bytes: int = 0  # a shard's flight-log folder, oldest files removed (0: all kept)
     log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
     keyframe_every: int = 10
+    #: the flight log's zstd level (logs.encode): a fast one, the log's largest cost at scale
+    log_zstd_level: int | None = -3
     worker_id: str = ""
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
@@ -102,6 +110,8 @@ class ServeConfig:
     cluster: bool = False  # url is a node of a Redis Cluster (--redis-cluster)
 
 
+TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
+GC_EVERY = 50  # loops between the full collections a worker runs between its ticks
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 
 
@@ -119,6 +129,11 @@ class Stats:
     takeovers: int = 0
     lag_s: float = 0.0  # how far behind its schedule the last loop began
     recent: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))  # (time, seconds)
+    #: where the loop's time goes: phase -> [wall seconds, the loop thread's CPU seconds]
+    #: summed over every loop (service.phases.Phases)
+    phases: dict = field(default_factory=dict)
+    #: the process's CPU seconds (every thread) at the end of each loop, the latest STATS_KEPT
+    cpu_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
 
 
 @dataclass
@@ -130,6 +145,7 @@ class _Owned:
     params: dict = field(default_factory=dict)  # ship id -> its parameter record, to write
     hashes: dict = field(default_factory=dict)  # ship id -> fields or None, to write
     telemetry: list = field(default_factory=list)  # serialized samples to add
+    tele: TelemetryEncoder = field(default_factory=TelemetryEncoder)
     backlog: deque = field(default_factory=deque)  # requests read, waiting for their tick
     inflight: set = field(default_factory=set)  # entry ids read and not yet acknowledged
     #: the start id of a re-read of this worker's own pending entries (after a Redis error: a
@@ -151,6 +167,8 @@ class Worker:
         self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream, cfg.cluster)
         self.owned: dict[int, _Owned] = {}
         self.stats = Stats()
+        self.phase = Phases(self.stats.phases)
+        self._pack_pool: ThreadPoolExecutor | None = None
         self.stop = threading.Event()
         self.redis_up = True
         self._down_since = 0.0
@@ -161,6 +179,8 @@ class Worker:
         self._loop_refused = False
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
+        self._taking: set[int] = set()  # shards being taken over (their leases renewed too)
+        self._collected = 0  # the loop of the last full collection (_collect)
         self._lease_stop = threading.Event()
         self._lease_thread: threading.Thread | None = None
         self._live = 1
@@ -195,6 +215,7 @@ class Worker:
         self.body = self.scenario.params.body.name
         period = 1.0 / (cfg.telemetry_hz * self.dt_s) if cfg.telemetry_hz > 0 else 0
         self.telemetry_every = max(1, int(round(period))) if period else 0
+        self.telemetry_maxlen = telemetry_maxlen(cfg, self.dt_s)
         if cfg.metrics_port is not None:
             self._start_metrics(cfg.metrics_port)
 
@@ -284,6 +305,11 @@ class Worker:
         self._lease_thread = threading.Thread(target=self._lease_loop, daemon=True,
                                               name=f"touchdown-leases-{self.id}")
         self._lease_thread.start()
+        gc_timer = self._gc_timer = GcTimer(self.phase)
+        gc_timer.install()
+        thresholds = gc.get_threshold()
+        # no full collection in the middle of a tick: they are run between ticks (_collect)
+        gc.set_threshold(thresholds[0], thresholds[1], 1 << 30)
         try:
             while not self.stop.is_set() and (cfg.ticks is None or loops < cfg.ticks):
                 if period:
@@ -308,6 +334,7 @@ class Worker:
                 self.loop_once()
                 dt = time.perf_counter() - t0
                 self.stats.tick_s.append(dt)
+                self.stats.cpu_s.append(time.process_time())
                 self.stats.recent.append((time.monotonic(), dt))
                 if self._metrics:
                     self._metrics["tick"].observe(dt)
@@ -315,9 +342,29 @@ class Worker:
                 self.stats.ticks = loops
                 if time.monotonic() >= self._next_stats:
                     self._report()
+                if loops % GC_EVERY == 0 or loops - self._collected >= 4 * GC_EVERY:
+                    self._collect(loops, due - time.monotonic() if period else 0.0, period)
         finally:
+            gc.set_threshold(*thresholds)
+            gc_timer.remove()
             self.shutdown()
         return self.stats
+
+    def _collect(self, loops: int, slack_s: float, period: float) -> None:
+        """A full collection between ticks, when half a period is left before the next (or at
+        the latest every 4 x GC_EVERY loops), then what survived it frozen (gc.freeze: out of
+        the next collections' way; reference counting still frees it). Python's own full
+        collections struck in whichever tick they fell, for tens of milliseconds."""
+        if period and slack_s < period / 2 and loops - self._collected < 4 * GC_EVERY:
+            return
+        self._collected = loops
+        self._gc_timer.remove()  # (not a pause in a tick: a phase of its own)
+        try:
+            with self.phase("gc_between_ticks"):
+                gc.collect()
+                gc.freeze()
+        finally:
+            self._gc_timer.install()
 
     def loop_once(self) -> None:
         now = time.monotonic()
@@ -328,18 +375,22 @@ class Worker:
             lost, self._lease_lost = self._lease_lost, set()
             for k in sorted(lost & set(self.owned)):
                 self._redis(self._relet, k)
+        ph = self.phase
         if self.redis_up and now >= self._next_lease:
-            self._redis(self._leases)
+            with ph("leases"):
+                self._redis(self._leases)
             self._next_lease = now + self.cfg.lease_s / 4
         if self.redis_up:
-            self._redis(self._read_commands)
-            if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
-                self._redis(self._route)
+            with ph("read"):
+                self._redis(self._read_commands)
+                if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
+                    self._redis(self._route)
         for k in sorted(self.owned):
             o = self.owned[k]
             self._step(o, self._admit(o))
         if self.redis_up:
-            self._redis(self._flush, clears=True)
+            with ph("flush"):
+                self._redis(self._flush, clears=True)
 
     def _admit(self, o: _Owned) -> list:
         """The backlog's requests for this tick, in order, within the tick's budget of
@@ -366,16 +417,20 @@ class Worker:
         sh = o.shard
         if requests:
             o.journal.append((sh.tick, requests, [r.entry_id for r in requests]))
-        out = sh.step(requests)
-        self._take(o, out)
+        out = sh.step(requests, self.phase)
+        with self.phase("take"):
+            self._take(o, out)
         every = self.telemetry_every
         if every and sh.world.state.n:
-            # a rolling slice: each ship once per period, the work spread over its ticks
-            rows = np.arange(sh.tick % every, sh.world.state.n, every)
-            if rows.size and out.blocks:
-                o.telemetry.append(sh.telemetry(out.blocks[-1], rows, self.dt_s, sh.index)
-                                   .SerializeToString())
-                del o.telemetry[:-4 * every]  # a sample: only the latest wait for Redis
+            with self.phase("telemetry"):
+                # a rolling slice: each ship once per period, the work spread over its ticks
+                offset = sh.tick % every
+                if offset < sh.world.state.n and out.blocks:
+                    b = out.blocks[-1]
+                    o.telemetry.append(o.tele.encode(b.states[-1], b.outputs[-1], b.ship_ids,
+                                                     b.last_tick, self.dt_s, sh.index, offset,
+                                                     every))
+                    del o.telemetry[:-4 * every]  # a sample: only the latest wait for Redis
 
     def _take(self, o: _Owned, out: TickOut) -> None:
         o.unsent.extend(out.entries)
@@ -620,23 +675,28 @@ class Worker:
             for sample in o.telemetry:
                 pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
                                                 "proto": sample},
-                          maxlen=self.cfg.telemetry_maxlen, approximate=True)
+                          maxlen=self.telemetry_maxlen, approximate=True)
                 plan.append(("telemetry", k, 0))
             if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
                 # taken now, sent once the log has this tick on disk (no waiting on the log's
                 # thread here: that was the slowest tick's time)
                 gone = [sid for t, sid in o.retired if t <= sh.tick]
-                o.checkpoint = (rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland,
-                                                    sh.published),
-                                sh.tick, sh.published, sh.log.flush(wait=False), gone)
-            if o.checkpoint is not None and o.checkpoint[3].is_set():
-                blob, tick, published, _, gone = o.checkpoint
+                with self.phase("checkpoint"):  # the records copied; packed on a thread
+                    pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
+                                                sh.published)
+                    o.checkpoint = (self._packer().submit(pack), sh.tick, sh.published,
+                                    sh.log.flush(wait=False), gone)
+            if (o.checkpoint is not None and o.checkpoint[3].is_set()
+                    and o.checkpoint[0].done()):
+                packed, tick, published, _, gone = o.checkpoint
+                blob = packed.result()
                 self._script("CHECKPOINT", self._checkpoint_keys(k),
                              [self.id, blob, tick, published, *gone], client=pipe)
                 plan.append(("checkpoint", k, 0))
         if not plan:
             return
-        replies = pipe.execute(raise_on_error=False)
+        with self.phase("redis_io"):
+            replies = pipe.execute(raise_on_error=False)
         failed: set[int] = set()
         first_error = None
         for (what, k, n), reply in zip(plan, replies):
@@ -666,11 +726,16 @@ class Worker:
         if first_error is not None:
             raise first_error  # said once by _redis; what failed stays held
 
+    def _packer(self) -> ThreadPoolExecutor:
+        """The thread that packs checkpoints (zstd; off the tick)."""
+        if self._pack_pool is None:
+            self._pack_pool = ThreadPoolExecutor(
+                1, thread_name_prefix="touchdown-checkpoint",
+                initializer=lambda: lower_priority(threading.get_native_id()))
+        return self._pack_pool
+
     def _checkpoint_due(self, k: int, tick: int) -> bool:
-        """Every ``checkpoint_every`` ticks, the shards staggered across that period (the work
-        of a tick stays even)."""
-        every = self.cfg.checkpoint_every
-        return (tick + k * every // self.cfg.shards) % every == 0
+        return checkpoint_due(k, tick, self.cfg.checkpoint_every, self.cfg.shards)
 
     def _checkpoint(self, k: int, client=None) -> int:
         """Shard k's checkpoint (refused by the script unless every entry it counts is out)."""
@@ -714,7 +779,8 @@ class Worker:
                     pipe.zremrangebyscore(self.keys.workers, "-inf", server_s)
                     pipe.zcard(self.keys.workers)
                     self._live = pipe.execute()[2]
-                    order = sorted(list(self.owned))
+                    # (and a shard being taken: restoring a large one outlasts a lease)
+                    order = sorted(set(self.owned) | self._taking)
                     if order and cfg.cluster:  # each shard's lease in its own slot
                         pipe = r.pipeline()
                         for k in order:
@@ -725,6 +791,7 @@ class Worker:
                         kept = r.eval(rio.RENEW, len(order),
                                       *[self.keys.shard(k, "owner") for k in order],
                                       self.id, lease_ms)
+                    if order:
                         self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
                 except REDIS_ERRORS:
                     pass  # the loop says Redis is away
@@ -759,11 +826,19 @@ class Worker:
                 break
             if k not in self.owned and self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
                                                   px=lease_ms):
+                self._taking.add(k)  # the lease thread renews it meanwhile
                 try:
                     self._take_over(k)
                 except BaseException:
                     self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
                     raise
+                finally:
+                    self._taking.discard(k)
+                # what a take-over built (the ships' tables, ids, the log's header cache: a
+                # million objects at 50,000 ships) lives as long as the shard: out of the
+                # collector's sight, a full collection no longer walks it (a pause of tens of
+                # milliseconds in whichever tick it struck); reference counting still frees it
+                gc.freeze()
 
     def _take_over(self, k: int) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
@@ -833,7 +908,9 @@ class Worker:
             prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
             max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
             source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
-            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes)
+            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes,
+            zstd_level=self.cfg.log_zstd_level,
+            first_bytes=self.cfg.log_max_bytes * (k + 1) // self.cfg.shards)
         shard.log.start()  # the file's first record: the state it starts at
         o = _Owned(shard)
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
@@ -1005,6 +1082,8 @@ class Worker:
                 pass
         if self._metrics_server is not None:
             self._metrics_server.shutdown()
+        if self._pack_pool is not None:
+            self._pack_pool.shutdown(wait=False)
 
     def _final_flush(self) -> bool:
         self._flush()
@@ -1015,6 +1094,23 @@ class Worker:
             if self._checkpoint(k) == 1:
                 self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
         return True
+
+
+def checkpoint_due(k: int, tick: int, every: int, shards: int) -> bool:
+    """Shard k's checkpoint is due at ``tick``: every ``every`` ticks, the shards staggered
+    across that period (shard k at ticks = -k * every / shards mod every), so that no tick
+    takes two shards' checkpoints while there are no more shards than ticks in the period."""
+    return (tick + k * every // shards) % every == 0
+
+
+def telemetry_maxlen(cfg: ServeConfig, dt_s: float) -> int:
+    """The telemetry stream's cap in entries: ``cfg.telemetry_maxlen``, or by default what the
+    shards send in TELEMETRY_KEEP_S simulated seconds (one entry a shard a tick): with 1 Hz
+    samples of about 100 bytes a ship, about 1 kB a ship (10 MB per 10,000 ships), whatever the
+    fleet and the shard count."""
+    if cfg.telemetry_maxlen is not None:
+        return cfg.telemetry_maxlen
+    return max(1, int(round(TELEMETRY_KEEP_S / dt_s)) * cfg.shards)
 
 
 def _server_time(r: redis.Redis) -> float:

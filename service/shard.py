@@ -13,6 +13,7 @@ the same numbers, and the event stream keeps the first of each (service.redis_io
 """
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,6 +23,7 @@ from logs.redis_stream import entry_fields
 from service.autopilot import AutolandOutcome, autoland_commands
 from service.commands import Rejected, Request
 from service.kinds import KINDS, apply
+from service.telemetry import telemetry_message
 from sim.enums import SurfaceState
 from sim.world import Block, World
 
@@ -73,8 +75,10 @@ class Shard:
     def tick(self) -> int:
         return self.world.tick
 
-    def step(self, requests: list[Request | Rejected]) -> TickOut:
-        """Apply ``requests`` at this tick, fly the autopilot's ships, step one tick."""
+    def step(self, requests: list[Request | Rejected], phase=None) -> TickOut:
+        """Apply ``requests`` at this tick, fly the autopilot's ships, step one tick.
+        ``phase``: a service.phases.Phases to time the parts in (or None)."""
+        phase = phase or _no_phase
         out = TickOut()
         t = self.world.tick
         pending: dict[str, list] = {}
@@ -92,10 +96,14 @@ class Shard:
                 continue
             shown += 1
             self._emit(out, self._rejection(req, reason, t))
-        self._autopilot(out, pending, t)
+        with phase("autopilot"):
+            self._autopilot(out, pending, t)
         self.world.commands((sid, *given) for sid, given in pending.items())
-        for block in self.world.blocks(t + 1):
-            msgs = self.log.write_block(block)
+        with phase("step"):
+            blocks = list(self.world.blocks(t + 1))
+        for block in blocks:
+            with phase("log"):
+                msgs = self.log.write_block(block)
             out.blocks.append(block)
             rows = {sid: i for i, sid in enumerate(block.ship_ids)} if block.spawned else {}
             for sp in block.spawned:
@@ -143,9 +151,11 @@ class Shard:
         return self.world.row(sid)
 
     def _autopilot(self, out: TickOut, pending: dict[str, list], t: int) -> None:
-        present = set(self.world.ship_ids)
-        flying = sorted(s for s in self.autoland if s in present)
-        for gone in [s for s in self.autoland if s not in present]:
+        if not self.autoland:
+            return
+        row = self.world.row  # (an index kept while the fleet is the same: no set a tick)
+        flying = sorted(s for s in self.autoland if row(s) is not None)
+        for gone in [s for s in self.autoland if row(s) is None]:
             self.autoland.pop(gone)
         if not flying:
             return
@@ -201,22 +211,16 @@ class Shard:
     def telemetry(block: Block, rows: np.ndarray, dt_s: float, index: int = 0
                   ) -> spb.Telemetry:
         """A sample of the ships at ``rows`` of ``block``'s last tick: where they are, how
-        fast, how tilted (the step's own outputs of that tick: nothing recomputed)."""
-        tick = block.last_tick
-        st = block.states[-1][rows]
-        outs = block.outputs[-1][rows]
-        ids = block.ship_ids
-        msg = spb.Telemetry(tick=tick, t_s=tick * dt_s, shard=index,
-                            ship_ids=[ids[i] for i in rows])
-        if not len(rows):
-            return msg
-        msg.state.extend(st["surface_state"].astype(np.int32).tolist())
-        msg.pos_m.extend(st["pos_m"].ravel().tolist())
-        msg.vel_mps.extend(st["vel_mps"].ravel().tolist())
-        msg.altitude_m.extend(outs["altitude_m"].tolist())
-        msg.cos_tilt.extend(outs["cos_tilt"].tolist())
-        msg.fuel_kg.extend(st["fuel_kg"].tolist())
-        return msg
+        fast, how tilted (the step's own outputs of that tick: nothing recomputed). The service
+        sends the same as bytes (service.telemetry.TelemetryEncoder), made without this
+        message."""
+        return telemetry_message(block.states[-1], block.outputs[-1], block.ship_ids, rows,
+                                 block.last_tick, dt_s, index)
+
+
+@contextmanager
+def _no_phase(name: str):
+    yield
 
 
 def ship_hash(state: SurfaceState, body: str, tick: int, player_id: str, shard: int) -> dict:

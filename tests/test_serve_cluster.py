@@ -153,3 +153,57 @@ def test_on_a_cluster_the_worker_needs_its_acl_plus_cluster_slots_and_command(cl
             assert sum(client.xlen(keys.shard_events(k)) for k in range(SHARDS)) > 0
             assert all(int(client.get(keys.shard(k, "tick"))) == 40 for k in range(SHARDS))
             client.close()
+
+
+def test_view_and_record_redis_on_a_cluster_read_and_write_its_streams(cluster, tmp_path):
+    """`view --redis NODE` on a cluster follows the telemetry and every shard's event stream
+    ``P:ships:{k}`` (found by asking the node; one XREAD per stream); `record --redis NODE`
+    publishes through the cluster's slot map whatever node it is given."""
+    import threading
+
+    from logs.redis_stream import EventPublisher
+    from proto import touchdown_pb2 as pb
+    from service.serve import ServeConfig, Worker
+    from sim.scenario import parse_text
+    import scenarios as builtin
+    from view import live
+
+    prefix = _prefix()
+    fleet = parse_text(builtin.text("fleet"), "fleet")
+    w = Worker(ServeConfig(url=cluster.url, cluster=True, prefix=prefix, scenario=fleet,
+                           rate_hz=40.0, ticks=400, shards=SHARDS, telemetry_hz=10.0,
+                           log_dir=tmp_path / "flight"), say=lambda line: None)
+    th = threading.Thread(target=w.run, daemon=True)
+    th.start()
+    client = cluster.client()
+    keys = Keys(prefix, cluster=True)
+    try:
+        _wait(lambda: client.xlen(f"{prefix}:telemetry") > 5, 60, "telemetry")
+        _wait(lambda: sum(client.xlen(s) for s in keys.all_events(SHARDS)) > 0, 60, "events")
+        read = []
+        real = live._event
+
+        def seen(rr, rec, fleet_, fields):
+            read.append(fields.get(b"seq"))
+            return real(rr, rec, fleet_, fields)
+        live._event = seen
+        try:
+            for port in cluster.ports:  # any node will do
+                n = live.record(f"redis://127.0.0.1:{port}", prefix, 2.0,
+                                tmp_path / f"live-{port}.rrd")
+                assert n > 0 and (tmp_path / f"live-{port}.rrd").stat().st_size > 0
+        finally:
+            live._event = real
+        shards_seen = {s.split(b":")[0] for s in read if s}
+        on_streams = {str(k).encode() for k in range(SHARDS)
+                      if client.xlen(keys.shard_events(k)) > 0}
+        assert shards_seen == on_streams and len(on_streams) >= 2, (shards_seen, on_streams)
+        for port in cluster.ports:
+            pub = EventPublisher(f"redis://127.0.0.1:{port}", f"{prefix}:published")
+            pub.publish([pb.TransitionEvent(event="ship.landed", ship_id="s", tick=1)])
+            pub.close()
+        assert client.xlen(f"{prefix}:published") == len(cluster.ports)
+    finally:
+        w.stop.set()
+        th.join(timeout=60)
+        client.close()

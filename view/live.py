@@ -8,7 +8,10 @@ stream as it arrives (``P:telemetry``, service.serve) and the event stream (``P:
   autopilot's reports), levels by kind.
 
 Telemetry is a rolling slice (each ship once per telemetry period), so the picture is each
-ship's latest sample. Without a display: ``-o OUT.rrd`` records ``--seconds`` of it to a file,
+ship's latest sample. On a Redis Cluster (found by asking the node of ``--redis``: ``INFO
+cluster``) the view reads through a cluster client, and the events from every shard's own
+stream (``P:ships:{k}``, the service's shard count from its config), one XREAD per stream: a
+cluster refuses one over keys of several slots. Without a display: ``-o OUT.rrd`` records ``--seconds`` of it to a file,
 ``--screenshot PNG`` renders it with Rerun's headless viewer.
 """
 from __future__ import annotations
@@ -67,6 +70,9 @@ def _client(url: str, password: str | None) -> redis.Redis:
     try:
         client = rio.connect(url, password)
         client.ping()
+        if _cluster_enabled(client):  # a node of a Redis Cluster: follow its slot map
+            client.close()
+            client = rio.connect(url, password, cluster=True)
     except ValueError as exc:
         raise ViewError(f"--redis {rio.redact(url)}: {exc}", exit_code=2) from None
     except redis.exceptions.RedisError as exc:
@@ -76,6 +82,28 @@ def _client(url: str, password: str | None) -> redis.Redis:
     return client
 
 
+def _cluster_enabled(client: redis.Redis) -> bool:
+    try:
+        return bool(int(client.info("cluster").get("cluster_enabled", 0)))
+    except (redis.exceptions.RedisError, ValueError, TypeError):
+        return False  # (an ACL user without INFO: a single Redis, as before)
+
+
+def _read(client, last: dict, block_ms: int, cluster: bool):
+    """New entries of the streams in ``last`` (stream -> the last id seen): one blocking XREAD
+    on a single Redis; on a cluster one XREAD per stream (pipelined: a batch per master), and a
+    short sleep when none had anything."""
+    if not cluster:
+        return client.xread(last, count=500, block=block_ms)
+    pipe = client.pipeline(transaction=False)
+    for stream, after in last.items():
+        pipe.xread({stream: after}, count=500)
+    out = [r for reply in pipe.execute() for r in (reply or [])]
+    if not out:
+        time.sleep(min(block_ms, 100) / 1e3)
+    return out
+
+
 def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
            password: str | None = None, history: int = 2000) -> int:
     """Log the fleet into ``rec`` as it arrives, for ``seconds`` (None: until Ctrl-C); starts
@@ -83,13 +111,15 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     import rerun as rr
 
     client = _client(url, password)
-    keys = rio.Keys(prefix)
+    cluster = not isinstance(client, redis.Redis)
+    keys = rio.Keys(prefix, cluster=cluster)
     telemetry = f"{prefix}:telemetry"
     scene_json = client.hget(keys.config, "scenario_json") or b""
     scene = json.loads(scene_json) if scene_json else {}
+    shards = int(client.hget(keys.config, "shards") or 1)
     fleet = Fleet(scene)
     rec.log("fleet", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    last = {telemetry: "0", keys.events: "0"}
+    last = {telemetry: "0", **{stream: "0" for stream in keys.all_events(shards)}}
     for stream in last:
         tail = client.xrevrange(stream, count=history)
         if tail:
@@ -100,8 +130,8 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
         while end is None or time.monotonic() < end:
             block = 200 if end is None else max(1, int(min(200, (end - time.monotonic()) * 1e3)))
             try:
-                reply = client.xread(last, count=500, block=block)
-            except redis.exceptions.RedisError:
+                reply = _read(client, last, block, cluster)
+            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
                 time.sleep(0.25)
                 continue
             changed = False

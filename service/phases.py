@@ -1,0 +1,62 @@
+"""Where a worker's loop spends its time: wall and CPU seconds (the loop's thread's own,
+``time.thread_time``) summed per phase over every loop. Two clock reads a phase: cheap enough to
+keep on (a few dozen per tick). ``bench serve`` prints the breakdown; the stats line does not."""
+from __future__ import annotations
+
+import gc
+import time
+from contextlib import contextmanager
+
+_wall = time.perf_counter
+_cpu = time.thread_time
+
+
+class Phases:
+    def __init__(self, into: dict):
+        self.into = into  # phase -> [wall s, cpu s]
+
+    @contextmanager
+    def __call__(self, name: str):
+        w, c = _wall(), _cpu()
+        try:
+            yield
+        finally:
+            acc = self.into.get(name)
+            if acc is None:
+                acc = self.into[name] = [0.0, 0.0]
+            acc[0] += _wall() - w
+            acc[1] += _cpu() - c
+
+    def add(self, name: str, wall: float, cpu: float) -> None:
+        acc = self.into.setdefault(name, [0.0, 0.0])
+        acc[0] += wall
+        acc[1] += cpu
+
+
+class GcTimer:
+    """Adds the garbage collector's pauses to ``phases`` as ``gc`` (the wall time of each
+    collection, in whichever phase it struck; its generation 2 ones as ``gc2`` too) and
+    counts them."""
+
+    def __init__(self, phases: Phases):
+        self.phases = phases
+        self._t0 = 0.0
+        self.longest_s = 0.0
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._t0 = _wall()
+            return
+        dt = _wall() - self._t0
+        self.phases.add("gc", dt, dt)
+        if info.get("generation") == 2:
+            self.phases.add("gc2", dt, dt)
+        self.longest_s = max(self.longest_s, dt)
+
+    def install(self) -> None:
+        if self not in gc.callbacks:
+            gc.callbacks.append(self)
+
+    def remove(self) -> None:
+        if self in gc.callbacks:
+            gc.callbacks.remove(self)
