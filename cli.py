@@ -18,12 +18,12 @@ from pathlib import Path
 
 import click
 
-import scenarios as builtin
-from bench.commands import bench
-from logs import LogError
-from sim.errors import TouchdownError, UserError, WorkFailed
-from sim.integrators import METHODS
-from sim.scenario import ScenarioError, load_toml, parse_text
+import touchdown.scenarios as builtin
+from touchdown.bench.commands import bench
+from touchdown.logs import LogError
+from touchdown.sim.errors import TouchdownError, UserError, WorkFailed
+from touchdown.sim.integrators import METHODS
+from touchdown.sim.scenario import ScenarioError, load_toml, parse_text
 
 
 class _Told(click.ClickException):
@@ -95,7 +95,7 @@ def scenario_text(spec: str) -> tuple[str, str]:
 @click.version_option(package_name="touchdown", message="%(version)s")
 def main() -> None:
     """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
-    from sim.compiled import notify_compilation
+    from touchdown.sim.compiled import notify_compilation
     notify_compilation()  # one line on stderr while the kernels compile (first run after install)
 
 
@@ -125,16 +125,16 @@ def scenarios_cmd() -> None:
 @click.option("--view", "show", is_flag=True, help="open the Rerun viewer on the log when done")
 def record(scenario: str, output: str | None, sets: tuple[str, ...], redis_url: str | None,
            stream: str, keyframe_every: int, show: bool) -> None:
-    from logs.header import scenario_message
-    from logs.writer import LogWriter
-    from service.driver import drive
-    from sim.world import World
+    from touchdown.logs.header import scenario_message
+    from touchdown.logs.writer import LogWriter
+    from touchdown.service.driver import drive
+    from touchdown.sim.world import World
 
     scn, source = load_scenario(scenario, sets)
     out = Path(output) if output else Path(f"{scn.name}.mcap")
     publisher = None
     if redis_url:
-        from logs.redis_stream import EventPublisher
+        from touchdown.logs.redis_stream import EventPublisher
         publisher = EventPublisher(redis_url, stream)
     n_ticks = scn.params.sim.n_ticks
     try:
@@ -224,8 +224,8 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
     """One row per ship per tick of LOG (or per event with --events): JSON Lines, CSV or
     Parquet. Parquet keeps each field's unit in its metadata; a tick table in Parquet is written
     with its events beside it (OUT.events.parquet)."""
-    from logs import export as ex
-    from logs.reader import LogReader
+    from touchdown.logs import export as ex
+    from touchdown.logs.reader import LogReader
 
     if fmt == "parquet" and not output:
         raise UserError("--format parquet writes a file: give -o OUT.parquet")
@@ -324,8 +324,8 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
 
     With --verify: compare with the recording bit for bit (exit 0 identical, 1 diverged).
     With --set: the same inputs under changed settings; prints how far it departs."""
-    from replay.verify import verify as run_verify
-    from replay.whatif import what_if
+    from touchdown.replay.verify import verify as run_verify
+    from touchdown.replay.whatif import what_if
 
     if verify and sets:
         raise UserError("--verify re-runs the log as recorded; it does not take --set")
@@ -357,7 +357,7 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
     """Draw logs in Rerun: to an .rrd file, to a PNG (headless), or in the native viewer."""
     import time
 
-    from view import rerun_view as rv
+    from touchdown.view import rerun_view as rv
 
     t0 = time.perf_counter()
     runs, notes = rv.load_runs(logs, ship_id)
@@ -427,8 +427,8 @@ def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: st
 
 def _show_live(url: str, prefix: str, seconds: float | None, output: str | None,
                png: str | None) -> None:
-    from view import live
-    from view import rerun_view as rv
+    from touchdown.view import live
+    from touchdown.view import rerun_view as rv
 
     if output or png:
         with tempfile.TemporaryDirectory(prefix="touchdown-view-") as tmp:
@@ -450,7 +450,7 @@ def doctor(log: str) -> None:
     and their entries, summary, footer), and beside it what Touchdown checks of its content
     (scenario, every tick record decoded and checked, events, summary). Exit 0 sound, 1 damaged
     (what and where), 2 not a readable file."""
-    from logs import doctor as log_doctor
+    from touchdown.logs import doctor as log_doctor
 
     if not Path(log).is_file():
         raise UserError(f"{log}: cannot open: no such file")
@@ -479,7 +479,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
     the logs hold, from the keyframe at or before the start. The cut is re-run from the logs' own
     records and checked against them tick by tick as it is written (exit 1, nothing written, if
     they differ); `touchdown replay OUT --verify` passes on it."""
-    from replay.incident import Diverged, incident as cut
+    from touchdown.replay.incident import Diverged, incident as cut
 
     if not ship_id:
         raise UserError("--ship: the ship to cut is required (--ship ID)")
@@ -595,8 +595,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
     """The live service: step the ships of a scenario and those spawned by commands, read
     commands from Redis, publish events, keep each ship's state in Redis, write flight logs
     (SPEC.md section 5; docs/SERVICE.md)."""
-    from service.serve import ServeConfig, Worker, install_stop
-    from service.shard import Limits
+    from touchdown.service.serve import ServeConfig, Worker, install_stop
+    from touchdown.service.shard import Limits
 
     password = None
     if redis_password_file:
@@ -672,11 +672,11 @@ def sweep(scenario: str, vary: tuple[str, ...], samples: int | None, seed: int,
     samples of their ranges), each case the scenario's first ship with those values, stepped
     together as one fleet; a table of outcomes (SPEC.md section 6), the count per outcome, and
     optionally a chart. Ctrl-C keeps the cases done (the others are marked missing, exit 130)."""
-    from sweep.command import main as sweep_main
+    from touchdown.sweep.command import main as sweep_main
     text, source = scenario_text(scenario)
     doc = load_toml(text, source)
     if sets:
-        from sim.scenario import apply_overrides
+        from touchdown.sim.scenario import apply_overrides
         doc = apply_overrides(doc, parse_sets(sets), source)
     code = sweep_main(doc, source, vary, samples, seed, output, chart, workers, scheduler,
                       record_case)

@@ -45,14 +45,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.reference import (bounce_ode, critical_angle_rad, planar_touchdown, righting_time,
-                             settle_time, topple_time)
-from bench.speed import machine
-from sim.constants import EARTH_GM_M3PS2, EARTH_RADIUS_M, MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import EventKind
-from sim.params import ContactParams, SimParams
-from sim.run import run, run_blocks
-from sim.scenario import parse
+from touchdown.bench.reference import (bounce_ode, critical_angle_rad, planar_touchdown,
+    righting_time, settle_time, topple_time)
+from touchdown.bench.speed import machine
+from touchdown.sim.constants import EARTH_GM_M3PS2, EARTH_RADIUS_M, MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import EventKind
+from touchdown.sim.params import ContactParams, SimParams
+from touchdown.sim.run import run, run_blocks
+from touchdown.sim.scenario import parse
 
 PLAIN = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "exponential"]
 SEED = "semi_implicit_euler"
@@ -336,8 +336,8 @@ def mujoco_sweep(quick: bool) -> list[dict]:
     label = mujoco_label()
     if label is None:
         return []
-    from bench.mujoco_side import bounce_run
-    from bench.reference import bounce_closed_form
+    from touchdown.bench.mujoco_side import bounce_run
+    from touchdown.bench.reference import bounce_closed_form
 
     rows = []
     dts = [0.002, 0.01, 0.05] if quick else [0.001, 0.002, 0.005, 0.01, 0.02, 0.05]

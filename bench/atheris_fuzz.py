@@ -1,11 +1,11 @@
 """Coverage-guided fuzzing of the log reader and the scenario parser (atheris, libFuzzer's engine).
 
     pip install -e '.[fuzz]'
-    python -m bench.atheris_fuzz reader   -max_total_time=600 -timeout=20 -rss_limit_mb=1536
-    python -m bench.atheris_fuzz scenario -max_total_time=600 -timeout=20 -rss_limit_mb=1536
+    python -m touchdown.bench.atheris_fuzz reader   -max_total_time=600 -timeout=20 -rss_limit_mb=1536
+    python -m touchdown.bench.atheris_fuzz scenario -max_total_time=600 -timeout=20 -rss_limit_mb=1536
 
 Not part of the suite: it runs until its time is up or it finds a failure, which libFuzzer writes
-to ``crash-*`` / ``timeout-*`` / ``oom-*`` files for ``python -m bench.atheris_fuzz TARGET FILE``
+to ``crash-*`` / ``timeout-*`` / ``oom-*`` files for ``python -m touchdown.bench.atheris_fuzz TARGET FILE``
 to re-run. Where ``bench/fuzz.py`` generates a fixed corpus from what we know can go wrong, this
 mutates inputs toward code it has not reached yet. The seed corpus (written to
 ``.fuzz-corpus/TARGET`` on first use) is the fixed corpus's seed logs and bombs, and the built-in
@@ -28,11 +28,11 @@ import atheris
 # only our own code is instrumented (numpy, mcap, zstd and protobuf are someone else's to fuzz,
 # and instrumenting them makes every run several times slower)
 with atheris.instrument_imports(include=["logs", "sim", "replay", "proto", "scenarios"]):
-    from logs import LogError
-    from logs.export import tick_rows, write_jsonl
-    from logs.reader import LogReader
-    from logs.rebuild import scenario_of
-    from sim.scenario import ScenarioError, parse_text
+    from touchdown.logs import LogError
+    from touchdown.logs.export import tick_rows, write_jsonl
+    from touchdown.logs.reader import LogReader
+    from touchdown.logs.rebuild import scenario_of
+    from touchdown.sim.scenario import ScenarioError, parse_text
 
 CORPUS = Path(".fuzz-corpus")
 _LOG = Path(tempfile.mkdtemp(prefix="touchdown-atheris-")) / "input.mcap"
@@ -57,7 +57,7 @@ def reader_one(data: bytes) -> None:
 
 def scenario_one(data: bytes) -> None:
     """Parse a scenario; run an accepted one for a few ticks and require finite numbers."""
-    from sim.run import run
+    from touchdown.sim.run import run
 
     text = data.decode("utf-8", errors="replace")
     try:
@@ -78,8 +78,8 @@ def seed_corpus(target: str) -> Path:
         return out
     out.mkdir(parents=True, exist_ok=True)
     if target == "reader":
-        from bench import fuzz
-        from cli import main as command  # this script is run, never imported by cli.py
+        from touchdown.bench import fuzz
+        from touchdown.cli import main as command  # this script is run, never imported by cli.py
         with tempfile.TemporaryDirectory() as d:
             seeds = fuzz.seed_logs(command, Path(d))
         for name, data in seeds.items():
@@ -89,7 +89,7 @@ def seed_corpus(target: str) -> Path:
             if name.startswith(("zstd-claims-1000", "zstd-claims-2^62", "none-", "lz4-")):
                 (out / f"bomb-{name}.mcap").write_bytes(data)
     else:
-        import scenarios
+        from touchdown import scenarios
         for name in scenarios.names():
             (out / f"{name}.toml").write_text(scenarios.text(name))
     return out
@@ -97,7 +97,8 @@ def seed_corpus(target: str) -> Path:
 
 def main(argv: list[str]) -> None:
     if len(argv) < 2 or argv[1] not in ("reader", "scenario"):
-        sys.exit("usage: python -m bench.atheris_fuzz reader|scenario [FILE | libFuzzer options]")
+        sys.exit("usage: python -m touchdown.bench.atheris_fuzz reader|scenario "
+                 "[FILE | libFuzzer options]")
     target = argv[1]
     one = reader_one if target == "reader" else scenario_one
     rest = argv[2:]

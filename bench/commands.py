@@ -23,7 +23,7 @@ def bench() -> None:
 def speed(quick: bool) -> None:
     """Recording and stepping rates, and the cost per ship-tick by state and model (with the
     `bench` extra, MuJoCo on the same landers)."""
-    from bench import speed as bench_speed
+    from touchdown.bench import speed as bench_speed
     bench_speed.main(quick=quick)
 
 
@@ -31,7 +31,7 @@ def speed(quick: bool) -> None:
 @QUICK
 def replay(quick: bool) -> None:
     """Verify against record speed, seeking in a long log, what keyframes cost."""
-    from bench import replay_speed
+    from touchdown.bench import replay_speed
     replay_speed.main(quick=quick)
 
 
@@ -42,7 +42,7 @@ def replay(quick: bool) -> None:
 def accuracy(quick: bool, out_dir: str) -> None:
     """The work-precision chart and tables: each method's error against the references over the
     tick, against its cost (needs the `bench` extra)."""
-    from bench import accuracy as bench_accuracy
+    from touchdown.bench import accuracy as bench_accuracy
     bench_accuracy.main(quick=quick, out_dir=out_dir)
 
 
@@ -50,7 +50,7 @@ def accuracy(quick: bool, out_dir: str) -> None:
 @QUICK
 def stability(quick: bool) -> None:
     """Each method's largest stable step, measured against theory."""
-    from bench import stability as bench_stability
+    from touchdown.bench import stability as bench_stability
     bench_stability.main(quick=quick)
 
 
@@ -59,7 +59,7 @@ def stability(quick: bool) -> None:
 def physics(quick: bool) -> None:
     """Scenes off the well-walked paths (turning bodies, tumbles, falls onto the side, spins,
     hills, slopes, impossible starts), each figure beside what physics says."""
-    from bench import physics as bench_physics
+    from touchdown.bench import physics as bench_physics
     bench_physics.main(quick=quick)
 
 
@@ -80,7 +80,7 @@ def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib
     """A campaign of generated hostile logs and scenarios against verify, export and record, in
     this process, counted per class and outcome (exit 1 if any hang, traceback, memory blow-up or
     silent result)."""
-    from bench import fuzz as bench_fuzz
+    from touchdown.bench import fuzz as bench_fuzz
     tally = bench_fuzz.main(ctx.find_root().command, files=200 if quick else files,
                             seconds=seconds, memory_gib=memory_gib, as_json=as_json, seed=seed)
     if tally.bad():
@@ -128,7 +128,7 @@ def serve(quick: bool, redis_url: str, cluster: bool, private_redis: bool,
     (tick p99 under 100 ms, no late tick; bisected, then confirmed by a 5-minute run), with
     tick-time percentiles, CPU per ship-tick, events per second and Redis memory and traffic
     per 10,000 ships (needs a Redis; `--cluster`: a private three-master Redis Cluster)."""
-    from bench import serve as bench_serve
+    from touchdown.bench import serve as bench_serve
     counts = tuple(int(x) for x in workers.split(",") if x.strip())
     bench_serve.main(quick=quick, url=redis_url, cluster=cluster, seconds=seconds,
                      confirm_s=confirm_seconds, start=start, workers=counts,
@@ -142,7 +142,7 @@ def serve(quick: bool, redis_url: str, cluster: bool, private_redis: bool,
 def envelope(quick: bool) -> None:
     """The stand / tip boundary over sideways speed and slope from Touchdown, the planar
     reference and MuJoCo (the `bench` extra)."""
-    from bench import envelope as bench_envelope
+    from touchdown.bench import envelope as bench_envelope
     bench_envelope.main(quick=quick)
 
 
@@ -151,5 +151,5 @@ def envelope(quick: bool) -> None:
 def logs(quick: bool) -> None:
     """Export (Parquet, CSV, JSON Lines), view, verify and doctor of a 1,000-ship log as whole
     commands on one core, as ratios against the old per-row JSON Lines export."""
-    from bench import logs as bench_logs
+    from touchdown.bench import logs as bench_logs
     bench_logs.main(quick=quick)

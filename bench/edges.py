@@ -11,12 +11,12 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from bench.planar import Lander, Start, foot_offsets, solve
-from bench.reference import bounce_ode
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import EventKind
-from sim.run import run
-from sim.scenario import parse
+from touchdown.bench.planar import Lander, Start, foot_offsets, solve
+from touchdown.bench.reference import bounce_ode
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import EventKind
+from touchdown.sim.run import run
+from touchdown.sim.scenario import parse
 
 GM, R = MOON_GM_M3PS2, MOON_RADIUS_M
 G = GM / R ** 2
@@ -112,7 +112,7 @@ def _holds(slope_deg, ship, dt) -> bool:
     rest = list(run(grip))[-1].state
     import dataclasses
 
-    from sim.state import State
+    from touchdown.sim.state import State
     scn = _scene(start, ship=ship, sim={"dt": dt}, contact=stay, body={"terrain": terrain},
                  duration=10.0)
     scn = dataclasses.replace(scn, initial=State(rows=rest.rows.copy(), tick=0))

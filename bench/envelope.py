@@ -31,7 +31,7 @@ BISECTIONS = 8  # U_MAX / 2^8 = 0.03 m/s
 
 
 def _moon_g(com_height_m: float) -> float:
-    from sim.constants import MOON_RADIUS_M
+    from touchdown.sim.constants import MOON_RADIUS_M
     return 4.9048695e12 / (MOON_RADIUS_M + com_height_m) ** 2
 
 
@@ -39,8 +39,8 @@ def _moon_g(com_height_m: float) -> float:
 def touchdown_boundary(slopes=SLOPES_DEG, n_speeds: int = 161) -> dict[float, float | None]:
     """The smallest swept sideways speed that tips, per slope (None: none on the grid), from one
     `touchdown sweep` over sideways speed x slope."""
-    from sweep.cases import Axis, Sweep
-    from sweep.run import run
+    from touchdown.sweep.cases import Axis, Sweep
+    from touchdown.sweep.run import run
     doc = {"name": "bench-envelope", "duration": T_END_S,
            "body": {"name": "Luna", "terrain": {"slope_deg": 0.0, "slope_azimuth_deg": 90.0}},
            "ships": [{"id": "lander", "initial": {"altitude": 1e-6, "vertical_speed": -V_DOWN,
@@ -65,7 +65,7 @@ def touchdown_boundary(slopes=SLOPES_DEG, n_speeds: int = 161) -> dict[float, fl
 def _planar_start(slope_deg: float, u: float):
     """Upright in the world, feet at the ground, (u sideways, V_DOWN down) in the world: in the
     slope's frame (X downhill along the ground, Z its normal)."""
-    from bench.planar import Start, foot_offsets
+    from touchdown.bench.planar import Start, foot_offsets
     a = math.radians(slope_deg)
     vx = u * math.cos(a) + V_DOWN * math.sin(a)
     vz = u * math.sin(a) - V_DOWN * math.cos(a)
@@ -78,14 +78,14 @@ def _planar_start(slope_deg: float, u: float):
 def _planar_lander(slope_deg: float, push_only: bool = False):
     """The reference's lander; ``push_only``: the ground only pushes (critically damped, as
     MuJoCo's contacts are set here) instead of the absorbers that hold a pressed foot down."""
-    from bench.planar import Lander
+    from touchdown.bench.planar import Lander
     extra = dict(zeta=1.0, bounce_speed_mps=0.0) if push_only else {}
     return Lander(g_mps2=_moon_g(3.0), mu_s=0.8, mu_k=0.5, eps_mps=1e-6,
                   slope_rad=math.radians(slope_deg), **extra)
 
 
 def planar_tips(slope_deg: float, u: float, push_only: bool = False) -> bool:
-    from bench.planar import solve
+    from touchdown.bench.planar import solve
     path = solve(_planar_lander(slope_deg, push_only), _planar_start(slope_deg, u), T_END_S,
                  tipped_rad=math.radians(TIP_DEG), rtol=1e-8, atol=1e-10)
     return path.tipped_t_s is not None
@@ -99,8 +99,8 @@ def mujoco_tips(slope_deg: float, u: float, friction: float, dt_s: float = 0.002
     at 2 m/s and comes down on one sphere foot, on which it rolls over (no rolling friction)."""
     import mujoco
 
-    from bench.mujoco_side import FOOT_RADIUS_M, lander_xml
-    from sim.scenario import parse
+    from touchdown.bench.mujoco_side import FOOT_RADIUS_M, lander_xml
+    from touchdown.sim.scenario import parse
     scn = parse({"name": "x", "duration": 1.0, "ships": [{"id": "a"}]}, "bench")
     sh, cp = scn.params.ships, scn.params.contact
     g = _moon_g(3.0)

@@ -202,14 +202,14 @@ def _proto_descriptor() -> bytes:
     """Our .proto as a FileDescriptorSet (what a protobuf schema record holds)."""
     from google.protobuf import descriptor_pb2
 
-    from proto import touchdown_pb2 as pb
+    from touchdown.proto import touchdown_pb2 as pb
     fds = descriptor_pb2.FileDescriptorSet()
     pb.DESCRIPTOR.CopyToProto(fds.file.add())
     return fds.SerializeToString()
 
 
 def _scenario_msg_of(log: bytes) -> bytes:
-    from logs.reader import LogReader
+    from touchdown.logs.reader import LogReader
     with tempfile.NamedTemporaryFile(suffix=".mcap") as f:
         f.write(log)
         f.flush()
@@ -267,7 +267,7 @@ def _varint(n: int) -> bytes:
 
 def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]:
     """About n cases spread over the log classes (bombs are all included once)."""
-    from proto import touchdown_pb2 as pb
+    from touchdown.proto import touchdown_pb2 as pb
 
     names = sorted(seeds)
     per = max(1, -(-(n - 60) // (len(LOG_CLASSES) - 1)))  # 60: the bombs, run by two commands
@@ -411,8 +411,8 @@ def _mutate_scenario_record(src: bytes, rng: random.Random, k: int, pb) -> bytes
 
 
 def _mutate_tick(src: bytes, rng: random.Random, k: int, pb) -> bytes:
-    from logs.codec import encode_tick
-    from logs.decode import decode_tick
+    from touchdown.logs.codec import encode_tick
+    from touchdown.logs.decode import decode_tick
 
     target = rng.randrange(4)
 
@@ -477,7 +477,7 @@ def _mutate_index(src: bytes, rng: random.Random) -> bytes:
 
 def scenario_keys() -> tuple[str, ...]:
     """Every key a scenario may set, from the parser's own tables (so a new key is fuzzed too)."""
-    from sim import scenario as S
+    from touchdown.sim import scenario as S
     tables = (("", S.TOP), ("sim.", S.SIM), ("contact.", S.CONTACT), ("body.", S.BODY),
               ("body.terrain.", S.TERRAIN), ("body.terrain.bumps[0].", S.BUMP),
               ("controller.", S.CONTROLLER), ("ships[0].", S.SHIP), ("ships[0].initial.", S.INITIAL),
@@ -486,7 +486,7 @@ def scenario_keys() -> tuple[str, ...]:
 
 
 def scenario_cases(n: int, rng: random.Random) -> list[Case]:
-    import scenarios
+    from touchdown import scenarios
     # the bounce, short, with a bump in the ground and a command, so that every key is there
     base = (scenarios.text("bounce").replace("duration = 30.0", "duration = 0.2")
             .replace('name = "Luna"', 'name = "Luna"\n[[body.terrain.bumps]]\nradius = 50.0\n'
@@ -553,9 +553,9 @@ def invoke(main, argv: list[str]) -> tuple[int | str, str, str]:
 
 def _content(path: str) -> tuple | None:
     """What a log holds, as today's reader reads it (None if it cannot)."""
-    from logs import LogError
-    from logs.header import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS
-    from logs.reader import LogReader
+    from touchdown.logs import LogError
+    from touchdown.logs.header import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS
+    from touchdown.logs.reader import LogReader
     try:
         with LogReader(path) as r:
             msgs = {t: [] for t in (TOPIC_SCENARIO, TOPIC_TICKS, TOPIC_EVENTS, TOPIC_SUMMARY)}
@@ -692,7 +692,7 @@ def cap_memory(gib: float) -> None:
 def main(command, files: int = 2000, seconds: float = 20.0, memory_gib: float = 1.5,
          as_json: bool = False, seed: int = 20261123) -> Tally:
     """Run a campaign in this process (its address space capped) and print the counts."""
-    from bench.speed import machine
+    from touchdown.bench.speed import machine
     cap_memory(memory_gib)
     t0 = time.perf_counter()
     tally = campaign(command, files, seed=seed, seconds=seconds)

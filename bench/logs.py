@@ -22,9 +22,9 @@ ROOT = Path(__file__).resolve().parent.parent
 #: the export before issue 25, as it was: rows as dicts, JSON per row, Python decoding
 OLD_EXPORT = """
 import sys
-import logs.reader as m
-from logs.codec import decode_tick_python
-from logs.export import tick_rows, write_jsonl
+import touchdown.logs.reader as m
+from touchdown.logs.codec import decode_tick_python
+from touchdown.logs.export import tick_rows, write_jsonl
 m.decode_tick = decode_tick_python  # the decoder export used then
 with m.LogReader(sys.argv[1]) as r, open(sys.argv[2], "w") as f:
     write_jsonl(tick_rows(r), f, sys.argv[1])
@@ -54,9 +54,9 @@ def run(args: list[str]) -> tuple[float, float, float]:
 
 
 def record_fleet(path: str, ships: int, ticks: int) -> float:
-    from bench.speed import fleet_doc
-    from service import driver
-    from sim.scenario import parse
+    from touchdown.bench.speed import fleet_doc
+    from touchdown.service import driver
+    from touchdown.sim.scenario import parse
     scn = parse(fleet_doc(ships, ticks * 0.05), "bench")
     t0 = time.perf_counter()
     driver.record(scn, path, "bench")
@@ -65,8 +65,8 @@ def record_fleet(path: str, ships: int, ticks: int) -> float:
 
 def breakdown(log: str, out: str) -> dict[str, float]:
     """Where a Parquet export's time goes, in this process (the kernels loaded already)."""
-    from logs import export as ex
-    from logs.reader import LogReader
+    from touchdown.logs import export as ex
+    from touchdown.logs.reader import LogReader
     t = {}
     clock = time.process_time
     t0 = clock()
@@ -90,9 +90,9 @@ def breakdown(log: str, out: str) -> dict[str, float]:
 
 def bounded_refusal(tmp: str) -> float:
     """Seconds to refuse a log declaring one 100 MiB tick record (a few kB on disk)."""
-    from bench import fuzz
-    from logs import LogError
-    from replay.verify import verify
+    from touchdown.bench import fuzz
+    from touchdown.logs import LogError
+    from touchdown.replay.verify import verify
     src = os.path.join(tmp, "small.mcap")
     record_fleet(src, 2, 20)
 
@@ -115,7 +115,7 @@ def bounded_refusal(tmp: str) -> float:
 
 
 def main(quick: bool = False) -> None:
-    from bench.speed import machine
+    from touchdown.bench.speed import machine
     ships, ticks = (200, 400) if quick else (1000, 2000)
     rows = ships * (ticks + 1)
     print(f"machine: {machine()}; each command a fresh process on one core (startup included)")

@@ -55,8 +55,8 @@ def default_lander():
     """The MuJoCo model of the built-in bounce's lander, and the Touchdown scenario it copies."""
     import mujoco
 
-    import scenarios
-    from sim.scenario import parse_text
+    from touchdown import scenarios
+    from touchdown.sim.scenario import parse_text
 
     scn = parse_text(scenarios.text("bounce"), "bounce")
     sh, cp = scn.params.ships, scn.params.contact
@@ -117,9 +117,9 @@ def mujoco_fleet(n_ships: int = 10_000, n_steps: int = 100, repeats: int = 3) ->
 
 def touchdown_one_lander(n_ticks: int = 100_000, repeats: int = 3) -> float:
     """Ticks per CPU second of the built-in bounce stepped alone (no log)."""
-    import scenarios
-    from sim.run import run_blocks
-    from sim.scenario import parse_text
+    from touchdown import scenarios
+    from touchdown.sim.run import run_blocks
+    from touchdown.sim.scenario import parse_text
 
     scn = parse_text(scenarios.text("bounce"), "bounce", {"duration": n_ticks * 0.05})
     next(iter(run_blocks(scn, last_tick=1)))  # the kernels loaded before timing
@@ -132,8 +132,8 @@ def touchdown_one_lander(n_ticks: int = 100_000, repeats: int = 3) -> float:
 
 def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 1) -> float:
     """Ship-ticks per CPU second, ``n_ships`` landers arriving at 2-49 m/s from 0.5-30 m."""
-    from sim.run import run_blocks
-    from sim.scenario import parse
+    from touchdown.sim.run import run_blocks
+    from touchdown.sim.scenario import parse
 
     rng = np.random.default_rng(7)
     ships = [{"id": f"s{i}", "initial": {"altitude": float(h), "vertical_speed": -float(v),
@@ -162,8 +162,8 @@ def bounce_run(v0_mps: float, g_mps2: float, dt_s: float, height_m: float = 0.3,
     import mujoco
     from mujoco import rollout
 
-    import scenarios
-    from sim.scenario import parse_text
+    from touchdown import scenarios
+    from touchdown.sim.scenario import parse_text
 
     scn = parse_text(scenarios.text("bounce"), "bounce")
     sh, cp = scn.params.ships, scn.params.contact

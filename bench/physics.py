@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-from sim.contact import foot_offsets_w
-from sim.enums import EventKind, SurfaceState
-from sim.measure import terrain_height
-from sim.run import run
-from sim.scenario import ScenarioError, parse
+from touchdown.sim.contact import foot_offsets_w
+from touchdown.sim.enums import EventKind, SurfaceState
+from touchdown.sim.measure import terrain_height
+from touchdown.sim.run import run
+from touchdown.sim.scenario import ScenarioError, parse
 
 MOON_ROTATION_S = 2360592.0  # sidereal month
 EARTH_ROTATION_S = 86164.0905  # sidereal day
@@ -318,16 +318,16 @@ SCENES = (rotating_slides, held_creep, free_rotation, fall_onto_side, yaw_spin, 
 def _edges():
     """The scenes of the edges (bench.edges), where this version has them."""
     try:
-        from bench import edges
+        from touchdown.bench import edges
     except ImportError:  # a version before them
         return ()
     return edges.SCENES
 
 
 def main(quick: bool = False) -> None:
-    from sim import __version__
+    from touchdown.sim import __version__
 
-    from bench.speed import machine
+    from touchdown.bench.speed import machine
     print(f"touchdown {__version__}; {machine()}")
     for fn in SCENES + _edges():
         rows: list[tuple[str, str, str]] = []

@@ -12,11 +12,11 @@ import os
 import tempfile
 import time
 
-import scenarios
-from bench.speed import machine
-from replay.verify import verify
-from service import driver
-from sim.scenario import parse_text
+from touchdown import scenarios
+from touchdown.bench.speed import machine
+from touchdown.replay.verify import verify
+from touchdown.service import driver
+from touchdown.sim.scenario import parse_text
 
 
 def record(path: str, n_ticks: int, keyframe_every: int = 1) -> float:

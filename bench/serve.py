@@ -46,8 +46,8 @@ from pathlib import Path
 
 import redis
 
-from bench.speed import fleet_doc, machine
-from sim.scenario import parse
+from touchdown.bench.speed import fleet_doc, machine
+from touchdown.sim.scenario import parse
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE_HZ = 10.0
@@ -271,8 +271,8 @@ def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
     straight into the shards' command streams. Returns the tick-time p99 during the burst (from
     its sending until every ship has joined) and for ``after_s`` after it, how long the joining
     took, the leases that changed hands and the spawns rejected."""
-    from service.commands import shard_of
-    from service.redis_io import Keys
+    from touchdown.service.commands import shard_of
+    from touchdown.service.redis_io import Keys
     prefix = f"bench:burst:{uuid.uuid4().hex[:8]}"
     keys = Keys(prefix, cluster=CLUSTER["on"])
     client = _client(url)
@@ -350,7 +350,7 @@ class PrivateRedis:
     ``cpus`` when given."""
 
     def __init__(self, folder: Path, cpus: set[int] | None = None):
-        from bench.redis_cluster import free_ports
+        from touchdown.bench.redis_cluster import free_ports
         binary = shutil.which("redis-server")
         if binary is None:
             raise RuntimeError("--private-redis needs redis-server on PATH")
@@ -436,7 +436,7 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
             return said
         return place
     if cluster:
-        from bench.redis_cluster import Cluster
+        from touchdown.bench.redis_cluster import Cluster
         with tempfile.TemporaryDirectory(prefix="touchdown-bench-cluster-") as tmp:
             c = Cluster(Path(tmp), fsync="everysec")
             CLUSTER["on"] = True

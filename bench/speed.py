@@ -34,10 +34,10 @@ from contextlib import contextmanager
 
 import numpy as np
 
-import scenarios
-from service.driver import record
-from sim.run import run_blocks
-from sim.scenario import parse, parse_text
+from touchdown import scenarios
+from touchdown.service.driver import record
+from touchdown.sim.run import run_blocks
+from touchdown.sim.scenario import parse, parse_text
 
 
 def machine() -> str:
@@ -128,7 +128,8 @@ def first_and_later_record(tmp: str) -> tuple[float, float]:
     """Wall seconds of ``touchdown record bounce`` with an empty kernel cache (it compiles) and
     then with the cache it left, each a whole command in a fresh process."""
     env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "kernel-cache"))
-    cmd = [sys.executable, "-m", "cli", "record", "bounce", "-o", os.path.join(tmp, "b.mcap")]
+    cmd = [sys.executable, "-m", "touchdown.cli", "record", "bounce", "-o",
+           os.path.join(tmp, "b.mcap")]
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     out = []
     for _ in range(2):
@@ -224,7 +225,7 @@ def main(quick: bool = False) -> None:
             print(f"  {label:<36}{model:<42}" + "".join(f"{c:>32.2f}" for c in costs))
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak resident memory: {peak_mib:,.0f} MiB")
-    from bench import mujoco_side
+    from touchdown.bench import mujoco_side
     mujoco_side.main(quick=quick)  # the anchor: MuJoCo on the same machine, in the same run
 
 

@@ -21,10 +21,10 @@ import math
 
 import numpy as np
 
-from sim.enums import SurfaceState
-from sim.run import run
-from sim.scenario import parse
-from sim.stability import KICKS, largest_stable_wh
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.run import run
+from touchdown.sim.scenario import parse
+from touchdown.sim.stability import KICKS, largest_stable_wh
 
 ZETA = 0.3
 OMEGA = 10.0  # sqrt(k/m), rad/s
@@ -156,7 +156,7 @@ def measured(method: str, mode: str, hi: float, halvings: int) -> float:
 
 
 def main(quick: bool = False) -> None:
-    from bench.speed import machine
+    from touchdown.bench.speed import machine
     print(f"machine: {machine()}")
     w_r, zeta_r = rocking_mode()
     print(f"contact: w = {OMEGA:g} rad/s, zeta = {ZETA:g} (bounce); w_r = {w_r:.3f} rad/s, "

@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from logs.reader import LogReader  # noqa: E402
+from touchdown.logs.reader import LogReader  # noqa: E402
 
 COLOURS = {0: "#4a90d9", 1: "#e6a700", 2: "#2e9e44", 3: "#d0342c", 4: "#555555"}
 NAMES = {0: "flying", 1: "contact", 2: "landed", 3: "tipped", 4: "crashed"}

@@ -1,7 +1,7 @@
 """The edges that persist and publish: MCAP logs, JSON Lines export, the Redis stream."""
 
 
-from sim.errors import TouchdownError
+from touchdown.sim.errors import TouchdownError
 
 
 class LogError(TouchdownError):

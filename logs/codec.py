@@ -17,12 +17,12 @@ import struct
 
 import numpy as np
 
-from sim.compiled import kernel
-from sim.fields import BY_LOG_NAME
-from sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
+from touchdown.sim.compiled import kernel
+from touchdown.sim.fields import BY_LOG_NAME
+from touchdown.sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
 
-from logs import LogError
-from proto import touchdown_pb2 as pb
+from touchdown.logs import LogError
+from touchdown.proto import touchdown_pb2 as pb
 from google.protobuf.descriptor import FieldDescriptor as FD
 
 _DESC = pb.TickBatch.DESCRIPTOR

@@ -22,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from logs import LogError
-from logs.codec import PACKED
-from sim import fields
-from sim.compiled import separate
+from touchdown.logs import LogError
+from touchdown.logs.codec import PACKED
+from touchdown.sim import fields
+from touchdown.sim.compiled import separate
 
 #: packed fields by their index in PACKED
 NAMES: tuple[str, ...] = tuple(name for _, name, _ in PACKED)

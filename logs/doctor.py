@@ -2,9 +2,9 @@
 then what Touchdown itself checks of its content (logs.reader)."""
 from __future__ import annotations
 
-from logs import LogError
-from logs.reader import LogReader
-from logs.structure import check, check_entries
+from touchdown.logs import LogError
+from touchdown.logs.reader import LogReader
+from touchdown.logs.structure import check, check_entries
 
 
 def report(path: str) -> tuple[list[str], bool]:

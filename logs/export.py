@@ -14,13 +14,13 @@ from typing import IO, Iterator
 
 import numpy as np
 
-from logs import LogError
-from logs.reader import LogReader, TickData
-from logs.rebuild import fleet_params, scenario_of
-from proto import touchdown_pb2 as pb
-from sim import fields, measure
-from sim.compiled import separate
-from sim.enums import SurfaceState
+from touchdown.logs import LogError
+from touchdown.logs.reader import LogReader, TickData
+from touchdown.logs.rebuild import fleet_params, scenario_of
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim import fields, measure
+from touchdown.sim.compiled import separate
+from touchdown.sim.enums import SurfaceState
 
 _STATE = {int(s): s.label for s in SurfaceState}
 

@@ -20,14 +20,14 @@ import math
 
 import numpy as np
 
-from logs.encode import resolved_json
-from proto import touchdown_pb2 as pb
-from sim import __version__ as PROJECT_VERSION
-from sim import fields
-from sim.enums import EventKind, SurfaceState
-from sim.scenario import TIMING_KEYS, Scenario, parse
-from sim.state import State
-from sim.world import TickRecord, World
+from touchdown.logs.encode import resolved_json
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim import fields
+from touchdown.sim.enums import EventKind, SurfaceState
+from touchdown.sim.scenario import TIMING_KEYS, Scenario, parse
+from touchdown.sim.state import State
+from touchdown.sim.world import TickRecord, World
 
 #: The log formats and their fields: sim.fields (LOG_FORMAT, EVERY_TICK_BY_FORMAT,
 #: KEYFRAME_BY_FORMAT), where the rule is written. 2 (touchdown 0.3): per-foot ``sliding`` (4 per

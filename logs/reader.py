@@ -14,19 +14,19 @@ from typing import Iterator
 
 import numpy as np
 
-from logs import LogError
-from logs.decode import TickBlock, decode_block, decode_tick
-from logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
+from touchdown.logs import LogError
+from touchdown.logs.decode import TickBlock, decode_block, decode_tick
+from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, ShipTable)
-from logs.safe_read import ReadLimits, ReadStatus, iter_messages
-from logs.structure import Structure
-from logs.structure import check as check_structure
-from logs.writer import CHUNK_BYTES_MAX, tick_bytes_bound
-from proto import touchdown_pb2 as pb
-from sim import __version__ as PROJECT_VERSION
-from sim import fields
-from sim.state import Inputs, Outputs, State
-from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
+from touchdown.logs.safe_read import ReadLimits, ReadStatus, iter_messages
+from touchdown.logs.structure import Structure
+from touchdown.logs.structure import check as check_structure
+from touchdown.logs.writer import CHUNK_BYTES_MAX, tick_bytes_bound
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim import fields
+from touchdown.sim.state import Inputs, Outputs, State
+from touchdown.sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
 MAX_START_TICK = 1 << 53

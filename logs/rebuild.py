@@ -8,12 +8,12 @@ import json
 
 import numpy as np
 
-from logs import LogError
-from logs.reader import LogReader, TickData
-from sim.params import Params
-from sim.scenario import Scenario, ScenarioError, parse
-from sim.state import State, concatenate
-from sim.world import World
+from touchdown.logs import LogError
+from touchdown.logs.reader import LogReader, TickData
+from touchdown.sim.params import Params
+from touchdown.sim.scenario import Scenario, ScenarioError, parse
+from touchdown.sim.state import State, concatenate
+from touchdown.sim.world import World
 
 def fleet_params(reader: LogReader, scn: Scenario) -> Params:
     """The log's scene with every ship it ever held, in key order (row k: ship key k): the
@@ -108,9 +108,9 @@ def _without_ships(doc: dict, source: str, overrides: dict | None = None) -> Sce
     before anything is spawned), which sim.scenario.parse refuses: the scene is checked and
     resolved by the same rules, with a stand-in ship that is then dropped (its own stability is
     allowed, as it never runs); ``resolved`` is the scene with ``ships = []``."""
-    from sim.timeline import Timeline
+    from touchdown.sim.timeline import Timeline
     if overrides:
-        from sim.scenario import apply_overrides
+        from touchdown.sim.scenario import apply_overrides
         doc = apply_overrides(doc, overrides, source)
     sim = doc.get("sim", {})
     own = sim.get("on_unstable", "substep") if isinstance(sim, dict) else None

@@ -11,9 +11,9 @@ from typing import Sequence
 
 import redis
 
-from logs import LogError
-from proto import touchdown_pb2 as pb
-from sim.enums import SurfaceState
+from touchdown.logs import LogError
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.enums import SurfaceState
 
 DEFAULT_URL = "redis://127.0.0.1:6379/0"
 DEFAULT_STREAM = "galaxy:ships"

@@ -28,11 +28,11 @@ import threading
 from pathlib import Path
 from typing import Callable
 
-from logs.encode import ShipTables
-from logs.header import world_header
-from logs.writer import FinishedOrGone, LogWriter
-from proto import touchdown_pb2 as pb
-from sim.world import Block, World
+from touchdown.logs.encode import ShipTables
+from touchdown.logs.header import world_header
+from touchdown.logs.writer import FinishedOrGone, LogWriter
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.world import Block, World
 
 #: the default bound on a file's size: 64 MiB
 MAX_BYTES = 64 << 20

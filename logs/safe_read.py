@@ -39,7 +39,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, Footer, Message
 from mcap.stream_reader import StreamReader
 
-from logs import LogError
+from touchdown.logs import LogError
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_RECORD = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc

@@ -330,8 +330,8 @@ def check_entries(f, s: Structure, name: str) -> int:
     """``mcap doctor``'s deeper check: every message index entry must point at a message record
     of its channel and time inside its (decompressed) chunk. Returns the entries checked; the
     problems are added to ``s``."""
-    from logs import LogError
-    from logs.safe_read import chunk_at
+    from touchdown.logs import LogError
+    from touchdown.logs.safe_read import chunk_at
     checked = 0
     for c in s.chunks:
         if not c.indexes:

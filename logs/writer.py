@@ -16,16 +16,16 @@ import numpy as np
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
-from logs.codec import PACKED, BlockEncoder
-from logs.encode import chunk_level
-from logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
+from touchdown.logs.codec import PACKED, BlockEncoder
+from touchdown.logs.encode import chunk_level
+from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
                          event_message)
-from proto import touchdown_pb2 as pb
-from sim import __version__ as PROJECT_VERSION
-from sim import fields
-from sim.state import State
-from sim.world import Block
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim import fields
+from touchdown.sim.state import State
+from touchdown.sim.world import Block
 
 #: encoded blocks waiting for the writer's thread, at most (each about a megabyte or one tick)
 QUEUE_BLOCKS = 4

@@ -25,18 +25,18 @@ from pathlib import Path
 
 import numpy as np
 
-from logs import LogError
-from logs.header import TOPIC_EVENTS, event_message, tick_arrays, world_header
-from logs.reader import LogReader
-from logs.rebuild import keyframe_world, scenario_of
-from logs.writer import LogWriter
-from proto import touchdown_pb2 as pb
-from sim.errors import TouchdownError
-from replay.verify import WIDTH, first_difference
-from sim.scenario import ScenarioError
-from sim.state import State
-from sim.timeline import CommandError, Timeline
-from sim.world import Block, World
+from touchdown.logs import LogError
+from touchdown.logs.header import TOPIC_EVENTS, event_message, tick_arrays, world_header
+from touchdown.logs.reader import LogReader
+from touchdown.logs.rebuild import keyframe_world, scenario_of
+from touchdown.logs.writer import LogWriter
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.errors import TouchdownError
+from touchdown.replay.verify import WIDTH, first_difference
+from touchdown.sim.scenario import ScenarioError
+from touchdown.sim.state import State
+from touchdown.sim.timeline import CommandError, Timeline
+from touchdown.sim.world import Block, World
 
 
 class Diverged(TouchdownError):

@@ -29,18 +29,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from logs import LogError
-from logs.codec import PACKED, BlockEncoder
-from logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
+from touchdown.logs import LogError
+from touchdown.logs.codec import PACKED, BlockEncoder
+from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
                          ShipTable, event_message, tick_arrays)
-from logs.reader import LogReader
-from logs.rebuild import keyframe_world, recorded_world, scenario_of
-from proto import touchdown_pb2 as pb
-from sim import __version__ as PROJECT_VERSION
-from sim import fields
-from sim.scenario import Scenario, ScenarioError
-from sim.timeline import CommandError
-from sim.world import World
+from touchdown.logs.reader import LogReader
+from touchdown.logs.rebuild import keyframe_world, recorded_world, scenario_of
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim import fields
+from touchdown.sim.scenario import Scenario, ScenarioError
+from touchdown.sim.timeline import CommandError
+from touchdown.sim.world import World
 
 #: per-ship width of each packed field
 WIDTH = {name: fields.per_ship(name) for _, name, _ in PACKED}
@@ -480,7 +480,7 @@ def _first_field(a, b, prefix: str = "") -> str | None:
 
 
 def _label(state: int) -> str:
-    from sim.enums import SurfaceState
+    from touchdown.sim.enums import SurfaceState
     try:
         return SurfaceState(state).label
     except ValueError:

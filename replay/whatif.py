@@ -8,16 +8,16 @@ from itertools import zip_longest
 
 import numpy as np
 
-from logs import LogError
-from logs.header import scenario_message, world_header
-from logs.reader import LogReader
-from logs.rebuild import keyframe_world, recorded_world, scenario_of
-from logs.writer import LogWriter
-from service.driver import drive
-from sim import __version__ as PROJECT_VERSION
-from sim.enums import EventKind, SurfaceState
-from sim.scenario import Scenario
-from sim.timeline import Timeline
+from touchdown.logs import LogError
+from touchdown.logs.header import scenario_message, world_header
+from touchdown.logs.reader import LogReader
+from touchdown.logs.rebuild import keyframe_world, recorded_world, scenario_of
+from touchdown.logs.writer import LogWriter
+from touchdown.service.driver import drive
+from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim.enums import EventKind, SurfaceState
+from touchdown.sim.scenario import Scenario
+from touchdown.sim.timeline import Timeline
 
 
 @dataclass

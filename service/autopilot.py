@@ -43,11 +43,11 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from sim.enums import HoldMode, SurfaceState
-from sim.measure import terrain_height
+from touchdown.sim.enums import HoldMode, SurfaceState
+from touchdown.sim.measure import terrain_height
 
 if TYPE_CHECKING:
-    from sim.world import World
+    from touchdown.sim.world import World
 
 #: The descent speed the law aims to touch down at, m/s: well under the legs' absorber limit
 #: (``contact.bounce_speed``, 10 m/s by default), so the touchdown is absorbed without a bounce.

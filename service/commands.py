@@ -26,7 +26,7 @@ from __future__ import annotations
 import zlib
 from dataclasses import dataclass, field
 
-from service.kinds import KINDS, show
+from touchdown.service.kinds import KINDS, show
 
 #: fields each command may carry besides ``cmd``, ``ship_id`` and ``player_id``
 FIELDS: dict[str, tuple[str, ...]] = {k.name: tuple(f.name for f in k.fields)

@@ -17,9 +17,9 @@ import threading
 from dataclasses import dataclass
 from typing import Callable, Protocol, Sequence
 
-from logs.writer import LogWriter
-from proto import touchdown_pb2 as pb
-from sim.world import Block, World
+from touchdown.logs.writer import LogWriter
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.world import Block, World
 
 
 class Sink(Protocol):
@@ -137,6 +137,6 @@ def record(scn, path, source: str = "", keyframe_interval: int = 1,
            world: World | None = None) -> Outcome:
     """Run scenario ``scn`` (or ``world``, built from it) to its end into the log at ``path``:
     what ``touchdown record`` does, without its Redis and its messages."""
-    from logs.header import scenario_message
+    from touchdown.logs.header import scenario_message
     writer = LogWriter(path, scenario_message(scn, source or scn.name, keyframe_interval))
     return drive(world if world is not None else World.of(scn), scn.params.sim.n_ticks, writer)

@@ -27,10 +27,10 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from logs.header import event_message
-from logs.rotating import RotatingLog
-from sim.state import State
-from sim.world import Block, World
+from touchdown.logs.header import event_message
+from touchdown.logs.rotating import RotatingLog
+from touchdown.sim.state import State
+from touchdown.sim.world import Block, World
 
 
 class _Players:

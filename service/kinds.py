@@ -19,10 +19,10 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from sim.enums import HoldMode, SurfaceState
-from sim.scenario import ScenarioError
-from sim.timeline import HOLD_MODES, INPUTS, RCS, THROTTLE, CommandError
-from sim.world import World
+from touchdown.sim.enums import HoldMode, SurfaceState
+from touchdown.sim.scenario import ScenarioError
+from touchdown.sim.timeline import HOLD_MODES, INPUTS, RCS, THROTTLE, CommandError
+from touchdown.sim.world import World
 
 
 @dataclass(frozen=True)

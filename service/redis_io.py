@@ -45,9 +45,9 @@ import zstandard
 from redis.backoff import NoBackoff
 from redis.retry import Retry
 
-from proto import service_pb2 as spb
-from sim.params import SHIP_DTYPE, ShipParams
-from sim.state import INPUTS_DTYPE, STATE_DTYPE, Inputs, State
+from touchdown.proto import service_pb2 as spb
+from touchdown.sim.params import SHIP_DTYPE, ShipParams
+from touchdown.sim.state import INPUTS_DTYPE, STATE_DTYPE, Inputs, State
 
 #: 2: no parameter records (P:shard:{k}:params), rows zlib-compressed (0.6.0); 3: rows zstd-
 #: compressed (a tenth of zlib's time). Format 2 is still read (a service upgraded in place).

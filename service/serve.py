@@ -42,16 +42,16 @@ from typing import Callable
 import numpy as np
 import redis
 
-from service import redis_io as rio
-from service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
-from service.flightlog import ServiceLog, lower_priority
-from service.phases import GcTimer, Phases
-from service.telemetry import TelemetryEncoder
-from service.shard import Limits, Shard, TickOut
-from sim.errors import TouchdownError
-from sim.scenario import Scenario, parse as parse_doc
-from sim.timeline import Timeline
-from sim.world import World
+from touchdown.service import redis_io as rio
+from touchdown.service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
+from touchdown.service.flightlog import ServiceLog, lower_priority
+from touchdown.service.phases import GcTimer, Phases
+from touchdown.service.telemetry import TelemetryEncoder
+from touchdown.service.shard import Limits, Shard, TickOut
+from touchdown.sim.errors import TouchdownError
+from touchdown.sim.scenario import Scenario, parse as parse_doc
+from touchdown.sim.timeline import Timeline
+from touchdown.sim.world import World
 
 #: Redis (or, on a cluster, the node of a slot, or the slot map) unreachable: ticking on
 REDIS_ERRORS = (redis.exceptions.ConnectionError, redis.exceptions.TimeoutError,
@@ -1124,8 +1124,8 @@ def _server_time(r: redis.Redis) -> float:
 def default_scenario() -> Scenario:
     """The scene of a service started without a scenario: the built-in ``bounce`` scene (the
     Moon, flat ground), its ship left out."""
-    import scenarios as builtin
-    from sim.scenario import parse_text
+    import touchdown.scenarios as builtin
+    from touchdown.sim.scenario import parse_text
     return parse_text(builtin.text("bounce"), "bounce")
 
 

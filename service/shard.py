@@ -18,14 +18,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from proto import service_pb2 as spb
-from logs.redis_stream import entry_fields
-from service.autopilot import AutolandOutcome, autoland_commands
-from service.commands import Rejected, Request
-from service.kinds import KINDS, apply
-from service.telemetry import telemetry_message
-from sim.enums import SurfaceState
-from sim.world import Block, World
+from touchdown.proto import service_pb2 as spb
+from touchdown.logs.redis_stream import entry_fields
+from touchdown.service.autopilot import AutolandOutcome, autoland_commands
+from touchdown.service.commands import Rejected, Request
+from touchdown.service.kinds import KINDS, apply
+from touchdown.service.telemetry import telemetry_message
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.world import Block, World
 
 REJECTED = "ship.command_rejected"
 RETIRED = "ship.retired"

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from proto import service_pb2 as spb
+from touchdown.proto import service_pb2 as spb
 
 
 def _varint(n: int) -> bytes:

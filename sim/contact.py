@@ -35,8 +35,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel, separate
-from sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
 
 #: Columns of the terrain's bump table (one row per bump).
 BUMP_EAST, BUMP_NORTH, BUMP_RADIUS, BUMP_HEIGHT = 0, 1, 2, 3

@@ -20,11 +20,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import constructor, kernel, separate
-from sim.contact import Ground, evaluate, no_contact
-from sim.frames import turned
-from sim.vec import add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative, quat_rotate, \
-    quat_rotate_inv, scale, sub
+from touchdown.sim.compiled import constructor, kernel, separate
+from touchdown.sim.contact import Ground, evaluate, no_contact
+from touchdown.sim.frames import turned
+from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative,
+    quat_rotate, quat_rotate_inv, scale, sub)
 
 
 class FreeBody(NamedTuple):

@@ -27,9 +27,9 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sim.compiled import kernel, separate
-from sim.contact import feet, surface_velocity
-from sim.vec import dot, mul, norm, quat_rotate_inv, sub
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.contact import feet, surface_velocity
+from touchdown.sim.vec import dot, mul, norm, quat_rotate_inv, sub
 
 
 class Energy(NamedTuple):

@@ -28,8 +28,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, separate
-from sim.vec import fmax, fmin
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.vec import fmax, fmin
 
 
 def _factorial(k: int) -> float:

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 
-from sim.compiled import kernel
-from sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
+from touchdown.sim.compiled import kernel
+from touchdown.sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
 
 
 def body_rotation(omega_radps: float, t_s: float) -> tuple[float, float]:

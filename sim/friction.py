@@ -51,9 +51,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from sim.compiled import kernel, separate
-from sim.contact import surface_velocity
-from sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.contact import surface_velocity
+from touchdown.sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
     quat_rotate_inv, scale, sub, unit
 
 

@@ -16,13 +16,13 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, separate
-from sim.dynamics import acceleration, contact_at, derivatives, ground_at, torque_body
-from sim.exact import Flow, Functional, bracketed_root, first_crossing, flow_at, flow_start, \
-    value_and_rate
-from sim.rotation import free_rotation
-from sim.settings import Integrator
-from sim.vec import add, div, dot, fmax, mul, quat_add_scaled, quat_integrate, \
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.dynamics import acceleration, contact_at, derivatives, ground_at, torque_body
+from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
+    flow_start, value_and_rate)
+from touchdown.sim.rotation import free_rotation
+from touchdown.sim.settings import Integrator
+from touchdown.sim.vec import add, div, dot, fmax, mul, quat_add_scaled, quat_integrate, \
     quat_normalize, scale, sub, unit
 
 #: Every method by name, and its code inside the kernels (sim.settings.Integrator). An unknown name

@@ -7,14 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.compiled import entry
-from sim.contact import Ground, feet, height_and_slope
-from sim.energy import mechanical, total
-from sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
-from sim.frames import surface_velocity as _surface_velocity
-from sim.params import Params, Terrain
-from sim.settings import SurfaceNormal
-from sim.vec import quat_mul, sub
+from touchdown.sim.compiled import entry
+from touchdown.sim.contact import Ground, feet, height_and_slope
+from touchdown.sim.energy import mechanical, total
+from touchdown.sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
+from touchdown.sim.frames import surface_velocity as _surface_velocity
+from touchdown.sim.params import Params, Terrain
+from touchdown.sim.settings import SurfaceNormal
+from touchdown.sim.vec import quat_mul, sub
 
 ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
                 "centrifugal_spin_j", "spring_j")

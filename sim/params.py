@@ -12,8 +12,8 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from sim.settings import in_scene, landing_in, record_type
-from sim.state import Batch
+from touchdown.sim.settings import in_scene, landing_in, record_type
+from touchdown.sim.state import Batch
 
 
 def _section(cls_name: str, name: str, doc: str, base: type, extra: tuple = ()) -> type:
@@ -92,7 +92,7 @@ class Terrain:
 
     def record(self) -> np.ndarray:
         """One record of sim.contact.TERRAIN_DTYPE: what sim.contact.Ground reads."""
-        from sim.contact import TERRAIN_DTYPE
+        from touchdown.sim.contact import TERRAIN_DTYPE
         rec = np.zeros(1, TERRAIN_DTYPE)
         n = len(self.bump_height_m)
         rec[0]["base_height_m"] = self.base_height_m
@@ -203,8 +203,8 @@ class Params:
     def scene(self) -> np.ndarray:
         """One record of :data:`SCENE_DTYPE`: every scene-wide number the step reads, the
         angles as the cosines its comparisons use."""
-        from sim.integrators import METHODS
-        from sim.stability import KICKS
+        from touchdown.sim.integrators import METHODS
+        from touchdown.sim.stability import KICKS
 
         sim, cp, body = self.sim, self.contact, self.body
         ter = body.terrain

@@ -8,9 +8,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from sim.compiled import kernel, separate
-from sim.frames import body_spin_in_body_frame, surface_velocity
-from sim.vec import add, angle, cos_sinc, cross, dot, fmax, mul, norm, quat_axis_z, \
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.frames import body_spin_in_body_frame, surface_velocity
+from touchdown.sim.vec import add, angle, cos_sinc, cross, dot, fmax, mul, norm, quat_axis_z, \
     quat_from_rotvec, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit
 
 

@@ -29,8 +29,8 @@ Everything is +, *, / and sqrt (cos and sin from sim.vec.cos_sinc). One ship, co
 """
 from __future__ import annotations
 
-from sim.compiled import kernel, separate
-from sim.vec import cos_sinc, quat_from_rotvec, quat_mul, quat_normalize, scale
+from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.vec import cos_sinc, quat_from_rotvec, quat_mul, quat_normalize, scale
 
 #: Yoshida's fourth-order triple jump: the Strang step at (w1, w0, w1) of the step, w0 = 1 - 2 w1.
 _W1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))

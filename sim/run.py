@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Iterator
 
-from sim.scenario import Scenario
-from sim.world import Block, TickRecord, World, block_ticks  # noqa: F401 - re-exported
+from touchdown.sim.scenario import Scenario
+from touchdown.sim.world import Block, TickRecord, World, block_ticks  # noqa: F401 - re-exported
 
 
 def run_blocks(scn: Scenario, last_tick: int | None = None, max_ticks: int | None = None

@@ -17,17 +17,17 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sim import constants as C
-from sim import vec
-from sim.compiled import entry, kernel, separate
-from sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
-from sim.enums import HoldMode, SurfaceState
-from sim.errors import TouchdownError
-from sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams, SimParams,
-                        Terrain)
-from sim.settings import REQUIRED, SurfaceNormal, in_table, landing_in
-from sim.state import Inputs, State
-from sim.timeline import Command, Retire, Spawn, Timeline
+from touchdown.sim import constants as C
+from touchdown.sim import vec
+from touchdown.sim.compiled import entry, kernel, separate
+from touchdown.sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
+from touchdown.sim.enums import HoldMode, SurfaceState
+from touchdown.sim.errors import TouchdownError
+from touchdown.sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams,
+    SimParams, Terrain)
+from touchdown.sim.settings import REQUIRED, SurfaceNormal, in_table, landing_in
+from touchdown.sim.state import Inputs, State
+from touchdown.sim.timeline import Command, Retire, Spawn, Timeline
 
 
 class ScenarioError(TouchdownError, ValueError):
@@ -402,7 +402,7 @@ def _substeps(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> list[int]
     ``on_unstable``: ``substep`` (default) sub-steps further, ``error`` refuses naming the ship,
     ``allow`` runs it anyway. A method that solves the spring exactly is limited by its kicks on
     the rocking modes only."""
-    from sim.stability import KICKS, largest_stable_wh
+    from touchdown.sim.stability import KICKS, largest_stable_wh
     n_scene = 1 if sim["max_substep"] <= 0.0 else max(1, math.ceil(sim["dt"] / sim["max_substep"]
                                                                    - 1e-9))
     h = sim["dt"] / n_scene

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
-from sim import constants as C
-from sim.enums import HoldMode
+from touchdown.sim import constants as C
+from touchdown.sim.enums import HoldMode
 
 
 class _Labelled(IntEnum):

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from sim import exact
+from touchdown.sim import exact
 
 #: Methods that solve the spring-damper exactly, and the explicit scheme their kicks use: that
 #: scheme's bound applies to the modes the kicks carry (rocking on the feet), not to the bounce.

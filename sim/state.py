@@ -18,7 +18,7 @@ from typing import ClassVar, Sequence, TypeVar
 
 import numpy as np
 
-from sim.fields import record_dtype
+from touchdown.sim.fields import record_dtype
 
 #: The records of the state, the commands in force and what a tick reports: built from the one
 #: table of per-ship quantities (sim.fields), where each field's unit and meaning are declared.

@@ -31,23 +31,25 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from sim.compiled import constructor, entry, kernel, separate
-from sim.constants import G0_MPS2
-from sim.contact import ContactEval, Ground, feet, foot_offsets_w, lowest_foot_penetration, under
-from sim.dynamics import FreeBody, contact_at, ground_at, ground_turn, with_feet, with_hold
-from sim.energy import mechanical, rotation, total, translation
-from sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
-from sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity, inertia,
-                        pin_pose, quat_z, rotate_z, surface_velocity, turned)
-from sim.friction import coulomb, hold_footprint, seed, spread_over_step
-from sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
-from sim.params import Params, Records
-from sim.pivot import pinned_motion, pivot_step, rate_from_momentum
-from sim.settings import FrictionModel, SurfaceNormal
-from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
-                       Event, Inputs, Outputs, State)
-from sim.vec import add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul, quat_rotate, \
-    quat_normalize, quat_rotate_inv, scale, sub, unit
+from touchdown.sim.compiled import constructor, entry, kernel, separate
+from touchdown.sim.constants import G0_MPS2
+from touchdown.sim.contact import (ContactEval, Ground, feet, foot_offsets_w,
+    lowest_foot_penetration, under)
+from touchdown.sim.dynamics import (FreeBody, contact_at, ground_at, ground_turn, with_feet,
+    with_hold)
+from touchdown.sim.energy import mechanical, rotation, total, translation
+from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
+from touchdown.sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity,
+    inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
+from touchdown.sim.friction import coulomb, hold_footprint, seed, spread_over_step
+from touchdown.sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
+from touchdown.sim.params import Params, Records
+from touchdown.sim.pivot import pinned_motion, pivot_step, rate_from_momentum
+from touchdown.sim.settings import FrictionModel, SurfaceNormal
+from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
+    TRANSITION_DTYPE, Event, Inputs, Outputs, State)
+from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
+    quat_rotate, quat_normalize, quat_rotate_inv, scale, sub, unit)
 
 #: as numpy integers: numba types a Python int global as a literal, and would compile a kernel
 #: taking states (emit) once per pair of them

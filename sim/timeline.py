@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from sim.enums import HoldMode
-from sim.errors import TouchdownError
+from touchdown.sim.enums import HoldMode
+from touchdown.sim.errors import TouchdownError
 
 
 #: the inputs a command gives a ship, in the order World.commands takes them, and their ranges:

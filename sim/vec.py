@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from sim.compiled import kernel
+from touchdown.sim.compiled import kernel
 
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]

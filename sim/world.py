@@ -18,14 +18,15 @@ from typing import Iterator
 
 import numpy as np
 
-from sim import vec
-from sim.compiled import entry, kernel, separate
-from sim.params import Params, ShipParams
-from sim.scenario import Scenario, Scene, parse, quat_from_axes
-from sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
-                       Event, Inputs, Outputs, State, concatenate)
-from sim.step import Written, outputs_at, rotations, step_ticks, tick_capacity, transitions
-from sim.timeline import Command, CommandError, Retire, Spawn, Timeline
+from touchdown.sim import vec
+from touchdown.sim.compiled import entry, kernel, separate
+from touchdown.sim.params import Params, ShipParams
+from touchdown.sim.scenario import Scenario, Scene, parse, quat_from_axes
+from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
+    TRANSITION_DTYPE, Event, Inputs, Outputs, State, concatenate)
+from touchdown.sim.step import (Written, outputs_at, rotations, step_ticks, tick_capacity,
+    transitions)
+from touchdown.sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: A block holds about this many bytes of records: long enough that the interpreter's share of a
 #: lone ship's tick is small, short enough to stay in cache.

@@ -20,8 +20,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from sim.errors import TouchdownError
-from sim.scenario import Scenario, ScenarioError, parse
+from touchdown.sim.errors import TouchdownError
+from touchdown.sim.scenario import Scenario, ScenarioError, parse
 
 #: Keys whose value every case shares: the tick and the run's length fix the ticks the fleet is
 #: stepped through together; timing keys would make a case join or leave the fleet.

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from sim.errors import UserError, WorkFailed
-from sim.scenario import ScenarioError
-from sweep.cases import Sweep, parse_vary
+from touchdown.sim.errors import UserError, WorkFailed
+from touchdown.sim.scenario import ScenarioError
+from touchdown.sweep.cases import Sweep, parse_vary
 
 
 def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, scheduler,
@@ -31,7 +31,7 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
             import matplotlib  # noqa: F401
         except ImportError:
             raise UserError("--chart needs matplotlib: pip install -e '.[chart]'") from None
-    from sweep.run import run
+    from touchdown.sweep.run import run
     try:
         res = run(sw, workers=workers, scheduler=scheduler, progress=True)
     except ScenarioError as exc:  # values each valid alone, refused together (kinetic > static)
@@ -45,7 +45,7 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
     click.echo(res.summary())
     click.echo(f"{out}: {sw.n_cases:,} rows; {res.wall_s:.1f} s on {res.workers}")
     if chart:
-        from sweep.chart import draw
+        from touchdown.sweep.chart import draw
         draw(res.table(), chart)
         click.echo(f"{chart}: the envelope")
     if res.interrupted:
@@ -58,11 +58,11 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
 
 def _record(sw: Sweep, case: int, output: str) -> int:
     """Case ``case`` alone, recorded as ``touchdown record`` records a scenario."""
-    from logs import LogError
-    from logs.header import scenario_message
-    from logs.writer import LogWriter
-    from service.driver import drive
-    from sim.world import World
+    from touchdown.logs import LogError
+    from touchdown.logs.header import scenario_message
+    from touchdown.logs.writer import LogWriter
+    from touchdown.service.driver import drive
+    from touchdown.sim.world import World
     if case >= sw.n_cases:
         raise UserError(f"--record {case}: the sweep has cases 0..{sw.n_cases - 1}")
     scn = sw.case_scenario(case)

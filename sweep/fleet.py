@@ -17,14 +17,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from sim.compiled import separate
-from sim.energy import mechanical, total
-from sim.frames import body_rotation
-from sim.params import SCENE_DTYPE, Records
-from sim.state import COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE, concatenate
-from sim.step import CONTACT, Turn, apply_commands, observe_ships, scene_ground, step_ships
-from sim.vec import quat_axis_z
-from sweep.cases import Sweep
+from touchdown.sim.compiled import separate
+from touchdown.sim.energy import mechanical, total
+from touchdown.sim.frames import body_rotation
+from touchdown.sim.params import SCENE_DTYPE, Records
+from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
+    concatenate)
+from touchdown.sim.step import (CONTACT, Turn, apply_commands, observe_ships, scene_ground,
+    step_ships)
+from touchdown.sim.vec import quat_axis_z
+from touchdown.sweep.cases import Sweep
 
 #: What the fleet reduces per ship as it steps (one record per case).
 ACC_DTYPE = np.dtype([
@@ -185,7 +187,7 @@ class Fleet:
 
     @classmethod
     def build(cls, sw: Sweep, cases: Sequence[int]) -> "Fleet":
-        from sim.scenario import parse
+        from touchdown.sim.scenario import parse
         scenes, terrains, ships, states, order, cmds = [], [], [], [], [], []
         group, omegas, rot_of = [], [], {}
         rot_index = []
@@ -220,7 +222,7 @@ class Fleet:
                        np.zeros(0, ACC_DTYPE))
         sh = concatenate(ships)
         st = concatenate(states)
-        from sim.state import INPUTS_DTYPE
+        from touchdown.sim.state import INPUTS_DTYPE
         fleet = cls(np.array(order, np.int64), np.concatenate(scenes), np.concatenate(terrains),
                     np.array(group, np.int64), np.array(rot_index, np.int64),
                     np.array(omegas, float), sh.rows.copy(), st.rows.copy(),

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.enums import SurfaceState
-from sweep.cases import Sweep
+from touchdown.sim.enums import SurfaceState
+from touchdown.sweep.cases import Sweep
 
 #: Result columns (SPEC.md section 6), after ``case`` and the varied keys.
 RESULTS = ("outcome", "t_outcome", "max_tilt_deg", "max_penetration", "peak_normal_force",
@@ -65,9 +65,9 @@ def _progress(k: int) -> None:
 
 def run_chunk(sw: Sweep, cases) -> dict[str, np.ndarray]:
     """One chunk's columns (sweep.fleet.run_part), in a worker."""
-    from sim.scenario import ScenarioError
-    from sweep.cases import SweepError
-    from sweep.fleet import run_part
+    from touchdown.sim.scenario import ScenarioError
+    from touchdown.sweep.cases import SweepError
+    from touchdown.sweep.fleet import run_part
     stop = (lambda: _STOP.is_set()) if _STOP is not None else None
     try:
         return run_part(sw, cases, _progress, stop)
@@ -170,7 +170,7 @@ def run(sw: Sweep, workers: int = 2, scheduler: str | None = None, progress: boo
             for p in parts:
                 if stop.asked:
                     break
-                from sweep.fleet import run_part
+                from touchdown.sweep.fleet import run_part
                 results.append(run_part(sw, p, bar.add if bar else None, lambda: stop.asked))
         else:
             results, how = _run_processes(sw, parts, workers, stop, bar)
@@ -183,7 +183,7 @@ def run(sw: Sweep, workers: int = 2, scheduler: str | None = None, progress: boo
 
 
 def _n_ticks(sw: Sweep) -> int:
-    from sim.scenario import parse
+    from touchdown.sim.scenario import parse
     return parse(sw.case_doc(0), sw.source).params.sim.n_ticks
 
 

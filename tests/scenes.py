@@ -5,9 +5,9 @@ import copy
 
 import numpy as np
 
-from sim.enums import EventKind, SurfaceState
-from sim.run import run
-from sim.scenario import Scenario, parse
+from touchdown.sim.enums import EventKind, SurfaceState
+from touchdown.sim.run import run
+from touchdown.sim.scenario import Scenario, parse
 
 
 def scene(initial: dict | None = None, *, ship: dict | None = None, contact: dict | None = None,
@@ -56,8 +56,8 @@ def long_axis(quat: np.ndarray) -> np.ndarray:
 def one_ship(params, state, inputs=None, i: int = 0):
     """What the compiled phases of sim.step take for ship ``i``: (scene constants, the terrain's
     record, its parameters, its state as a sim.step.Ship, its commands' record)."""
-    from sim.state import Inputs
-    from sim.step import load
+    from touchdown.sim.state import Inputs
+    from touchdown.sim.step import load
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
     return (params.scene[0], params.terrain[0], params.ships.rows[i], load(state.rows[i]),
             inputs.rows[i])
@@ -65,7 +65,7 @@ def one_ship(params, state, inputs=None, i: int = 0):
 
 def footprint_centre(scn: Scenario, rec, i: int = 0) -> np.ndarray:
     """The mean of ship i's four feet at a record, inertial, m."""
-    from sim.contact import foot_offsets_w
+    from touchdown.sim.contact import foot_offsets_w
     sp = scn.params.ships
     p = rec.state.pos_m[i]
     offs = foot_offsets_w(tuple(map(float, rec.state.quat[i])), float(sp.leg_radius_m[i]),

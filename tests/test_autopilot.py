@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from scenes import scene
-from service.autopilot import (TOUCHDOWN_SPEED_MPS, AutolandCommand, AutolandOutcome,
+from touchdown.service.autopilot import (TOUCHDOWN_SPEED_MPS, AutolandCommand, AutolandOutcome,
                                autoland_commands, guidance, throttle_law)
-from sim.enums import EventKind, HoldMode, SurfaceState
-from sim.state import State
-from sim.step import outputs_at
-from sim.timeline import Timeline
-from sim.world import World
+from touchdown.sim.enums import EventKind, HoldMode, SurfaceState
+from touchdown.sim.state import State
+from touchdown.sim.step import outputs_at
+from touchdown.sim.timeline import Timeline
+from touchdown.sim.world import World
 
 from test_determinism import varied_fleet
 

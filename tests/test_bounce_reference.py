@@ -11,8 +11,8 @@ ballistically), so the tests and the chart read the simulation the same way.
 """
 import pytest
 
-from bench.accuracy import EARTH, MOON, bounce
-from bench.reference import bounce_closed_form, bounce_ode
+from touchdown.bench.accuracy import EARTH, MOON, bounce
+from touchdown.bench.reference import bounce_closed_form, bounce_ode
 
 G_MOON = MOON.g
 

@@ -6,11 +6,11 @@ from functools import lru_cache
 import numpy as np
 import pytest
 
-import scenarios
+from touchdown import scenarios
 from scenes import events, final_state, series, tilt_deg, topics
-from sim.enums import TRANSITION_EVENTS, SurfaceState
-from sim.run import run
-from sim.scenario import parse_text
+from touchdown.sim.enums import TRANSITION_EVENTS, SurfaceState
+from touchdown.sim.run import run
+from touchdown.sim.scenario import parse_text
 
 S = SurfaceState
 

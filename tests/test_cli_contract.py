@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-import scenarios
-from cli import main
-from logs.reader import LogReader
+from touchdown import scenarios
+from touchdown.cli import main
+from touchdown.logs.reader import LogReader
 
 ROOT = Path(__file__).resolve().parents[1]
 GOOD = """
@@ -249,14 +249,14 @@ def test_progress_bar_on_a_terminal_and_quiet_otherwise(tmp_path):
 def test_every_error_root_is_a_touchdown_error_with_its_exit_code():
     """One error base (sim.errors.TouchdownError) with an exit code, and one handler in the CLI
     (issue 26): each part's root derives from it."""
-    from logs import LogError
-    from replay.incident import Diverged
-    from service.serve import ServeError
-    from sim.errors import TouchdownError, UserError, WorkFailed
-    from sim.scenario import ScenarioError
-    from sim.timeline import CommandError
-    from sweep.cases import SweepError
-    from view.rerun_view import ViewError
+    from touchdown.logs import LogError
+    from touchdown.replay.incident import Diverged
+    from touchdown.service.serve import ServeError
+    from touchdown.sim.errors import TouchdownError, UserError, WorkFailed
+    from touchdown.sim.scenario import ScenarioError
+    from touchdown.sim.timeline import CommandError
+    from touchdown.sweep.cases import SweepError
+    from touchdown.view.rerun_view import ViewError
 
     codes = {ScenarioError: 2, CommandError: 2, LogError: 2, ServeError: 2, SweepError: 2,
              UserError: 2, ViewError: 1, Diverged: 1, WorkFailed: 1}

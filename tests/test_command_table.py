@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from service import commands
-from service.kinds import KINDS, apply, in_force
-from sim.scenario import INPUT, parse
-from sim.timeline import HOLD_MODES, INPUTS, RCS, THROTTLE, Command, CommandError
-from sim.world import World
+from touchdown.service import commands
+from touchdown.service.kinds import KINDS, apply, in_force
+from touchdown.sim.scenario import INPUT, parse
+from touchdown.sim.timeline import HOLD_MODES, INPUTS, RCS, THROTTLE, Command, CommandError
+from touchdown.sim.world import World
 
 
 def test_every_command_is_a_row_and_parse_takes_its_fields():

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from cli import main
+from touchdown.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 

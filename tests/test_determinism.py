@@ -4,8 +4,8 @@ from fractions import Fraction
 import numpy as np
 
 from scenes import records, scene
-from sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS
-from sim.step import step
+from touchdown.sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS
+from touchdown.sim.step import step
 
 OUTPUT_FIELDS = OUTPUTS_DTYPE.names
 
@@ -114,7 +114,7 @@ def test_the_kernels_never_fuse_a_multiply_and_an_add():
     """a * b + c rounded twice, as IEEE arithmetic (and numpy) do, never once (a fused
     multiply-add, which this CPU may have): sim.compiled's settings, on inputs where the two
     differ."""
-    from sim.compiled import kernel
+    from touchdown.sim.compiled import kernel
 
     @kernel
     def mul_add(a, b, c, out):
@@ -143,8 +143,8 @@ def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
     import sys
     from pathlib import Path
 
-    from replay.verify import verify
-    from service.driver import record
+    from touchdown.replay.verify import verify
+    from touchdown.service.driver import record
 
     doc = {"name": "generic", "duration": 1.5, "body": BODY, "ships": varied_fleet(120)}
     (tmp_path / "fleet.json").write_text(json.dumps(doc))
@@ -154,9 +154,9 @@ def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
 import json, sys
 import numba
 assert numba.config.CPU_NAME == "generic", numba.config.CPU_NAME
-from replay.verify import verify
-from service.driver import record
-from sim.scenario import parse
+from touchdown.replay.verify import verify
+from touchdown.service.driver import record
+from touchdown.sim.scenario import parse
 res = verify({str(tmp_path / "host.mcap")!r})
 print(res.report())
 assert res.identical
@@ -179,7 +179,7 @@ def test_compiling_is_announced_once_and_loading_from_the_cache_is_silent():
     compiles (the first run after an install), once however many kernels follow."""
     import numba
 
-    from sim.compiled import notify_compilation
+    from touchdown.sim.compiled import notify_compilation
 
     said = []
     notify_compilation(said.append)

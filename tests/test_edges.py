@@ -14,11 +14,11 @@ import pytest
 from hypothesis import HealthCheck, Phase, assume, given, settings, strategies as st
 from scipy.integrate import solve_ivp
 
-from bench.planar import Lander, Start, foot_offsets, solve
-from bench.reference import bounce_ode
+from touchdown.bench.planar import Lander, Start, foot_offsets, solve
+from touchdown.bench.reference import bounce_ode
 from scenes import records, scene, series, tilt_deg
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import EventKind
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import EventKind
 
 GM, R = MOON_GM_M3PS2, MOON_RADIUS_M
 G = GM / R ** 2

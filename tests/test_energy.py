@@ -18,13 +18,13 @@ import pytest
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
-import scenarios
-from bench import physics as audit
+from touchdown import scenarios
+from touchdown.bench import physics as audit
 from scenes import records, scene
-from sim import measure
-from sim.enums import TRANSITION_EVENTS, SurfaceState
-from sim.run import run
-from sim.scenario import parse_text
+from touchdown.sim import measure
+from touchdown.sim.enums import TRANSITION_EVENTS, SurfaceState
+from touchdown.sim.run import run
+from touchdown.sim.scenario import parse_text
 
 ROUNDOFF_OF_GRAVITY = 1e-13
 
@@ -178,7 +178,7 @@ def test_a_wide_ship_rights_itself_without_gaining_energy():
                 duration=20.0)
     recs = records(scn)
     names = [e.kind for r in recs for e in r.events]
-    from sim.enums import EventKind
+    from touchdown.sim.enums import EventKind
     assert EventKind.TIPPED in names and EventKind.RIGHTED in names
     assert np.max(np.diff(energies(scn, recs)[:, 0])) <= roundoff_j(scn)[0]
 
@@ -189,7 +189,7 @@ def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest()
     metric (KE = KE(kept) + KE(lost)), as an inelastic impact at the foot does."""
     from scipy.spatial.transform import Rotation
 
-    from sim.pivot import pivot_axis, rate_from_momentum
+    from touchdown.sim.pivot import pivot_axis, rate_from_momentum
     scn = scene({"state": "contact", "altitude": -0.01, "tilt_deg": 60.0, "heading_deg": 20.0})
     st, par = scn.initial, scn.params
     m, i_b = st.mass_kg, par.ships.inertia0_kgm2

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from scenes import records, scene, series, tilt_deg
-from sim.constants import G0_MPS2, MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.constants import G0_MPS2, MOON_GM_M3PS2, MOON_RADIUS_M
 
 
 def test_fuel_burns_at_thrust_over_isp_g0_and_the_mass_drops_with_it():

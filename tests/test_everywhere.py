@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from bench.reference import rotating_slide
-from cli import main
+from touchdown.bench.reference import rotating_slide
+from touchdown.cli import main
 from scenes import events, long_axis, records, scene, series, tilt_deg, topics
-from sim.enums import SurfaceState
-from sim.measure import site_frame
-from sim.scenario import ScenarioError
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.measure import site_frame
+from touchdown.sim.scenario import ScenarioError
 
 SPINNER = {"name": "Spinner", "radius": 200000.0, "surface_gravity": 1.0,
            "rotation_period": 3600.0}

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli import main
-from logs.header import scenario_message
-from logs.reader import LogReader
-from logs.writer import LogWriter
-from replay.verify import verify
-from sim.scenario import ScenarioError, parse
-from sim.timeline import CommandError
-from sim.world import World
+from touchdown.cli import main
+from touchdown.logs.header import scenario_message
+from touchdown.logs.reader import LogReader
+from touchdown.logs.writer import LogWriter
+from touchdown.replay.verify import verify
+from touchdown.sim.scenario import ScenarioError, parse
+from touchdown.sim.timeline import CommandError
+from touchdown.sim.world import World
 
 from test_determinism import varied_fleet
 
@@ -73,7 +73,7 @@ def test_a_ship_joining_or_leaving_changes_no_other_ships_bits(body):
 def test_a_joining_ship_starts_where_its_table_places_it_on_a_turning_body():
     """A ship that joins at tick T on a turning body sits at its landing site as the body has
     carried it by then: the same site-frame position as a ship placed there at tick 0."""
-    from sim import measure
+    from touchdown.sim import measure
     doc = {"name": "f", "duration": 2.0, "body": TURNING, "ships": [
         {"id": "early", "initial": {"state": "landed", "east": 40.0}},
         {"id": "late", "spawn_t": 1.0, "initial": {"state": "landed", "east": 40.0}}]}
@@ -189,7 +189,7 @@ def test_a_log_of_commands_from_the_python_api_verifies_bit_for_bit(tmp_path):
 def test_a_log_whose_recorded_command_was_changed_diverges(tmp_path):
     """The check above can fail: a log whose command record says another throttle than the one
     the recorded ticks show diverges at the first tick it changes."""
-    from proto import touchdown_pb2 as pb
+    from touchdown.proto import touchdown_pb2 as pb
     from test_replay import rewrite_topic
 
     scn = parse({"name": "api", "duration": 2.0, "ships": [

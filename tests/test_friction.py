@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from bench.reference import planar_touchdown
-from sim.state import State
+from touchdown.bench.reference import planar_touchdown
+from touchdown.sim.state import State
 from scenes import (events, final_state, footprint_centre, long_axis, records, scene, series,
                     tilt_deg, topics)
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import SurfaceState
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import SurfaceState
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 MU_K, MU_S = 0.5, 0.8

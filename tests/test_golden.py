@@ -27,11 +27,11 @@ from click.testing import CliRunner
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from cli import main  # noqa: E402
-from logs.header import LOG_FORMAT_VERSION  # noqa: E402
-from logs.reader import LogReader  # noqa: E402
-from sim.run import run  # noqa: E402
-from sim.scenario import parse_text  # noqa: E402
+from touchdown.cli import main  # noqa: E402
+from touchdown.logs.header import LOG_FORMAT_VERSION  # noqa: E402
+from touchdown.logs.reader import LogReader  # noqa: E402
+from touchdown.sim.run import run  # noqa: E402
+from touchdown.sim.scenario import parse_text  # noqa: E402
 
 DATA = ROOT / "tests" / "data"
 GOLDEN = DATA / "golden"

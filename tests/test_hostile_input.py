@@ -17,10 +17,10 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from bench import fuzz
-from cli import main
-from logs.reader import LogReader
-from proto import touchdown_pb2 as pb
+from touchdown.bench import fuzz
+from touchdown.cli import main
+from touchdown.logs.reader import LogReader
+from touchdown.proto import touchdown_pb2 as pb
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -327,8 +327,8 @@ def test_a_cut_log_says_what_it_checked_and_what_it_exported(tmp_path):
 
 
 def test_export_of_a_non_finite_number_is_refused_not_written_as_nan(bounce, tmp_path):
-    from logs.codec import encode_tick
-    from logs.decode import decode_tick
+    from touchdown.logs.codec import encode_tick
+    from touchdown.logs.decode import decode_tick
 
     def edit(topic, data):
         if topic == "/touchdown/ticks":
@@ -349,8 +349,8 @@ def test_export_of_a_non_finite_number_is_refused_not_written_as_nan(bounce, tmp
 def test_numbers_that_overflow_in_export_give_one_line_not_numpy_warnings(bounce, tmp_path):
     """A position of 1e308 overflows the energy's squares: a fresh process (numpy warns once per
     process) must still print the one line naming the field, and nothing else."""
-    from logs.codec import encode_tick
-    from logs.decode import decode_tick
+    from touchdown.logs.codec import encode_tick
+    from touchdown.logs.decode import decode_tick
 
     def edit(topic, data):
         if topic == "/touchdown/ticks":

@@ -1,5 +1,7 @@
 """The modules' imports, lazy ones included, form no circle (issue 26)."""
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -14,6 +16,7 @@ def _graph() -> dict[str, set[str]]:
             files[name.removesuffix(".__init__")] = path
 
     def resolve(name: str) -> str | None:
+        name = name.removeprefix("touchdown.")
         while name and name not in files:
             name = name.rpartition(".")[0]
         return name or None
@@ -83,17 +86,42 @@ def test_no_private_name_crosses_modules():
         modules = set()
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
-                    and node.module.split(".")[0] in PACKAGES:
+                    and node.module.startswith("touchdown."):
                 for a in node.names:
                     if a.name.startswith("_") and not a.name.startswith("__"):
                         crossings.append(f"{path.name}: from {node.module} import {a.name}")
                     modules.add(a.asname or a.name)
             elif isinstance(node, ast.Import):
-                modules |= {a.asname or a.name.split(".")[0] for a in node.names
-                            if a.name.split(".")[0] in PACKAGES}
+                modules |= {a.asname or a.name for a in node.names
+                            if a.name.startswith("touchdown.")}
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
                     and node.value.id in modules and node.attr.startswith("_") \
                     and not node.attr.startswith("__"):
                 crossings.append(f"{path.name}: {node.value.id}.{node.attr}")
     assert not crossings, crossings
+
+
+def test_one_installed_package_and_every_module_imports_through_it(tmp_path):
+    """The install puts one name, ``touchdown``, where Python looks for modules (issue 26: a wheel
+    had put ``sim``, ``logs``, ``cli`` ... beside every other project's); every module of the
+    repository imports the others as ``touchdown.PART``."""
+    bare = []
+    for pkg in (*PACKAGES, "cli"):
+        for path in [ROOT / "cli.py"] if pkg == "cli" else (ROOT / pkg).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                         [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0
+                         and node.module else [])
+                bare += [f"{path.name}: {n}" for n in names
+                         if n.split(".")[0] in (*PACKAGES, "cli")]
+    assert not bare, bare
+    graph = _graph()
+    assert "sim.step" in graph["sim.world"] and "logs.writer" in graph["logs.rotating"]
+    probe = ("import importlib.util as u, touchdown.cli, touchdown.sim.step; "
+             "print([n for n in ('sim', 'logs', 'proto', 'replay', 'scenarios', 'bench', 'view', "
+             "'service', 'sweep', 'cli') if u.find_spec(n) is not None])")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "[]"

@@ -13,17 +13,17 @@ from google.protobuf.descriptor_pb2 import FileDescriptorSet
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from cli import main
-from logs import LogError
-from logs.codec import PACKED, encode_tick
-from logs.decode import decode_tick
-from logs.header import TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, scenario_message
-from logs.reader import LogReader
-from logs.writer import LogWriter
-from proto import touchdown_pb2 as pb
-from sim.scenario import parse, parse_text
-import scenarios
-
+from touchdown.cli import main
+from touchdown.logs import LogError
+from touchdown.logs.codec import PACKED, encode_tick
+from touchdown.logs.decode import decode_tick
+from touchdown.logs.header import (TOPIC_EVENTS, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS,
+    scenario_message)
+from touchdown.logs.reader import LogReader
+from touchdown.logs.writer import LogWriter
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.scenario import parse, parse_text
+from touchdown import scenarios
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -151,9 +151,9 @@ def test_writer_close_is_idempotent_and_failure_leaves_no_log(tmp_path):
 def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
     """The recorder's compiled block encoder (logs.codec.BlockEncoder) gives, for every tick of a
     run, the bytes protobuf gives for that tick's TickBatch (keyframe fields only on keyframes)."""
-    from logs.codec import BlockEncoder
-    from logs.header import KEYFRAME_ONLY, tick_arrays
-    from sim.run import run_blocks
+    from touchdown.logs.codec import BlockEncoder
+    from touchdown.logs.header import KEYFRAME_ONLY, tick_arrays
+    from touchdown.sim.run import run_blocks
 
     scn = parse_text(scenarios.text("fleet"), "fleet", {"duration": 3.0})
     enc = BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, interval)
@@ -180,8 +180,8 @@ def test_the_field_registry_and_the_proto_schema_agree_field_by_field():
     type needs, and the step's records are built from the registry."""
     from google.protobuf.descriptor import FieldDescriptor as FD
 
-    from sim import fields
-    from sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
+    from touchdown.sim import fields
+    from touchdown.sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
 
     packed = {f.name: f for f in pb.TickBatch.DESCRIPTOR.fields
               if f.name not in ("tick", "t_s", "ship_count")}

@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from cli import main
-from logs.codec import encode_tick
-from logs.decode import decode_tick
-from logs.header import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, world_header
-from logs.reader import LogReader
-from logs.writer import LogWriter
-from logs.rotating import RotatingLog
-from proto import touchdown_pb2 as pb
-from replay.verify import verify
-from sim.scenario import parse_text
-from sim.world import World
+from touchdown.cli import main
+from touchdown.logs.codec import encode_tick
+from touchdown.logs.decode import decode_tick
+from touchdown.logs.header import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, world_header
+from touchdown.logs.reader import LogReader
+from touchdown.logs.writer import LogWriter
+from touchdown.logs.rotating import RotatingLog
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.replay.verify import verify
+from touchdown.sim.scenario import parse_text
+from touchdown.sim.world import World
 
 from test_replay import rewrite_topic
 
@@ -136,7 +136,7 @@ def test_rotated_files_each_verify_alone_and_tile_the_run(run):
     assert ranges[0][0] == 0 and ranges[-1][1] == N_TICKS
     for (_, end), (start, _) in zip(ranges, ranges[1:]):
         assert start == end, ranges
-    from view.scene import read_run
+    from touchdown.view.scene import read_run
     assert read_run(files[1]).ships[0].tick[0] == ranges[1][0]
     # and the CLI says so of a file alone
     r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(files[1]),
@@ -230,7 +230,7 @@ def test_a_log_may_start_later_with_no_ships_and_ships_joining(tmp_path):
     assert {row["tick"] for row in rows} == set(range(76, 131))  # no ship before tick 76
     assert rows[0]["ship_id"] == "y" and rows[0]["east"] is not None
     # the view reads it from its first tick, the ships from the ticks they join
-    from view.scene import read_run
+    from touchdown.view.scene import read_run
     tracks = {t.ship_id: t for t in read_run(path).ships}
     assert tracks["y"].tick[0] == 76 and tracks["x"].tick[0] == 80
     assert tracks["y"].tick[-1] == 130 and np.isfinite(tracks["y"].pos_site_m).all()

@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from bench import fuzz
-from cli import main
-from logs import LogError, export as ex
-from logs.codec import decode_tick_python, encode_tick
-from logs.decode import decode_tick
-from logs.decode import decode_block
-from logs.reader import LogReader
-from sim import fields
+from touchdown.bench import fuzz
+from touchdown.cli import main
+from touchdown.logs import LogError, export as ex
+from touchdown.logs.codec import decode_tick_python, encode_tick
+from touchdown.logs.decode import decode_tick
+from touchdown.logs.decode import decode_block
+from touchdown.logs.reader import LogReader
+from touchdown.sim import fields
 
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
@@ -247,7 +247,7 @@ def test_a_tick_record_larger_than_the_fleet_can_fill_is_refused_in_under_a_seco
     bad = tmp_path / "big-tick.mcap"
     bad.write_bytes(fuzz.rewrite_log(bounce.read_bytes(), edit))
     assert bad.stat().st_size < 200_000
-    from replay.verify import verify
+    from touchdown.replay.verify import verify
     for run in (lambda: verify(str(bad)), lambda: list(ex.tick_blocks(LogReader(bad)))):
         t0 = time.perf_counter()
         with pytest.raises(LogError, match="what a chunk of ticks of this log's 1 ship"):

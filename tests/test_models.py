@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from scenes import events, one_ship, records, scene, series, tilt_deg, topics
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.step import commands, near_ground, purely_vertical, step
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.step import commands, near_ground, purely_vertical, step
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 

@@ -7,7 +7,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from scenes import records, scene
-from sim.enums import EventKind, TRANSITION_EVENTS, SurfaceState
+from touchdown.sim.enums import EventKind, TRANSITION_EVENTS, SurfaceState
 
 METHODS = ["explicit_euler", "semi_implicit_euler", "velocity_verlet", "rk4", "exponential"]
 RADIUS = 1737400.0

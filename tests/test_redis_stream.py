@@ -4,10 +4,10 @@ import uuid
 import redis
 from click.testing import CliRunner
 
-from cli import main
-from logs.export import event_rows
-from logs.reader import LogReader
-from proto import touchdown_pb2 as pb
+from touchdown.cli import main
+from touchdown.logs.export import event_rows
+from touchdown.logs.reader import LogReader
+from touchdown.proto import touchdown_pb2 as pb
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 
 

@@ -12,12 +12,12 @@ from click.testing import CliRunner
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from cli import main
-from logs.codec import encode_tick
-from logs.decode import decode_tick
-from logs.header import TOPIC_TICKS
-from logs.reader import LogReader
-from replay.verify import verify
+from touchdown.cli import main
+from touchdown.logs.codec import encode_tick
+from touchdown.logs.decode import decode_tick
+from touchdown.logs.header import TOPIC_TICKS
+from touchdown.logs.reader import LogReader
+from touchdown.replay.verify import verify
 
 ROOT = Path(__file__).resolve().parents[1]
 

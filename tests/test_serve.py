@@ -18,15 +18,15 @@ from pathlib import Path
 import pytest
 import redis
 
-import scenarios as builtin
-from logs.reader import LogReader
-from proto import touchdown_pb2 as pb
+import touchdown.scenarios as builtin
+from touchdown.logs.reader import LogReader
+from touchdown.proto import touchdown_pb2 as pb
 from redis_server import _free_port, redis_url  # noqa: F401  (a pytest fixture)
-from replay.verify import verify
-from service.commands import shard_of
-from service.redis_io import Keys
-from service.serve import ServeConfig, Worker
-from sim.scenario import parse_text
+from touchdown.replay.verify import verify
+from touchdown.service.commands import shard_of
+from touchdown.service.redis_io import Keys
+from touchdown.service.serve import ServeConfig, Worker
+from touchdown.sim.scenario import parse_text
 
 ROOT = Path(__file__).resolve().parents[1]
 FLEET = parse_text(builtin.text("fleet"), "fleet")

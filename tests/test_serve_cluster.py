@@ -13,10 +13,10 @@ import time
 
 import pytest
 
-from bench.redis_cluster import Cluster
+from touchdown.bench.redis_cluster import Cluster
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
-from service.commands import shard_of
-from service.redis_io import Keys
+from touchdown.service.commands import shard_of
+from touchdown.service.redis_io import Keys
 from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _gapless, _nothing_lost, \
     _prefix, _Proc, _spawn, _wait
 
@@ -161,12 +161,12 @@ def test_view_and_record_redis_on_a_cluster_read_and_write_its_streams(cluster, 
     publishes through the cluster's slot map whatever node it is given."""
     import threading
 
-    from logs.redis_stream import EventPublisher
-    from proto import touchdown_pb2 as pb
-    from service.serve import ServeConfig, Worker
-    from sim.scenario import parse_text
-    import scenarios as builtin
-    from view import live
+    from touchdown.logs.redis_stream import EventPublisher
+    from touchdown.proto import touchdown_pb2 as pb
+    from touchdown.service.serve import ServeConfig, Worker
+    from touchdown.sim.scenario import parse_text
+    import touchdown.scenarios as builtin
+    from touchdown.view import live
 
     prefix = _prefix()
     fleet = parse_text(builtin.text("fleet"), "fleet")

@@ -21,17 +21,17 @@ from pathlib import Path
 import pytest
 import redis
 
-import scenarios as builtin
-from logs.reader import LogReader
+import touchdown.scenarios as builtin
+from touchdown.logs.reader import LogReader
 from redis_server import _free_port, redis_url  # noqa: F401  (a pytest fixture)
-from replay.verify import verify
-from service import redis_io as rio
-from service.commands import shard_of
-from service.redis_io import Keys
-from service.serve import ServeConfig, Worker
-from service.shard import Limits
-from sim.enums import SurfaceState
-from sim.scenario import parse_text
+from touchdown.replay.verify import verify
+from touchdown.service import redis_io as rio
+from touchdown.service.commands import shard_of
+from touchdown.service.redis_io import Keys
+from touchdown.service.serve import ServeConfig, Worker
+from touchdown.service.shard import Limits
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.scenario import parse_text
 from test_serve import _wait  # noqa: F401  (also the cluster tests')
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -566,7 +566,7 @@ def test_tls_mutual_tls_a_password_and_no_secret_printed(tmp_path):
         assert secret.encode() not in cmdline
         # the bad ones in this process (each one line, exit 2)
         from click.testing import CliRunner
-        import cli
+        from touchdown import cli
         for bad in (f"redis://:wrong-{secret}@127.0.0.1:{_port}/0",
                     f"rediss://:{secret}@127.0.0.1:{tls_port}/0?ssl_ca_certs={c('server.crt')}",
                     f"http://:{secret}@127.0.0.1:{_port}/0"):
@@ -754,9 +754,9 @@ def test_a_spawn_of_a_class_already_seen_costs_microseconds():
 
 
 def test_checkpoints_of_ten_thousand_ships_stay_under_a_megabyte_a_second():
-    from bench.speed import fleet_doc
-    from sim.scenario import parse
-    from sim.world import World
+    from touchdown.bench.speed import fleet_doc
+    from touchdown.sim.scenario import parse
+    from touchdown.sim.world import World
     doc = fleet_doc(10_000, 3600.0)
     doc["sim"] = {"dt": 0.1}
     world = World.of(parse(doc, "ckpt"))

@@ -15,23 +15,23 @@ import numpy as np
 import pytest
 import redis
 
-import scenarios as builtin
-from bench.speed import fleet_doc
-from logs.encode import ShipTables
-from logs.header import world_header
-from logs.reader import LogReader
-from logs.rotating import RotatingLog
-from proto import service_pb2 as spb
+import touchdown.scenarios as builtin
+from touchdown.bench.speed import fleet_doc
+from touchdown.logs.encode import ShipTables
+from touchdown.logs.header import world_header
+from touchdown.logs.reader import LogReader
+from touchdown.logs.rotating import RotatingLog
+from touchdown.proto import service_pb2 as spb
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
-from replay.verify import verify
-from service import redis_io as rio
-from service.flightlog import ServiceLog
-from service.serve import (TELEMETRY_KEEP_S, ServeConfig, Worker, checkpoint_due,
+from touchdown.replay.verify import verify
+from touchdown.service import redis_io as rio
+from touchdown.service.flightlog import ServiceLog
+from touchdown.service.serve import (TELEMETRY_KEEP_S, ServeConfig, Worker, checkpoint_due,
                            telemetry_maxlen)
-from service.shard import Shard
-from service.telemetry import TelemetryEncoder
-from sim.scenario import parse, parse_text
-from sim.world import World
+from touchdown.service.shard import Shard
+from touchdown.service.telemetry import TelemetryEncoder
+from touchdown.sim.scenario import parse, parse_text
+from touchdown.sim.world import World
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -106,7 +106,7 @@ def test_the_telemetry_streams_default_cap_is_ten_seconds_of_samples():
 
 def test_the_cli_default_of_telemetry_maxlen(tmp_path):
     from click.testing import CliRunner
-    import cli
+    from touchdown import cli
     seen = {}
 
     class Stop(Exception):
@@ -115,7 +115,7 @@ def test_the_cli_default_of_telemetry_maxlen(tmp_path):
     def fake_worker(cfg):
         seen["cfg"] = cfg
         raise Stop
-    import service.serve as serve_mod
+    import touchdown.service.serve as serve_mod
     real = serve_mod.Worker
     serve_mod.Worker = fake_worker
     try:

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim import params as P
-from sim import scenario as S
-from sim.settings import (BY_KEY, REQUIRED, SETTINGS, FrictionModel, Integrator, SurfaceNormal,
-                          in_scene, in_table, landing_in)
+from touchdown.sim import params as P
+from touchdown.sim import scenario as S
+from touchdown.sim.settings import (BY_KEY, REQUIRED, SETTINGS, FrictionModel, Integrator,
+    SurfaceNormal, in_scene, in_table, landing_in)
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -67,7 +67,7 @@ def test_parameters_default_to_the_scenario_defaults():
 def test_models_are_enums_named_as_the_scenario_says():
     assert BY_KEY["contact.friction_model"].enum is FrictionModel
     assert BY_KEY["contact.surface_normal"].enum is SurfaceNormal
-    from sim.integrators import METHODS
+    from touchdown.sim.integrators import METHODS
     assert METHODS == {m.label: int(m) for m in Integrator}
     scn = S.parse({**MINIMAL, "contact": {"friction_model": "seed", "surface_normal": "radial"}},
                   "m.toml")

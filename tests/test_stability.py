@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from bench.stability import (NUDGE_MPS, OMEGA, SAG_M, ZETA, bounce_ringing, grows,
+from touchdown.bench.stability import (NUDGE_MPS, OMEGA, SAG_M, ZETA, bounce_ringing, grows,
                              identified_map, rocking, rocking_mode, theory)
 from scenes import records, scene, series
-from sim.scenario import ScenarioError
-from sim.stability import amplification, largest_stable_wh, spectral_radius
+from touchdown.sim.scenario import ScenarioError
+from touchdown.sim.stability import amplification, largest_stable_wh, spectral_radius
 
 
 def eigen(zeta):

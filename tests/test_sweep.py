@@ -13,12 +13,12 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 
-from cli import main
-from logs.export import event_rows, tick_rows
-from logs.reader import LogReader
-from sim.scenario import load_toml
-from sweep.cases import Sweep, SweepError, latin_hypercube, parse_vary
-from sweep.run import run
+from touchdown.cli import main
+from touchdown.logs.export import event_rows, tick_rows
+from touchdown.logs.reader import LogReader
+from touchdown.sim.scenario import load_toml
+from touchdown.sweep.cases import Sweep, SweepError, latin_hypercube, parse_vary
+from touchdown.sweep.run import run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -175,7 +175,7 @@ def test_latin_hypercube_is_one_point_per_slice_and_repeatable():
 
 
 def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(monkeypatch):
-    import sweep.run as R
+    import touchdown.sweep.run as R
     sw = sweep_of()
     calls = []
 
@@ -188,7 +188,7 @@ def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(monkeypatc
         def asked(self, value):
             pass
 
-    from sweep import fleet
+    from touchdown.sweep import fleet
     original = fleet.run_part
 
     def part(*args, **kw):
@@ -263,7 +263,7 @@ def test_bad_values_of_an_axis_are_refused():
 
 def test_charts_of_a_grid_and_of_random_samples(whole, tmp_path):
     pytest.importorskip("matplotlib")
-    from sweep.chart import CODE, draw, regions
+    from touchdown.sweep.chart import CODE, draw, regions
     draw(whole, tmp_path / "grid.png")
     assert (tmp_path / "grid.png").stat().st_size > 10_000
     codes = regions(whole.column("outcome").to_pylist(),

@@ -10,10 +10,10 @@ import math
 
 import pytest
 
-from bench.reference import critical_angle_rad, topple_time
+from touchdown.bench.reference import critical_angle_rad, topple_time
 from scenes import events, final_state, records, scene, topics
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import SurfaceState
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import SurfaceState
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 

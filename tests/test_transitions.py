@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from scenes import events, final_state, one_ship, records, scene, tilt_deg, topics
-from sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from sim.enums import SurfaceState
-from sim.state import TRANSITION_DTYPE
-from sim.step import EventLog, settle
+from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.state import TRANSITION_DTYPE
+from touchdown.sim.step import EventLog, settle
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 M = 10000.0
@@ -51,8 +51,8 @@ def test_crash_speed_when_tipping_over(speed, crashed):
 def test_recontact_after_a_bounce_above_crash_speed_crashes():
     """SEED-NOTES 7: only thrust can make a re-contact faster than the impact (the built-in
     'recontact-crash' flips the ship in flight and fires downward)."""
-    import scenarios
-    from sim.scenario import parse_text
+    from touchdown import scenarios
+    from touchdown.sim.scenario import parse_text
     recs = records(parse_text(scenarios.text("recontact-crash"), "recontact-crash"))
     names = topics(recs)
     assert names[:2] == ["ship.contact", "ship.liftoff"] and names[-1] == "ship.crashed"

@@ -9,9 +9,9 @@ import pyarrow as pa
 import pytest
 from click.testing import CliRunner
 
-from cli import main
-from sim.enums import SurfaceState
-from view.rerun_view import FORCE_COLORS, STATE_COLORS
+from touchdown.cli import main
+from touchdown.sim.enums import SurfaceState
+from touchdown.view.rerun_view import FORCE_COLORS, STATE_COLORS
 
 
 def invoke(*args):

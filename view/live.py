@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 import redis
 
-from proto import service_pb2 as spb
-from service import redis_io as rio
-from sim.enums import SurfaceState
-from view.rerun_view import STATE_COLORS, ViewError
+from touchdown.proto import service_pb2 as spb
+from touchdown.service import redis_io as rio
+from touchdown.sim.enums import SurfaceState
+from touchdown.view.rerun_view import STATE_COLORS, ViewError
 
 LEVELS = {"ship.crashed": "ERROR", "ship.tipped": "WARN", "ship.command_rejected": "WARN",
           "ship.autoland_failed": "WARN"}
@@ -220,7 +220,7 @@ def live(url: str, prefix: str, seconds: float | None, password: str | None = No
     ``seconds``)."""
     import rerun as rr
 
-    from view.rerun_view import last_line, start_viewer
+    from touchdown.view.rerun_view import last_line, start_viewer
 
     proc, port, err = start_viewer(["--hide-welcome-screen"])
     try:

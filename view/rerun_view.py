@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.enums import SurfaceState
-from sim.errors import TouchdownError
-from view.scene import ENERGY_PARTS, Run, ShipTrack, read_run, terrain_grid
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.errors import TouchdownError
+from touchdown.view.scene import ENERGY_PARTS, Run, ShipTrack, read_run, terrain_grid
 
 #: The seed's client display: CONTACT yellow, TIPPED red ("Client Display"); the others ours.
 STATE_COLORS = {

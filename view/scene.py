@@ -15,13 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from logs import LogError
-from logs.reader import LogReader
-from logs.rebuild import fleet_params, scenario_of
-from sim import fields, measure
-from sim.enums import SurfaceState
-from sim.measure import ENERGY_PARTS
-from sim.params import Params
+from touchdown.logs import LogError
+from touchdown.logs.reader import LogReader
+from touchdown.logs.rebuild import fleet_params, scenario_of
+from touchdown.sim import fields, measure
+from touchdown.sim.enums import SurfaceState
+from touchdown.sim.measure import ENERGY_PARTS
+from touchdown.sim.params import Params
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def read_run(path: str | Path, label: str | None = None, ship_id: str | None = N
                 cols[name].append(a)
         if last_tick is None:
             raise LogError(f"{path}: the log holds no tick")
-        from logs.export import what_was_read
+        from touchdown.logs.export import what_was_read
         note = what_was_read(reader, last_tick)
         damage = reader.structure_note()
         shown = {ids[k] for k in wanted}
