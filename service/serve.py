@@ -156,6 +156,9 @@ class _Owned:
     #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
     #: the log's flush Event, the ships whose specs it drops)
     checkpoint: tuple | None = None
+    #: the last tick of this shard Redis holds (its journal and its events): a shard lost to
+    #: another worker goes on from there, and its flight log says so (superseded_after_tick)
+    delivered: int = 0
 
 
 class Worker:
@@ -645,38 +648,40 @@ class Worker:
                     break
                 o.journal.popleft()
                 o.inflight.difference_update(ids)
+                o.delivered = max(o.delivered, tick + 1)
         pipe = self.r.pipeline(transaction=False)
-        plan: list[tuple[str, int, int]] = []
+        plan: list[tuple[str, int, int, int]] = []
         for k in sorted(set(self.owned) - lost):
             o = self.owned[k]
             sh = o.shard
             entries = list(o.unsent)
             chunks = [entries[i:i + 500] for i in range(0, len(entries), 500)] or [[]]
             for c, chunk in enumerate(chunks):  # the shard's tick goes with its last entries
+                tick = sh.tick if c == len(chunks) - 1 else -1
                 self._script("PUBLISH", [self.keys.shard(k, "owner"),
                                          self.keys.shard(k, "published"),
                                          self.keys.shard_events(k),
                                          self.keys.shard(k, "tick")],
-                             [self.id, sh.tick if c == len(chunks) - 1 else -1,
-                              self.cfg.events_maxlen, *rio.flat_entries(chunk)], client=pipe)
-                plan.append(("publish", k, len(chunk)))
+                             [self.id, tick, self.cfg.events_maxlen,
+                              *rio.flat_entries(chunk)], client=pipe)
+                plan.append(("publish", k, len(chunk), tick))
             for sid, fields in o.hashes.items():
                 if fields is None:
                     pipe.delete(self.keys.ship(sid))
                 else:
                     pipe.hset(self.keys.ship(sid), mapping=fields)
-                plan.append(("hash", k, 0))
+                plan.append(("hash", k, 0, -1))
             if o.specs:
                 pipe.hset(self.keys.shard(k, "specs"), mapping=o.specs)
-                plan.append(("specs", k, 0))
+                plan.append(("specs", k, 0, -1))
             if o.params:
                 pipe.hset(self.keys.shard(k, "params"), mapping=o.params)
-                plan.append(("params", k, 0))
+                plan.append(("params", k, 0, -1))
             for sample in o.telemetry:
                 pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
                                                 "proto": sample},
                           maxlen=self.telemetry_maxlen, approximate=True)
-                plan.append(("telemetry", k, 0))
+                plan.append(("telemetry", k, 0, -1))
             if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
                 # taken now, sent once the log has this tick on disk (no waiting on the log's
                 # thread here: that was the slowest tick's time)
@@ -692,14 +697,14 @@ class Worker:
                 blob = packed.result()
                 self._script("CHECKPOINT", self._checkpoint_keys(k),
                              [self.id, blob, tick, published, *gone], client=pipe)
-                plan.append(("checkpoint", k, 0))
+                plan.append(("checkpoint", k, 0, -1))
         if not plan:
             return
         with self.phase("redis_io"):
             replies = pipe.execute(raise_on_error=False)
         failed: set[int] = set()
         first_error = None
-        for (what, k, n), reply in zip(plan, replies):
+        for (what, k, n, tick), reply in zip(plan, replies):
             if isinstance(reply, REDIS_ERRORS):
                 raise reply
             if isinstance(reply, Exception):
@@ -718,6 +723,7 @@ class Worker:
                 for _ in range(n):
                     o.unsent.popleft()
                 self.stats.entries_sent += reply
+                o.delivered = max(o.delivered, tick)
         for k in sorted(set(self.owned) - lost - failed):
             o = self.owned[k]
             o.hashes, o.specs, o.params, o.telemetry = {}, {}, {}, []
@@ -926,6 +932,7 @@ class Worker:
             o.inflight.add(eid)
             o.backlog.append(self._parse(k, eid, raw))
         o.reread = "0"
+        o.delivered = shard.tick  # what Redis holds: this worker goes on from here
         self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
@@ -971,8 +978,11 @@ class Worker:
         if o is None:
             return
         self._keep_counts(o)
-        o.shard.log.close(complete=True, reason="lost")
-        self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); {len(o.unsent)} unsent "
+        # the ticks after the last one Redis holds were never published: the next owner goes
+        # on from that tick, and may apply what this worker applied since at other ticks
+        o.shard.log.close(complete=True, reason="lost", superseded_after_tick=o.delivered)
+        self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); its flight log superseded "
+                 f"after tick {o.delivered} (the last Redis holds); {len(o.unsent)} unsent "
                  f"entries left to its new owner, which re-derives them", "warning")
 
     # -- figures -------------------------------------------------------------------------------
