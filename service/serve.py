@@ -19,7 +19,10 @@ predecessor read but never journaled, and goes on.
 While Redis is unreachable the worker keeps stepping and logging; it holds the unsent entries (at
 most ``buffer_max``; the flight log always has them) and the requests to journal, says so on
 stderr, and delivers them in order once Redis answers again. Telemetry is a sample: the samples
-of an outage are dropped.
+of an outage are dropped. A shard lost meanwhile (its lease passed to another worker) has its
+flight log closed with the last tick Redis holds of it (``superseded_after_tick``).
+
+Every Redis call is service.store's (``ShardStore``); this module is the policy.
 """
 from __future__ import annotations
 
