@@ -112,16 +112,19 @@ class RotatingLog(FinishedOrGone):
         done.set()
         return done
 
-    def close(self, complete: bool = True, reason: str = "") -> None:
+    def close(self, complete: bool = True, reason: str = "",
+              superseded_after_tick: int | None = None) -> None:
         """Finish the file being written (summary ``complete`` with ``reason``: "" the run's end,
         "stopped" a live run stopped, "handed over" or "lost" a live run going on elsewhere,
-        "interrupted"; replay.verify.REASONS). Safe to call twice."""
+        "interrupted"; replay.verify.REASONS; ``superseded_after_tick``: LogSummary's). Safe to
+        call twice."""
         if self._closed:
             return
         self._closed = True
         if self.writer is not None:
             try:
-                self.writer.close(complete=complete, reason=reason)
+                self.writer.close(complete=complete, reason=reason,
+                                  superseded_after_tick=superseded_after_tick)
             except BaseException:  # the file is gone (LogWriter.close removes it)
                 self.files.pop()
                 raise

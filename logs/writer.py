@@ -220,10 +220,12 @@ class LogWriter(FinishedOrGone):
             out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
         return out
 
-    def close(self, complete: bool = True, reason: str = "") -> None:
+    def close(self, complete: bool = True, reason: str = "",
+              superseded_after_tick: int | None = None) -> None:
         """Write the summary and the MCAP footer, then move the file to its final name. If that
         fails (a full disk), the partial file is removed and the error raised: a file is either
-        finished under its final name or gone."""
+        finished under its final name or gone. ``superseded_after_tick``: a live shard lost to
+        another worker, the last tick of it that was published (LogSummary)."""
         if self._closed:
             return
         self._closed = True
@@ -232,7 +234,8 @@ class LogWriter(FinishedOrGone):
             self._check()
             last = max(self.last_tick, int(self.header.start_tick))
             summary = pb.LogSummary(last_tick=last, complete=complete, reason=reason,
-                                    event_count=self.event_count)
+                                    event_count=self.event_count,
+                                    superseded_after_tick=superseded_after_tick)
             self._put(TOPIC_SUMMARY, last, summary.SerializeToString())
             self._mcap.finish()
             self._stream.close()

@@ -260,13 +260,15 @@ class TransitionEvent(_message.Message):
     def __init__(self, event: _Optional[str] = ..., tick: _Optional[int] = ..., t_s: _Optional[float] = ..., ship_id: _Optional[str] = ..., player_id: _Optional[str] = ..., body: _Optional[str] = ..., from_state: _Optional[_Union[SurfaceState, str]] = ..., to_state: _Optional[_Union[SurfaceState, str]] = ..., ship: _Optional[_Union[ShipState, _Mapping]] = ..., v_radial_mps: _Optional[float] = ..., t_event_s: _Optional[float] = ...) -> None: ...
 
 class LogSummary(_message.Message):
-    __slots__ = ("last_tick", "complete", "reason", "event_count")
+    __slots__ = ("last_tick", "complete", "reason", "event_count", "superseded_after_tick")
     LAST_TICK_FIELD_NUMBER: _ClassVar[int]
     COMPLETE_FIELD_NUMBER: _ClassVar[int]
     REASON_FIELD_NUMBER: _ClassVar[int]
     EVENT_COUNT_FIELD_NUMBER: _ClassVar[int]
+    SUPERSEDED_AFTER_TICK_FIELD_NUMBER: _ClassVar[int]
     last_tick: int
     complete: bool
     reason: str
     event_count: int
-    def __init__(self, last_tick: _Optional[int] = ..., complete: _Optional[bool] = ..., reason: _Optional[str] = ..., event_count: _Optional[int] = ...) -> None: ...
+    superseded_after_tick: int
+    def __init__(self, last_tick: _Optional[int] = ..., complete: _Optional[bool] = ..., reason: _Optional[str] = ..., event_count: _Optional[int] = ..., superseded_after_tick: _Optional[int] = ...) -> None: ...

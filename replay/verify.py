@@ -382,6 +382,9 @@ def _compare_summary(reader: LogReader, res: VerifyResult, n_events: int) -> Non
     mine = pb.LogSummary(last_tick=res.last_tick, complete=rec.complete,
                          reason=rec.reason if rec.reason in known else known[0],
                          event_count=n_events)
+    if rec.HasField("superseded_after_tick") and rec.reason == "lost" and \
+            rec.superseded_after_tick <= res.last_tick:  # a lost shard's (touchdown serve)
+        mine.superseded_after_tick = rec.superseded_after_tick
     if rec.complete and not rec.reason and res.last_tick != res.n_ticks:
         res.divergence = where("complete", "true", f"false (the log ends at tick {res.last_tick} "
                                                    f"of {res.n_ticks})")

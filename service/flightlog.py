@@ -126,13 +126,18 @@ class ServiceLog:
         done.set()
         return done
 
-    def close(self, complete: bool = True, reason: str = "") -> None:
+    def close(self, complete: bool = True, reason: str = "",
+              superseded_after_tick: int | None = None) -> None:
+        """Finish the file in hand. ``superseded_after_tick``: the shard was lost (its lease
+        passed to another worker) and Redis holds its run up to this tick only: the file's
+        summary says so, and readers leave what follows it to the next owner's log."""
         if self._closed:
             return
         self._closed = True
         if self.log is not None:
             try:
-                self.log.close(complete=complete, reason=reason)
+                self.log.close(complete=complete, reason=reason,
+                               superseded_after_tick=superseded_after_tick)
             except OSError as exc:
                 self.say(f"flight log {self.directory}: not finished ({_oserror(exc)}); its last "
                          f"file is kept as far as it was written", "error")

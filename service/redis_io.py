@@ -1,4 +1,5 @@
-"""The live service's keys in Redis and the few atomic steps it takes on them.
+"""The live service's keys in Redis and the few atomic steps it takes on them (the calls
+themselves are service.store's).
 
 Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first three):
 

@@ -19,7 +19,10 @@ predecessor read but never journaled, and goes on.
 While Redis is unreachable the worker keeps stepping and logging; it holds the unsent entries (at
 most ``buffer_max``; the flight log always has them) and the requests to journal, says so on
 stderr, and delivers them in order once Redis answers again. Telemetry is a sample: the samples
-of an outage are dropped.
+of an outage are dropped. A shard lost meanwhile (its lease passed to another worker) has its
+flight log closed with the last tick Redis holds of it (``superseded_after_tick``).
+
+Every Redis call is service.store's (``ShardStore``); this module is the policy.
 """
 from __future__ import annotations
 
@@ -40,30 +43,22 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-import redis
 
 from touchdown.service import redis_io as rio
-from touchdown.service.commands import Rejected, Request, decode_entry, from_json, parse, shard_of
+from touchdown.service.commands import Rejected, Request, decode_entry, parse, shard_of
 from touchdown.service.flightlog import ServiceLog, lower_priority
 from touchdown.service.phases import GcTimer, Phases
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.service.shard import Limits, Shard, TickOut
+from touchdown.service.store import (ERRORS, REFUSALS, UNREACHABLE, CheckpointWrite, ShardStore,
+                                     ShardWrites, refusal_kind)
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.scenario import Scenario, parse as parse_doc
 from touchdown.sim.timeline import Timeline
 from touchdown.sim.world import World
 
 #: Redis (or, on a cluster, the node of a slot, or the slot map) unreachable: ticking on
-REDIS_ERRORS = (redis.exceptions.ConnectionError, redis.exceptions.TimeoutError,
-                redis.exceptions.RedisClusterException)
-#: what Redis can answer instead of doing a write, by the name a message gives it
-REFUSALS = {"OOM": "out of memory (maxmemory)", "NOPERM": "a permission missing from the ACL "
-            "user", "READONLY": "a read-only replica", "BUSY": "busy running a script",
-            "MISCONF": "unable to persist (MISCONF)", "LOADING": "loading its data"}
-
-#: redis-py's exception classes, by the error code Redis sent (redis-py drops the code)
-_KINDS = {"OutOfMemoryError": "OOM", "NoPermissionError": "NOPERM", "ReadOnlyError": "READONLY",
-          "BusyLoadingError": "LOADING", "NoScriptError": "NOSCRIPT"}
+REDIS_ERRORS = UNREACHABLE
 
 
 class ServeError(TouchdownError):
@@ -156,6 +151,9 @@ class _Owned:
     #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
     #: the log's flush Event, the ships whose specs it drops)
     checkpoint: tuple | None = None
+    #: the last tick of this shard Redis holds (its journal and its events): a shard lost to
+    #: another worker goes on from there, and its flight log says so (superseded_after_tick)
+    delivered: int = 0
 
 
 class Worker:
@@ -191,24 +189,21 @@ class Worker:
         self.last_figures: dict = {}
         flag = "--redis-cluster" if cfg.cluster else "--redis"
         try:
-            self.r = rio.connect(cfg.url, cfg.password, cluster=cfg.cluster)
-            self.r_ping = rio.connect(cfg.url, cfg.password, timeout=0.25, cluster=cfg.cluster)
+            self.store = ShardStore(cfg.url, cfg.password, self.keys, self.id, cfg.cluster)
         except ValueError as exc:
             raise ServeError(f"{flag} {self.where}: {exc}") from None
-        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
-                OSError) as exc:  # a RedisCluster asks for the slot map at once
+        except (*ERRORS, OSError) as exc:  # a RedisCluster asks for the slot map at once
             text = self._text(exc)
             if "Cluster mode is not enabled" in text:  # what redis-py says for both
                 text += (" (a Redis that is not a cluster, or an ACL user without "
                          "+cluster|slots +command)")
             raise ServeError(f"{flag} {self.where}: {text}") from None
         try:
-            self.r.ping()
+            self.store.ping()
             self.scenario, self.scenario_json = self._agree_on_config()
             for k in range(cfg.shards):
-                self._ensure_group(k)
-        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException,
-                ValueError, OSError) as exc:
+                self.store.ensure_group(k)
+        except (*ERRORS, ValueError, OSError) as exc:
             raise ServeError(f"redis {self.where}: {self._text(exc)}") from None
         self.scene = self.scenario.scene
         self.dt_s = self.scenario.params.sim.dt_s
@@ -245,11 +240,7 @@ class Worker:
         start writes them; a later one given others is refused."""
         cfg = self.cfg
         mine = json.dumps(cfg.scenario.resolved, sort_keys=True) if cfg.scenario else ""
-        self.r.hsetnx(self.keys.config, "shards", cfg.shards)
-        self.r.hsetnx(self.keys.config, "scenario_json", mine)
-        stored = self.r.hgetall(self.keys.config)
-        shards = int(stored[b"shards"])
-        doc_json = stored[b"scenario_json"].decode()
+        shards, doc_json = self.store.agree_on_config(cfg.shards, mine)
         where = f"{self.where} {self.keys.config}"
         if shards != cfg.shards:
             raise ServeError(f"{where}: the service runs {shards} shards, not {cfg.shards} "
@@ -477,12 +468,9 @@ class Worker:
                          f"holding events (the flight logs have them) until it answers",
                          "error")
             self._next_try = time.monotonic() + 0.25
-        except redis.exceptions.RedisError as exc:
+        except ERRORS as exc:
             text = self._text(exc)
-            kind = _KINDS.get(type(exc).__name__) or (
-                "NOPERM" if "can't run this command" in text or "no permissions" in text else
-                text.split(" ", 1)[0] if text.split(" ", 1)[0].isupper() else
-                type(exc).__name__)
+            kind = refusal_kind(exc, text)
             self._loop_refused = True
             self._refused = REFUSALS.get(kind, kind)
             self.log_every(f"refused:{kind}",
@@ -500,11 +488,8 @@ class Worker:
 
     def _reconnect(self) -> None:
         try:
-            if self.cfg.cluster:  # every master answers (a node's slots are down with it)
-                self.r_ping.ping(target_nodes="primaries")
-            else:
-                self.r_ping.ping()
-        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
+            self.store.ping_all()  # (on a cluster every master: a node's slots are down with it)
+        except ERRORS:
             self._next_try = time.monotonic() + 0.25
             return
         self.redis_up = True
@@ -518,30 +503,23 @@ class Worker:
         backlog. A shard with a full backlog reads nothing (the stream holds the rest)."""
         if not self.owned:
             return
-        pipe = self.r.pipeline(transaction=False)
-        order = []
+        plan = []
         for k in sorted(self.owned):
             o = self.owned[k]
             room = self.cfg.max_commands_per_tick * 2 - len(o.backlog)
             if room <= 0:
                 continue
             start = o.reread if o.reread is not None else ">"
-            pipe.xreadgroup(rio.Keys.group(k), self.id, {self.keys.shard_commands(k): start},
-                            count=max(1, min(o.read_count, room)))
-            order.append((k, start))
-        if not order:
+            plan.append((k, start, max(1, min(o.read_count, room))))
+        if not plan:
             return
-        replies = pipe.execute(raise_on_error=False)
-        for (k, start), reply in zip(order, replies):
+        for rd in self.store.read(plan):
+            k, start, entries = rd.k, rd.start, rd.entries
             o = self.owned.get(k)
-            if o is None:
+            if o is None or rd.nogroup:  # (a lost group is made again: Redis restarted empty)
                 continue
-            if isinstance(reply, redis.exceptions.ResponseError) and "NOGROUP" in str(reply):
-                self._ensure_group(k)  # Redis lost it (restarted without its data)
-                continue
-            if isinstance(reply, Exception):
-                raise reply
-            entries = [e for _s, es in (reply or []) for e in es]
+            if rd.error is not None:
+                raise rd.error
             if start != ">":
                 o.reread = entries[-1][0].decode() if entries else None
             o.read_count = self._adapt(o.read_count, entries)
@@ -580,151 +558,87 @@ class Worker:
     def _route(self) -> None:
         """The owner of shard 0 moves the shared command stream's entries (SPEC.md section 5's
         ``P:commands``) to their shards' streams."""
-        g = rio.Keys.ROUTER
-        src = self.keys.commands
         start = getattr(self, "_route_from", "0")
         count = getattr(self, "_route_count", 100)
-        try:
-            reply = self.r.xreadgroup(g, self.id, {src: start}, count=count)
-        except redis.exceptions.ResponseError as exc:
-            if "NOGROUP" not in str(exc):
-                raise
-            self._ensure_group(None)  # Redis lost it (restarted without its data)
+        entries = self.store.read_router(start, count)
+        if entries is None:  # its group lost (Redis restarted without its data): made again
             return
-        entries = [e for _s, es in (reply or []) for e in es]
         self._route_count = self._adapt(count, entries)
         if start != ">" and not entries:
             self._route_from = ">"
             return
         if not entries:
             return
-        args: list = [g]
+        moves = []
         for entry_id, raw in entries:
             raw = raw or {}
             sid = raw.get(b"ship_id", b"").decode("utf-8", "surrogateescape")
-            args += [entry_id, shard_of(sid, self.cfg.shards), len(raw)]
-            for f, v in raw.items():
-                args += [f, v]
-        keys = [src] + [self.keys.shard_commands(k) for k in range(self.cfg.shards)]
-        self.r.eval(rio.ROUTE, len(keys), *keys, *args)
+            moves.append((entry_id, shard_of(sid, self.cfg.shards), raw))
+        self.store.route(moves, self.cfg.shards)
         if start != ">":
             self._route_from = entries[-1][0].decode()
 
-    def _ensure_group(self, k: int | None) -> None:
-        stream, group = ((self.keys.commands, rio.Keys.ROUTER) if k is None else
-                         (self.keys.shard_commands(k), rio.Keys.group(k)))
-        try:
-            self.r.xgroup_create(stream, group, id="0", mkstream=True)
-        except redis.exceptions.ResponseError as exc:
-            if "BUSYGROUP" not in str(exc):
-                raise
-        if k == 0 and not self.cfg.cluster:
-            self._ensure_group(None)
-
-    def _script(self, name: str, keys: list, args: list, client=None):
-        """One of redis_io's scripts, by EVAL (no SCRIPT LOAD or EXISTS: fewer permissions)."""
-        # (execute_command: a cluster's pipeline has no eval(), but routes EVAL by its keys)
-        return (client or self.r).execute_command("EVAL", getattr(rio, name), len(keys), *keys,
-                                                  *args)
-
     def _flush(self) -> None:
         """Journal (rare: only ticks that had commands), then in one round trip: each shard's
-        entries, hashes, specs and telemetry, and its checkpoint when due."""
+        entries, hashes, specs and telemetry, and its checkpoint when due. A shard whose lease
+        is another worker's is dropped; what Redis refused stays held."""
         lost: set[int] = set()
         for k in sorted(self.owned):
             o = self.owned[k]
             while o.journal:
                 tick, reqs, ids = o.journal[0]
-                payload = json.dumps([r.as_json() for r in reqs]) if reqs else ""
-                ok = self._script("JOURNAL", [self.keys.shard(k, "owner"),
-                                              self.keys.shard(k, "journal"),
-                                              self.keys.shard_commands(k)],
-                                  [self.id, rio.Keys.group(k), f"{tick}-1", payload, *ids])
-                if ok == -1:
+                if not self.store.journal(k, tick, reqs, ids):
                     lost.add(k)
                     break
                 o.journal.popleft()
                 o.inflight.difference_update(ids)
-        pipe = self.r.pipeline(transaction=False)
-        plan: list[tuple[str, int, int]] = []
-        for k in sorted(set(self.owned) - lost):
+                o.delivered = max(o.delivered, tick + 1)
+        writes = [self._writes(k) for k in sorted(set(self.owned) - lost)]
+        result = self.store.flush(writes, self.cfg.events_maxlen, self.telemetry_maxlen,
+                                  self.phase)
+        for k, f in result.shards.items():
             o = self.owned[k]
-            sh = o.shard
-            entries = list(o.unsent)
-            chunks = [entries[i:i + 500] for i in range(0, len(entries), 500)] or [[]]
-            for c, chunk in enumerate(chunks):  # the shard's tick goes with its last entries
-                self._script("PUBLISH", [self.keys.shard(k, "owner"),
-                                         self.keys.shard(k, "published"),
-                                         self.keys.shard_events(k),
-                                         self.keys.shard(k, "tick")],
-                             [self.id, sh.tick if c == len(chunks) - 1 else -1,
-                              self.cfg.events_maxlen, *rio.flat_entries(chunk)], client=pipe)
-                plan.append(("publish", k, len(chunk)))
-            for sid, fields in o.hashes.items():
-                if fields is None:
-                    pipe.delete(self.keys.ship(sid))
-                else:
-                    pipe.hset(self.keys.ship(sid), mapping=fields)
-                plan.append(("hash", k, 0))
-            if o.specs:
-                pipe.hset(self.keys.shard(k, "specs"), mapping=o.specs)
-                plan.append(("specs", k, 0))
-            if o.params:
-                pipe.hset(self.keys.shard(k, "params"), mapping=o.params)
-                plan.append(("params", k, 0))
-            for sample in o.telemetry:
-                pipe.xadd(self.keys.telemetry, {"tick": str(sh.tick), "shard": str(k),
-                                                "proto": sample},
-                          maxlen=self.telemetry_maxlen, approximate=True)
-                plan.append(("telemetry", k, 0))
-            if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
-                # taken now, sent once the log has this tick on disk (no waiting on the log's
-                # thread here: that was the slowest tick's time)
-                gone = [sid for t, sid in o.retired if t <= sh.tick]
-                with self.phase("checkpoint"):  # the records copied; packed on a thread
-                    pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
-                                                sh.published)
-                    o.checkpoint = (self._packer().submit(pack), sh.tick, sh.published,
-                                    sh.log.flush(wait=False), gone)
-            if (o.checkpoint is not None and o.checkpoint[3].is_set()
-                    and o.checkpoint[0].done()):
-                packed, tick, published, _, gone = o.checkpoint
-                blob = packed.result()
-                self._script("CHECKPOINT", self._checkpoint_keys(k),
-                             [self.id, blob, tick, published, *gone], client=pipe)
-                plan.append(("checkpoint", k, 0))
-        if not plan:
-            return
-        with self.phase("redis_io"):
-            replies = pipe.execute(raise_on_error=False)
-        failed: set[int] = set()
-        first_error = None
-        for (what, k, n), reply in zip(plan, replies):
-            if isinstance(reply, REDIS_ERRORS):
-                raise reply
-            if isinstance(reply, Exception):
-                failed.add(k)
-                first_error = first_error or reply
-                continue
-            if reply == -1 and what in ("publish", "checkpoint"):
-                lost.add(k)
-            elif what == "checkpoint" and reply == 1:
-                o = self.owned[k]
+            for _ in range(f.out):
+                o.unsent.popleft()
+            self.stats.entries_sent += f.added
+            if f.tick is not None:
+                o.delivered = max(o.delivered, f.tick)
+            if f.checkpointed:
                 gone = set(o.checkpoint[4])
                 o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
                 o.checkpoint = None
-            elif what == "publish" and k not in lost:
+            if f.lost:
+                lost.add(k)
+        if result.unreachable is not None:
+            raise result.unreachable  # _redis: Redis is away; what was not written stays held
+        for k in sorted(set(self.owned) - lost):
+            if result.shards[k].refused is None:  # (what was refused stays, for the next)
                 o = self.owned[k]
-                for _ in range(n):
-                    o.unsent.popleft()
-                self.stats.entries_sent += reply
-        for k in sorted(set(self.owned) - lost - failed):
-            o = self.owned[k]
-            o.hashes, o.specs, o.params, o.telemetry = {}, {}, {}, []
+                o.hashes, o.specs, o.params, o.telemetry = {}, {}, {}, []
         for k in sorted(lost):
             self._lose(k, "its lease passed to another worker")
-        if first_error is not None:
-            raise first_error  # said once by _redis; what failed stays held
+        if result.refused is not None:
+            raise result.refused  # said once by _redis; what failed stays held
+
+    def _writes(self, k: int) -> ShardWrites:
+        """Shard k's writes for this flush; its checkpoint taken when due (the records copied
+        now, packed on a thread) and sent once packed and once the log has its tick on disk
+        (no waiting on the log's thread here: that was the slowest tick's time)."""
+        o = self.owned[k]
+        sh = o.shard
+        if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
+            gone = [sid for t, sid in o.retired if t <= sh.tick]
+            with self.phase("checkpoint"):  # the records copied; packed on a thread
+                pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
+                                            sh.published)
+                o.checkpoint = (self._packer().submit(pack), sh.tick, sh.published,
+                                sh.log.flush(wait=False), gone)
+        cp = None
+        if o.checkpoint is not None and o.checkpoint[3].is_set() and o.checkpoint[0].done():
+            packed, tick, published, _, gone = o.checkpoint
+            cp = CheckpointWrite(packed.result(), tick, published, tuple(gone))
+        return ShardWrites(k, sh.tick, list(o.unsent), o.hashes, o.specs, o.params,
+                           o.telemetry, cp)
 
     def _packer(self) -> ThreadPoolExecutor:
         """The thread that packs checkpoints (zstd; off the tick)."""
@@ -737,22 +651,18 @@ class Worker:
     def _checkpoint_due(self, k: int, tick: int) -> bool:
         return checkpoint_due(k, tick, self.cfg.checkpoint_every, self.cfg.shards)
 
-    def _checkpoint(self, k: int, client=None) -> int:
-        """Shard k's checkpoint (refused by the script unless every entry it counts is out)."""
+    def _checkpoint(self, k: int) -> int:
+        """Shard k's checkpoint now (refused by the script unless every entry it counts is
+        out): 1 written, -1 the lease lost, -2 refused."""
         o = self.owned[k]
         sh = o.shard
         sh.log.flush()  # the log holds every tick up to the checkpoint before Redis does
         blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland, sh.published)
         gone = [sid for t, sid in o.retired if t <= sh.tick]
-        ok = self._script("CHECKPOINT", self._checkpoint_keys(k),
-                          [self.id, blob, sh.tick, sh.published, *gone], client=client)
+        ok = self.store.checkpoint(k, CheckpointWrite(blob, sh.tick, sh.published, tuple(gone)))
         if ok == 1:
             o.retired = [(t, sid) for t, sid in o.retired if t > sh.tick]
         return ok
-
-    def _checkpoint_keys(self, k: int) -> list[str]:
-        return [self.keys.shard(k, w) for w in ("owner", "checkpoint", "journal", "published",
-                                                "specs", "params")]
 
     # -- shards: leases, taking over, handing over --------------------------------------------
     def _new_world(self, k: int) -> World:
@@ -766,56 +676,39 @@ class Worker:
         lost is handed to the loop (``_lease_lost``)."""
         cfg = self.cfg
         lease_ms = int(cfg.lease_s * 1000)
-        r = None
+        keeper = None
         try:
             while not self._lease_stop.is_set():
                 try:
-                    if r is None:
-                        r = rio.connect(cfg.url, cfg.password, timeout=max(0.2, cfg.lease_s / 4),
-                                        cluster=cfg.cluster)
-                    server_s = _server_time(r)
-                    pipe = r.pipeline(transaction=False)
-                    pipe.zadd(self.keys.workers, {self.id: server_s + cfg.lease_s})
-                    pipe.zremrangebyscore(self.keys.workers, "-inf", server_s)
-                    pipe.zcard(self.keys.workers)
-                    self._live = pipe.execute()[2]
+                    if keeper is None:
+                        keeper = self.store.lease_keeper(timeout=max(0.2, cfg.lease_s / 4))
+                    self._live = keeper.heartbeat(cfg.lease_s)
                     # (and a shard being taken: restoring a large one outlasts a lease)
                     order = sorted(set(self.owned) | self._taking)
-                    if order and cfg.cluster:  # each shard's lease in its own slot
-                        pipe = r.pipeline()
-                        for k in order:
-                            pipe.execute_command("EVAL", rio.RENEW, 1,
-                                                 self.keys.shard(k, "owner"), self.id, lease_ms)
-                        kept = [x[0] for x in pipe.execute()]
-                    elif order:
-                        kept = r.eval(rio.RENEW, len(order),
-                                      *[self.keys.shard(k, "owner") for k in order],
-                                      self.id, lease_ms)
-                    if order:
-                        self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
-                except REDIS_ERRORS:
+                    kept = keeper.renew(order, lease_ms)
+                    self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
+                except UNREACHABLE:
                     pass  # the loop says Redis is away
-                except (redis.exceptions.RedisError, RuntimeError) as exc:
+                except (*ERRORS, RuntimeError) as exc:
                     self.log_every("leases", f"redis {self.where}: leases not renewed "
                                    f"({self._text(exc)}): shards will pass to other workers",
                                    "error")
                 self._lease_stop.wait(cfg.lease_s / 4)
         finally:
-            if r is not None:
-                r.close()
+            if keeper is not None:
+                keeper.close()
 
     def _relet(self, k: int) -> None:
         """Shard k's lease was not renewed (Redis away past it, or taken): take it again if it
         is free, else the shard is another worker's now."""
-        if k in self.owned and not self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
-                                              px=int(self.cfg.lease_s * 1000)):
-            if self.r.get(self.keys.shard(k, "owner")) != self.id.encode():
+        if k in self.owned and not self.store.take_lease(k, int(self.cfg.lease_s * 1000)):
+            if not self.store.holds_lease(k):
                 self._lose(k, "its lease passed to another worker while it could not renew it")
 
     def _leases(self) -> None:
         cfg = self.cfg
         lease_ms = int(cfg.lease_s * 1000)
-        live = self.r.zcard(self.keys.workers) or 1
+        live = self.store.live_workers()
         share = math.ceil(cfg.shards / max(1, live))
         if cfg.max_shards is not None:
             share = min(share, cfg.max_shards)
@@ -824,13 +717,12 @@ class Worker:
         for k in range(cfg.shards):
             if len(self.owned) >= share:
                 break
-            if k not in self.owned and self.r.set(self.keys.shard(k, "owner"), self.id, nx=True,
-                                                  px=lease_ms):
+            if k not in self.owned and self.store.take_lease(k, lease_ms):
                 self._taking.add(k)  # the lease thread renews it meanwhile
                 try:
                     self._take_over(k)
                 except BaseException:
-                    self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
+                    self.store.release(k)
                     raise
                 finally:
                     self._taking.discard(k)
@@ -843,11 +735,10 @@ class Worker:
     def _take_over(self, k: int) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
         scenario's ships of this shard)."""
-        self._ensure_group(k)
-        keys = self.keys
-        blob = self.r.get(keys.shard(k, "checkpoint"))
-        specs_json = {sid.decode(): json.loads(v)
-                      for sid, v in self.r.hgetall(keys.shard(k, "specs")).items()}
+        store = self.store
+        store.ensure_group(k)
+        stored = store.load(k)
+        blob, specs_json = stored.blob, stored.specs
         if blob is None:
             world, autoland, published = self._new_world(k), [], 0
             fresh_specs = {sid: json.dumps([-1, spec], sort_keys=True)
@@ -858,11 +749,9 @@ class Worker:
         else:
             try:
                 cp, state, inputs = rio.read_checkpoint(blob)
-                rows = self.r.hmget(keys.shard(k, "params"), list(cp.ship_ids)) \
-                    if cp.ship_ids else []
-                ships = rio.ship_params(cp, rows)
+                ships = rio.ship_params(cp, store.params(k, list(cp.ship_ids)))
             except ValueError as exc:
-                raise ServeError(f"{keys.shard(k, 'checkpoint')}: {exc}") from None
+                raise ServeError(f"{self.keys.shard(k, 'checkpoint')}: {exc}") from None
             # the ships known at the checkpoint's tick: those that joined after it are the
             # journal's spawns, re-applied below (not "taken")
             known = {sid: spec for sid, (tick, spec) in specs_json.items()
@@ -876,31 +765,22 @@ class Worker:
             fresh_specs, fresh_params = {}, {}
             how = f"from its checkpoint at tick {state.tick}"
         # everything read from Redis first: a failure here leaves nothing half made
-        journal: dict[int, list] = {}
-        journaled: set[str] = set()
-        for _id, fields in self.r.xrange(keys.shard(k, "journal"), f"{world.tick}-0", "+"):
-            tick = int(_id.decode().split("-")[0])
-            reqs = [from_json(d) for d in json.loads(fields[b"requests"])]
-            journal[tick] = reqs
-            journaled.update(r.entry_id for r in reqs)
-        last = int(self.r.get(keys.shard(k, "tick")) or -1)
-        last = max([last] + [t + 1 for t in journal])
+        tail = store.journal_since(k, world.tick)
+        journal = tail.requests
+        last = max([store.recorded_tick(k)] + [t + 1 for t in journal])
         # what the last owner read but never journaled is new: this worker applies it next
         claimed, acks = [], []
-        for eid, raw in self._claim(k):
-            if eid in journaled:
+        for eid, raw in store.claim(k):
+            if eid in tail.ids:
                 acks.append(eid)
                 continue
             claimed.append((eid, raw))
         if acks:
-            self.r.xack(keys.shard_commands(k), rio.Keys.group(k), *acks)
-        if fresh_specs:
-            self.r.hset(keys.shard(k, "specs"), mapping=fresh_specs)
-        if fresh_params:
-            self.r.hset(keys.shard(k, "params"), mapping=fresh_params)
+            store.ack(k, acks)
+        store.write_tables(k, fresh_specs, fresh_params)
         if k == 0 and not self.cfg.cluster:
             self._route_from = "0"
-            self._claim_router()
+            store.claim_router()
         shard = Shard(k, world, None, self.body, dict.fromkeys(autoland), published,
                       limits=self.cfg.limits)
         shard.log = ServiceLog(
@@ -926,33 +806,12 @@ class Worker:
             o.inflight.add(eid)
             o.backlog.append(self._parse(k, eid, raw))
         o.reread = "0"
+        o.delivered = shard.tick  # what Redis holds: this worker goes on from here
         self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
         self.log(f"shard {k}: taken ({how}; {world.state.n} ships; re-stepped {caught} "
                  f"ticks to tick {shard.tick}; {len(claimed)} unjournaled commands claimed)")
-
-    def _claim(self, k: int) -> list:
-        """Every pending entry of shard k's group (read by a former owner), now this worker's."""
-        out, start = [], "0-0"
-        for _ in range(10_000):  # a bound: at most 10,000 pages of 1,000
-            reply = self.r.xautoclaim(self.keys.shard_commands(k), rio.Keys.group(k), self.id,
-                                      0, start_id=start, count=1000)
-            start, entries = reply[0], reply[1]
-            out += [(e[0].decode(), e[1]) for e in entries if e[1] is not None]
-            if start in (b"0-0", "0-0"):
-                break
-        return out
-
-    def _claim_router(self) -> None:
-        """The router's pending entries (a former router read and never routed them)."""
-        start = "0-0"
-        for _ in range(10_000):
-            reply = self.r.xautoclaim(self.keys.commands, rio.Keys.ROUTER, self.id, 0,
-                                      start_id=start, count=1000)
-            start = reply[0]
-            if start in (b"0-0", "0-0"):
-                break
 
     def _hand_over(self, k: int) -> None:
         """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed.
@@ -960,7 +819,7 @@ class Worker:
         o = self.owned[k]
         if o.journal or o.unsent or self._checkpoint(k) != 1:
             return  # try again at the next lease round
-        self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
+        self.store.release(k)
         o.shard.log.close(complete=True, reason="handed over")
         self._keep_counts(o)
         del self.owned[k]
@@ -971,8 +830,11 @@ class Worker:
         if o is None:
             return
         self._keep_counts(o)
-        o.shard.log.close(complete=True, reason="lost")
-        self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); {len(o.unsent)} unsent "
+        # the ticks after the last one Redis holds were never published: the next owner goes
+        # on from that tick, and may apply what this worker applied since at other ticks
+        o.shard.log.close(complete=True, reason="lost", superseded_after_tick=o.delivered)
+        self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); its flight log superseded "
+                 f"after tick {o.delivered} (the last Redis holds); {len(o.unsent)} unsent "
                  f"entries left to its new owner, which re-derives them", "warning")
 
     # -- figures -------------------------------------------------------------------------------
@@ -1035,13 +897,8 @@ class Worker:
                     m[name].inc(value - seen[name])
                     seen[name] = value
         if self.redis_up:
-            def write():
-                key = self.keys.stats(self.id)
-                pipe = self.r.pipeline(transaction=False)
-                pipe.hset(key, mapping={k: str(v) for k, v in fig.items()})
-                pipe.expire(key, max(1, int(math.ceil(3 * self.cfg.stats_every_s))))
-                pipe.execute()
-            self._redis(write)
+            self._redis(self.store.write_stats, fig,
+                        max(1, int(math.ceil(3 * self.cfg.stats_every_s))))
 
     # -- stop ----------------------------------------------------------------------------------
     def shutdown(self, flush_s: float = 5.0) -> None:
@@ -1070,16 +927,8 @@ class Worker:
                      f"refusing); the flight logs have them", "error")
         self.last_figures = self.figures()
         self.owned.clear()
-        try:
-            self.r.zrem(self.keys.workers, self.id)
-            self.r.delete(self.keys.stats(self.id))
-        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
-            pass
-        for client in (self.r, self.r_ping):
-            try:
-                client.close()
-            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
-                pass
+        self.store.leave()
+        self.store.close()
         if self._metrics_server is not None:
             self._metrics_server.shutdown()
         if self._pack_pool is not None:
@@ -1092,7 +941,7 @@ class Worker:
             if o.journal or o.unsent:
                 return False
             if self._checkpoint(k) == 1:
-                self._script("RELEASE", [self.keys.shard(k, "owner")], [self.id])
+                self.store.release(k)
         return True
 
 
@@ -1111,14 +960,6 @@ def telemetry_maxlen(cfg: ServeConfig, dt_s: float) -> int:
     if cfg.telemetry_maxlen is not None:
         return cfg.telemetry_maxlen
     return max(1, int(round(TELEMETRY_KEEP_S / dt_s)) * cfg.shards)
-
-
-def _server_time(r: redis.Redis) -> float:
-    t = r.time()
-    if isinstance(t, dict):  # a cluster client may answer per node
-        t = next(iter(t.values()))
-    s, us = t
-    return s + us * 1e-6
 
 
 def default_scenario() -> Scenario:

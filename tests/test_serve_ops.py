@@ -166,19 +166,28 @@ def _spawn(ship_id: str, player: str, altitude: float = 3.0) -> dict:
 
 def _from_logs(folder: Path) -> tuple[dict, dict, dict]:
     """Across every log (overlapping ones agree): each ship's join ticks, each (ship, throttle)'s
-    command ticks, and each ship's state at the last tick logged."""
+    command ticks, and each ship's state at the last tick logged. A log of a shard lost to
+    another worker counts up to the last tick it published (its summary's
+    superseded_after_tick): what it holds after that, the world does not follow."""
     joins: dict[str, set] = {}
     throttles: dict[tuple, set] = {}
     last: dict[str, tuple[int, int]] = {}
     for path in _files(folder):
         with LogReader(path) as r:
+            s = r.read_summary() if r.status.complete else None
+            upto = s.superseded_after_tick if s is not None and s.HasField(
+                "superseded_after_tick") else float("inf")
             tl = r.timeline()
             for sp in tl.spawns:
-                joins.setdefault(sp.ship_id, set()).add(sp.tick)
+                if sp.tick < upto:
+                    joins.setdefault(sp.ship_id, set()).add(sp.tick)
             for c in tl.commands:
-                throttles.setdefault((c.ship_id, c.throttle), set()).add(c.tick)
+                if c.tick < upto:
+                    throttles.setdefault((c.ship_id, c.throttle), set()).add(c.tick)
             table = r.ship_table()
             for t in r.ticks():
+                if t.tick > upto:
+                    break
                 states = t.arrays.get("surface_state")
                 if states is None:  # a tick with no ships
                     continue
@@ -834,3 +843,76 @@ def test_view_redis_draws_the_running_fleet(worker, tmp_path):
         w.stop.set()
         th.join(timeout=60)
         client.close()
+
+
+def test_a_worker_cut_off_past_its_lease_marks_the_ticks_its_successor_superseded(tmp_path):
+    """Worker a cannot journal (its ACL user loses EVAL: the journal, the events and the lease
+    renewals are refused) and steps on, applying a throttle it reads meanwhile; its lease
+    runs out and worker b takes the shard over from the checkpoint and journal, claims the
+    throttle (pending, never journaled) and applies it at a tick of its own. When a can write
+    again it finds its lease gone and closes its log "lost", its summary naming the last tick
+    Redis holds of it (superseded_after_tick): the ticks after it, the throttle's among them,
+    are not the world's. Read so, every log together holds the throttle once."""
+    server, port = _server(tmp_path / "redis")
+    admin = redis.Redis(port=port)
+    prefix = "g"
+    flight = tmp_path / "flight"
+    a = b = None
+    try:
+        _ready(admin)
+        _acl(admin, "wa", "apw", prefix, "~P:*", WORKER_ACL)
+        keys = Keys(prefix)
+        args = ["serve", "--prefix", prefix, "--shards", "1", "--rate", "40", "--lease", "1",
+                "--checkpoint-every", "10", "--log-dir", str(flight)]
+        a = _Proc([*args, "--redis", f"redis://wa:apw@127.0.0.1:{port}/0", "--worker-id", "a"],
+                  tmp_path, "a")
+        _wait(lambda: admin.get(keys.shard(0, "owner")) == b"a", 60, "a to own the shard")
+        admin.xadd(keys.shard_commands(0), _spawn("s0", "p0", altitude=50.0))
+        _wait(lambda: admin.exists(keys.ship("s0")), 30, "the spawn")
+        _wait(lambda: admin.get(keys.shard(0, "checkpoint")) is not None, 30, "a checkpoint")
+        admin.execute_command("ACL", "SETUSER", "wa", "-eval")
+        _wait(lambda: "NOPERM" in a.err(), 30, "a to be refused")
+        tick = int(admin.get(keys.shard(0, "tick")))
+        time.sleep(0.3)  # a steps on, a dozen ticks past what Redis holds of it
+        # a throttle read for a whose reply never reached it (a read cut off with its master:
+        # made so here as in the test above); a, refused, re-reads its own pending entries each
+        # tick, finds it and applies it at a tick past what Redis holds
+        pipe = admin.pipeline(transaction=True)
+        pipe.xadd(keys.shard_commands(0), {"cmd": "throttle", "ship_id": "s0",
+                                           "player_id": "p0", "value": "0.25"})
+        pipe.xreadgroup(Keys.group(0), "a", {keys.shard_commands(0): ">"}, count=10)
+        eid = pipe.execute()[0].decode()
+        _wait(lambda: admin.get(keys.shard(0, "owner")) is None, 30, "a's lease to run out")
+        b = _Proc([*args, "--redis", f"redis://127.0.0.1:{port}/0", "--worker-id", "b"],
+                  tmp_path, "b")
+        _wait(lambda: "1 unjournaled commands claimed" in b.err(), 60, "b to take the shard")
+        mark = int(admin.get(keys.shard(0, "tick")))
+        _wait(lambda: int(admin.get(keys.shard(0, "tick"))) > mark + 20, 30, "b to step on")
+        admin.execute_command("ACL", "SETUSER", "wa", "+eval")
+        _wait(lambda: "shard 0: lost" in a.err(), 30, "a to find its lease gone")
+        assert a.term() == 0 and b.term() == 0, a.err() + b.err()
+        assert "Traceback" not in a.err() + b.err()
+        _j, throttles, _l = _from_logs(flight)
+        assert len(throttles[("s0", 0.25)]) == 1, throttles[("s0", 0.25)]
+        lost = []
+        for path in _files(flight):
+            with LogReader(path) as r:
+                s = r.read_summary()
+                if s is not None and s.reason == "lost":
+                    lost.append((path, s))
+        assert len(lost) == 1 and lost[0][1].HasField("superseded_after_tick"), lost
+        with LogReader(lost[0][0]) as r:  # a applied it after what it delivered
+            mine = [c.tick for c in r.timeline().commands if c.throttle == 0.25]
+        assert lost[0][1].superseded_after_tick == tick, (tick, lost)
+        assert mine and mine[0] > tick, (mine, tick)
+        events = _events(admin, keys.events)
+        assert eid not in {e.get("entry_id") for e in events}
+        _gapless(events, 1)
+        assert admin.xpending(keys.shard_commands(0), Keys.group(0))["pending"] == 0
+        _all_verify(flight)
+    finally:
+        for p in (a, b):
+            if p is not None:
+                p.kill()
+        admin.close()
+        _stop(server)
