@@ -247,22 +247,13 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         out.append((f"empty-records-{tag}", _crafted_log(scn, _chunk(b"", "zstd", empty, 20 << 20),
                                                           tag)))
         # one tick message of 100 MiB whose one-byte fields all have their high bit set
-        tick = b"\x22" + _varint(100 << 20) + b"\x81" * (100 << 20)
+        from touchdown.logs.codec import varint
+        tick = b"\x22" + varint(100 << 20) + b"\x81" * (100 << 20)
         rec = _message(2, 0, tick)
         comp = zstandard.ZstdCompressor(level=3).compress(rec)
         out.append((f"tick-100MiB-{tag}", _crafted_log(scn, _chunk(b"", "zstd", comp, len(rec)),
                                                         tag)))
     return out
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while True:
-        b = n & 0x7F
-        n >>= 7
-        out.append(b | (0x80 if n else 0))
-        if not n:
-            return bytes(out)
 
 
 def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]:

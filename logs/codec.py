@@ -35,7 +35,8 @@ PACKED: tuple[tuple[int, str, str], ...] = tuple(
 _BY_NUMBER = {num: (name, dt) for num, name, dt in PACKED}
 
 
-def _varint(n: int) -> bytes:
+def varint(n: int) -> bytes:
+    """A protobuf base-128 varint."""
     out = bytearray()
     while True:
         b = n & 0x7F
@@ -55,11 +56,11 @@ def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.nda
     or empty one is left out, as protobuf leaves out an empty repeated field."""
     parts = []
     if tick:
-        parts.append(b"\x08" + _varint(tick))
+        parts.append(b"\x08" + varint(tick))
     if t_s != 0.0:
         parts.append(b"\x11" + struct.pack("<d", t_s))
     if ship_count:
-        parts.append(b"\x18" + _varint(ship_count))
+        parts.append(b"\x18" + varint(ship_count))
     for num, name, dt in PACKED:
         arr = arrays.get(name)
         if arr is None or arr.size == 0:  # absent, like an empty repeated field
@@ -71,8 +72,8 @@ def encode_tick(tick: int, t_s: float, ship_count: int, arrays: dict[str, np.nda
             payload = a.astype(np.uint8).tobytes()
         else:
             payload = np.ascontiguousarray(arr, dtype=dt).tobytes()
-        tag = _TAG[name] or _varint((num << 3) | 2)
-        parts.append(tag + _varint(len(payload)) + payload)
+        tag = _TAG[name] or varint((num << 3) | 2)
+        parts.append(tag + varint(len(payload)) + payload)
     return b"".join(parts)
 
 
@@ -155,7 +156,7 @@ def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.n
     for num, name, dt in PACKED:
         if name == "ship_key":  # the block's keys, one int64 per ship (format 3)
             if with_keys:
-                key = _varint((num << 3) | 2)
+                key = varint((num << 3) | 2)
                 rows.append((SOURCES["keys"], 0, 1, 8, 8, key[0], key[1] if len(key) > 1 else 0,
                              len(key), False))
             continue
@@ -169,7 +170,7 @@ def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.n
         if wire != size or (wire == 8 and offset % 8):  # words are read as words
             raise AssertionError(f"{name}: {size}-byte numbers at byte {offset} for a "
                                  f"{wire}-byte wire type")
-        key = _varint((num << 3) | 2)
+        key = varint((num << 3) | 2)
         rows.append((src, offset, count, size, wire, key[0], key[1] if len(key) > 1 else 0,
                      len(key), name in keyframe_only))
     return np.array(rows, dtype=np.int64)

@@ -13,24 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from touchdown.logs.codec import varint
 from touchdown.proto import service_pb2 as spb
-
-
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while True:
-        b = n & 0x7F
-        n >>= 7
-        if n:
-            out.append(b | 0x80)
-        else:
-            out.append(b)
-            return bytes(out)
 
 
 def _field(number: int, payload: bytes) -> bytes:
     """A length-delimited field (packed numbers, a string): tag, length, bytes."""
-    return _varint(number << 3 | 2) + _varint(len(payload)) + payload
+    return varint(number << 3 | 2) + varint(len(payload)) + payload
 
 
 class TelemetryEncoder:

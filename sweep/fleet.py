@@ -73,15 +73,20 @@ def _energy_into(scenes, terrains, group, rot_index, rot, ships, state, acc, end
 
 
 @separate
+def _fold_outputs(o, a):
+    """A tick's outputs ``o`` into a case's running extremes ``a`` (records, written in place)."""
+    if o.cos_tilt < a.min_cos_tilt:
+        a.min_cos_tilt = o.cos_tilt
+    if o.peak_penetration_m > a.max_penetration_m:
+        a.max_penetration_m = o.peak_penetration_m
+    if o.normal_force_n > a.peak_normal_n:
+        a.peak_normal_n = o.normal_force_n
+
+
+@separate
 def _observe_into(outs, acc):
     for i in range(outs.shape[0]):
-        o, a = outs[i], acc[i]
-        if o.cos_tilt < a.min_cos_tilt:
-            a.min_cos_tilt = o.cos_tilt
-        if o.peak_penetration_m > a.max_penetration_m:
-            a.max_penetration_m = o.peak_penetration_m
-        if o.normal_force_n > a.peak_normal_n:
-            a.peak_normal_n = o.normal_force_n
+        _fold_outputs(outs[i], acc[i])
 
 
 @separate
@@ -129,13 +134,7 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
                        state[i:i + 1], inputs[i:i + 1], outs[i:i + 1], Turn(c0, s0, c1, s1),
                        events, count)
             a = acc[i]
-            o = outs[i]
-            if o.cos_tilt < a.min_cos_tilt:
-                a.min_cos_tilt = o.cos_tilt
-            if o.peak_penetration_m > a.max_penetration_m:
-                a.max_penetration_m = o.peak_penetration_m
-            if o.normal_force_n > a.peak_normal_n:
-                a.peak_normal_n = o.normal_force_n
+            _fold_outputs(outs[i], a)
             if before == CONTACT and rec.surface_state == CONTACT:
                 f1 = _footprint_bf((rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
                                    (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
