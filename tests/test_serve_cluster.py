@@ -18,7 +18,7 @@ from redis_server import redis_url  # noqa: F401  (a pytest fixture)
 from touchdown.service.commands import shard_of
 from touchdown.service.redis_io import Keys
 from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _gapless, _nothing_lost, \
-    _prefix, _Proc, _spawn, _wait
+    _prefix, _Proc, _traffic, _wait
 
 SHARDS = 4
 
@@ -66,17 +66,7 @@ def test_on_a_redis_cluster_a_takeover_or_a_master_restart_loses_and_doubles_not
         def send(sid, fields):
             return client.xadd(keys.shard_commands(shard_of(sid, SHARDS)), fields).decode()
         for i in range(n):
-            sid = f"s{i}"
-            send(sid, _spawn(sid, f"p{i % 3}"))
-            if i >= 2 and (i - 2) % 4 == 2:
-                t = f"s{i - 2}"
-                value = f"0.{i:03d}"
-                sent_throttles[send(t, {"cmd": "throttle", "ship_id": t, "player_id":
-                                        f"p{(i - 2) % 3}", "value": value})] = (t, float(value))
-            if i >= 6 and (i - 6) % 8 == 1:
-                r = f"s{i - 6}"
-                send(r, {"cmd": "retire", "ship_id": r, "player_id": f"p{(i - 6) % 3}"})
-                retired.append(r)
+            _traffic(send, i, sent_throttles, retired)
             if i == n // 2:
                 if what == "a worker killed":
                     a.kill()

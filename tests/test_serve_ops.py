@@ -29,7 +29,6 @@ from touchdown.service import redis_io as rio
 from touchdown.service.commands import shard_of
 from touchdown.service.redis_io import Keys
 from touchdown.service.serve import ServeConfig, Worker
-from touchdown.service.shard import Limits
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.scenario import parse_text
 from test_serve import _wait  # noqa: F401  (also the cluster tests')
@@ -159,6 +158,23 @@ def _all_verify(folder: Path) -> None:
         assert res.divergence is None, (path, res.report())
 
 
+def _traffic(send, i: int, sent_throttles: dict, retired: list) -> None:
+    """The i-th step of the nothing-lost tests' traffic: ship s{i} spawned (player p{i % 3}), every
+    fourth a throttle of an earlier ship, every eighth a retire; ``send(ship_id, fields)`` writes
+    an entry and returns its id. Throttles sent and ships retired are noted for _nothing_lost."""
+    sid = f"s{i}"
+    send(sid, _spawn(sid, f"p{i % 3}"))
+    if i >= 2 and (i - 2) % 4 == 2:
+        t = f"s{i - 2}"
+        value = f"0.{i:03d}"
+        sent_throttles[send(t, {"cmd": "throttle", "ship_id": t, "player_id":
+                                f"p{(i - 2) % 3}", "value": value})] = (t, float(value))
+    if i >= 6 and (i - 6) % 8 == 1:
+        r = f"s{i - 6}"
+        send(r, {"cmd": "retire", "ship_id": r, "player_id": f"p{(i - 6) % 3}"})
+        retired.append(r)
+
+
 def _spawn(ship_id: str, player: str, altitude: float = 3.0) -> dict:
     return {"cmd": "spawn", "ship_id": ship_id, "player_id": player,
             "ship": json.dumps({"initial": {"altitude": altitude, "vertical_speed": -2.0}})}
@@ -226,17 +242,7 @@ def test_a_worker_killed_while_spawns_retires_and_commands_flow_loses_and_double
                 direct = int(sid[1:]) % 2
                 stream = keys.shard_commands(shard_of(sid, 2)) if direct else keys.commands
                 return client.xadd(stream, fields).decode()
-            sid = f"s{i}"
-            send(sid, _spawn(sid, f"p{i % 3}"))
-            if i >= 2 and (i - 2) % 4 == 2:
-                t = f"s{i - 2}"
-                value = f"0.{i:03d}"
-                sent_throttles[send(t, {"cmd": "throttle", "ship_id": t, "player_id":
-                                        f"p{(i - 2) % 3}", "value": value})] = (t, float(value))
-            if i >= 6 and (i - 6) % 8 == 1:
-                r = f"s{i - 6}"
-                send(r, {"cmd": "retire", "ship_id": r, "player_id": f"p{(i - 6) % 3}"})
-                retired.append(r)
+            _traffic(send, i, sent_throttles, retired)
             if i == n // 2:
                 a.p.send_signal(signal.SIGKILL)
                 a.p.wait()
