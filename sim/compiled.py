@@ -36,7 +36,9 @@ from pathlib import Path
 from typing import Callable
 
 import numba
-from numba.core import compiler, event
+from numba.core import cgutils, compiler, event
+from numba.core import types as nb_types
+from numba.extending import intrinsic
 from numba.core.codegen import JITCodeLibrary
 from numba.core.compiler_lock import require_global_compiler_lock
 from numba.core.registry import CPUDispatcher
@@ -205,6 +207,35 @@ def constructor(fn: Callable) -> Callable:
     caller's work (sim.step.step_ship): its code is inlined where it is called, before typing
     (numba's ``inline="always"``; numba cannot return a tuple holding a record from a call)."""
     return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, inline="always")
+
+
+@intrinsic
+def zeros(typingctx, shape, dtype):
+    """``np.zeros(shape, dtype)`` for a kernel's scratch arrays (``shape`` an int or a tuple of
+    ints, ``dtype`` a numpy scalar type, e.g. ``np.float64``): the array is allocated and zeroed
+    where it is used. numba's np.zeros is a function of its own, compiled once per shape and dtype
+    (with numba's checks of the arguments): 0.1 s of a first compile each, for 4-element arrays."""
+    if isinstance(shape, nb_types.Integer):
+        ndim = 1
+    elif isinstance(shape, nb_types.UniTuple) and isinstance(shape.dtype, nb_types.Integer):
+        ndim = len(shape)
+    else:
+        return None
+    if not isinstance(dtype, nb_types.NumberClass):
+        return None
+    array_t = nb_types.Array(dtype.dtype, ndim, "C")
+
+    def codegen(context, builder, sig, args):
+        from numba.np.arrayobj import _empty_nd_impl
+        dims = [args[0]] if ndim == 1 and isinstance(shape, nb_types.Integer) else \
+            cgutils.unpack_tuple(builder, args[0], ndim)
+        intp = context.get_value_type(nb_types.intp)
+        dims = [builder.sext(d, intp) if d.type.width < intp.width else d for d in dims]
+        ary = _empty_nd_impl(context, builder, array_t, dims)
+        cgutils.memset(builder, ary.data, builder.mul(ary.itemsize, ary.nitems), 0)
+        return ary._getvalue()
+
+    return array_t(shape, dtype), codegen
 
 
 class _CompileNotice(event.Listener):

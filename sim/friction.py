@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.compiled import kernel, separate, zeros
 from touchdown.sim.contact import surface_velocity
 from touchdown.sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
     quat_rotate_inv, scale, sub, unit
@@ -201,7 +201,7 @@ def _residual(a_mat, slip, lam, radius, active):
     """How far the impulses ``lam`` are from the solution, m/s: a foot inside its disk must not
     slip; one on its edge must slip straight against its impulse (maximum dissipation). The
     largest of the feet's violations."""
-    u = np.empty((4, 2))
+    u = zeros((4, 2), np.float64)
     _post_slips(a_mat, slip, lam, active, u)
     worst = 0.0
     for i in range(4):
@@ -249,7 +249,7 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
 def _cholesky_solve(h_mat, rhs, n, out):
     """out = H^-1 rhs for the symmetric positive definite leading n x n block of ``h_mat``
     (Cholesky, in place on a copy). Returns False if a pivot is not positive."""
-    l_mat = np.zeros((8, 8))
+    l_mat = zeros((8, 8), np.float64)
     for i in range(n):
         for j in range(i + 1):
             acc = h_mat[i, j]
@@ -261,7 +261,7 @@ def _cholesky_solve(h_mat, rhs, n, out):
                 l_mat[i, i] = math.sqrt(acc)
             else:
                 l_mat[i, j] = acc / l_mat[j, j]
-    y = np.zeros(8)
+    y = zeros(8, np.float64)
     for i in range(n):
         acc = rhs[i]
         for k in range(i):
@@ -284,7 +284,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
     each of IPM_OUTER values of mu, each a tenth of the last, steps kept inside the disks (to 0.99
     of the way to their edge), from lam = 0. Its result's slips are within ~1e-10 m/s of the
     exact solution's (checked against 20,000 Gauss-Seidel sweeps in tests/test_friction.py)."""
-    idx = np.zeros(4, np.int64)
+    idx = zeros(4, np.int64)
     n_feet = 0
     scale_s = 0.0
     scale_r = 0.0
@@ -298,10 +298,10 @@ def _interior_point(a_mat, slip, radius, lam, active):
     n = 2 * n_feet
     if n == 0 or not scale_s > 0.0:
         return
-    x = np.zeros(8)
-    grad = np.zeros(8)
-    hess = np.zeros((8, 8))
-    dx = np.zeros(8)
+    x = zeros(8, np.float64)
+    grad = zeros(8, np.float64)
+    hess = zeros((8, 8), np.float64)
+    dx = zeros(8, np.float64)
     mu = scale_s * scale_r
     for _ in range(IPM_OUTER):
         for _ in range(IPM_INNER):
@@ -398,15 +398,15 @@ def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, 
     normals = patch(pos_m, ft, j_n).normals
     omega_w = quat_rotate(quat, omega_b)
     inv_m = 1.0 / mass_kg
-    tang = np.zeros((4, 2, 3))  # each foot's tangent basis
-    turn = np.zeros((4, 2, 3))  # I^-1 R^T (r_i x t): the body-frame turn per unit impulse
-    lever = np.zeros((4, 2, 3))  # R^T (r_i x t)
-    slip = np.zeros((4, 2))
-    radius = np.zeros(4)
-    lam = np.zeros((4, 2))
-    pressing = np.zeros(4, np.bool_)
-    active = np.zeros(4, np.bool_)  # the feet whose impulses are solved for
-    kinetic = np.zeros(4, np.bool_)  # their disks: mu_k (sliding, or broke away) or mu_s
+    tang = zeros((4, 2, 3), np.float64)  # each foot's tangent basis
+    turn = zeros((4, 2, 3), np.float64)  # I^-1 R^T (r_i x t): the body-frame turn per unit impulse
+    lever = zeros((4, 2, 3), np.float64)  # R^T (r_i x t)
+    slip = zeros((4, 2), np.float64)
+    radius = zeros(4, np.float64)
+    lam = zeros((4, 2), np.float64)
+    pressing = zeros(4, np.bool_)
+    active = zeros(4, np.bool_)  # the feet whose impulses are solved for
+    kinetic = zeros(4, np.bool_)  # their disks: mu_k (sliding, or broke away) or mu_s
     drag = 0.0  # what the dragged feet's force took over the step, ~ mu_k J_i
     for i in range(4):
         pressing[i] = j_n[i] > 0.0
@@ -424,14 +424,14 @@ def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, 
             tang[i, 0, k], tang[i, 1, k] = t1[k], t2[k]
             lever[i, 0, k], lever[i, 1, k] = g1[k], g2[k]
             turn[i, 0, k], turn[i, 1, k] = w1[k], w2[k]
-    carried = np.zeros((4, 2))  # h F_i on each holding foot's basis
+    carried = zeros((4, 2), np.float64)  # h F_i on each holding foot's basis
     for i in range(4):
         if active[i]:
             for a in range(2):
                 carried[i, a] = h * (hold_w[i][0] * tang[i, a, 0] + hold_w[i][1] * tang[i, a, 1]
                                      + hold_w[i][2] * tang[i, a, 2])
     # the Delassus matrix: the change of foot i's slip along t_ia per unit impulse along t_jb
-    a_mat = np.zeros((4, 2, 4, 2))
+    a_mat = zeros((4, 2, 4, 2), np.float64)
     for i in range(4):
         for a in range(2):
             for j in range(4):
@@ -470,7 +470,7 @@ def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, 
     # held: no foot slides, and the footprint as a whole (its load-weighted mean slip) is at rest.
     # Feet of one footprint may still slip against each other by a hair: the rigid model's
     # redundancy (see AT_REST_MPS), which only the footprint's centre would carry it away with.
-    after = np.empty((4, 2))
+    after = zeros((4, 2), np.float64)
     _post_slips(a_mat, slip, lam, pressing, after)
     mean = (0.0, 0.0, 0.0)
     j_sum = 0.0

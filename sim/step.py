@@ -1535,8 +1535,11 @@ def step_ticks(recs, state, inputs, commands, next_command, rotations, out, firs
                       EventLog(events, count, i))
         for e in range(n0, min(count[0], events.shape[0])):
             event_ticks[e] = tick + 1
-        states_out[k, :] = state
-        inputs_out[k, :] = inputs
+        # record by record: a slice assignment compiles numba's shape-mismatch message (string
+        # formatting: about 2 s of a first compile) for shapes that always match here
+        for i in range(state.shape[0]):
+            states_out[k, i] = state[i]
+            inputs_out[k, i] = inputs[i]
     return states_out.shape[0], c
 
 

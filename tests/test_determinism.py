@@ -196,3 +196,30 @@ def test_compiling_is_announced_once_and_loading_from_the_cache_is_silent():
         assert len(said) == 1 and "compiling" in said[0]
     finally:
         notify_compilation()
+
+
+def test_a_kernels_scratch_arrays_start_at_zero_in_the_shape_and_type_asked():
+    """sim.compiled.zeros, the kernels' np.zeros: each call gives a fresh array of zeros, of the
+    shape (an int or a tuple) and the numpy type asked, however the memory was used before."""
+    from touchdown.sim.compiled import entry, kernel, zeros
+
+    @kernel
+    def dirty_then_fresh(n):
+        for _ in range(3):
+            a = zeros((n, 3), np.float64)
+            b = zeros(n, np.int64)
+            c = zeros(n, np.bool_)
+            total = a.sum() + b.sum() + c.sum()
+            a[:] = 7.0
+            b[:] = 7
+            c[:] = True
+        return a, b, c, total
+
+    @entry
+    def run(n):
+        return dirty_then_fresh(n)
+
+    a, b, c, total = run(5)
+    assert total == 0.0
+    assert a.shape == (5, 3) and a.dtype == np.float64 and (a == 7.0).all()
+    assert b.shape == (5,) and b.dtype == np.int64 and c.dtype == np.bool_ and c.all()
