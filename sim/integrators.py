@@ -350,7 +350,7 @@ def deepest(flow, ce, k_u, v_n0, t_act, v_act):
 @kernel
 def advance(method, fb, h, motion, ce, absorbing, t0):
     """One (sub)step of the method coded ``method`` (:data:`METHODS`) from ``motion`` (p, v, q,
-    w: sim.step.Motion)."""
+    w: sim.dynamics.Motion)."""
     p, v, q, w = motion
     if method == EXPONENTIAL:
         return exponential(fb, h, p, v, q, w, ce, absorbing, t0)

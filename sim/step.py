@@ -35,8 +35,8 @@ from touchdown.sim.compiled import constructor, entry, kernel, separate
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import (ContactEval, Ground, feet, foot_offsets_w,
     lowest_foot_penetration, under)
-from touchdown.sim.dynamics import (FreeBody, contact_at, ground_at, ground_turn, with_feet,
-    with_hold)
+from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
+    with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from touchdown.sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity,
@@ -77,15 +77,6 @@ ENGAGE_AT_GROUND = (0.0, 0.0, 0.0, 0.0)
 
 #: an empty list of commands (sim.state.COMMAND_DTYPE)
 NO_COMMANDS = np.zeros(0, COMMAND_DTYPE)
-
-
-class Motion(NamedTuple):
-    """A ship's motion: where it is, how it moves, how it is turned and turns."""
-
-    p: tuple  # centre of mass, inertial, m
-    v: tuple  # m/s
-    q: tuple  # attitude, body -> inertial
-    w: tuple  # body-frame angular velocity, rad/s
 
 
 class Footing(NamedTuple):
