@@ -48,7 +48,6 @@ class FreeBody(NamedTuple):
     k_npm: float  # the seed's k = stiffness_per_kg m
     c_nspm: float  # c = 2 zeta sqrt(k m)
     c_absorb_nspm: float  # the absorbers' damper (SEED-NOTES 1)
-    stiffness_per_kg: float
     gm_m3ps2: float
     body_radius_m: float
     body_omega_radps: float
@@ -79,7 +78,7 @@ def with_feet(fb, engage_m, kinetic):
     ``kinetic`` says."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
                     engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w)
 
@@ -89,7 +88,7 @@ def with_hold(fb, hold_w):
     """``fb`` with the holding feet's friction ``hold_w`` carried in."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
                     fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w)
 

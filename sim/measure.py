@@ -8,9 +8,11 @@ from __future__ import annotations
 import numpy as np
 
 from touchdown.sim.compiled import entry
-from touchdown.sim.contact import Ground, feet, height_and_slope
+from touchdown.sim.contact import Ground, Legs, feet, height_and_slope
+from touchdown.sim.dynamics import Motion
 from touchdown.sim.energy import mechanical, total
-from touchdown.sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
+from touchdown.sim.frames import (Body, body_rotation, effective_gravity, quat_z, rotate_z,
+    site_axes)
 from touchdown.sim.frames import surface_velocity as _surface_velocity
 from touchdown.sim.params import Params, Terrain
 from touchdown.sim.settings import SurfaceNormal
@@ -152,10 +154,11 @@ def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mas
             w, out):
     for i in range(p.shape[0]):
         g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
-        e = mechanical(gm, radius, om, kpm[i], leg[i], height[i], mass[i],
-                       (inertia[i, 0], inertia[i, 1], inertia[i, 2]), (p[i, 0], p[i, 1], p[i, 2]),
-                       (v[i, 0], v[i, 1], v[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]),
-                       (w[i, 0], w[i, 1], w[i, 2]), g, True)
+        e = mechanical(Body(gm, radius, om), mass[i], (inertia[i, 0], inertia[i, 1], inertia[i, 2]),
+                       Legs(leg[i], height[i], kpm[i] * mass[i]),
+                       Motion((p[i, 0], p[i, 1], p[i, 2]), (v[i, 0], v[i, 1], v[i, 2]),
+                              (q[i, 0], q[i, 1], q[i, 2], q[i, 3]), (w[i, 0], w[i, 1], w[i, 2])),
+                       g, True)
         out[i, 0], out[i, 1], out[i, 2] = e.translational_j, e.rotational_j, e.gravity_j
         out[i, 3], out[i, 4], out[i, 5] = e.centrifugal_j, e.centrifugal_spin_j, e.spring_j
         out[i, 6] = total(e)

@@ -33,14 +33,14 @@ import numpy as np
 
 from touchdown.sim.compiled import constructor, entry, kernel, separate
 from touchdown.sim.constants import G0_MPS2
-from touchdown.sim.contact import (ContactEval, Ground, feet, foot_offsets_w,
+from touchdown.sim.contact import (ContactEval, Ground, Legs, feet, foot_offsets_w,
     lowest_foot_penetration, under)
 from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
     with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
-from touchdown.sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity,
-    inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
+from touchdown.sim.frames import (Body, body_rotation, body_spin_in_body_frame,
+    effective_gravity, inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from touchdown.sim.friction import coulomb, hold_footprint, seed, spread_over_step
 from touchdown.sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
 from touchdown.sim.params import Params, Records
@@ -323,7 +323,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                                sp.mass0_kg, m),
                     cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
-                    cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
+                    cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, terrain,
                     cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
@@ -348,9 +348,9 @@ def align_to_surface(q, r_hat):
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
     stores nothing in its springs: its feet are not looked for)."""
-    return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
-                      fb.leg_radius_m, fb.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                      ground, fb.touching)
+    return mechanical(Body(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps), fb.mass_kg,
+                      fb.inertia_kgm2, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
+                      Motion(p, v, q, w), ground, fb.touching)
 
 
 class EnergyRef(NamedTuple):
