@@ -36,7 +36,8 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.vec import add, body_axes, cross, dot, fmax, norm, scale, sub, unit
+from touchdown.sim.vec import add, body_axes, cross, dot, fmax, norm, quat_rotate, scale, sub, \
+    unit
 
 #: Columns of the terrain's bump table (one row per bump).
 BUMP_EAST, BUMP_NORTH, BUMP_RADIUS, BUMP_HEIGHT = 0, 1, 2, 3
@@ -140,6 +141,16 @@ class Feet(NamedTuple):
     push_w: tuple  # g = -grad x, the direction the ground pushes
 
 
+class Legs(NamedTuple):
+    """A ship's four landing legs as the ground meets them: each foot ``leg_radius_m`` from the
+    long axis and ``com_height_m`` below the centre of mass (:func:`foot_offsets_w`), on a spring
+    of k / 4, so that the four pressed together are the seed's one spring k = stiffness_per_kg m."""
+
+    leg_radius_m: float
+    com_height_m: float
+    k_npm: float  # the whole ship's k (each foot's: k / 4)
+
+
 @kernel
 def foot_offsets_w(q, leg_radius_m, com_height_m):
     """Each foot's position relative to the centre of mass, inertial: body (+-a, 0, -h) and
@@ -209,6 +220,17 @@ class ContactEval(NamedTuple):
     lowest_gamma: float
 
 
+class FrictionForce(NamedTuple):
+    """The feet's friction that acts as a force inside a step, integrated with the springs
+    (:func:`evaluate`): each foot of ``kinetic`` that presses is dragged by mu_k N_i against its
+    slip, each other foot that presses is held by ``hold_w``, its static friction over the last
+    step. The rest of friction comes after the step, as impulses (sim.friction.coulomb)."""
+
+    mu_k: float  # 0 under the seed's law, which acts after the step
+    kinetic: tuple  # each foot: dragged by its kinetic friction
+    hold_w: tuple  # each foot's static friction carried in, inertial, N
+
+
 class FootForce(NamedTuple):
     """One foot's share of a contact evaluation."""
 
@@ -222,12 +244,18 @@ class FootForce(NamedTuple):
 
 
 @kernel
-def foot_force(ground, vel_mps, omega_w, offset, foot, pen, push, k_leg, c_leg, absorbing,
-               engage_m, n_hat, linear_model):
+def foot_velocity(ground, vel_mps, omega_w, offset, foot):
+    """A foot's velocity over the ground under it: v + w x r_i - Omega z x foot (r_i its offset
+    from the centre of mass, w the ship's angular velocity, inertial)."""
+    return sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
+
+
+@kernel
+def foot_force(v_foot, pen, push, k_leg, c_leg, absorbing, engage_m, n_hat, linear_model):
     # engage_m: this foot presses from penetration > -engage_m
-    """One foot's spring-damper force k x + c x', its rate x' = -g . v_foot relative to the
-    surface, and (``linear_model``) its terms of the pressing feet's linear model along n_hat."""
-    v_foot = sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
+    """One foot's spring-damper force k x + c x', its rate x' = -g . v_foot (``v_foot``: its
+    velocity over the ground, :func:`foot_velocity`), and (``linear_model``) its terms of the
+    pressing feet's linear model along n_hat."""
     pen_rate = -dot(push, v_foot)
     f = k_leg * pen + c_leg * pen_rate
     stiff = damp = load = load_rate = 0.0
@@ -273,42 +301,51 @@ def friction_normal(pos_m, foot_pos_w, push_w):
 
 
 @kernel
-def foot_slip(ground, pos_m, vel_mps, omega_w, offset, foot, push):
-    """A foot's velocity over the ground under it, in its friction plane."""
-    u = sub(add(vel_mps, cross(omega_w, offset)), surface_velocity(ground, foot))
+def foot_slip(pos_m, v_foot, foot, push):
+    """A foot's velocity over the ground under it (``v_foot``, :func:`foot_velocity`), in its
+    friction plane."""
     n = friction_normal(pos_m, foot, push)
-    return sub(u, scale(n, dot(u, n)))
+    return sub(v_foot, scale(n, dot(v_foot, n)))
 
 
 @separate
-def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, k_npm, c_nspm,
-             c_absorb_nspm, absorbing, engage_m, linear_model, mu_k, kinetic, hold_w):
-    """Normal force, its moment, and penetration (see the module docstring).
+def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, friction_force):
+    """Normal force, its moment, and penetration (see the module docstring) of a ship in
+    ``motion`` (p, v, q, w_b: sim.dynamics.Motion) on its ``legs``, their dampers ``c_nspm`` (the
+    absorbers' while ``absorbing``).
 
     ``engage_m``: foot i counts as touching from ``x_i > -engage_m[i]`` (0 as a rule; a foot that
     has just reached the ground gets a micrometre, so that rounding cannot leave out the damper's
     jump at its first stage; -inf keeps a foot from pressing while a step is stepped up to the
     instant it reaches the ground, sim.step). ``linear_model``: also sum the pressing feet's
-    stiffness, damping, load and load rate along the spring axis (zeros otherwise). ``kinetic``:
-    the feet whose friction is kinetic (sliding faster than the stick speed, sim.friction): each
-    of them that pushes is dragged by mu_k N_i against its slip, a force the method integrates as
-    it does the spring's (the feet that hold get theirs as an impulse after the step,
-    sim.friction.coulomb). ``hold_w``: the holding feet's static friction over the last step,
-    carried into this one as a force (each pressing foot that is not kinetic; in its friction
-    plane), so that a ship held on its feet feels its friction throughout the step: the impulse
-    after it only corrects it (sim.friction.coulomb)."""
-    k_leg = 0.25 * k_npm
-    c_leg = 0.25 * c_absorb_nspm if absorbing else 0.25 * c_nspm
-    ft = feet(ground, pos_m, quat, leg_radius_m, com_height_m)
+    stiffness, damping, load and load rate along the spring axis (zeros otherwise).
+    ``friction_force`` (:class:`FrictionForce`): its ``kinetic`` feet, whose friction is kinetic
+    (sliding faster than the stick speed, sim.friction): each of them that pushes is dragged by
+    mu_k N_i against its slip, a force the method integrates as it does the spring's (the feet
+    that hold get theirs as an impulse after the step, sim.friction.coulomb); its ``hold_w``: the
+    holding feet's static friction over the last step, carried into this one as a force (each
+    pressing foot that is not kinetic; in its friction plane), so that a ship held on its feet
+    feels its friction throughout the step: the impulse after it only corrects it
+    (sim.friction.coulomb)."""
+    pos_m, vel_mps, quat, w_b = motion
+    mu_k, kinetic, hold_w = friction_force
+    omega_w = quat_rotate(quat, w_b)
+    k_leg = 0.25 * legs.k_npm
+    c_leg = 0.25 * c_nspm
+    ft = feet(ground, pos_m, quat, legs.leg_radius_m, legs.com_height_m)
     n_hat = spring_axis(ground, pos_m, ft, engage_m) if linear_model else unit(pos_m)
-    ff = (foot_force(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0], ft.pen_m[0],
-                     ft.push_w[0], k_leg, c_leg, absorbing, engage_m[0], n_hat, linear_model),
-          foot_force(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1], ft.pen_m[1],
-                     ft.push_w[1], k_leg, c_leg, absorbing, engage_m[1], n_hat, linear_model),
-          foot_force(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2], ft.pen_m[2],
-                     ft.push_w[2], k_leg, c_leg, absorbing, engage_m[2], n_hat, linear_model),
-          foot_force(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3], ft.pen_m[3],
-                     ft.push_w[3], k_leg, c_leg, absorbing, engage_m[3], n_hat, linear_model))
+    v_feet = (foot_velocity(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0]),
+              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1]),
+              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2]),
+              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3]))
+    ff = (foot_force(v_feet[0], ft.pen_m[0], ft.push_w[0], k_leg, c_leg, absorbing, engage_m[0],
+                     n_hat, linear_model),
+          foot_force(v_feet[1], ft.pen_m[1], ft.push_w[1], k_leg, c_leg, absorbing, engage_m[1],
+                     n_hat, linear_model),
+          foot_force(v_feet[2], ft.pen_m[2], ft.push_w[2], k_leg, c_leg, absorbing, engage_m[2],
+                     n_hat, linear_model),
+          foot_force(v_feet[3], ft.pen_m[3], ft.push_w[3], k_leg, c_leg, absorbing, engage_m[3],
+                     n_hat, linear_model))
     force = (0.0, 0.0, 0.0)
     torque = (0.0, 0.0, 0.0)
     g = (norm(ft.push_w[0]), norm(ft.push_w[1]), norm(ft.push_w[2]), norm(ft.push_w[3]))
@@ -317,10 +354,10 @@ def evaluate(ground, pos_m, vel_mps, quat, omega_w, leg_radius_m, com_height_m, 
     lowest = (0.0, 0.0, 0.0)
     lowest_gamma = 1.0
     stiff = damp = load = load_rate = 0.0
-    slips = (foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0], ft.push_w[0]),
-             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1], ft.push_w[1]),
-             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2], ft.push_w[2]),
-             foot_slip(ground, pos_m, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3], ft.push_w[3]))
+    slips = (foot_slip(pos_m, v_feet[0], ft.pos_w[0], ft.push_w[0]),
+             foot_slip(pos_m, v_feet[1], ft.pos_w[1], ft.push_w[1]),
+             foot_slip(pos_m, v_feet[2], ft.pos_w[2], ft.push_w[2]),
+             foot_slip(pos_m, v_feet[3], ft.pos_w[3], ft.push_w[3]))
     friction = 0.0
     for i in range(4):  # sums in foot order: the same bits on every machine
         f = ff[i]

@@ -21,10 +21,19 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import Ground, evaluate, no_contact
+from touchdown.sim.contact import FrictionForce, Ground, Legs, evaluate, no_contact
 from touchdown.sim.frames import turned
 from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative,
-    quat_rotate, quat_rotate_inv, scale, sub)
+    quat_rotate_inv, scale, sub)
+
+
+class Motion(NamedTuple):
+    """A ship's motion: where it is, how it moves, how it is turned and turns."""
+
+    p: tuple  # centre of mass, inertial, m
+    v: tuple  # m/s
+    q: tuple  # attitude, body -> inertial
+    w: tuple  # body-frame angular velocity, rad/s
 
 
 class FreeBody(NamedTuple):
@@ -39,7 +48,6 @@ class FreeBody(NamedTuple):
     k_npm: float  # the seed's k = stiffness_per_kg m
     c_nspm: float  # c = 2 zeta sqrt(k m)
     c_absorb_nspm: float  # the absorbers' damper (SEED-NOTES 1)
-    stiffness_per_kg: float
     gm_m3ps2: float
     body_radius_m: float
     body_omega_radps: float
@@ -70,7 +78,7 @@ def with_feet(fb, engage_m, kinetic):
     ``kinetic`` says."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
                     engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w)
 
@@ -80,7 +88,7 @@ def with_hold(fb, hold_w):
     """``fb`` with the holding feet's friction ``hold_w`` carried in."""
     return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.stiffness_per_kg, fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
                     fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w)
 
@@ -113,10 +121,9 @@ def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
     """The ground's action at one state (``engage_m``: sim.contact.evaluate)."""
     if not fb.touching:
         return no_contact(p)
-    omega_w = quat_rotate(q, w_b)
-    return evaluate(ground, p, v, q, omega_w, fb.leg_radius_m, fb.com_height_m, fb.k_npm,
-                    fb.c_nspm, fb.c_absorb_nspm, absorbing, engage_m, fb.linear_model, fb.mu_k,
-                    fb.kinetic, fb.hold_w)
+    return evaluate(ground, Motion(p, v, q, w_b), Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
+                    fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing, engage_m,
+                    fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w))
 
 
 @kernel

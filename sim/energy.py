@@ -61,11 +61,13 @@ def total(e):
 
 
 @separate
-def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, com_height_m,
-               mass_kg, inertia_kgm2, p, v, q, w_b, ground, may_touch):
-    """E of a ship at pose (p, q) with inertial velocities (v, w_b); ``ground`` at that instant.
-    ``may_touch`` False: a ship known to be clear of the ground (its springs store nothing, and
-    its feet are not looked for)."""
+def mechanical(body, mass_kg, inertia_kgm2, legs, motion, ground, may_touch):
+    """E of a ship of mass m and principal inertia I on its ``legs`` (sim.contact.Legs), in
+    ``motion`` (pose (p, q), inertial velocities (v, w_b): sim.dynamics.Motion) over the ``body``
+    (sim.frames.Body) and its ``ground`` at that instant. ``may_touch`` False: a ship known to be
+    clear of the ground (its springs store nothing, and its feet are not looked for)."""
+    gm_m3ps2, radius_m, spin_radps = body
+    p, v, q, w_b = motion
     spin_b = quat_rotate_inv(q, (0.0, 0.0, spin_radps))
     v_rel = sub(v, surface_velocity(ground, p))
     w_rel = sub(w_b, spin_b)
@@ -80,8 +82,8 @@ def mechanical(gm_m3ps2, radius_m, spin_radps, stiffness_per_kg, leg_radius_m, c
         cent_spin = -0.5 * dot(spin_b, mul(inertia_kgm2, spin_b))
     spring = 0.0
     if may_touch:
-        pen = feet(ground, p, q, leg_radius_m, com_height_m).pen_m
-        k_leg = 0.25 * stiffness_per_kg * mass_kg
+        pen = feet(ground, p, q, legs.leg_radius_m, legs.com_height_m).pen_m
+        k_leg = 0.25 * legs.k_npm
         for i in range(4):
             x = pen[i]
             spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)

@@ -12,9 +12,19 @@ One ship's functions, compiled (sim.compiled).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel
 from touchdown.sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
+
+
+class Body(NamedTuple):
+    """The body as the kernels see it: a point mass GM with its reference sphere (``body.radius``:
+    the site frame's origin, and where gravity's potential is zero), turning at Omega about +z."""
+
+    gm_m3ps2: float
+    radius_m: float
+    omega_radps: float
 
 
 def body_rotation(omega_radps: float, t_s: float) -> tuple[float, float]:

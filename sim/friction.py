@@ -52,9 +52,19 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import kernel, separate, zeros
-from touchdown.sim.contact import surface_velocity
+from touchdown.sim.contact import foot_velocity, surface_velocity
 from touchdown.sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
     quat_rotate_inv, scale, sub, unit
+
+
+class FrictionLaw(NamedTuple):
+    """Coulomb's law at the feet (the scene's ``contact.friction_static``, ``friction_kinetic`` and
+    ``stick_speed``): a foot holds up to mu_s N and slides against mu_k N; one that slips slower
+    than the stick speed keeps mu_s."""
+
+    mu_s: float
+    mu_k: float
+    stick_speed_mps: float
 
 
 @kernel
@@ -386,13 +396,19 @@ def _slipping(a_mat, slip, lam, active, stick_speed_mps):
 
 
 @separate
-def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, quat, omega_b, ft,
-            foot_impulse_ns, sliding, dragged, ground, hold_w, h):
-    """Coulomb friction at each pressing foot (module docstring). The feet of ``dragged`` were
-    dragged by mu_k N_i as a force during the step (sim.contact.evaluate) and take no impulse;
-    each other foot's impulse lies in its disk: mu_k J_i if it slides (``sliding``, its regime
-    at the step's start), mu_s J_i if it holds (mu_k J_i if it breaks away). ``ft``: the feet at
-    the step's end state.""" 
+def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, ground, h):
+    """Coulomb friction at each pressing foot (module docstring) of a ship of mass m and principal
+    inertia I, after a step of length h (``stepped``: its end state and each foot's normal impulse
+    J_i, sim.integrators.Stepped). ``friction_force``: the friction that acted as a force during
+    the step (sim.contact.FrictionForce): the feet of its ``kinetic`` were dragged by mu_k N_i
+    (sim.contact.evaluate) and take no impulse; its ``hold_w`` carried the holding feet's static
+    friction in. Each other foot's impulse lies in its disk: mu_k J_i if it slides (``sliding``,
+    its regime at the step's start), mu_s J_i if it holds (mu_k J_i if it breaks away). ``ft``:
+    the feet at the step's end state, on ``ground`` as it is then."""
+    mu_s, mu_k, stick_speed_mps = law
+    pos_m, vel_mps, quat, omega_b = stepped.p, stepped.v, stepped.q, stepped.w
+    foot_impulse_ns = stepped.foot_impulse_ns
+    dragged, hold_w = friction_force.kinetic, friction_force.hold_w
     j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
            fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
     normals = patch(pos_m, ft, j_n).normals
@@ -415,7 +431,7 @@ def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, 
         if pressing[i] and dragged[i]:
             drag = drag + mu_k * j_n[i]
         t1, t2 = tangent_basis(normals[i])
-        u = sub(add(vel_mps, cross(omega_w, ft.offset_w[i])), surface_velocity(ground, ft.pos_w[i]))
+        u = foot_velocity(ground, vel_mps, omega_w, ft.offset_w[i], ft.pos_w[i])
         slip[i, 0], slip[i, 1] = dot(u, t1), dot(u, t2)
         g1 = quat_rotate_inv(quat, cross(ft.offset_w[i], t1))
         g2 = quat_rotate_inv(quat, cross(ft.offset_w[i], t2))
@@ -513,8 +529,9 @@ def coulomb(mu_s, mu_k, stick_speed_mps, mass_kg, inertia_kgm2, pos_m, vel_mps, 
 
 
 @kernel
-def seed(mu_s, mu_k, stick_speed_mps, mass_kg, pos_m, vel_mps, omega_b, normal_impulse_ns, ground):
+def seed(law, mass_kg, pos_m, vel_mps, omega_b, normal_impulse_ns, ground):
     """The seed's law at the centre of mass (module docstring)."""
+    mu_s, mu_k, stick_speed_mps = law
     n_hat = unit(pos_m)
     v_rel = sub(vel_mps, surface_velocity(ground, pos_m))
     v_t = sub(v_rel, scale(n_hat, dot(v_rel, n_hat)))

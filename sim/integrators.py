@@ -17,7 +17,8 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.dynamics import acceleration, contact_at, derivatives, ground_at, torque_body
+from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, ground_at, \
+    torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -129,7 +130,10 @@ def semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
 
 
 @kernel
-def _rk4_stage(fb, h, frac, p, v, q, w, k, absorbing, t0):
+def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
+    """A stage of rk4: the derivatives and the contact at y + frac h k (``y``: the step's start,
+    sim.dynamics.Motion; ``k``: the last stage's derivatives), frac h after t0."""
+    p, v, q, w = y
     hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
@@ -145,10 +149,11 @@ def _rk4_combine(a, b1, b2, b3, b4, h6):
 @separate
 def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
     """Classical fourth-order Runge-Kutta; the quaternion is renormalised at the end."""
+    y = Motion(p, v, q, w)
     k1 = derivatives(fb, ce, p, v, q, w)
-    k2, c2 = _rk4_stage(fb, h, 0.5, p, v, q, w, k1, absorbing, t0)
-    k3, c3 = _rk4_stage(fb, h, 0.5, p, v, q, w, k2, absorbing, t0)
-    k4, c4 = _rk4_stage(fb, h, 1.0, p, v, q, w, k3, absorbing, t0)
+    k2, c2 = _rk4_stage(fb, h, 0.5, y, k1, absorbing, t0)
+    k3, c3 = _rk4_stage(fb, h, 0.5, y, k2, absorbing, t0)
+    k4, c4 = _rk4_stage(fb, h, 1.0, y, k3, absorbing, t0)
     h6 = h / 6.0
     q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
              k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
@@ -254,6 +259,8 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     sep = rel.t_acted_s < h
     peak = deepest(flow, ce, k_u, v_n0, rel.t_acted_s, rel.v_released_mps)
     impulse_per_kg = rel.v_released_mps - v_n0 - a_free * rel.t_acted_s if pressing else 0.0
+    # the model's force along n at the end: the flow's while the spring still acts
+    model_end_n = m * (rel.a_mps2 - a_free) if pressing and not sep else 0.0
 
     # drift: along n by the flow, across n with the half-kicked velocity
     v_across = sub(v_half, scale(n_hat, v_n0))
@@ -271,22 +278,21 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
         v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
         w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     return Stepped(p1, v1, q1, w1,
-                   exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep,
-                                       rel.a_mps2, a_free),
+                   exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg, model_end_n),
                    peak, True)
 
 
 @kernel
-def exact_foot_impulses(fb, ce, ce1, n_hat, h, impulse_per_kg, pressing, sep, acc_h, a_free):
+def exact_foot_impulses(ce, ce1, n_hat, h, flow_impulse_ns, model_end_n):
     """Each foot's normal impulse for the exponential step: the total along n is the flow's
-    (plus the closing kick's residual, for a foot that lifted or pressed during the step); it is
-    shared among the feet as the trapezoid rule on their forces at the step's ends shares it."""
+    (``flow_impulse_ns``), plus the closing kick's residual between the feet's force along n at
+    the step's end and the model's there (``model_end_n``: for a foot that lifted or pressed
+    during the step); it is shared among the feet as the trapezoid rule on their forces at the
+    step's ends shares it."""
     if not ce.touching:
         return (0.0, 0.0, 0.0, 0.0)
-    m = fb.mass_kg
-    model_end_n = m * (acc_h - a_free) if pressing and not sep else 0.0
     end_n = dot(ce1.force_w, n_hat)
-    total_n = m * impulse_per_kg + 0.5 * h * (end_n - model_end_n)
+    total_n = flow_impulse_ns + 0.5 * h * (end_n - model_end_n)
     trap_n = 0.5 * h * (dot(ce.force_w, n_hat) + end_n)
     f = total_n / trap_n if trap_n != 0.0 else 1.0
     j = foot_impulses_2(h, ce, ce1)
@@ -350,7 +356,7 @@ def deepest(flow, ce, k_u, v_n0, t_act, v_act):
 @kernel
 def advance(method, fb, h, motion, ce, absorbing, t0):
     """One (sub)step of the method coded ``method`` (:data:`METHODS`) from ``motion`` (p, v, q,
-    w: sim.step.Motion)."""
+    w: sim.dynamics.Motion)."""
     p, v, q, w = motion
     if method == EXPONENTIAL:
         return exponential(fb, h, p, v, q, w, ce, absorbing, t0)

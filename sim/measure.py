@@ -5,12 +5,16 @@ inertia, ...) and its own body angle, so a row may be any ship at any tick.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from touchdown.sim.compiled import entry
-from touchdown.sim.contact import Ground, feet, height_and_slope
+from touchdown.sim.compiled import constructor, entry
+from touchdown.sim.contact import Feet, Ground, Legs, feet, height_and_slope
+from touchdown.sim.dynamics import Motion
 from touchdown.sim.energy import mechanical, total
-from touchdown.sim.frames import body_rotation, effective_gravity, quat_z, rotate_z, site_axes
+from touchdown.sim.frames import (Body, body_rotation, effective_gravity, quat_z, rotate_z,
+    site_axes)
 from touchdown.sim.frames import surface_velocity as _surface_velocity
 from touchdown.sim.params import Params, Terrain
 from touchdown.sim.settings import SurfaceNormal
@@ -114,18 +118,43 @@ def site_quats_xyzw(q: np.ndarray, cos_t: np.ndarray, sin_t: np.ndarray) -> np.n
     return out
 
 
+class Grounds(NamedTuple):
+    """The ground under each row: sim.contact.Ground at the row's own body angle (``cos_theta[i]``,
+    ``sin_theta[i]``), on the scene's body and terrain."""
+
+    body: Body  # sim.frames.Body
+    terrain: np.ndarray  # one record of sim.contact.TERRAIN_DTYPE (an array of one)
+    radial: bool  # the seed's radial normal on any slope
+    cos_theta: np.ndarray  # one per row
+    sin_theta: np.ndarray
+
+
+def _grounds(params: Params, cos_t: np.ndarray, sin_t: np.ndarray) -> Grounds:
+    body = params.body
+    return Grounds(Body(float(body.gm_m3ps2), float(body.radius_m), float(body.omega_radps)),
+                   params.terrain, params.contact.surface_normal == SurfaceNormal.RADIAL,
+                   np.ascontiguousarray(cos_t, float), np.ascontiguousarray(sin_t, float))
+
+
+@constructor
+def _row_ground(grounds, i):
+    """Row i's ground (a Ground holds a record: built where it is used, sim.compiled)."""
+    body = grounds.body
+    return Ground(body.radius_m, grounds.terrain[0], grounds.cos_theta[i], grounds.sin_theta[i],
+                  body.omega_radps, grounds.radial)
+
+
 @entry
-def _feet(radius, terrain, radial, om, cos_t, sin_t, p, q, leg, height, offset, pos, pen, push):
+def _feet(grounds, p, q, leg, height, out):
     for i in range(p.shape[0]):
-        g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
-        ft = feet(g, (p[i, 0], p[i, 1], p[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]), leg[i],
-                  height[i])
+        ft = feet(_row_ground(grounds, i), (p[i, 0], p[i, 1], p[i, 2]),
+                  (q[i, 0], q[i, 1], q[i, 2], q[i, 3]), leg[i], height[i])
         for k in range(4):
-            pen[i, k] = ft.pen_m[k]
+            out.pen_m[i, k] = ft.pen_m[k]
             for j in range(3):
-                offset[i, k, j] = ft.offset_w[k][j]
-                pos[i, k, j] = ft.pos_w[k][j]
-                push[i, k, j] = ft.push_w[k][j]
+                out.offset_w[i, k, j] = ft.offset_w[k][j]
+                out.pos_w[i, k, j] = ft.pos_w[k][j]
+                out.push_w[i, k, j] = ft.push_w[k][j]
 
 
 def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarray,
@@ -135,27 +164,23 @@ def feet_at(params: Params, p: np.ndarray, q: np.ndarray, leg_radius_m: np.ndarr
     and ``pen_m`` (N,4)."""
     p, q = _vec(p), _vec(q)
     n = p.shape[0]
-    out = {"offset_w": np.empty((n, 4, 3)), "pos_w": np.empty((n, 4, 3)),
-           "pen_m": np.empty((n, 4)), "push_w": np.empty((n, 4, 3))}
-    body = params.body
-    _feet(body.radius_m, params.terrain,
-          params.contact.surface_normal == SurfaceNormal.RADIAL, body.omega_radps,
-          np.ascontiguousarray(cos_t, float), np.ascontiguousarray(sin_t, float), p, q,
+    out = Feet(np.empty((n, 4, 3)), np.empty((n, 4, 3)), np.empty((n, 4)), np.empty((n, 4, 3)))
+    _feet(_grounds(params, cos_t, sin_t), p, q,
           np.broadcast_to(np.asarray(leg_radius_m, float), (n,)).copy(),
-          np.broadcast_to(np.asarray(com_height_m, float), (n,)).copy(),
-          out["offset_w"], out["pos_w"], out["pen_m"], out["push_w"])
-    return out
+          np.broadcast_to(np.asarray(com_height_m, float), (n,)).copy(), out)
+    return out._asdict()
 
 
 @entry
-def _energy(gm, radius, om, kpm, terrain, radial, cos_t, sin_t, leg, height, mass, inertia, p, v, q,
-            w, out):
+def _energy(grounds, legs, mass, inertia, motion, out):
+    # legs, motion: sim.contact.Legs and sim.dynamics.Motion of arrays, a row each
+    p, v, q, w = motion
     for i in range(p.shape[0]):
-        g = Ground(radius, terrain[0], cos_t[i], sin_t[i], om, radial)
-        e = mechanical(gm, radius, om, kpm[i], leg[i], height[i], mass[i],
-                       (inertia[i, 0], inertia[i, 1], inertia[i, 2]), (p[i, 0], p[i, 1], p[i, 2]),
-                       (v[i, 0], v[i, 1], v[i, 2]), (q[i, 0], q[i, 1], q[i, 2], q[i, 3]),
-                       (w[i, 0], w[i, 1], w[i, 2]), g, True)
+        e = mechanical(grounds.body, mass[i], (inertia[i, 0], inertia[i, 1], inertia[i, 2]),
+                       Legs(legs.leg_radius_m[i], legs.com_height_m[i], legs.k_npm[i]),
+                       Motion((p[i, 0], p[i, 1], p[i, 2]), (v[i, 0], v[i, 1], v[i, 2]),
+                              (q[i, 0], q[i, 1], q[i, 2], q[i, 3]), (w[i, 0], w[i, 1], w[i, 2])),
+                       _row_ground(grounds, i), True)
         out[i, 0], out[i, 1], out[i, 2] = e.translational_j, e.rotational_j, e.gravity_j
         out[i, 3], out[i, 4], out[i, 5] = e.centrifugal_j, e.centrifugal_spin_j, e.spring_j
         out[i, 6] = total(e)
@@ -173,12 +198,11 @@ def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndar
     mass = np.broadcast_to(np.asarray(mass_kg, float), (n,)).copy()
     inertia = sh.inertia0_kgm2[ship] * (mass / sh.mass0_kg[ship])[:, None]
     c, s = body_angles(params, t_s, n)
-    body = params.body
+    legs = Legs(sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(),
+                sh.stiffness_per_kg[ship] * mass)  # k = (k/m) m, as sim.step's FreeBody
     out = np.empty((n, 7))
-    _energy(body.gm_m3ps2, body.radius_m, body.omega_radps, sh.stiffness_per_kg[ship].copy(),
-            params.terrain, params.contact.surface_normal == SurfaceNormal.RADIAL,
-            c, s, sh.leg_radius_m[ship].copy(), sh.com_height_m[ship].copy(), mass,
-            np.ascontiguousarray(inertia), p, v, q, w, out)
+    _energy(_grounds(params, c, s), legs, mass, np.ascontiguousarray(inertia),
+            Motion(p, v, q, w), out)
     parts = {name: out[:, k] for k, name in enumerate(ENERGY_PARTS)}
     parts["total_j"] = out[:, 6]
     return parts

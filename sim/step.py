@@ -33,15 +33,15 @@ import numpy as np
 
 from touchdown.sim.compiled import constructor, entry, kernel, separate
 from touchdown.sim.constants import G0_MPS2
-from touchdown.sim.contact import (ContactEval, Ground, feet, foot_offsets_w,
-    lowest_foot_penetration, under)
-from touchdown.sim.dynamics import (FreeBody, contact_at, ground_at, ground_turn, with_feet,
-    with_hold)
+from touchdown.sim.contact import (ContactEval, FrictionForce, Ground, Legs, feet,
+    foot_offsets_w, lowest_foot_penetration, under)
+from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
+    with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
-from touchdown.sim.frames import (body_rotation, body_spin_in_body_frame, effective_gravity,
-    inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
-from touchdown.sim.friction import coulomb, hold_footprint, seed, spread_over_step
+from touchdown.sim.frames import (Body, body_rotation, body_spin_in_body_frame,
+    effective_gravity, inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
+from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, spread_over_step
 from touchdown.sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
 from touchdown.sim.params import Params, Records
 from touchdown.sim.pivot import pinned_motion, pivot_step, rate_from_momentum
@@ -77,15 +77,6 @@ ENGAGE_AT_GROUND = (0.0, 0.0, 0.0, 0.0)
 
 #: an empty list of commands (sim.state.COMMAND_DTYPE)
 NO_COMMANDS = np.zeros(0, COMMAND_DTYPE)
-
-
-class Motion(NamedTuple):
-    """A ship's motion: where it is, how it moves, how it is turned and turns."""
-
-    p: tuple  # centre of mass, inertial, m
-    v: tuple  # m/s
-    q: tuple  # attitude, body -> inertial
-    w: tuple  # body-frame angular velocity, rad/s
 
 
 class Footing(NamedTuple):
@@ -332,7 +323,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                                sp.mass0_kg, m),
                     cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
                     sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
-                    cfg.absorb_damping_ratio * two_omega_m, sp.stiffness_per_kg, cfg.gm_m3ps2,
+                    cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
                     cfg.body_radius_m, cfg.omega_radps, terrain,
                     cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
@@ -357,9 +348,9 @@ def align_to_surface(q, r_hat):
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
     stores nothing in its springs: its feet are not looked for)."""
-    return mechanical(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps, fb.stiffness_per_kg,
-                      fb.leg_radius_m, fb.com_height_m, fb.mass_kg, fb.inertia_kgm2, p, v, q, w,
-                      ground, fb.touching)
+    return mechanical(Body(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps), fb.mass_kg,
+                      fb.inertia_kgm2, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
+                      Motion(p, v, q, w), ground, fb.touching)
 
 
 class EnergyRef(NamedTuple):
@@ -531,16 +522,15 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
                        pressed, NO_HOLD)
     ground_end = ground_at(fb, t_start + h)
+    law = FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps)
     if cfg.friction_model == SEED_FRICTION:
         j_n = j[0] + j[1] + j[2] + j[3]
-        fr = seed(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
-                  res.p, res.v, res.w, j_n, ground_end)
+        fr = seed(law, fb.mass_kg, res.p, res.v, res.w, j_n, ground_end)
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
     ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
-    fr = coulomb(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps, fb.mass_kg,
-                 fb.inertia_kgm2, res.p, res.v, res.q, res.w, ft, j, sliding, dragged, ground_end,
-                 fb.hold_w, h)
+    fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
+                 FrictionForce(fb.mu_k, dragged, fb.hold_w), ground_end, h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)

@@ -18,8 +18,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from touchdown.sim.compiled import separate
+from touchdown.sim.contact import Legs
+from touchdown.sim.dynamics import Motion
 from touchdown.sim.energy import mechanical, total
-from touchdown.sim.frames import body_rotation
+from touchdown.sim.frames import Body, body_rotation
 from touchdown.sim.params import SCENE_DTYPE, Records
 from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
     concatenate)
@@ -57,15 +59,16 @@ def _energy_into(scenes, terrains, group, rot_index, rot, ships, state, acc, end
         r = rot_index[i]
         ground = scene_ground(cfg, terrains[g], rot[r, 0], rot[r, 1])
         ratio = rec.mass_kg / sp.mass0_kg
-        e = mechanical(cfg.gm_m3ps2, cfg.body_radius_m, cfg.omega_radps, sp.stiffness_per_kg,
-                       sp.leg_radius_m, sp.com_height_m, rec.mass_kg,
+        motion = Motion((rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
+                        (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
+                        (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
+                        (rec.omega_body_radps[0], rec.omega_body_radps[1],
+                         rec.omega_body_radps[2]))
+        e = mechanical(Body(cfg.gm_m3ps2, cfg.body_radius_m, cfg.omega_radps), rec.mass_kg,
                        (sp.inertia0_kgm2[0] * ratio, sp.inertia0_kgm2[1] * ratio,
                         sp.inertia0_kgm2[2] * ratio),
-                       (rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
-                       (rec.vel_mps[0], rec.vel_mps[1], rec.vel_mps[2]),
-                       (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
-                       (rec.omega_body_radps[0], rec.omega_body_radps[1], rec.omega_body_radps[2]),
-                       ground, True)
+                       Legs(sp.leg_radius_m, sp.com_height_m, sp.stiffness_per_kg * rec.mass_kg),
+                       motion, ground, True)
         if end:
             acc[i].e1_j = total(e)
         else:
