@@ -42,6 +42,7 @@ from numba.extending import intrinsic
 from numba.core.codegen import JITCodeLibrary
 from numba.core.compiler_lock import require_global_compiler_lock
 from numba.core.registry import CPUDispatcher
+from numba.np.arrayobj import _empty_nd_impl
 
 _SIM_DIR = Path(__file__).resolve().parent
 
@@ -226,8 +227,7 @@ def zeros(typingctx, shape, dtype):
     array_t = nb_types.Array(dtype.dtype, ndim, "C")
 
     def codegen(context, builder, sig, args):
-        from numba.np.arrayobj import _empty_nd_impl
-        dims = [args[0]] if ndim == 1 and isinstance(shape, nb_types.Integer) else \
+        dims = [args[0]] if isinstance(shape, nb_types.Integer) else \
             cgutils.unpack_tuple(builder, args[0], ndim)
         intp = context.get_value_type(nb_types.intp)
         dims = [builder.sext(d, intp) if d.type.width < intp.width else d for d in dims]
