@@ -144,6 +144,15 @@ class _LinkOnlyLibrary(JITCodeLibrary):
         self._ensure_finalized()
         return 0
 
+    def _optimize_functions(self, ll_module):
+        """Each function's own passes at -O1 (numba: -O3), a pass manager per module (numba: per
+        function): they only tidy the IR before the entry point optimizes the whole at -O3 (the
+        same machine code; a fifth of LLVM's share of a first compile, measured)."""
+        ll_module.data_layout = self._codegen._data_layout
+        fpm, pb = self._codegen._function_pass_manager(opt=1)
+        for func in ll_module.functions:
+            fpm.run(func, pb)
+
     @property
     def codegen(self):
         return _NoEnvCodegen(self._codegen)
@@ -210,6 +219,64 @@ def constructor(fn: Callable) -> Callable:
     return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, inline="always")
 
 
+# -- what numba emits for nothing ----------------------------------------------------------------
+# numba lowers every variable as if it might hold reference-counted memory (an array, a list): it
+# walks a tuple's fields to find what to incref and decref, loads a variable's old value before
+# each store and zeroes it when it dies. The step's tuples hold none (floats, ints, bools, records,
+# which are views): for them the walk emitted an extractvalue per field per use, which LLVM then
+# deleted, 40% of the IR of a first compile. And it types every scalar `a * b` against numpy's
+# array operators, searching numpy's ufunc loops (10,000 searches) before it checks for an array.
+# The three short-cuts below skip that work only where its result is known to be nothing; a type
+# holding managed memory goes the usual way (tests/test_determinism.py checks nothing leaks).
+# Same machine code, same bits; the first `touchdown record bounce` 0.8x the CPU (MODEL-NOTES 34).
+_HOLDS_MEMINFO: dict = {}
+
+
+def _holds_meminfo(context, fe_type) -> bool:
+    """Whether a value of ``fe_type`` holds reference-counted memory anywhere inside it."""
+    held = _HOLDS_MEMINFO.get(fe_type)
+    if held is None:
+        model = context.data_model_manager[fe_type]
+        held = _HOLDS_MEMINFO[fe_type] = model.has_nrt_meminfo() or model.contains_nrt_meminfo()
+    return held
+
+
+def _emit_less() -> None:
+    from numba.core.lowering import Lower
+    from numba.core.runtime.context import NRTContext
+    from numba.core.typing.npydecl import NumpyRulesArrayOperator
+
+    get_meminfos = NRTContext.get_meminfos
+
+    def meminfos(self, builder, ty, val):
+        return get_meminfos(self, builder, ty, val) if _holds_meminfo(self._context, ty) else []
+
+    delvar = Lower.delvar
+
+    def lower_del(self, name):
+        fe_type = self.typeof(name)
+        if _holds_meminfo(self.context, fe_type) or self._disable_sroa_like_opt:
+            return delvar(self, name)
+        # numba's own bookkeeping, less the load, the decref and the zero-fill
+        if name not in self._blk_local_varmap:
+            self._singly_assigned_vars.discard(name)
+        self._alloca_var(name, fe_type)
+
+    array_operator = NumpyRulesArrayOperator.generic
+
+    def array_operator_if_array(self, args, kws):
+        if not any(isinstance(a, (nb_types.ArrayCompatible, nb_types.Optional)) for a in args):
+            return None  # numba's own answer for operands none of which is an array
+        return array_operator(self, args, kws)
+
+    NRTContext.get_meminfos = meminfos
+    Lower.delvar = lower_del
+    NumpyRulesArrayOperator.generic = array_operator_if_array
+
+
+_emit_less()
+
+
 @intrinsic
 def zeros(typingctx, shape, dtype):
     """``np.zeros(shape, dtype)`` for a kernel's scratch arrays (``shape`` an int or a tuple of
@@ -247,7 +314,7 @@ class _CompileNotice(event.Listener):
         if not self.said:
             self.said = True
             self.say("compiling the physics kernels for this CPU (once after an install or a "
-                     "change to sim/; about half a minute) ...")
+                     "change to sim/; about 15 seconds) ...")
 
     def on_end(self, ev: event.Event) -> None:
         pass
