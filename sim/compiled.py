@@ -229,6 +229,8 @@ def constructor(fn: Callable) -> Callable:
 # The three short-cuts below skip that work only where its result is known to be nothing; a type
 # holding managed memory goes the usual way (tests/test_determinism.py checks nothing leaks).
 # Same machine code, same bits; the first `touchdown record bounce` 0.8x the CPU (MODEL-NOTES 34).
+# They replace numba 0.68's own methods (NRTContext.get_meminfos, Lower.delvar, the array
+# operators' typing), which is why pyproject pins numba to 0.68.x.
 _HOLDS_MEMINFO: dict = {}
 
 
