@@ -235,11 +235,11 @@ _HOLDS_MEMINFO: dict = {}
 
 
 def _holds_meminfo(context, fe_type) -> bool:
-    """Whether a value of ``fe_type`` holds reference-counted memory anywhere inside it."""
+    """Whether a value of ``fe_type`` holds reference-counted memory anywhere inside it (numba's
+    contains_nrt_meminfo walks the type itself and everything inside it)."""
     held = _HOLDS_MEMINFO.get(fe_type)
     if held is None:
-        model = context.data_model_manager[fe_type]
-        held = _HOLDS_MEMINFO[fe_type] = model.has_nrt_meminfo() or model.contains_nrt_meminfo()
+        held = _HOLDS_MEMINFO[fe_type] = context.data_model_manager[fe_type].contains_nrt_meminfo()
     return held
 
 
