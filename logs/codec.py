@@ -233,7 +233,7 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, tabl
 
 @kernel
 def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, keyframe_interval,
-                  first_keyframe, out, offsets):
+                  keyframe_phase, first_keyframe, out, offsets):
     """Each tick of a block as a TickBatch, one after another into ``out``; ``offsets[k]`` is
     where tick k starts. ``states``, ``outputs``, ``inputs``: the block's records as bytes
     (K, N, itemsize; 8-byte aligned, so also read as words). Each tick's keys and lengths are
@@ -257,7 +257,8 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
         if n:
             out[o] = 0x18
             o = _put_varint(out, o + 1, n)
-        keyframe = tick % keyframe_interval == 0 or (k == 0 and first_keyframe)
+        # logs.header.keyframe_due (ticks are never negative)
+        keyframe = tick % keyframe_interval == keyframe_phase or (k == 0 and first_keyframe)
         for f in range(nf):
             count, wire, key_len, kf_only = table[f, 2], table[f, 4], table[f, 7], table[f, 8]
             length = n * count * wire
@@ -280,14 +281,15 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
 
 class BlockEncoder:
     """Encodes blocks of ticks (sim.world.Block) as TickBatch messages; the keyframe-only fields
-    (``keyframe_only``) go only into ticks that are multiples of ``keyframe_interval``, and into
-    the first tick a writer writes (a log that starts later, or one cut from another, starts with
-    a keyframe). ``with_keys``: the ships' keys go into each tick (log format 3)."""
+    (``keyframe_only``) go only into ticks = ``keyframe_phase`` (mod ``keyframe_interval``), and
+    into the first tick a writer writes (a log that starts later, or one cut from another,
+    starts with a keyframe). ``with_keys``: the ships' keys go into each tick (log format 3)."""
 
     def __init__(self, dt_s: float, keyframe_only: tuple[str, ...], keyframe_interval: int = 1,
-                 with_keys: bool = True):
+                 with_keys: bool = True, keyframe_phase: int = 0):
         self.dt_s = dt_s
-        self.keyframe_interval = keyframe_interval
+        self.keyframe_interval = max(1, keyframe_interval)
+        self.keyframe_phase = keyframe_phase % self.keyframe_interval
         self.table = _field_table(keyframe_only, with_keys)
 
     def _bytes_per_tick(self, n: int) -> int:
@@ -311,6 +313,6 @@ class BlockEncoder:
         out = np.empty(k * self._bytes_per_tick(n), np.uint8)
         offsets = np.empty(k + 1, np.int64)
         if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
-                         first_keyframe, out, offsets) < 0:
+                         self.keyframe_phase, first_keyframe, out, offsets) < 0:
             raise ValueError("a one-byte field holds a value outside 0..127")
         return out, offsets

@@ -41,6 +41,10 @@ from touchdown.sim.world import TickRecord, World
 #: (ScenarioRecord.open_ended: the summary's last tick is its end). A reader from before refuses
 #: such a log (its first tick is not 0). 4 (touchdown 0.6): keyframes hold how long the settle
 #: thresholds have held (settle_for_s, settle_margin); events carry their instant (t_event_s).
+#: 5 (touchdown 0.7): the keyframes may have a phase (ScenarioRecord.keyframe_phase: keyframes
+#: at ticks = phase mod interval), so that a live service's shards encode theirs on different
+#: ticks; the fields are 4's. A reader of format 4 would look for keyframes at the multiples of
+#: the interval, so such a reader refuses the log by its format number.
 LOG_FORMAT_VERSION = fields.LOG_FORMAT
 TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
@@ -53,6 +57,12 @@ TOPIC_COMMANDS = "/touchdown/commands"
 KEYFRAME_ONLY = fields.KEYFRAME_BY_FORMAT[LOG_FORMAT_VERSION]
 #: numbers per ship of each TickBatch array (1 where not listed)
 WIDTH = {f.in_log: f.per_ship for f in fields.FIELDS if f.per_ship > 1}
+
+
+def keyframe_due(tick: int, interval: int, phase: int = 0) -> bool:
+    """Whether ``tick`` is on a log's keyframe grid: tick = phase (mod interval). A log's first
+    tick is a keyframe as well, wherever it falls (LogReader.is_keyframe_tick)."""
+    return tick % max(1, interval) == phase
 
 
 def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -95,8 +105,8 @@ def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
         v_radial_mps=ev.v_radial_mps, t_event_s=ev.t_event_s)
 
 
-def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
-                     ) -> pb.ScenarioRecord:
+def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1,
+                     keyframe_phase: int = 0) -> pb.ScenarioRecord:
     """The log's header: the resolved scenario and the ships present at tick 0."""
     return pb.ScenarioRecord(
         log_format_version=LOG_FORMAT_VERSION, project_version=PROJECT_VERSION, name=scn.name,
@@ -104,12 +114,20 @@ def scenario_message(scn: Scenario, source: str, keyframe_interval: int = 1
         integrator=scn.params.sim.integrator, dt_s=scn.params.sim.dt_s,
         ship_ids=list(scn.params.ships.ship_id), player_ids=list(scn.params.ships.player_id),
         body=scn.params.body.name, source=source, n_ticks=scn.params.sim.n_ticks,
-        keyframe_interval=keyframe_interval)
+        keyframe_interval=keyframe_interval, keyframe_phase=_phase(keyframe_interval,
+                                                                   keyframe_phase))
+
+
+def _phase(interval: int, phase: int) -> int:
+    if not 0 <= phase < max(1, interval):
+        raise ValueError(f"keyframe phase {phase}: not in 0..{max(1, interval) - 1}")
+    return phase
 
 
 def world_header(world: World, name: str, source: str, keyframe_interval: int = 1,
                  open_ended: bool = False, description: str = "", end_tick: int | None = None,
-                 tables: dict[str, dict] | None = None) -> pb.ScenarioRecord:
+                 tables: dict[str, dict] | None = None, keyframe_phase: int = 0
+                 ) -> pb.ScenarioRecord:
     """The header of a log of ``world`` from its current tick (``start_tick``): the resolved scene
     with ``ships`` the tables of the ships present now (their timing keys removed: when they join,
     leave and what they are commanded is the log's own record; their ``initial`` tables are
@@ -117,7 +135,8 @@ def world_header(world: World, name: str, source: str, keyframe_interval: int = 
     have no ships. ``open_ended``: the run has no set end (a live service); ``end_tick``: the
     run's last tick when not the scene's ``duration`` (a cut: n_ticks is set to it);
     ``tables``: ship id -> its resolved table, a cache kept across the headers of one world
-    (each ship is resolved once: 10,000 ships take about half a second)."""
+    (each ship is resolved once: 10,000 ships take about half a second); ``keyframe_phase``:
+    the keyframes after the first fall on ticks = phase (mod keyframe_interval)."""
     doc = copy.deepcopy(world.scene.doc)
     doc.pop("ships", None)
     doc["name"] = name
@@ -148,7 +167,8 @@ def world_header(world: World, name: str, source: str, keyframe_interval: int = 
         resolved_json=resolved_json(resolved, ids, tables), integrator=sim.integrator,
         dt_s=sim.dt_s, ship_ids=ids, player_ids=list(world.params.ships.player_id),
         body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
-        keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended)
+        keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended,
+        keyframe_phase=_phase(keyframe_interval, keyframe_phase))
 
 
 class ShipTable:
@@ -186,5 +206,5 @@ class ShipTable:
 
 
 __all__ = ["LOG_FORMAT_VERSION", "TOPIC_SCENARIO", "TOPIC_TICKS", "TOPIC_EVENTS", "TOPIC_SUMMARY",
-           "TOPIC_FLEET", "TOPIC_COMMANDS", "KEYFRAME_ONLY", "WIDTH", "tick_arrays",
+           "TOPIC_FLEET", "TOPIC_COMMANDS", "KEYFRAME_ONLY", "WIDTH", "keyframe_due", "tick_arrays",
            "ship_state_message", "event_message", "scenario_message", "world_header", "ShipTable"]

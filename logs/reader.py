@@ -17,7 +17,8 @@ import numpy as np
 from touchdown.logs import LogError
 from touchdown.logs.decode import TickBlock, decode_block, decode_tick
 from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
-                         TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, ShipTable)
+                         TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, ShipTable,
+                         keyframe_due)
 from touchdown.logs.safe_read import ReadLimits, ReadStatus, iter_messages
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
@@ -210,6 +211,12 @@ class LogReader:
         if sr.keyframe_interval > max(1, sr.n_ticks) and not sr.open_ended:
             raise LogError(f"{where}: keyframe_interval {sr.keyframe_interval} exceeds its "
                            f"{sr.n_ticks} ticks")
+        if sr.keyframe_phase and sr.log_format_version < 5:
+            raise LogError(f"{where}: keyframe_phase in a log of format {sr.log_format_version} "
+                           f"(it is of format 5)")
+        if sr.keyframe_phase >= max(1, sr.keyframe_interval):
+            raise LogError(f"{where}: keyframe_phase {sr.keyframe_phase} is not less than its "
+                           f"keyframe_interval {max(1, sr.keyframe_interval)}")
         if (sr.start_tick or sr.open_ended) and sr.log_format_version < 3:
             raise LogError(f"{where}: start_tick or open_ended in a log of format "
                            f"{sr.log_format_version} (they are of format 3)")
@@ -250,6 +257,12 @@ class LogReader:
         return max(1, int(self.scenario.keyframe_interval))
 
     @property
+    def keyframe_phase(self) -> int:
+        """The keyframes after the first fall on ticks = phase (mod the interval); 0 before
+        format 5."""
+        return int(self.scenario.keyframe_phase)
+
+    @property
     def start_tick(self) -> int:
         """The first tick the log holds (a keyframe): 0, or later for a log that starts with the
         fleet as it is at a later tick (a rotated segment, a worker's takeover, a cut)."""
@@ -261,13 +274,15 @@ class LogReader:
         return bool(self.scenario.open_ended)
 
     def is_keyframe_tick(self, tick: int) -> bool:
-        """Whether the writer made ``tick`` a keyframe (its multiples of the interval, and the
-        log's first tick)."""
-        return tick == self.start_tick or tick % self.keyframe_interval == 0
+        """Whether the writer made ``tick`` a keyframe (the ticks = phase mod the interval, and
+        the log's first tick)."""
+        return tick == self.start_tick or keyframe_due(tick, self.keyframe_interval,
+                                                       self.keyframe_phase)
 
     def keyframe_at_or_before(self, tick: int) -> int:
         """The keyframe a replay of ``tick`` starts from (never before the log's first tick)."""
-        return max(self.start_tick, tick - tick % self.keyframe_interval)
+        behind = (tick - self.keyframe_phase) % self.keyframe_interval
+        return max(self.start_tick, tick - behind)
 
     def tick_time_ns(self, tick: int) -> int:
         return tick * int(round(self.scenario.dt_s * 1e9))

@@ -44,7 +44,8 @@ class RotatingLog(FinishedOrGone):
     ``world``: the World whose blocks are written, or a function returning it (a world that is
     replaced, e.g. rebuilt from a checkpoint). ``name``: the logs' scenario name (default: the
     scene's); ``open_ended``: the run has no set end (a live service: each file's end is its
-    summary's last tick). The first block must be the world's own tick (``world.first_block()``,
+    summary's last tick); ``keyframe_phase``: each file's keyframes after its first fall on ticks
+    = phase (mod ``keyframe_interval``). The first block must be the world's own tick (``world.first_block()``,
     which the driver loop writes first); the first file starts there.
 
     ``files``: every file's final path, in order; the last is being written (as
@@ -55,7 +56,8 @@ class RotatingLog(FinishedOrGone):
                  prefix: str = "flight", keyframe_interval: int = 1, max_bytes: int = MAX_BYTES,
                  name: str | None = None, source: str = "", open_ended: bool = False,
                  description: str = "", chunk_size: int | None = None,
-                 flush_every_ticks: int = 200, zstd_level: int | None = None):
+                 flush_every_ticks: int = 200, zstd_level: int | None = None,
+                 keyframe_phase: int = 0):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -64,6 +66,7 @@ class RotatingLog(FinishedOrGone):
         self.prefix = prefix
         self._world = world if callable(world) else (lambda: world)
         self.keyframe_interval = max(1, keyframe_interval)
+        self.keyframe_phase = keyframe_phase
         self.max_bytes = max_bytes
         self.name = name
         self.source = source
@@ -147,7 +150,8 @@ class RotatingLog(FinishedOrGone):
         """Begin a file at ``world``'s tick with ``first`` (that tick's record) as its keyframe."""
         header = world_header(world, self.name or world.scene.doc.get("name", self.prefix),
                               self.source, self.keyframe_interval, self.open_ended,
-                              self.description, tables=self._tables)
+                              self.description, tables=self._tables,
+                              keyframe_phase=self.keyframe_phase)
         path = self._path(world.tick)
         self.directory.mkdir(parents=True, exist_ok=True)
         writer = LogWriter(path, header, chunk_size=self.chunk_size,

@@ -86,7 +86,8 @@ class LogWriter(FinishedOrGone):
                 "scenario": header.name, "integrator": header.integrator,
                 "dt_s": repr(header.dt_s)})
             self.keyframe_interval = keyframe_interval
-            self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval)
+            self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval,
+                                         keyframe_phase=header.keyframe_phase)
             self._put(TOPIC_SCENARIO, int(header.start_tick), header.SerializeToString())
             self._size = self._stream.tell()
         except BaseException:  # nothing half-written: no .partial without a writer

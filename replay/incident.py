@@ -137,10 +137,10 @@ def _cut(readers: list[LogReader], ship_id: str, around: int, before_s: float, a
     sr = base.scenario
     for r in readers[1:]:
         s = r.scenario
-        if (s.dt_s, s.integrator, s.body, s.keyframe_interval) != (
-                sr.dt_s, sr.integrator, sr.body, sr.keyframe_interval):
+        if (s.dt_s, s.integrator, s.body, s.keyframe_interval, s.keyframe_phase) != (
+                sr.dt_s, sr.integrator, sr.body, sr.keyframe_interval, sr.keyframe_phase):
             raise LogError(f"{r.path}: not of the same run as {base.path} (tick, method, body or "
-                           f"keyframe interval differ)")
+                           f"keyframes differ)")
         if r.log_format < 3:
             raise LogError(f"{r.path}: log format {r.log_format}: an incident cut needs format 3 "
                            f"(recorded commands)")
@@ -235,7 +235,7 @@ def _cut(readers: list[LogReader], ship_id: str, around: int, before_s: float, a
         snapshot, f"{reader.scenario.name}: {ship_id} around tick {around}",
         f"{', '.join(s.name for s in chain)} (incident)", reader.keyframe_interval,
         description=f"ship {ship_id}, ticks {first.lo}..{last}, cut from {first.name}",
-        end_tick=last)
+        end_tick=last, keyframe_phase=reader.keyframe_phase)
     with LogWriter(out, header) as writer:
         for b in blocks:
             writer.write_block(b)

@@ -90,7 +90,10 @@ class VerifyResult:
         head = (f"log: touchdown {self.log_version}, method {self.log_method}, dt {self.log_dt_s:g} s;"
                 f" today: touchdown {PROJECT_VERSION}")
         lines = [head]
-        if self.log_version != PROJECT_VERSION:
+        if self.log_version != PROJECT_VERSION and self.divergence is None:
+            lines.append(f"note: this log was written by touchdown {self.log_version}; "
+                         f"{PROJECT_VERSION} re-runs it to the same bits")
+        elif self.log_version != PROJECT_VERSION:
             lines.append(f"note: this log was written by touchdown {self.log_version}, whose physics "
                          f"differs from {PROJECT_VERSION}'s (docs/MODEL-NOTES.md), so a divergence is "
                          f"expected; `touchdown replay LOG -o NEW.mcap` re-runs its scenario and "
@@ -241,7 +244,8 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
     world = _world(reader, scn, table, ship_id, keyframe)
     interval = reader.keyframe_interval
     with_keys = reader.log_format >= 3
-    encoder = BlockEncoder(sr.dt_s, KEYFRAME_ONLY, interval, with_keys=with_keys)
+    encoder = BlockEncoder(sr.dt_s, KEYFRAME_ONLY, interval, with_keys=with_keys,
+                           keyframe_phase=reader.keyframe_phase)
     sim = _replayed(world, res.last_tick, encoder, table if with_keys else None)
     events: list[tuple[int, str, bytes]] = []
     compared_to = first or 0
@@ -264,11 +268,12 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
         if ship_id is None:
             # the whole batch: the replayed tick, encoded as the writer encodes it, must be
             # the recorded message byte for byte; only a mismatch is decoded and diagnosed
-            res.numbers_compared += _numbers_in(new.state.n, new.tick % interval == 0)
+            on_keyframe = reader.is_keyframe_tick(new.tick)
+            res.numbers_compared += _numbers_in(new.state.n, on_keyframe)
             if mine == recorded.raw:
                 continue
             arrays = tick_arrays(new, keys)
-            if new.tick % interval:
+            if not on_keyframe:
                 for name in KEYFRAME_ONLY:
                     arrays[name] = _EMPTY
             rows = None
@@ -317,13 +322,15 @@ def _replayed(world: World, last_tick: int, encoder: BlockEncoder, table: ShipTa
     """The re-run, tick by tick: (the tick encoded as the writer encodes it, its record, the
     ships' keys)."""
     blocks = world.blocks(last_tick, ramp=True)
-    if world.tick == 0:  # from the start: the tick-0 record is replayed too
+    first = world.tick == 0
+    if first:  # from the start: the tick-0 record is replayed too (a keyframe, as the first)
         blocks = itertools.chain([world.first_block()], blocks)
     try:
         for block in blocks:
             keys = None if table is None else table.keys(block.ship_ids)
             data, offsets = encoder.encode(block.first_tick, block.states, block.outputs,
-                                           block.inputs, keys)
+                                           block.inputs, keys, first_keyframe=first)
+            first = False
             view = memoryview(data)
             for k, rec in enumerate(block.records()):
                 yield bytes(view[offsets[k]:offsets[k + 1]]), rec, keys

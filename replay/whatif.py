@@ -136,7 +136,7 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
             header = scenario_message(scn, f"{path} (what-if)") if not (
                 start or reader.open_ended) else world_header(
                 world, scn.name, f"{path} (what-if)", reader.keyframe_interval,
-                reader.open_ended, scn.description)
+                reader.open_ended, scn.description, keyframe_phase=reader.keyframe_phase)
         writer = LogWriter(out_path, header) if out_path else None
         outcome = drive(world, end, writer, [compare])
         if outcome.how != "done":

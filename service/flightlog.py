@@ -61,6 +61,7 @@ def events_of(world: World, block: Block) -> list:
 class ServiceLog:
     def __init__(self, directory: Path, world: Callable[[], World], say: Callable[[str], None],
                  *, prefix: str, keyframe_interval: int, max_bytes: int, name: str, source: str,
+                 keyframe_phase: int = 0,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
                  retry_s: float = 2.0, zstd_level: int | None = None,
                  first_bytes: int | None = None):
@@ -68,7 +69,8 @@ class ServiceLog:
         self._world = world
         self.say = say
         self.opts = dict(prefix=prefix, keyframe_interval=keyframe_interval, max_bytes=max_bytes,
-                         name=name, source=source, open_ended=True, zstd_level=zstd_level)
+                         name=name, source=source, open_ended=True, zstd_level=zstd_level,
+                         keyframe_phase=keyframe_phase)
         self._niced = None  # the writer whose thread was last given a lower priority
         # the first file's bound (the shards' files staggered: their rotations, each a header
         # of every ship's table and a keyframe, fall on different ticks)

@@ -786,6 +786,7 @@ class Worker:
         shard.log = ServiceLog(
             self.cfg.log_dir / f"shard-{k:03d}", lambda: shard.world, self.log,
             prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
+            keyframe_phase=shard_phase(k, self.cfg.keyframe_every, self.cfg.shards),
             max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
             source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
             max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes,
@@ -945,11 +946,16 @@ class Worker:
         return True
 
 
+def shard_phase(k: int, every: int, shards: int) -> int:
+    """The tick (mod ``every``) of shard k's work done every ``every`` ticks (its checkpoint,
+    its flight log's keyframes): -k * every / shards mod every, the shards staggered across the
+    period, so that no tick does two shards' while there are no more shards than ticks in it."""
+    return -(k * every // shards) % every
+
+
 def checkpoint_due(k: int, tick: int, every: int, shards: int) -> bool:
-    """Shard k's checkpoint is due at ``tick``: every ``every`` ticks, the shards staggered
-    across that period (shard k at ticks = -k * every / shards mod every), so that no tick
-    takes two shards' checkpoints while there are no more shards than ticks in the period."""
-    return (tick + k * every // shards) % every == 0
+    """Shard k's checkpoint is due at ``tick``: every ``every`` ticks, staggered (shard_phase)."""
+    return tick % every == shard_phase(k, every, shards)
 
 
 def telemetry_maxlen(cfg: ServeConfig, dt_s: float) -> int:

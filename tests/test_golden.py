@@ -1,6 +1,6 @@
 """Golden logs: today's bits and today's log format, pinned.
 
-tests/data/golden holds logs of five scenes recorded by this version (log format 4): the bounce and
+tests/data/golden holds logs of five scenes recorded by this version (log format 5): the bounce and
 the trip (built-in scenarios), a 10-degree tilted touchdown, a ship held and a ship sliding on a
 30-degree slope, and a fleet with a join, a leave and commands. Two checks, as Box2D's determinism
 test does:
@@ -10,8 +10,8 @@ test does:
 
 A change that alters bits fails both, says why in its commit message, and regenerates the logs and
 the digests in a commit of its own (``python tests/test_golden.py`` prints the new digests and
-rewrites the logs). Older formats stay readable: one test per format (1: 0.2.0, 2: 0.4.0, 3: 0.5.0)
-replays, verifies with a version notice, and exports the logs those versions wrote.
+rewrites the logs). Older formats stay readable: one test per format (1: 0.2.0, 2: 0.4.0, 3: 0.5.0,
+4: 0.6.0) replays, verifies with a version notice, and exports the logs those versions wrote.
 """
 from __future__ import annotations
 
@@ -45,7 +45,8 @@ SCENES = {
     "fleet": GOLDEN / "fleet.toml",
 }
 
-#: sha256 of every tick's state rows, outputs and events (digest() below), at log format 4
+#: sha256 of every tick's state rows, outputs and events (digest() below), since log format 4
+#: (format 5 moved no bit of the run: only where a log's keyframes may fall)
 EXPECTED = {
     "bounce": "d3c125955ee5dcb0964f600288cd17d38d5d1006999a392bd451a70a7c9b6e1b",
     "trip": "9dd2d0df1c4beddb8515b3b0981fc248232b3e5a923a68e37d8a3c45e8a6e40d",
@@ -92,6 +93,8 @@ OLD = {  # format: (log, project version that wrote it, ships, ticks)
     1: ("bounce-0.2.0.mcap", "0.2.0", 1, None),
     2: ("bounce-0.4.0.mcap", "0.4.0", 1, 601),
     3: ("fleet-0.5.0.mcap", "0.5.0", 3, 41),
+    # the golden fleet as 0.6.0 recorded it, keyframes every 5 ticks (at their multiples)
+    4: ("fleet-0.6.0-kf5.mcap", "0.6.0", 3, 41),
 }
 
 
@@ -109,6 +112,11 @@ def test_every_older_format_stays_readable(fmt, tmp_path):
     assert r.exit_code in (0, 1) and "Traceback" not in r.output
     if r.exit_code == 1:
         assert "divergence is expected" in r.output
+    if fmt >= 4:  # the physics is 0.6.0's: the same bits, its keyframes where format 4 put them
+        assert r.exit_code == 0 and "re-runs it to the same bits" in r.output, r.output
+        with LogReader(str(log)) as reader:
+            assert reader.keyframe_phase == 0 and reader.keyframe_at_or_before(39) == 35
+            assert [td.tick for td in reader.ticks() if td.is_keyframe] == list(range(0, 41, 5))
     again = tmp_path / "again.mcap"
     r = CliRunner().invoke(main, ["replay", str(log), "-o", str(again)])
     assert r.exit_code == 0, r.output

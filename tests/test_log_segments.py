@@ -51,6 +51,8 @@ north = 20.0
 """
 N_TICKS = 400
 KEYFRAMES = 25
+#: the keyframes' phase (log format 5): keyframes at ticks 7, 32, 57, ... and each file's first
+PHASE = 7
 
 
 def _fly(make_log) -> None:
@@ -80,7 +82,8 @@ def _fly(make_log) -> None:
 def _rotated(directory: Path, max_bytes: int) -> list[Path]:
     logs = []
     _fly(lambda world: logs.append(RotatingLog(directory, world, keyframe_interval=KEYFRAMES,
-                                               max_bytes=max_bytes)) or logs[0])
+                                               keyframe_phase=PHASE, max_bytes=max_bytes))
+         or logs[0])
     return logs[0].files
 
 
@@ -89,7 +92,7 @@ def run(tmp_path_factory):
     d = tmp_path_factory.mktemp("segments")
     single = d / "single.mcap"
     _fly(lambda world: LogWriter(single, world_header(world, "segments", "segments.toml",
-                                                      KEYFRAMES)))
+                                                      KEYFRAMES, keyframe_phase=PHASE)))
     return {"single": single, "files": _rotated(d / "flight", 20_000), "dir": d / "flight"}
 
 
@@ -171,6 +174,41 @@ def test_rotated_files_hold_the_numbers_of_one_unrotated_log(run):
         with LogReader(f) as r:
             rotated += [e.SerializeToString() for e in r.events()]
     assert rotated == events and len(events) >= 3
+
+
+def test_keyframes_fall_on_the_phase_and_a_window_replays_from_the_one_before(run):
+    """Log format 5: the keyframes (every field) are the log's first tick and the ticks = PHASE
+    (mod KEYFRAMES), in the single log and in each rotated file; a replay of a window starts
+    from the keyframe at or before its first tick and verifies."""
+    for path in [run["single"], *run["files"]]:
+        with LogReader(path) as r:
+            assert r.keyframe_phase == PHASE and r.keyframe_interval == KEYFRAMES
+            start = r.start_tick
+            kf = {td.tick for td in r.ticks() if td.is_keyframe}
+            last = r.read_summary().last_tick
+        assert kf == {start} | {t for t in range(start, last + 1) if t % KEYFRAMES == PHASE}
+    for first, keyframe in [(31, 7), (32, 32), (33, 32), (6, 0), (399, 382)]:
+        with LogReader(run["single"]) as r:
+            assert r.keyframe_at_or_before(first) == keyframe
+        res = verify(str(run["single"]), first=first)
+        assert res.identical and res.first_tick == keyframe, res.report()
+
+
+def test_a_header_whose_keyframe_phase_is_out_of_range_or_format_is_refused(run, tmp_path):
+    for fmt, phase, needle in [(5, KEYFRAMES, "is not less than its keyframe_interval"),
+                               (4, PHASE, "keyframe_phase in a log of format 4")]:
+        bad = tmp_path / f"bad-{fmt}.mcap"
+
+        def edit(data: bytes) -> bytes:
+            sr = pb.ScenarioRecord.FromString(data)
+            sr.log_format_version, sr.keyframe_phase = fmt, phase
+            return sr.SerializeToString()
+
+        rewrite_topic(run["single"], bad, "/touchdown/scenario", edit)
+        r = CliRunner().invoke(main, ["replay", str(bad), "--verify"])
+        assert r.exit_code == 2 and needle in r.output and "Traceback" not in r.output, r.output
+    with pytest.raises(ValueError, match="keyframe phase 25"):
+        world_header(World.of(parse_text(SCENE, "s.toml")), "s", "t", KEYFRAMES, keyframe_phase=25)
 
 
 def test_every_block_boundary_can_end_a_file(tmp_path):
@@ -321,7 +359,7 @@ def test_an_incident_cut_holds_one_ship_around_its_transition_and_verifies(run, 
     with LogReader(out) as rd:
         assert rd.ship_table().ids == [ship]
         start = rd.start_tick
-        assert start <= lo and (start % KEYFRAMES == 0 or start in
+        assert start <= lo and (start % KEYFRAMES == PHASE or start in
                                 {f_start for f_start, _ in _file_ranges(run["files"])})
         ticks = _ticks(out)
         assert min(ticks) == start and max(ticks) == hi == rd.scenario.n_ticks

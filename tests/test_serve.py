@@ -139,6 +139,16 @@ def test_events_arrive_with_the_seeds_fields_in_order_and_logs_verify(service):
     client.close()
     for path in _logs(service.dir):
         assert verify(str(path)).identical, path
+    # the shards' keyframes staggered (every 10 ticks: shard 0's at 0, 10, ...; shard 1's at 5,
+    # 15, ...), so that no tick encodes both
+    phases = {}
+    for path in _logs(service.dir):
+        k = int(path.parent.name.split("-")[1])
+        with LogReader(path) as r:
+            phases[k] = r.keyframe_phase
+            keyframes = {td.tick for td in r.ticks() if td.is_keyframe} - {r.start_tick}
+        assert len(keyframes) >= 30 and {t % 10 for t in keyframes} == {phases[k]}, path
+    assert phases == {0: 0, 1: 5}
 
 
 def test_a_command_changes_the_ship_at_the_tick_recorded(service):

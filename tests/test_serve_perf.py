@@ -27,7 +27,7 @@ from touchdown.replay.verify import verify
 from touchdown.service import redis_io as rio
 from touchdown.service.flightlog import ServiceLog
 from touchdown.service.serve import (TELEMETRY_KEEP_S, ServeConfig, Worker, checkpoint_due,
-                           telemetry_maxlen)
+                           shard_phase, telemetry_maxlen)
 from touchdown.service.shard import Shard
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.sim.scenario import parse, parse_text
@@ -137,6 +137,7 @@ def test_no_tick_takes_two_shards_checkpoints(shards, every):
     for k in range(shards):
         due = [t for t in range(3 * every) if checkpoint_due(k, t, every, shards)]
         assert len(due) == 3 and due[1] - due[0] == every == due[2] - due[1]
+        assert due[0] == shard_phase(k, every, shards)  # the flight log's keyframes' too
         for t in due:
             per_tick.setdefault(t, []).append(k)
     assert max(len(v) for v in per_tick.values()) == 1
