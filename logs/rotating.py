@@ -20,6 +20,11 @@ same numbers in both) and each holds a whole fold: ``touchdown replay FILE --ver
 each alone. The world must be at the block's last tick when the block is handed in (as
 ``world.blocks`` leaves it: the driver loop's case); a block handed in later does not end a file
 (the next one that is will).
+
+A rotation costs the caller's thread only the new header (the ships' cached JSON, joined): the
+file before is finished (its queued blocks, summary, footer, rename) on its writer's thread, and
+the new header compressed on the new writer's. A file that cannot be finished is gone, and the
+next call says so; ``flush`` and ``close`` wait for those files too.
 """
 from __future__ import annotations
 
@@ -29,7 +34,7 @@ from pathlib import Path
 from typing import Callable
 
 from touchdown.logs.encode import ShipTables
-from touchdown.logs.header import world_header
+from touchdown.logs.header import world_header_later
 from touchdown.logs.writer import FinishedOrGone, LogWriter
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.world import Block, World
@@ -82,6 +87,8 @@ class RotatingLog(FinishedOrGone):
         self._tables: dict[str, dict] = ShipTables()
         self.event_count = 0
         self._closed = False
+        #: files closed by a rotation, being finished on their writers' threads
+        self._closing: list[LogWriter] = []
 
     # -- the sink --------------------------------------------------------------------------------
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
@@ -90,6 +97,7 @@ class RotatingLog(FinishedOrGone):
         begin the next at that tick."""
         if self._closed:
             raise ValueError("write_block on a closed RotatingLog")
+        self._reap()
         if self.writer is None:
             world = self._world()
             if block.first_tick != world.tick or len(block) != 1:
@@ -106,14 +114,31 @@ class RotatingLog(FinishedOrGone):
                 self._rotate(world, block)
         return msgs
 
-    def flush(self, wait: bool = True) -> threading.Event:
-        """Every block written so far in the files (LogWriter.flush; a file closed by a
-        rotation is wholly on disk already)."""
+    def flush(self, wait: bool = True) -> "threading.Event | AllSet":
+        """Every block written so far in the files (LogWriter.flush, and the files a rotation
+        closed finished under their names). ``wait=False``: returns at once what is set once
+        it is so."""
+        self._reap(wait=wait)
+        events = [w.finished for w in self._closing]
         if self.writer is not None and not self._closed:
-            return self.writer.flush(wait)
-        done = threading.Event()
-        done.set()
-        return done
+            events.append(self.writer.flush(wait))
+        return AllSet(events)
+
+    def _reap(self, wait: bool = False) -> None:
+        """Forget the rotated files whose writers have finished them (all of them, waiting,
+        with ``wait``); a file that could not be finished is gone, and its error is raised."""
+        while self._closing and (wait or self._closing[0].finished.is_set()):
+            old = self._closing.pop(0)
+            try:
+                old.finish()
+            except BaseException:
+                self.files.remove(old.path)
+                raise
+
+    @property
+    def closing_files(self) -> list[Path]:
+        """The rotated files still being finished (as ``PATH.partial``)."""
+        return [w.path for w in self._closing]
 
     def close(self, complete: bool = True, reason: str = "",
               superseded_after_tick: int | None = None) -> None:
@@ -124,13 +149,16 @@ class RotatingLog(FinishedOrGone):
         if self._closed:
             return
         self._closed = True
-        if self.writer is not None:
-            try:
-                self.writer.close(complete=complete, reason=reason,
-                                  superseded_after_tick=superseded_after_tick)
-            except BaseException:  # the file is gone (LogWriter.close removes it)
-                self.files.pop()
-                raise
+        try:
+            if self.writer is not None:
+                try:
+                    self.writer.close(complete=complete, reason=reason,
+                                      superseded_after_tick=superseded_after_tick)
+                except BaseException:  # the file is gone (LogWriter.close removes it)
+                    self.files.pop()
+                    raise
+        finally:
+            self._reap(wait=True)
 
     def abandon(self) -> None:
         """Drop the file being written (no half-written file); the finished ones stay."""
@@ -140,6 +168,10 @@ class RotatingLog(FinishedOrGone):
         if self.writer is not None:
             self.writer.abandon()
             self.files.pop()
+        try:
+            self._reap(wait=True)
+        except OSError:
+            pass  # that file is gone; abandoning says nothing more
 
     @property
     def last_tick(self) -> int:
@@ -148,15 +180,15 @@ class RotatingLog(FinishedOrGone):
     # -- files -----------------------------------------------------------------------------------
     def _open(self, world: World, first: Block) -> None:
         """Begin a file at ``world``'s tick with ``first`` (that tick's record) as its keyframe."""
-        header = world_header(world, self.name or world.scene.doc.get("name", self.prefix),
-                              self.source, self.keyframe_interval, self.open_ended,
-                              self.description, tables=self._tables,
-                              keyframe_phase=self.keyframe_phase)
+        header, json_of = world_header_later(
+            world, self.name or world.scene.doc.get("name", self.prefix), self.source,
+            self.keyframe_interval, self.open_ended, self.description, tables=self._tables,
+            keyframe_phase=self.keyframe_phase)
         path = self._path(world.tick)
         self.directory.mkdir(parents=True, exist_ok=True)
         writer = LogWriter(path, header, chunk_size=self.chunk_size,
                            flush_every_ticks=self.flush_every_ticks,
-                           zstd_level=self.zstd_level)
+                           zstd_level=self.zstd_level, resolved_json=json_of)
         try:
             writer.write_block(first)
         except BaseException:
@@ -171,11 +203,10 @@ class RotatingLog(FinishedOrGone):
         keyframe = Block(block.last_tick, block.states[k:].copy(), block.outputs[k:].copy(),
                          block.inputs[k:].copy(), [], block.ship_ids)
         old, self.writer = self.writer, None
-        try:
-            old.close(complete=True, reason="rotated")
-        except BaseException:  # the file is gone (LogWriter.close removes it)
-            self.files.pop()
-            raise
+        # finished on its own thread after its queued blocks (a wait of up to 100 ms on the
+        # caller's tick at 20,000 ships); the next call hears if it failed (_reap)
+        old.close(complete=True, reason="rotated", wait=False)
+        self._closing.append(old)
         self._open(world, keyframe)
 
     def _path(self, tick: int) -> Path:
@@ -190,4 +221,17 @@ class RotatingLog(FinishedOrGone):
         return path
 
 
-__all__ = ["RotatingLog", "MAX_BYTES"]
+class AllSet:
+    """Set once each of its events is (a threading.Event's is_set and wait)."""
+
+    def __init__(self, events):
+        self.events = list(events)
+
+    def is_set(self) -> bool:
+        return all(e.is_set() for e in self.events)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return all(e.wait(timeout) for e in self.events)
+
+
+__all__ = ["AllSet", "RotatingLog", "MAX_BYTES"]

@@ -11,6 +11,7 @@ import os
 import queue
 import threading
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
@@ -58,8 +59,11 @@ class LogWriter(FinishedOrGone):
 
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
                  chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
-                 zstd_level: int | None = None):
+                 zstd_level: int | None = None,
+                 resolved_json: Callable[[], str] | None = None):
         self.path = Path(path)
+        # the header's scenario JSON made on the writer's thread (logs.header.world_header_later)
+        self._resolved_json = resolved_json
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.header = header
         self.ships = ShipTable(header.ship_ids, header.player_ids)
@@ -88,7 +92,6 @@ class LogWriter(FinishedOrGone):
             self.keyframe_interval = keyframe_interval
             self._encoder = BlockEncoder(header.dt_s, KEYFRAME_ONLY, keyframe_interval,
                                          keyframe_phase=header.keyframe_phase)
-            self._put(TOPIC_SCENARIO, int(header.start_tick), header.SerializeToString())
             self._size = self._stream.tell()
         except BaseException:  # nothing half-written: no .partial without a writer
             self._discard()
@@ -99,15 +102,31 @@ class LogWriter(FinishedOrGone):
         self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_BLOCKS)
         self._error: BaseException | None = None
         self._abort = False
+        #: set once the file is finished under its final name, or gone (close)
+        self.finished = threading.Event()
+        #: the file holds its first tick record (a keyframe), handed to the operating system
+        self.holds_a_tick = False
         self._thread = threading.Thread(target=self._drain, name="touchdown-log", daemon=True)
         self._thread.start()
 
     def _drain(self) -> None:
-        """The writer's thread: add every queued block's messages, until the end marker."""
+        """The writer's thread: the header (a live service's: every ship's table, megabytes to
+        compress), then every queued block's messages, until the end marker, or the summary
+        that finishes the file (close(wait=False))."""
         chunk_level(self._zstd_level)
+        try:
+            if self._resolved_json is not None:
+                self.header.resolved_json = self._resolved_json()
+            self._put(TOPIC_SCENARIO, int(self.header.start_tick), self.header.SerializeToString())
+            self._size = self._stream.tell()
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            self._error = exc
         while True:
             item = self._queue.get()
             if item is None:
+                return
+            if isinstance(item, pb.LogSummary):
+                self._finish_here(item)
                 return
             if isinstance(item, threading.Event):  # flush(): all before it is written
                 try:
@@ -126,6 +145,10 @@ class LogWriter(FinishedOrGone):
                                                      block.outputs, block.inputs, keys,
                                                      first_keyframe=first_keyframe)
                 self._write_encoded(block.first_tick, data, offsets, events, inputs)
+                if first_keyframe:  # on disk at once: a file begun is never one without a tick
+                    self._mcap.flush()
+                    self._stream.flush()
+                    self.holds_a_tick = True
                 self._size = self._stream.tell()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self._error = exc
@@ -172,8 +195,8 @@ class LogWriter(FinishedOrGone):
         if block.first_tick != expected:
             raise ValueError(f"{self.path}: a block of ticks {block.first_tick}.."
                              f"{block.last_tick} where the log's next tick is {expected}")
-        if self.last_tick < 0 and (len(block) != 1 or tuple(block.ship_ids) != tuple(
-                self.header.ship_ids) or block.spawned or block.retired or block.commands
+        if self.last_tick < 0 and (len(block) != 1 or list(block.ship_ids) != self.ships.ids
+                                   or block.spawned or block.retired or block.commands
                                    or block.events):
             raise ValueError(f"{self.path}: the first block must be the one tick {expected} with "
                              f"the header's ships and nothing that led to it (no joins, leaves, "
@@ -222,30 +245,62 @@ class LogWriter(FinishedOrGone):
         return out
 
     def close(self, complete: bool = True, reason: str = "",
-              superseded_after_tick: int | None = None) -> None:
+              superseded_after_tick: int | None = None, wait: bool = True) -> None:
         """Write the summary and the MCAP footer, then move the file to its final name. If that
         fails (a full disk), the partial file is removed and the error raised: a file is either
         finished under its final name or gone. ``superseded_after_tick``: a live shard lost to
-        another worker, the last tick of it that was published (LogSummary)."""
+        another worker, the last tick of it that was published (LogSummary). ``wait=False``:
+        the writer's thread does it after the blocks queued (a rotation: not on the caller's
+        tick); ``finished`` is set once done, and finish() raises what failed."""
         if self._closed:
             return
         self._closed = True
+        last = max(self.last_tick, int(self.header.start_tick))
+        summary = pb.LogSummary(last_tick=last, complete=complete, reason=reason,
+                                event_count=self.event_count,
+                                superseded_after_tick=superseded_after_tick)
+        if not wait:  # finished on the writer's thread; finish() says how it went
+            self._queue.put(summary)
+            return
         try:
             self._stop_thread()
             self._check()
-            last = max(self.last_tick, int(self.header.start_tick))
-            summary = pb.LogSummary(last_tick=last, complete=complete, reason=reason,
-                                    event_count=self.event_count,
-                                    superseded_after_tick=superseded_after_tick)
-            self._put(TOPIC_SUMMARY, last, summary.SerializeToString())
-            self._mcap.finish()
-            self._stream.close()
-            os.replace(self.partial, self.path)
+            self._finish_file(summary)
         except BaseException:
             self._abort = True
             self._stop_thread()
             self._discard()
             raise
+        finally:
+            self.finished.set()
+
+    def _finish_file(self, summary: pb.LogSummary) -> None:
+        self._put(TOPIC_SUMMARY, summary.last_tick, summary.SerializeToString())
+        self._mcap.finish()
+        self._stream.close()
+        os.replace(self.partial, self.path)
+
+    def _finish_here(self, summary: pb.LogSummary) -> None:
+        """close(wait=False), on the writer's thread: the file finished, or gone and the error
+        kept for finish()."""
+        try:
+            if self._error is not None:
+                raise self._error
+            self._finish_file(summary)
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+            self._error = exc
+            try:
+                self._discard()
+            except OSError:
+                pass  # (a read-only folder keeps the partial file; the error above says why)
+        finally:
+            self.finished.set()
+
+    def finish(self) -> None:
+        """Wait for a close(wait=False) to be done; raises what failed (the file is gone)."""
+        self.finished.wait()
+        self._thread.join()
+        self._check()
 
     def flush(self, wait: bool = True) -> threading.Event:
         """Every block written so far into the file (its chunk ended, the file's buffer handed
@@ -278,6 +333,7 @@ class LogWriter(FinishedOrGone):
             self._abort = True
             self._stop_thread()
             self._discard()
+            self.finished.set()
 
     def _discard(self) -> None:
         # closing flushes the buffer, which fails again on a full disk: the file goes regardless

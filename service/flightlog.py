@@ -213,7 +213,7 @@ class ServiceLog:
     def _retain(self) -> None:
         if not (self.max_total_bytes or self.max_age_s):
             return
-        current = {p.name for p in self.files[-1:]}
+        current = {p.name for p in self.files[-1:] + self.log.closing_files}
         current |= {name + ".partial" for name in current}
         try:
             found = []
@@ -260,7 +260,8 @@ def lower_priority(native_id: int | None, by: int = BACKGROUND_NICE) -> None:
 
 def _detach(log: RotatingLog) -> None:
     """Stop a rotating log whose disk failed, leaving its file as written (no footer): a
-    closing would try to write again, and an abandon would delete what is there."""
+    closing would try to write again, and an abandon would delete what is there. A file that
+    holds no tick (its header, written on the writer's thread, failed) is removed."""
     w = log.writer
     log._closed = True
     if w is None:
@@ -275,6 +276,11 @@ def _detach(log: RotatingLog) -> None:
         w._stream.close()
     except OSError:
         pass
+    if not w.holds_a_tick:
+        try:
+            w.partial.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 def _oserror(exc: OSError) -> str:

@@ -233,6 +233,52 @@ def test_every_block_boundary_can_end_a_file(tmp_path):
         assert verify(str(f), first=start + 3).identical
 
 
+def _rotating(directory: Path, fail_finish: bool = False):
+    """A rotating log of the scene, stepped until its first rotation; returns it, its world and
+    the path of the file the rotation closed."""
+    world = World.of(parse_text(SCENE, "segments.toml"))
+    log = RotatingLog(directory, world, keyframe_interval=KEYFRAMES, max_bytes=20_000)
+    log.write_block(world.first_block())
+    while len(log.files) < 2:
+        for block in world.blocks(world.tick + 5, max_ticks=5):
+            log.write_block(block)
+    return log, world, log.files[0]
+
+
+def test_a_rotation_finishes_the_file_before_on_its_writers_thread(tmp_path):
+    """The rotation hands the file before to its writer's thread (summary, footer, rename: not
+    on the caller's tick); flush() waits for it, and it verifies alone."""
+    log, world, first = _rotating(tmp_path)
+    assert log.closing_files in ([], [first])  # finished already, or being finished
+    log.flush()
+    assert log.closing_files == [] and first.exists()
+    assert not first.with_name(first.name + ".partial").exists()
+    assert verify(str(first)).identical
+    log.close(reason="stopped")
+    assert all(verify(str(f)).identical for f in log.files)
+
+
+def test_a_rotated_file_that_cannot_be_finished_is_gone_and_the_next_call_says_so(
+        tmp_path, monkeypatch):
+    import errno
+    import os
+    import touchdown.logs.writer as writer_mod
+    real = os.replace
+
+    def full(src, dst):
+        if "0000000000" in str(dst):  # the first file's rename: the disk is full
+            raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+        return real(src, dst)
+    monkeypatch.setattr(writer_mod.os, "replace", full)
+    log, world, first = _rotating(tmp_path)
+    with pytest.raises(OSError, match="No space left"):
+        log.flush()
+    assert first not in log.files and not first.exists()
+    assert not first.with_name(first.name + ".partial").exists()
+    log.close(reason="stopped")  # the next file goes on, and is finished
+    assert len(log.files) == 1 and verify(str(log.files[0])).identical
+
+
 def test_a_log_may_start_later_with_no_ships_and_ships_joining(tmp_path):
     """A live service's log: the world has no ships at its first tick (60), ships join later
     (by their scenario's spawn_t and by spawn), the run has no set end, and it is stopped."""
