@@ -635,7 +635,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
             "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,
             "recent": [[round(t, 4), d] for t, d in stats.recent],
-            "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0}))
+            "entries_dropped": stats.entries_dropped, "wall_s": time.perf_counter() - t0,
+            "slowest": worker.slow.slowest(), "late_starts": list(stats.late_starts)}))
     times = sorted(stats.tick_s) or [0.0]
     pct = lambda q: times[min(len(times) - 1, int(q * len(times)))] * 1e3  # noqa: E731
     click.echo(f"touchdown serve: {stats.ticks} ticks; tick time p50 {pct(0.5):.2f} ms, "

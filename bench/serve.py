@@ -209,6 +209,11 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
             "phases_ms": {k: v / n_ticks / max(1, len(results)) * 1e3
                           for k, v in sorted(phases.items(), key=lambda kv: -kv[1])},
             "late_ticks": late_ticks, "seconds": seconds,
+            # what the slowest ticks spent their time on, and what came before each late start
+            "slowest": sorted((x for r in results for x in r.get("slowest", ())
+                               if x["loop"] >= skip), key=lambda x: -x["tick_s"])[:3],
+            "late_starts": [x for r in results for x in r.get("late_starts", ())
+                            if x["loop"] >= skip],
             "keeps_up": bool(times) and pct(0.99) < 1e3 / RATE_HZ
             and late_ticks <= WORKER["max_late"]}
 
@@ -221,6 +226,7 @@ def _line(r: dict) -> str:
                f"ship-tick (every thread; the run with its start-up "
                f"{r['cpu_us_per_ship_tick']:.2f}, its loop thread "
                f"{r['loop_cpu_us_per_ship_tick']:.2f}); loop CPU a tick per worker, ms: {top}")
+    cpu += _stalls(r)
     return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s), {r['seconds']:g} s: tick p50 "
             f"{r['p50_ms']:6.1f} ms, p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; "
             f"late {r['late_ticks']} ({r['late']:.1%}); "
@@ -228,6 +234,28 @@ def _line(r: dict) -> str:
             f"{r['redis_mb_per_10k']:.1f} MB, takes in {r['redis_in_mbps_per_10k']:.2f} MB/s, "
             f"sends {r['redis_out_mbps_per_10k']:.2f} MB/s  "
             f"{'keeps 10 Hz' if r['keeps_up'] else 'FALLS BEHIND'}{cpu}")
+
+
+def _stalls(r: dict) -> str:
+    """The slowest ticks by phase, and the late starts with what came before them (a late start
+    after a short tick, with nothing between, woke late: the CPU was another process's)."""
+    out = ""
+    if r.get("slowest"):
+        ticks = "; ".join(
+            f"{x['tick_s'] * 1e3:.0f} ms (" + ", ".join(
+                f"{k} {v * 1e3:.0f}" for k, v in sorted(x["phases"].items(),
+                                                         key=lambda kv: -kv[1])[:3]) + ")"
+            for x in r["slowest"])
+        out += f"\n           slowest ticks: {ticks}"
+    late = r.get("late_starts") or []
+    if late:
+        def span(key: str) -> str:
+            vals = [x[key] * 1e3 for x in late]
+            return f"{min(vals):.0f}-{max(vals):.0f}"
+        out += (f"\n           {len(late)} late start(s): {span('behind_s')} ms late, after a tick "
+                f"of {span('previous_tick_s')} ms, {span('between_s')} ms between ticks, the "
+                f"wait woke {span('woke_late_s')} ms late")
+    return out
 
 
 def largest(url: str, workers: int, start: int, seconds: float, limit: int,

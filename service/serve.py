@@ -47,7 +47,7 @@ import numpy as np
 from touchdown.service import redis_io as rio
 from touchdown.service.commands import Rejected, Request, decode_entry, parse, shard_of
 from touchdown.service.flightlog import ServiceLog, lower_priority
-from touchdown.service.phases import GcTimer, Phases
+from touchdown.service.phases import GcTimer, Phases, SlowTicks
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.service.shard import Limits, Shard, TickOut
 from touchdown.service.store import (ERRORS, REFUSALS, UNREACHABLE, CheckpointWrite, ShardStore,
@@ -129,6 +129,9 @@ class Stats:
     phases: dict = field(default_factory=dict)
     #: the process's CPU seconds (every thread) at the end of each loop, the latest STATS_KEPT
     cpu_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
+    #: the loops that began a whole period late, the latest 100: what came before each (the
+    #: loop before it, the work between loops, how late the wait woke: the CPU was elsewhere)
+    late_starts: deque = field(default_factory=lambda: deque(maxlen=100))
 
 
 @dataclass
@@ -166,6 +169,7 @@ class Worker:
         self.owned: dict[int, _Owned] = {}
         self.stats = Stats()
         self.phase = Phases(self.stats.phases)
+        self.slow = SlowTicks(self.stats.phases)
         self._pack_pool: ThreadPoolExecutor | None = None
         self.stop = threading.Event()
         self.redis_up = True
@@ -301,18 +305,26 @@ class Worker:
         thresholds = gc.get_threshold()
         # no full collection in the middle of a tick: they are run between ticks (_collect)
         gc.set_threshold(thresholds[0], thresholds[1], 1 << 30)
+        dt = between = 0.0
         try:
             while not self.stop.is_set() and (cfg.ticks is None or loops < cfg.ticks):
                 if period:
                     now = time.monotonic()
+                    woke_late = 0.0
                     if now < due:
                         self.stop.wait(due - now)
                         if self.stop.is_set():
                             break
                         now = time.monotonic()
+                        woke_late = now - due
                     behind = now - due
                     self.stats.lag_s = max(0.0, behind)
                     self.stats.start_late_s.append(max(0.0, behind))
+                    if behind > period:
+                        self.stats.late_starts.append({
+                            "loop": loops, "behind_s": round(behind, 4),
+                            "previous_tick_s": round(dt, 4), "between_s": round(between, 4),
+                            "woke_late_s": round(woke_late, 4)})
                     if behind > 1.0:
                         # far behind (a stall): every period it held up counts as a late tick
                         # (the count is never reset), and the schedule starts again
@@ -321,9 +333,11 @@ class Worker:
                     elif behind > period:
                         self.stats.late += 1
                     due += period
+                self.slow.start()
                 t0 = time.perf_counter()
                 self.loop_once()
                 dt = time.perf_counter() - t0
+                self.slow.end(loops, dt)
                 self.stats.tick_s.append(dt)
                 self.stats.cpu_s.append(time.process_time())
                 self.stats.recent.append((time.monotonic(), dt))
@@ -335,6 +349,7 @@ class Worker:
                     self._report()
                 if loops % GC_EVERY == 0 or loops - self._collected >= 4 * GC_EVERY:
                     self._collect(loops, due - time.monotonic() if period else 0.0, period)
+                between = time.perf_counter() - t0 - dt
         finally:
             gc.set_threshold(*thresholds)
             gc_timer.remove()

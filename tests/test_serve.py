@@ -110,6 +110,13 @@ def _wait(pred, timeout: float = 30.0, what: str = "") -> None:
 def test_events_arrive_with_the_seeds_fields_in_order_and_logs_verify(service):
     w, th = service(scenario=FLEET, source="fleet", ticks=400)
     th.join(timeout=120)
+    slowest = w.slow.slowest()  # what the slowest loops spent their time on
+    assert len(slowest) == 20 and slowest[0]["tick_s"] == round(max(w.stats.tick_s), 4)
+    assert [x["tick_s"] for x in slowest] == sorted((x["tick_s"] for x in slowest), reverse=True)
+    for x in slowest:  # each one's phases (some nest: redis_io within flush), within its time
+        assert set(x["phases"]) <= set(w.stats.phases)
+        assert max(x["phases"].values(), default=0.0) <= x["tick_s"] + 1e-4
+    assert any(x["phases"] for x in slowest)
     events = _events(service.url, f"{service.prefix}:ships")
     transitions = [e for e in events if e["event"].decode().startswith("ship.")]
     assert len(transitions) > 5

@@ -28,6 +28,7 @@ from touchdown.service import redis_io as rio
 from touchdown.service.flightlog import ServiceLog
 from touchdown.service.serve import (TELEMETRY_KEEP_S, ServeConfig, Worker, checkpoint_due,
                            shard_phase, telemetry_maxlen)
+from touchdown.service.phases import Phases, SlowTicks
 from touchdown.service.shard import Shard
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.sim.scenario import parse, parse_text
@@ -126,6 +127,22 @@ def test_the_cli_default_of_telemetry_maxlen(tmp_path):
         assert seen["cfg"].telemetry_maxlen == 77
     finally:
         serve_mod.Worker = real
+
+
+# -- where the slow ticks went -----------------------------------------------------------------
+def test_the_slowest_ticks_are_kept_with_their_phases():
+    """SlowTicks keeps the slowest loops (here 2 of 4), each with the wall time of its phases
+    of 1 ms or more, slowest first: what bench serve prints beside a trial's p99."""
+    into: dict = {}
+    phases, slow = Phases(into), SlowTicks(into, keep=2)
+    for loop, (step, log) in enumerate([(0.001, 0.0), (0.050, 0.002), (0.003, 0.030),
+                                        (0.0005, 0.0)]):
+        slow.start()
+        phases.add("step", step, step)
+        phases.add("log", log, log)
+        slow.end(loop, step + log)
+    assert slow.slowest() == [{"loop": 1, "tick_s": 0.052, "phases": {"step": 0.05, "log": 0.002}},
+                              {"loop": 2, "tick_s": 0.033, "phases": {"step": 0.003, "log": 0.03}}]
 
 
 # -- checkpoints -----------------------------------------------------------------------------
