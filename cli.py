@@ -556,7 +556,7 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 @click.option("--events-maxlen", type=click.IntRange(min=0), default=1_000_000,
               show_default=True, help="the event stream is trimmed to about this many entries "
                                       "(0: never)")
-@click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=256.0, show_default=True,
+@click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=1024.0, show_default=True,
               help="a flight log file is closed and the next begun past this size (each "
                    "shard's first file at (k+1)/S of it: the shards' rotations staggered)")
 @click.option("--log-keep-mb", type=click.FloatRange(min=0.0), default=0.0, show_default=True,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -89,6 +90,9 @@ class RotatingLog(FinishedOrGone):
         self._closed = False
         #: files closed by a rotation, being finished on their writers' threads
         self._closing: list[LogWriter] = []
+        #: wall seconds write_block spent waiting for a writer's queue, and in rotations
+        self.waited_s = 0.0
+        self.rotating_s = 0.0
 
     # -- the sink --------------------------------------------------------------------------------
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
@@ -106,12 +110,17 @@ class RotatingLog(FinishedOrGone):
                                  f"{block.first_tick}..{block.last_tick}")
             self._open(world, block)
             return []
-        msgs = self.writer.write_block(block)
+        writer = self.writer
+        waited = writer.waited_s
+        msgs = writer.write_block(block)
+        self.waited_s += writer.waited_s - waited
         self.event_count += len(msgs)
-        if self.writer.size >= self.max_bytes and block.last_tick > self.writer.header.start_tick:
+        if writer.size >= self.max_bytes and block.last_tick > writer.header.start_tick:
             world = self._world()
             if world.tick == block.last_tick and tuple(world.ship_ids) == tuple(block.ship_ids):
+                t0 = time.perf_counter()
                 self._rotate(world, block)
+                self.rotating_s += time.perf_counter() - t0
         return msgs
 
     def flush(self, wait: bool = True) -> "threading.Event | AllSet":

@@ -10,6 +10,7 @@ import json
 import os
 import queue
 import threading
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -106,6 +107,8 @@ class LogWriter(FinishedOrGone):
         self.finished = threading.Event()
         #: the file holds its first tick record (a keyframe), handed to the operating system
         self.holds_a_tick = False
+        #: seconds write_block waited for room in the queue (the writer's thread behind)
+        self.waited_s = 0.0
         self._thread = threading.Thread(target=self._drain, name="touchdown-log", daemon=True)
         self._thread.start()
 
@@ -213,7 +216,13 @@ class LogWriter(FinishedOrGone):
             events.setdefault(ev.tick, []).append(m.SerializeToString())
             msgs.append(m)
         # encoded on the writer's thread (compiled, without the GIL): off the caller's tick
-        self._queue.put((block, self._keys_of[1], self.last_tick < 0, events, inputs))
+        item = (block, self._keys_of[1], self.last_tick < 0, events, inputs)
+        try:
+            self._queue.put_nowait(item)
+        except queue.Full:  # the writer's thread is behind: wait for it (counted)
+            t0 = time.perf_counter()
+            self._queue.put(item)
+            self.waited_s += time.perf_counter() - t0
         self.event_count += len(msgs)
         self.last_tick = block.last_tick
         return msgs

@@ -149,6 +149,11 @@ class ServiceLog:
     def paused(self) -> bool:
         return self.log is None
 
+    def waits(self) -> tuple[float, float]:
+        """Wall seconds so far that writing blocks waited for the writer's thread (its queue
+        full), and spent rotating files (of the file being written's RotatingLog)."""
+        return (0.0, 0.0) if self.log is None else (self.log.waited_s, self.log.rotating_s)
+
     @property
     def files(self) -> list[Path]:
         return [] if self.log is None else list(self.log.files)

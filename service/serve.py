@@ -86,7 +86,9 @@ class ServeConfig:
     telemetry_maxlen: int | None = None
     events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
     buffer_max: int = 100_000  # unsent entries held while Redis is away
-    log_max_bytes: int = 256 << 20  # a flight-log file's bound (rotations are rare at scale)
+    #: a flight-log file's bound: at 104 bytes a ship-tick, a 20,000-ship shard fills 1 GiB in
+    #: 50 s; each rotation (a header of every ship's table) costs that shard's tick tens of ms
+    log_max_bytes: int = 1 << 30
     log_max_total_bytes: int = 0  # a shard's flight-log folder, oldest files removed (0: all kept)
     log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk

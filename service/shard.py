@@ -101,9 +101,15 @@ class Shard:
         self.world.commands((sid, *given) for sid, given in pending.items())
         with phase("step"):
             blocks = list(self.world.blocks(t + 1))
+        waits = getattr(self.log, "waits", None)
         for block in blocks:
+            before = waits() if waits else None
             with phase("log"):
                 msgs = self.log.write_block(block)
+            if before:  # within "log": the writer's queue full, and rotations (wall seconds)
+                for name, was, now in zip(("log_queue_full", "log_rotation"), before, waits()):
+                    if now > was and hasattr(phase, "add"):
+                        phase.add(name, now - was, 0.0)
             out.blocks.append(block)
             rows = {sid: i for i, sid in enumerate(block.ship_ids)} if block.spawned else {}
             for sp in block.spawned:
