@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import threading
+import time
 
 import mcap.writer
 import zstandard
@@ -59,12 +60,23 @@ class ShipTables(dict):
 _SHIPS = "\x00touchdown-ships\x00"
 
 
-def resolved_json(resolved: dict, ids: list[str], tables: dict | None) -> str:
-    """``json.dumps(resolved, sort_keys=True)``, the same string, with the ships' tables
-    (``resolved["ships"]``, those of ``ids`` in order) encoded once each when ``tables`` is a
-    ShipTables."""
+def resolved_json_bytes(resolved: dict, ids: list[str], tables: dict | None) -> bytes:
+    """``json.dumps(resolved, sort_keys=True)`` as UTF-8, the same bytes, with the ships'
+    tables (``resolved["ships"]``, those of ``ids`` in order) encoded once each when ``tables``
+    is a ShipTables, and joined from pieces (each copy of megabytes a call of its own, the GIL
+    let go between them: this runs on a log writer's thread beside the tick)."""
     if not isinstance(tables, ShipTables) or not ids:
-        return json.dumps(resolved, sort_keys=True)
+        return json.dumps(resolved, sort_keys=True).encode()
+    head = json.dumps({**resolved, "ships": _SHIPS}, sort_keys=True)
+    before, after = head.split(json.dumps(_SHIPS), 1)
+    parts = _ship_json(resolved, ids, tables)
+    time.sleep(0)
+    ships = ", ".join(parts).encode()
+    time.sleep(0)
+    return b"".join((before.encode(), b"[", ships, b"]", after.encode()))
+
+
+def _ship_json(resolved: dict, ids: list[str], tables: "ShipTables") -> list[str]:
     cache = tables.json
     parts = []
     for sid, table in zip(ids, resolved["ships"]):
@@ -72,5 +84,4 @@ def resolved_json(resolved: dict, ids: list[str], tables: dict | None) -> str:
         if s is None:
             s = cache[sid] = json.dumps(table, sort_keys=True)
         parts.append(s)
-    head = json.dumps({**resolved, "ships": _SHIPS}, sort_keys=True)
-    return head.replace(json.dumps(_SHIPS), "[" + ", ".join(parts) + "]", 1)
+    return parts

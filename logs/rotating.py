@@ -4,7 +4,7 @@
 driver loop's ``log``: ``write_block``, ``close``, ``abandon``) and writes them to
 ``DIR/{prefix}-{first_tick:010d}.mcap``. Once the file being written is past ``max_bytes`` (the
 bytes written to it, checked at block boundaries: a file overshoots by what its writer still
-holds, at most QUEUE_BLOCKS blocks and a chunk of ``max_bytes / 8``), the file is closed at the
+holds, at most its queue of blocks (LogWriter's ``queue``) and a chunk of ``max_bytes / 8``), the file is closed at the
 end of the block in hand (summary ``complete``, reason ``rotated``) and the next begins at that
 block's last tick T:
 
@@ -36,7 +36,7 @@ from typing import Callable
 
 from touchdown.logs.encode import ShipTables
 from touchdown.logs.header import world_header_later
-from touchdown.logs.writer import FinishedOrGone, LogWriter
+from touchdown.logs.writer import QUEUE_BLOCKS, FinishedOrGone, LogWriter
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.world import Block, World
 
@@ -63,7 +63,7 @@ class RotatingLog(FinishedOrGone):
                  name: str | None = None, source: str = "", open_ended: bool = False,
                  description: str = "", chunk_size: int | None = None,
                  flush_every_ticks: int = 200, zstd_level: int | None = None,
-                 keyframe_phase: int = 0):
+                 keyframe_phase: int = 0, queue: tuple[int, int | None] = (QUEUE_BLOCKS, None)):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -73,6 +73,7 @@ class RotatingLog(FinishedOrGone):
         self._world = world if callable(world) else (lambda: world)
         self.keyframe_interval = max(1, keyframe_interval)
         self.keyframe_phase = keyframe_phase
+        self.queue = queue  # each writer's (LogWriter's)
         self.max_bytes = max_bytes
         self.name = name
         self.source = source
@@ -197,7 +198,8 @@ class RotatingLog(FinishedOrGone):
         self.directory.mkdir(parents=True, exist_ok=True)
         writer = LogWriter(path, header, chunk_size=self.chunk_size,
                            flush_every_ticks=self.flush_every_ticks,
-                           zstd_level=self.zstd_level, resolved_json=json_of)
+                           zstd_level=self.zstd_level, resolved_json=json_of,
+                           queue=self.queue)
         try:
             writer.write_block(first)
         except BaseException:

@@ -6,9 +6,9 @@ written: a file under the final name is always a finished MCAP. A writer that is
 """
 from __future__ import annotations
 
+import collections
 import json
 import os
-import queue
 import threading
 import time
 from pathlib import Path
@@ -22,15 +22,70 @@ from touchdown.logs.codec import PACKED, BlockEncoder
 from touchdown.logs.encode import chunk_level
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
-                         event_message)
+                         event_message, record_bytes)
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim import fields
 from touchdown.sim.state import State
 from touchdown.sim.world import Block
 
-#: encoded blocks waiting for the writer's thread, at most (each about a megabyte or one tick)
+#: blocks waiting for a writer's thread, at most (a recording run flat out: the caller waits
+#: for the writer, and a file's size, by which it rotates, is never far behind)
 QUEUE_BLOCKS = 4
+#: a live service's writers (logs.rotating, service.flightlog): at most this many bytes of
+#: blocks (their records; 1.3 s of a 20,000-ship shard at 10 Hz, 488 bytes a ship-tick) and
+#: LIVE_QUEUE_BLOCKS blocks wait, so that a writer's thread held up for a moment (it runs at a
+#: lower priority than the tick, beside Redis and other workers) catches up later rather than
+#: holding up the tick
+QUEUE_BYTES = 128 << 20
+LIVE_QUEUE_BLOCKS = 64
+
+
+class _BlockQueue:
+    """First in, first out, bounded by a count of items and by the bytes they hold (an item in
+    the writer's hands counts until done()); always room for one. put() waits for room, and
+    says how long it waited."""
+
+    def __init__(self, max_items: int, max_bytes: int | None = None):
+        self.max_items = max_items
+        self.max_bytes = max_bytes
+        self._items: collections.deque = collections.deque()
+        self._bytes = 0
+        self._in_hand = 0
+        self._cv = threading.Condition()
+
+    def _full(self, nbytes: int) -> bool:
+        if not self._items and not self._bytes:
+            return False  # room for one, whatever its size
+        if len(self._items) >= self.max_items:
+            return True
+        return self.max_bytes is not None and self._bytes + nbytes > self.max_bytes
+
+    def put(self, item, nbytes: int = 0) -> float:
+        waited = 0.0
+        with self._cv:
+            if self._full(nbytes):
+                t0 = time.perf_counter()
+                while self._full(nbytes):
+                    self._cv.wait()
+                waited = time.perf_counter() - t0
+            self._items.append((item, nbytes))
+            self._bytes += nbytes
+            self._cv.notify_all()
+        return waited
+
+    def get(self):
+        with self._cv:
+            while not self._items:
+                self._cv.wait()
+            item, self._in_hand = self._items.popleft()
+            return item
+
+    def done(self) -> None:
+        with self._cv:
+            self._bytes -= self._in_hand
+            self._in_hand = 0
+            self._cv.notify_all()
 
 
 class FinishedOrGone:
@@ -55,13 +110,14 @@ class LogWriter(FinishedOrGone):
     The caller's thread encodes each block of ticks (compiled, without the GIL); a thread of the
     writer's own adds the messages to the MCAP file and compresses its chunks (zstd releases the
     GIL), so the next block is stepped meanwhile. The queue between them holds at most
-    QUEUE_BLOCKS blocks. An error on the writer's thread (a full disk) is raised by the next call
+    ``queue`` = (blocks, bytes of blocks or None): QUEUE_BLOCKS by default. An error on the writer's thread (a full disk) is raised by the next call
     from the caller (write, close)."""
 
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
                  chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
                  zstd_level: int | None = None,
-                 resolved_json: Callable[[], str] | None = None):
+                 resolved_json: Callable[[], bytes] | None = None,
+                 queue: tuple[int, int | None] = (QUEUE_BLOCKS, None)):
         self.path = Path(path)
         # the header's scenario JSON made on the writer's thread (logs.header.world_header_later)
         self._resolved_json = resolved_json
@@ -100,7 +156,7 @@ class LogWriter(FinishedOrGone):
         self.last_tick = -1
         self.event_count = 0
         self._closed = False
-        self._queue: queue.Queue = queue.Queue(maxsize=QUEUE_BLOCKS)
+        self._queue = _BlockQueue(*queue)
         self._error: BaseException | None = None
         self._abort = False
         #: set once the file is finished under its final name, or gone (close)
@@ -118,30 +174,37 @@ class LogWriter(FinishedOrGone):
         that finishes the file (close(wait=False))."""
         chunk_level(self._zstd_level)
         try:
-            if self._resolved_json is not None:
-                self.header.resolved_json = self._resolved_json()
-            self._put(TOPIC_SCENARIO, int(self.header.start_tick), self.header.SerializeToString())
+            data = (self.header.SerializeToString() if self._resolved_json is None else
+                    record_bytes(self.header, self._resolved_json()))
+            self._put(TOPIC_SCENARIO, int(self.header.start_tick), data)
             self._size = self._stream.tell()
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
             self._error = exc
         while True:
             item = self._queue.get()
-            if item is None:
-                return
-            if isinstance(item, pb.LogSummary):
-                self._finish_here(item)
-                return
-            if isinstance(item, threading.Event):  # flush(): all before it is written
-                try:
-                    if self._error is None and not self._abort:
-                        self._mcap.flush()  # ends the chunk being filled
-                        self._stream.flush()
-                except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
-                    self._error = exc
-                item.set()
-                continue
-            if self._error is not None or self._abort:
-                continue  # drop the rest; the caller hears of the error
+            try:
+                if self._take(item):
+                    return
+            finally:
+                self._queue.done()
+
+    def _take(self, item) -> bool:
+        """One item of the queue, on the writer's thread; True: the thread's last."""
+        if item is None:
+            return True
+        if isinstance(item, pb.LogSummary):
+            self._finish_here(item)
+            return True
+        if isinstance(item, threading.Event):  # flush(): all before it is written
+            try:
+                if self._error is None and not self._abort:
+                    self._mcap.flush()  # ends the chunk being filled
+                    self._stream.flush()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
+                self._error = exc
+            item.set()
+            return False
+        if self._error is None and not self._abort:  # else dropped: the caller hears of it
             try:
                 block, keys, first_keyframe, events, inputs = item
                 data, offsets = self._encoder.encode(block.first_tick, block.states,
@@ -155,6 +218,7 @@ class LogWriter(FinishedOrGone):
                 self._size = self._stream.tell()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self._error = exc
+        return False
 
     def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
                        events: dict[int, list[bytes]], inputs: list[tuple[str, int, bytes]]
@@ -217,12 +281,8 @@ class LogWriter(FinishedOrGone):
             msgs.append(m)
         # encoded on the writer's thread (compiled, without the GIL): off the caller's tick
         item = (block, self._keys_of[1], self.last_tick < 0, events, inputs)
-        try:
-            self._queue.put_nowait(item)
-        except queue.Full:  # the writer's thread is behind: wait for it (counted)
-            t0 = time.perf_counter()
-            self._queue.put(item)
-            self.waited_s += time.perf_counter() - t0
+        self.waited_s += self._queue.put(item, block.states.nbytes + block.outputs.nbytes
+                                         + block.inputs.nbytes)
         self.event_count += len(msgs)
         self.last_tick = block.last_tick
         return msgs
@@ -365,4 +425,4 @@ def tick_bytes_bound(ships: int) -> int:
     return exact + exact // 4 + 4096
 
 
-__all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "CHUNK_BYTES_MAX", "tick_bytes_bound"]
+__all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "QUEUE_BYTES", "LIVE_QUEUE_BLOCKS", "CHUNK_BYTES_MAX", "tick_bytes_bound"]

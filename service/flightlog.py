@@ -29,6 +29,7 @@ from typing import Callable
 
 from touchdown.logs.header import event_message
 from touchdown.logs.rotating import RotatingLog
+from touchdown.logs.writer import LIVE_QUEUE_BLOCKS, QUEUE_BYTES
 from touchdown.sim.state import State
 from touchdown.sim.world import Block, World
 
@@ -70,7 +71,8 @@ class ServiceLog:
         self.say = say
         self.opts = dict(prefix=prefix, keyframe_interval=keyframe_interval, max_bytes=max_bytes,
                          name=name, source=source, open_ended=True, zstd_level=zstd_level,
-                         keyframe_phase=keyframe_phase)
+                         keyframe_phase=keyframe_phase,
+                         queue=(LIVE_QUEUE_BLOCKS, QUEUE_BYTES))  # a starved writer catches up
         self._niced = None  # the writer whose thread was last given a lower priority
         # the first file's bound (the shards' files staggered: their rotations, each a header
         # of every ship's table and a keyframe, fall on different ticks)

@@ -7,6 +7,7 @@ outlasts its lease keeps it; the telemetry stream's default cap. No timing is as
 machines are shared): ``touchdown bench serve`` measures."""
 from __future__ import annotations
 
+import threading
 import time
 import uuid
 import zlib
@@ -18,7 +19,7 @@ import redis
 import touchdown.scenarios as builtin
 from touchdown.bench.speed import fleet_doc
 from touchdown.logs.encode import ShipTables
-from touchdown.logs.header import world_header
+from touchdown.logs.header import record_bytes, world_header, world_header_later
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rotating import RotatingLog
 from touchdown.proto import service_pb2 as spb
@@ -212,6 +213,33 @@ def test_a_fast_zstd_log_holds_the_same_records_and_verifies(tmp_path):
         assert res.divergence is None and res.ticks_compared > 0, res
 
 
+def test_the_writers_queue_is_bounded_by_bytes_and_always_takes_one():
+    """The blocks waiting for a live service's writer are bounded by their bytes (a block in
+    the writer's hands counts until it is done) and a count: a put that does not fit waits, and
+    says how long; one block larger than the bound goes into an empty queue."""
+    from touchdown.logs.writer import _BlockQueue
+    q = _BlockQueue(64, 100)
+    assert q.put("a", 60) == 0.0 and q.put("b", 30) == 0.0
+
+    def writer():
+        time.sleep(0.05)
+        assert q.get() == "a"
+        q.done()
+    th = threading.Thread(target=writer)
+    th.start()
+    assert q.put("c", 20) > 0.0  # waited for "a" to be done
+    th.join()
+    assert [q.get(), q.done(), q.get(), q.done()][::2] == ["b", "c"]
+    assert q.put("big", 1000) == 0.0 and q.get() == "big"
+    q.done()
+    few = _BlockQueue(2)  # a count alone (a recording run flat out: QUEUE_BLOCKS)
+    assert few.put("a", 10**9) == 0.0 and few.put("b", 10**9) == 0.0
+    th = threading.Thread(target=lambda: (time.sleep(0.05), few.get(), few.done()))
+    th.start()
+    assert few.put("c") > 0.0
+    th.join()
+
+
 def test_headers_from_cached_ship_json_are_the_same_bytes():
     world = _fleet_world(200)
     cached = ShipTables()
@@ -219,6 +247,15 @@ def test_headers_from_cached_ship_json_are_the_same_bytes():
     b = world_header(world, "n", "s", 10, True, tables=cached)  # from the cache
     c = world_header(world, "n", "s", 10, True, tables={})
     assert a.SerializeToString() == b.SerializeToString() == c.SerializeToString()
+    # a rotation's header, its JSON joined as bytes and spliced in on the writer's thread:
+    # the bytes the protobuf library writes for the whole message (a description, a phase)
+    later, json_of = world_header_later(world, "n", "s", 10, True, description="resumed",
+                                        tables=cached, keyframe_phase=3)
+    whole = world_header(world, "n", "s", 10, True, description="resumed", tables={},
+                         keyframe_phase=3)
+    assert record_bytes(later, json_of()) == whole.SerializeToString()
+    with pytest.raises(ValueError):
+        record_bytes(whole, b"{}")
     assert len(cached.json) == 200
     empty = World.empty(world.scene)
     assert world_header(empty, "n", "s", tables=ShipTables()).resolved_json == \
