@@ -4,9 +4,9 @@
 driver loop's ``log``: ``write_block``, ``close``, ``abandon``) and writes them to
 ``DIR/{prefix}-{first_tick:010d}.mcap``. Once the file being written is past ``max_bytes`` (the
 bytes written to it, checked at block boundaries: a file overshoots by what its writer still
-holds, at most its queue of blocks (LogWriter's ``queue``) and a chunk of ``max_bytes / 8``), the file is closed at the
-end of the block in hand (summary ``complete``, reason ``rotated``) and the next begins at that
-block's last tick T:
+holds, at most its queue of blocks (LogWriter's ``queue``) and a chunk of ``max_bytes / 8``),
+the file is closed at the end of the block in hand (summary ``complete``, reason ``rotated``)
+and the next begins at that block's last tick T:
 
 - its header is :func:`logs.header.world_header` of the world at T (the ships present then,
   their tables; ``start_tick = T``);
@@ -51,8 +51,9 @@ class RotatingLog(FinishedOrGone):
     replaced, e.g. rebuilt from a checkpoint). ``name``: the logs' scenario name (default: the
     scene's); ``open_ended``: the run has no set end (a live service: each file's end is its
     summary's last tick); ``keyframe_phase``: each file's keyframes after its first fall on ticks
-    = phase (mod ``keyframe_interval``). The first block must be the world's own tick (``world.first_block()``,
-    which the driver loop writes first); the first file starts there.
+    = phase (mod ``keyframe_interval``); ``queue``: each writer's (LogWriter's). The first block
+    must be the world's own tick (``world.first_block()``, which the driver loop writes first);
+    the first file starts there.
 
     ``files``: every file's final path, in order; the last is being written (as
     ``PATH.partial``) until :meth:`close`.
@@ -73,7 +74,7 @@ class RotatingLog(FinishedOrGone):
         self._world = world if callable(world) else (lambda: world)
         self.keyframe_interval = max(1, keyframe_interval)
         self.keyframe_phase = keyframe_phase
-        self.queue = queue  # each writer's (LogWriter's)
+        self.queue = queue
         self.max_bytes = max_bytes
         self.name = name
         self.source = source

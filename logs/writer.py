@@ -107,11 +107,11 @@ class FinishedOrGone:
 class LogWriter(FinishedOrGone):
     """Write a run to an MCAP file. A context manager; ``close()`` is safe to call twice.
 
-    The caller's thread encodes each block of ticks (compiled, without the GIL); a thread of the
-    writer's own adds the messages to the MCAP file and compresses its chunks (zstd releases the
-    GIL), so the next block is stepped meanwhile. The queue between them holds at most
-    ``queue`` = (blocks, bytes of blocks or None): QUEUE_BLOCKS by default. An error on the writer's thread (a full disk) is raised by the next call
-    from the caller (write, close)."""
+    A thread of the writer's own encodes each block of ticks (compiled, without the GIL), adds
+    the messages to the MCAP file and compresses its chunks (zstd releases the GIL), so the next
+    block is stepped meanwhile. The queue between them holds at most ``queue`` = (blocks, bytes
+    of blocks or None): QUEUE_BLOCKS blocks by default. An error on the writer's thread (a full
+    disk) is raised by the next call from the caller (write, close)."""
 
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
                  chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
@@ -425,4 +425,5 @@ def tick_bytes_bound(ships: int) -> int:
     return exact + exact // 4 + 4096
 
 
-__all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "QUEUE_BYTES", "LIVE_QUEUE_BLOCKS", "CHUNK_BYTES_MAX", "tick_bytes_bound"]
+__all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "QUEUE_BYTES", "LIVE_QUEUE_BLOCKS",
+           "CHUNK_BYTES_MAX", "tick_bytes_bound"]
