@@ -1,31 +1,55 @@
-"""``touchdown doctor``: a log's MCAP structure as ``mcap doctor`` reports it (logs.structure),
-then what Touchdown itself checks of its content (logs.reader)."""
+"""``touchdown doctor``: a log's MCAP structure, every record held to the MCAP specification as
+``mcap doctor`` holds it and more strictly (logs.examine), then what Touchdown itself checks of
+its content (logs.reader)."""
 from __future__ import annotations
 
 from touchdown.logs import LogError
+from touchdown.logs.examine import Examination, examine
 from touchdown.logs.reader import LogReader
-from touchdown.logs.structure import check, check_entries
+
+
+def _structure_line(x: Examination) -> str:
+    chunks = len(x.chunks)
+    readable = sum(c.readable for c in x.chunks)
+    mi = x.records.get("message index", 0)
+    summary = sum(x.records.get(k, 0) for k in ("schema", "channel", "chunk index",
+                                                  "attachment index", "metadata index",
+                                                  "statistics", "summary offset")) \
+        if x.data_end >= 0 else 0
+    return (f"  structure: {chunks} chunk(s) ({readable} decompressed, CRC checked), "
+            f"{x.messages:,} message(s), {mi} message index record(s) ({x.index_entries:,} "
+            f"entries checked against their chunks), data end "
+            f"{'at byte ' + format(x.data_end, ',') if x.data_end >= 0 else 'not found'} "
+            f"(data section CRC {x.data_crc}); summary {summary} record(s), its CRC "
+            f"{x.summary_crc}; footer {'ok' if x.footer and not _in(x, 'footer') else 'damaged or missing'}; "
+            f"summary {'ok' if x.footer and not _in(x, 'summary', 'summary offsets', 'statistics') else 'damaged or missing'}")
+
+
+def _in(x: Examination, *parts: str) -> bool:
+    return any(f.part in parts for f in x.errors)
 
 
 def report(path: str) -> tuple[list[str], bool]:
-    """``touchdown doctor``: the structure as ``mcap doctor`` reports it (records, chunks,
-    message indexes, summary, footer; each index entry against its chunk), then what Touchdown
-    itself checks of the content (its scenario record, every tick record decoded and checked,
-    the events, the summary record). Returns (lines, whether anything is wrong)."""
+    """``touchdown doctor``: the structure (logs.examine: every record, every chunk decompressed
+    and its CRC checked, its times against its messages, the message indexes entry by entry,
+    the chunk indexes, statistics, summary offsets, footer, the data section's and the
+    summary's CRCs), then what Touchdown itself checks of the content (its scenario record,
+    every tick record decoded and checked, the events, the summary record). Returns (lines,
+    whether anything is wrong: an error, not a warning)."""
     lines = []
     with open(path, "rb") as f:
-        s = check(f)
-        entries = check_entries(f, s, path) if s.chunks else 0
-    lines.append(f"{path}: {s.size:,} bytes")
-    lines.append(f"  structure: {len(s.chunks)} chunk(s), {s.message_indexes} message index "
-                 f"record(s) ({entries:,} entries checked against their chunks), data end "
-                 f"{'at byte ' + format(s.data_end, ',') if s.data_end >= 0 else 'not found'}; "
-                 f"footer {'ok' if s.footer_ok else 'damaged or missing'}; summary "
-                 f"{'ok' if s.summary_ok else 'damaged or missing'} ({s.summary_records} "
-                 f"record(s), {s.chunk_indexes} chunk index(es))")
-    for p in s.problems:
-        lines.append(f"  problem: {p.part} at byte {p.where:,}: {p.what}")
-    bad = bool(s.problems)
+        x = examine(f, path)
+    lines.append(f"{path}: {x.size:,} bytes")
+    lines.append(_structure_line(x))
+    for finding in x.errors + x.warnings:
+        lines.append(f"  {finding.line()}")
+    bad = bool(x.errors)
+    if x.data_crc == "absent":
+        lines.append("  note: no data section CRC (written before touchdown 0.8): a changed byte "
+                     "outside the chunks would go unnoticed")
+    if any(f.part == "magic" for f in x.errors):
+        lines.append("  verdict: damaged (not an MCAP file)")
+        return lines, True
     try:
         with LogReader(path) as r:
             sr = r.scenario
@@ -48,9 +72,11 @@ def report(path: str) -> tuple[list[str], bool]:
             if not r.status.complete:
                 bad = True
                 lines.append(f"  problem: the log ends without a footer: its content was read "
-                             f"up to the damage ({r.status.damage or 'the end of the file'})")
+                             f"up to the damage ({r.status.damage or 'the end of the file'}); "
+                             f"`touchdown recover` rewrites it whole")
             lines.append("  verdict: " + ("structure damaged, content readable: `touchdown "
-                                          "replay --verify` checks every number"
+                                          "replay --verify` checks every number, `touchdown "
+                                          "recover` rewrites the file whole"
                                           if bad else "ok"))
     except LogError as exc:
         lines.append(f"  content: unreadable: {str(exc).removeprefix(path + ': ')}")

@@ -22,6 +22,7 @@ from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVE
 from touchdown.logs.safe_read import ReadLimits, ReadStatus, iter_messages
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
+from touchdown.logs.structure import data_crc_matches
 from touchdown.logs.writer import CHUNK_BYTES_MAX, tick_bytes_bound
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
@@ -228,10 +229,29 @@ class LogReader:
                            f"(limit {MAX_SCENARIO_CHARS:,})")
 
     def structure_note(self) -> str:
-        """One line if the file's MCAP structure (message indexes, summary, footer) is damaged
-        while its content is readable (logs.structure), else "". A cut file (no footer) is not
-        said to be damaged here: its readers say what they recovered."""
-        return self.structure.line() if _ends_with_magic(self.structure) else ""
+        """One line if the file's MCAP structure (its records' fields, message indexes, chunk
+        times, summary, footer, the data section's CRC if checked) is damaged while its content
+        is readable (logs.structure, and what the reads found), else "". A cut file (no footer)
+        is not said to be damaged here: its readers say what they recovered."""
+        st = self.structure
+        for offset, what in self.status.notes:  # found while reading the chunks
+            if not any(p.part == "chunk" and p.where == offset for p in st.problems):
+                st.add("chunk", offset, what)
+        if not _ends_with_magic(st):
+            return Structure(problems=[p for p in st.problems if p.part == "chunk"]).line()
+        return st.line()
+
+    def check_data_crc(self) -> bool | None:
+        """The data section's bytes against the CRC its Data End record holds (one more read
+        of the file); a mismatch is a problem of the structure (structure_note says it).
+        Returns whether it matched (None: no CRC, as in a log written before touchdown 0.8)."""
+        ok = data_crc_matches(self._file, self.structure)
+        if ok is False:
+            self.structure.add("data end", self.structure.data_end,
+                               "the data section's CRC does not match its bytes: a byte before "
+                               "it changed, in a record no other CRC covers (its header, its "
+                               "metadata, a chunk's fields or a message index)")
+        return ok
 
     def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
         for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,

@@ -26,7 +26,7 @@ import io
 import os
 import struct
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import IO, Iterator
 
 import zstandard
@@ -84,17 +84,33 @@ class ReadStatus:
 
     complete: bool = True
     damage: str = ""
+    #: damage read around (a chunk whose message times are not its messages'), as (the
+    #: chunk's byte offset, what): the content is sound, other readers may stumble
+    notes: list = field(default_factory=list)
+
+    def note(self, offset: int, what: str) -> None:
+        if (offset, what) not in self.notes:
+            self.notes.append((offset, what))
 
 
 def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits) -> bytes:
     """The chunk's records, decompressed within bounds (module docstring); CRC checked."""
-    declared = chunk.uncompressed_size
+    return decompress_chunk(chunk.data, chunk.compression, chunk.uncompressed_size,
+                            chunk.uncompressed_crc, where, limits)
+
+
+def decompress_chunk(records, compression: str, declared: int, crc: int, where: str,
+                     limits: ReadLimits, lz4: bool = False) -> bytes:
+    """A chunk's ``records`` field decompressed within bounds: at most ``declared`` bytes,
+    which must be within the limits, and exactly that many; its CRC (``crc``, 0: none) checked.
+    ``lz4``: take lz4 too (``touchdown doctor`` on any MCAP file; Touchdown's readers refuse it,
+    as its writers never use it). LogError naming ``where`` otherwise."""
     if declared > limits.max_chunk_bytes:
         raise LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
                        f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}); refusing it")
-    if chunk.compression == "":
-        data = chunk.data
-    elif chunk.compression == "zstd":
+    if compression == "":
+        data = records
+    elif compression == "zstd":
         try:
             dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
             # into a buffer of the declared size (checked above), and one byte more: enough to
@@ -102,7 +118,7 @@ def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits) -> bytes:
             out = bytearray(declared + 1)
             view = memoryview(out)
             got = 0
-            with dctx.stream_reader(io.BytesIO(chunk.data), read_across_frames=True) as r:
+            with dctx.stream_reader(io.BytesIO(records), read_across_frames=True) as r:
                 while got <= declared:
                     n = r.readinto(view[got:])
                     if not n:
@@ -114,21 +130,33 @@ def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits) -> bytes:
                            f"is at most {limits.max_window_bytes:,} bytes, "
                            f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
         data = out if got == len(out) else memoryview(out)[:got]
+    elif compression == "lz4" and lz4:
+        import lz4.frame as lz4f
+        try:
+            data = lz4f.LZ4FrameDecompressor().decompress(bytes(records),
+                                                          max_length=declared + 1)
+        except RuntimeError as exc:
+            raise LogError(f"{where}: a chunk does not decompress (lz4: {exc})") from None
     else:
-        raise LogError(f"{where}: chunk compression {chunk.compression!r} is not supported "
+        raise LogError(f"{where}: chunk compression {compression!r} is not supported "
                        f"(zstd or none)")
     if len(data) != declared:
         raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but holds "
                        f"{'more' if len(data) > declared else f'{len(data):,}'}")
-    if chunk.uncompressed_crc != 0 and crc32(data) != chunk.uncompressed_crc:
+    if crc != 0 and crc32(data) != crc:
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
     return data
 
 
-def _chunk_records(data: bytes, where: str, limits: ReadLimits
+def _chunk_records(data: bytes, where: str, limits: ReadLimits, chunk: Chunk | None = None,
+                   status: ReadStatus | None = None, offset: int = -1
                    ) -> Iterator[Channel | Message]:
-    """The channels and messages in a chunk's records; other records skipped."""
+    """The channels and messages in a chunk's records; other records skipped. With ``chunk``
+    (its record, at byte ``offset``) and ``status``: a chunk whose message_start_time and
+    message_end_time are not its messages' first and last log times is noted there, once its
+    records have all been read (a reader that seeks by log time may skip its messages)."""
     i, end, count = 0, len(data), 0
+    lo = hi = None
     while i < end:
         if end - i < 9:
             raise LogError(f"{where}: a chunk ends inside a record")
@@ -145,6 +173,10 @@ def _chunk_records(data: bytes, where: str, limits: ReadLimits
             if length < 22:
                 raise LogError(f"{where}: a message record too short for its header")
             channel_id, sequence, log_time, publish_time = struct.unpack_from("<HIQQ", data, start)
+            if lo is None or log_time < lo:
+                lo = log_time
+            if hi is None or log_time > hi:
+                hi = log_time
             yield Message(channel_id=channel_id, sequence=sequence, log_time=log_time,
                           publish_time=publish_time, data=data[start + 22:stop])
         elif op == 0x04:
@@ -153,6 +185,10 @@ def _chunk_records(data: bytes, where: str, limits: ReadLimits
             except Exception:
                 raise LogError(f"{where}: a damaged channel record") from None
         i = stop
+    if chunk is not None and status is not None and lo is not None and (
+            chunk.message_start_time, chunk.message_end_time) != (lo, hi):
+        status.note(offset, f"its message times say {chunk.message_start_time}.."
+                            f"{chunk.message_end_time}, its messages' log times are {lo}..{hi}")
 
 
 def _add_channel(channels: dict[int, str], rec: Channel, where: str) -> None:
@@ -214,7 +250,7 @@ def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
         return
-    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics)
+    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics, status)
 
 
 def _footer(f, name: str, size: int) -> Footer:
@@ -229,8 +265,8 @@ def _footer(f, name: str, size: int) -> Footer:
 
 
 def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | None,
-             end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset()
-             ) -> Iterator[tuple[str, int, bytes]]:
+             end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset(),
+             status: ReadStatus | None = None) -> Iterator[tuple[str, int, bytes]]:
     try:
         f.seek(footer.summary_start)
         summary_len = size - len(MAGIC) - _FOOTER_RECORD - footer.summary_start
@@ -264,7 +300,8 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
                 raise LogError(f"{name}: a chunk of {ci.chunk_length:,} bytes (limit "
                                f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
             chunk = _read_chunk(f, ci.chunk_start_offset, ci.chunk_length, name)
-            for rec in _chunk_records(_chunk_data(chunk, name, limits), name, limits):
+            for rec in _chunk_records(_chunk_data(chunk, name, limits), name, limits, chunk,
+                                      status, ci.chunk_start_offset):
                 if isinstance(rec, Channel):
                     _add_channel(channels, rec, name)
                 elif wanted(rec, channels):
@@ -319,7 +356,11 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
         batch: list = [rec]
         if isinstance(rec, Chunk):
             try:
-                batch = list(_chunk_records(_chunk_data(rec, name, limits), name, limits))
+                # where it began: the bytes read, less the record (opcode, length, fields)
+                at = len(MAGIC) + reader._stream.count - (9 + 8 * 3 + 4 + 4 + 8 + len(
+                    rec.compression.encode()) + len(rec.data))
+                batch = list(_chunk_records(_chunk_data(rec, name, limits), name, limits, rec,
+                                            status, at))
             except LogError as exc:  # a damaged or refused chunk ends the intact part too
                 status.damage = str(exc).removeprefix(f"{name}: ")
                 return
@@ -347,4 +388,4 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
     return _chunk_data(chunk, name, limits)
 
 
-__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "chunk_at"]
+__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "chunk_at", "decompress_chunk"]

@@ -19,19 +19,21 @@ from typing import IO
 
 import numpy as np
 
+from touchdown.logs.mcap_records import (DATA_END_RECORD, FOOTER_RECORD, MAGIC, NAME,
+                                         RecordError, chunk_header, parse)
+
 try:
     from zlib_ng.zlib_ng import crc32
 except ImportError:  # pragma: no cover
     from zlib import crc32
 
-MAGIC = b"\x89MCAP0\r\n"
-_FOOTER_RECORD = 1 + 8 + 8 + 8 + 4
+_FOOTER_RECORD = FOOTER_RECORD
 #: the record opcodes of MCAP 0 (mcap.opcode.Opcode)
-KNOWN = {0x01: "header", 0x02: "footer", 0x03: "schema", 0x04: "channel", 0x05: "message",
-         0x06: "chunk", 0x07: "message index", 0x08: "chunk index", 0x09: "attachment",
-         0x0A: "attachment index", 0x0B: "statistics", 0x0C: "metadata",
-         0x0D: "metadata index", 0x0E: "summary offset", 0x0F: "data end"}
+KNOWN = NAME
 _DATA_OPS = {0x01, 0x03, 0x04, 0x05, 0x06, 0x07, 0x09, 0x0C, 0x0F}
+#: the most bytes of a record outside a chunk parsed field by field (a larger attachment is
+#: only framed): the header, schemas, channels, metadata of a Touchdown log are far smaller
+MAX_PARSED_BYTES = 1 << 20
 #: the most records the walk and the summary parse look at (a writer puts a chunk and a message
 #: index per channel in it for every megabyte or so: far fewer), and the largest message index
 #: or summary section read (a hostile file must not make the check slow or large)
@@ -39,6 +41,9 @@ MAX_RECORDS = 500_000
 MAX_INDEX_BYTES = 64 << 20
 _ENTRY = np.dtype([("t", "<u8"), ("off", "<u8")])
 _SUMMARY_OPS = {0x03, 0x04, 0x08, 0x0A, 0x0B, 0x0D, 0x0E}
+#: a chunk record's head read to parse its fields before its records (the compression's name
+#: is a few bytes; a longer one is damage)
+_CHUNK_HEAD = 4096
 
 
 @dataclass
@@ -51,6 +56,8 @@ class ChunkRef:
     start_ns: int
     end_ns: int
     uncompressed_size: int
+    compression: str = ""
+    compressed_size: int = 0
     #: channel id -> (offset of its message index record, entries: time "t" and offset "off")
     indexes: dict[int, tuple[int, np.ndarray]] = field(default_factory=dict)
     index_end: int = 0  # the end of the message index records that follow it
@@ -79,6 +86,10 @@ class Structure:
     problems: list[Problem] = field(default_factory=list)
     #: the walk stopped at MAX_RECORDS records: the summary is not held to it
     walk_cut: bool = False
+    #: the Data End record's CRC of the data section (0: not written), -1 if not reached
+    data_crc: int = -1
+    #: where the chunks the summary indexes begin (its chunk indexes' offsets, if it was read)
+    indexed_chunks: list[int] = field(default_factory=list)
 
     def add(self, part: str, where: int, what: str) -> None:
         self.problems.append(Problem(part, where, what))
@@ -98,19 +109,31 @@ class Structure:
             return ""
         p = self.problems[0]
         more = f" (and {len(self.problems) - 1} more problem(s))" if len(self.problems) > 1 else ""
-        parts = {q.part for q in self.problems}
-        if parts & {"data section", "message index"}:
-            others = ("readers that walk the file record by record (mcap's StreamReader, "
-                      "`mcap cat`) stop there, and readers that seek by its index may miss "
-                      "messages")
-        else:
-            others = ("readers that seek by the summary (mcap's make_reader on a file, "
-                      "Foxglove) may fail, misorder or miss messages; readers that walk the "
-                      "file are not affected")
+        others = _CONSEQUENCES.get(p.part, _CONSEQUENCES["summary"])
+        if p.part == "data end" and "CRC" in p.what:
+            others = ("readers that check the data section's CRC (mcap's StreamReader with "
+                      "CRCs on, `mcap doctor`) refuse the file, and the others may read the "
+                      "changed byte as it is")
         return (f"the log's structure is damaged: {p.part} at byte {p.where:,}: {p.what}{more}; "
                 f"its content is intact and was read through "
                 f"{'its chunks' if not self.summary_ok else 'the chunk index'}, but {others} "
                 f"(`touchdown doctor` for details)")
+
+
+#: what other readers do with a file whose first problem is in this part (Structure.line)
+_WALKERS = ("readers that walk the file record by record (mcap's StreamReader, `mcap cat`) stop "
+            "there, and readers that seek by its index may miss messages")
+_STRICT = ("readers that check every record's fields (Foxglove's, `mcap doctor`) refuse the "
+           "file")
+_CONSEQUENCES = {
+    "data section": _WALKERS, "message index": _WALKERS,
+    **{part: _STRICT for part in ("header", "schema", "channel", "message", "attachment",
+                                  "metadata", "data end")},
+    "chunk": ("readers that seek by log time (Foxglove, mcap's make_reader) may skip or "
+              "misplace its messages"),
+    "summary": ("readers that seek by the summary (mcap's make_reader on a file, Foxglove) may "
+                "fail, misorder or miss messages; readers that walk the file are not affected"),
+}
 
 
 def _u64(b: bytes, o: int) -> int:
@@ -118,8 +141,10 @@ def _u64(b: bytes, o: int) -> int:
 
 
 def check(f: IO[bytes], size: int | None = None) -> Structure:
-    """Walk the data section's records (their framing, not their compressed contents), then the
-    footer and summary, and hold each to the other (module docstring)."""
+    """Walk the data section's records (their framing and, outside chunks, their fields; not
+    the chunks' compressed contents), then the footer and summary, and hold each to the other
+    (module docstring). The data section is walked to its Data End record whatever the footer
+    says, so a damaged footer or summary start cannot hide the data."""
     if size is None:
         f.seek(0, 2)
         size = f.tell()
@@ -136,9 +161,19 @@ def check(f: IO[bytes], size: int | None = None) -> Structure:
     if not tail_magic:
         s.add("footer", size, "the file ends without a footer (cut, or its writer was killed)")
     summary = _read_summary(f, s, footer, footer_at) if footer is not None and footer[0] else None
-    data_limit = footer[0] if footer and footer[0] else footer_at
     hints = sorted(ci[1] for ci in summary[0]) if summary else []
-    _walk(f, s, data_limit, hints)
+    s.indexed_chunks = hints
+    _walk(f, s, footer_at, hints)
+    if footer is not None and s.data_end >= 0 and footer[0] and \
+            footer[0] != s.data_end + DATA_END_RECORD:
+        # (its summary's CRC, which covers the footer's fields, said so too: the footer is
+        # the cause)
+        s.problems = [p for p in s.problems if not (p.part == "summary" and p.where == footer[0])]
+        s.add("footer", footer_at, f"its summary start {footer[0]:,} is not where the summary "
+                                   f"begins (byte {s.data_end + DATA_END_RECORD:,}, after the "
+                                   f"data end record)")
+        s.footer_ok = False
+        summary = None
     if summary is not None and not s.walk_cut:
         _cross_check(s, *summary)
     elif summary is not None:
@@ -166,8 +201,9 @@ def _footer(f, s: Structure, at: int):
 
 
 def _read_summary(f, s: Structure, footer, footer_at: int):
-    """(chunk indexes as (record offset, chunk start, chunk length, {channel: index offset}),
-    statistics' message count or None), or None if the summary is damaged."""
+    """(chunk indexes as (record offset, chunk start, chunk length, {channel: index offset},
+    the index's fields), the statistics' fields or None), or None if the summary is damaged
+    (its CRC, a record's framing or fields)."""
     start, offset_start, crc = footer
     if footer_at - start > MAX_INDEX_BYTES * 4:
         s.add("summary", start, f"a summary section of {footer_at - start:,} bytes (at most "
@@ -180,7 +216,7 @@ def _read_summary(f, s: Structure, footer, footer_at: int):
         if crc32(whole) != crc:
             s.add("summary", start, "its CRC does not match the footer's")
             return None
-    indexes, count = [], None
+    indexes, stats = [], None
     pos = 0
     while pos < len(data):
         at = start + pos
@@ -197,25 +233,26 @@ def _read_summary(f, s: Structure, footer, footer_at: int):
             s.add("summary", at, f"more than {MAX_RECORDS:,} records")
             return None
         try:
-            if op == 0x08:
-                n = struct.unpack_from("<I", body, 32)[0]
-                offsets = dict(struct.unpack_from("<HQ", body, 36 + 10 * k)
-                               for k in range(n // 10))
-                indexes.append((at, _u64(body, 16), _u64(body, 24), offsets))
-            elif op == 0x0B:
-                count = _u64(body, 0)
-        except struct.error:
-            s.add("summary", at, f"a {KNOWN[op]} record too short for its fields")
+            rec = parse(op, body)
+        except RecordError as exc:
+            s.add("summary", at, str(exc))
             return None
+        if op == 0x08:
+            indexes.append((at, rec.chunk_start_offset, rec.chunk_length,
+                            rec.message_index_offsets, rec.fields))
+        elif op == 0x0B:
+            stats = rec.fields
         pos += 9 + length
     s.chunk_indexes = len(indexes)
-    return indexes, count
+    return indexes, stats
 
 
 def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
-    """The data section's records from the header to DataEnd: framing, and each chunk's header
-    and message indexes (which must follow their chunk and point inside it). Past a damaged
-    record the walk goes on at the next chunk the summary knows of (``hints``), if any."""
+    """The data section's records from the header to DataEnd: framing, every record outside a
+    chunk parsed field by field (the header first), each chunk's fields before its records,
+    and its message indexes (which must follow their chunk and point inside it). Past a
+    damaged record the walk goes on at the next chunk the summary knows of (``hints``), if
+    any."""
     pos = len(MAGIC)
     last: ChunkRef | None = None
     count = 0
@@ -236,15 +273,22 @@ def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
                 return
             pos, last = later[0], None
             continue
-        if op == 0x0F:
-            s.data_end = pos
-            return
+        if (pos == len(MAGIC)) != (op == 0x01):
+            s.add("header", pos, "the first record is not a header" if pos == len(MAGIC) else
+                  "a second header record")
         if op == 0x06:
-            body = f.read(min(length, 32))
-            if len(body) < 32:
-                s.add("data section", pos, "a chunk record too short for its header")
-                return
-            last = ChunkRef(pos, 9 + length, _u64(body, 0), _u64(body, 8), _u64(body, 16))
+            body = f.read(min(length, _CHUNK_HEAD))
+            try:
+                h = chunk_header(body, total=length)
+            except RecordError as exc:
+                s.add("data section", pos, str(exc))
+                later = [h for h in hints if h > pos]
+                if not later:
+                    return
+                pos, last = later[0], None
+                continue
+            last = ChunkRef(pos, 9 + length, h.message_start_time, h.message_end_time,
+                            h.uncompressed_size, h.compression, h.compressed_size)
             last.index_end = pos + 9 + length
             s.chunks.append(last)
         elif op == 0x07:
@@ -259,6 +303,17 @@ def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
                 s.message_indexes += 1
             if last is not None and pos == last.index_end:
                 last.index_end = pos + 9 + length
+        elif length <= MAX_PARSED_BYTES:  # the header, schema, channel, metadata, data end...
+            try:
+                rec = parse(op, f.read(length))
+            except RecordError as exc:
+                s.add(NAME[op], pos, str(exc))
+            else:
+                if op == 0x0F:
+                    s.data_crc = rec.data_section_crc
+        if op == 0x0F:
+            s.data_end = pos
+            return
         pos += 9 + length
     s.add("data section", limit, "no data end record before the summary")
 
@@ -285,13 +340,22 @@ def _message_index(body: bytes, chunk: ChunkRef | None) -> str:
     return ""
 
 
-def _cross_check(s: Structure, indexes: list, count: int | None) -> None:
-    """The summary's chunk indexes against the chunks and message indexes the walk found."""
+#: the fields a chunk index repeats of its chunk's: (its field, ChunkRef's, what it is)
+_REPEATED = (("message_start_time", "start_ns", "message start time"),
+             ("message_end_time", "end_ns", "message end time"),
+             ("compression", "compression", "compression"),
+             ("compressed_size", "compressed_size", "compressed size"),
+             ("uncompressed_size", "uncompressed_size", "uncompressed size"))
+
+
+def _cross_check(s: Structure, indexes: list, stats: dict | None) -> None:
+    """The summary's chunk indexes against the chunks and message indexes the walk found, and
+    its statistics against them."""
     by_offset = {c.offset: c for c in s.chunks}
     ok = True
     seen = set()
     index_problem = any(p.part == "message index" for p in s.problems)
-    for at, chunk_start, chunk_length, offsets in indexes:
+    for at, chunk_start, chunk_length, offsets, fields_ in indexes:
         c = by_offset.get(chunk_start)
         if c is None or c.length != chunk_length:
             s.add("summary", at, f"a chunk index points at byte {chunk_start:,}, where no chunk "
@@ -299,6 +363,13 @@ def _cross_check(s: Structure, indexes: list, count: int | None) -> None:
             ok = False
             continue
         seen.add(chunk_start)
+        for key, attr, what in _REPEATED:
+            if fields_[key] != getattr(c, attr):
+                # the chunk's own field or its index's is wrong: either way a reader that
+                # seeks by the index and one that reads the chunk disagree
+                s.add("chunk", chunk_start, f"its {what} is {getattr(c, attr)!r}, its chunk "
+                                            f"index's (at byte {at:,}) {fields_[key]!r}")
+                break
         if not index_problem and c.indexes and set(offsets) != set(c.indexes):
             # the reader skips a chunk whose index lists none of the channels it wants: an
             # index that leaves one out would hide its messages
@@ -319,11 +390,38 @@ def _cross_check(s: Structure, indexes: list, count: int | None) -> None:
         s.add("summary", missing[0], f"no chunk index for the chunk at byte {missing[0]:,} "
                                      f"({len(missing)} chunk(s) unindexed)")
         ok = False
-    total = sum(e.shape[0] for c in s.chunks for _, e in c.indexes.values())
-    if ok and count is not None and not index_problem and count != total:
-        s.add("summary", 0, f"its statistics count {count:,} messages, the message indexes "
-                            f"{total:,}")
+    if ok and stats is not None:
+        total = sum(e.shape[0] for c in s.chunks for _, e in c.indexes.values())
+        if not index_problem and stats["message_count"] != total:
+            s.add("summary", 0, f"its statistics count {stats['message_count']:,} messages, the "
+                                f"message indexes {total:,}")
+        elif stats["chunk_count"] != len(s.chunks):
+            s.add("summary", 0, f"its statistics count {stats['chunk_count']:,} chunks, the data "
+                                f"section holds {len(s.chunks):,}")
+        elif s.chunks and (stats["message_start_time"], stats["message_end_time"]) != (
+                min(c.start_ns for c in s.chunks), max(c.end_ns for c in s.chunks)):
+            s.add("summary", 0, f"its statistics' log times {stats['message_start_time']}.."
+                                f"{stats['message_end_time']} are not its chunks' "
+                                f"{min(c.start_ns for c in s.chunks)}.."
+                                f"{max(c.end_ns for c in s.chunks)}")
     s.summary_ok = ok
+
+
+def data_crc_matches(f, s: Structure) -> bool | None:
+    """Whether the data section's bytes (the file's first ``s.data_end`` bytes) have the CRC
+    its Data End record holds: None when it holds none (0: a log written before touchdown
+    0.8) or was not reached. Reads the data section once."""
+    if s.data_end < 0 or s.data_crc <= 0:
+        return None
+    f.seek(0)
+    crc, left = 0, s.data_end
+    while left > 0:
+        piece = f.read(min(left, 16 << 20))
+        if not piece:
+            return False
+        crc = crc32(piece, crc)
+        left -= len(piece)
+    return crc == s.data_crc
 
 
 def check_entries(f, s: Structure, name: str) -> int:
@@ -356,4 +454,4 @@ def check_entries(f, s: Structure, name: str) -> int:
     return checked
 
 
-__all__ = ["check", "check_entries", "Structure", "ChunkRef", "Problem"]
+__all__ = ["check", "check_entries", "data_crc_matches", "Structure", "ChunkRef", "Problem"]

@@ -203,6 +203,8 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         if res.divergence is None and whole:
             _compare_summary(reader, res, len(replayed))
         _say_what_was_checked(reader, res, target, events_to)
+        if whole:  # every chunk was read: the data section's CRC says if anything else changed
+            reader.check_data_crc()
         res.structure_note = reader.structure_note()
         return res
 
