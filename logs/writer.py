@@ -132,8 +132,10 @@ class LogWriter(FinishedOrGone):
         chunk_level(zstd_level)  # (the header's chunk is compressed on this thread)
         self._stream = open(self.partial, "wb")
         try:
+            # CRCs of every chunk, of the summary and of the data section (its Data End record):
+            # a changed byte anywhere in the file, the metadata record's included, is found
             self._mcap = Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
-                                enable_crcs=True)
+                                enable_crcs=True, enable_data_crcs=True)
             self._mcap.start(profile="", library=f"touchdown {PROJECT_VERSION}")
             self._channels = {}
             for topic, cls in ((TOPIC_SCENARIO, pb.ScenarioRecord), (TOPIC_TICKS, pb.TickBatch),
@@ -223,16 +225,22 @@ class LogWriter(FinishedOrGone):
     def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
                        events: dict[int, list[bytes]], inputs: list[tuple[str, int, bytes]]
                        ) -> None:
-        for topic, tick, message in inputs:  # joins, leaves and commands: before their ticks
-            self._put(topic, tick, message)
+        # joins, leaves and commands each just before its tick's record: the file's messages in
+        # log-time order (a reader that streams it, Foxglove's among them, need not sort them)
+        j = 0
         view = memoryview(data)
         for k in range(offsets.shape[0] - 1):
             tick = first_tick + k
+            while j < len(inputs) and inputs[j][1] <= tick:
+                self._put(*inputs[j])
+                j += 1
             self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
             for m in events.get(tick, ()):
                 self._put(TOPIC_EVENTS, tick, m)
             if self._flush_every and tick % self._flush_every == 0:
                 self._mcap.flush()  # bounds what a killed writer loses
+        for rest in inputs[j:]:  # (none: a block's inputs are at its ticks)
+            self._put(*rest)
 
     def _check(self) -> None:
         if self._error is not None:
