@@ -318,17 +318,27 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="what-if: write the new log")
 @click.option("--view", "show", is_flag=True,
               help="open the Rerun viewer: the log, or (what-if) the log beside the new run")
+@click.option("--require-complete", is_flag=True,
+              help="--verify: exit 1 unless the whole log was read (not cut or recovered) and "
+                   "its summary says it is complete, as well as identical")
 def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
-           ship_id: str | None, sets: tuple[str, ...], output: str | None, show: bool) -> None:
+           ship_id: str | None, sets: tuple[str, ...], output: str | None, show: bool,
+           require_complete: bool) -> None:
     """Re-run LOG from its own recorded scenario and inputs.
 
-    With --verify: compare with the recording bit for bit (exit 0 identical, 1 diverged).
-    With --set: the same inputs under changed settings; prints how far it departs."""
+    With --verify: compare with the recording bit for bit (exit 0 identical, 1 diverged; a log
+    read only in part, cut or stopped, exits 0 and says which part: with --require-complete it
+    exits 1). With --set: the same inputs under changed settings; prints how far it departs."""
     from touchdown.replay.verify import verify as run_verify
     from touchdown.replay.whatif import what_if
 
     if verify and sets:
         raise UserError("--verify re-runs the log as recorded; it does not take --set")
+    if require_complete and not verify:
+        raise UserError("--require-complete goes with --verify")
+    if require_complete and (from_tick is not None or to_tick is not None or ship_id):
+        raise UserError("--require-complete checks a whole log: not with --from-tick, "
+                        "--to-tick or --ship")
     if from_tick is not None and to_tick is not None and to_tick < from_tick:
         raise UserError(f"--to-tick {to_tick} is before --from-tick {from_tick}")
     try:
@@ -350,6 +360,43 @@ def replay(log: str, verify: bool, from_tick: int | None, to_tick: int | None,
         _show([log], ship_id)
     if verify and not res.identical:
         sys.exit(1)
+    if require_complete and not res.verified_whole:
+        click.echo(f"not complete: {res.incomplete_why} (--require-complete)")
+        sys.exit(1)
+
+
+@main.command()
+@click.argument("log", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="the recovered log (written whole, or not at all)")
+def recover(log: str, output: str) -> None:
+    """Rewrite the readable part of LOG (a killed writer's .partial file, a cut or damaged log)
+    as a complete, indexed MCAP file: every record up to the first damage, with a summary,
+    chunk indexes and every CRC. A Touchdown log keeps its whole ticks and gains a summary
+    (reason "recovered"), so that `touchdown replay OUT --verify` checks all of it. Exit 0
+    written, 2 nothing readable."""
+    from touchdown.logs.recover import recover as run_recover
+
+    if not Path(log).is_file():
+        raise UserError(f"{log}: cannot open: no such file")
+    if Path(output).resolve() == Path(log).resolve():
+        raise UserError(f"-o {output}: the same file as LOG; write the recovered log elsewhere")
+    res = run_recover(log, output)
+    what = (f"ticks {res.first_tick}..{res.last_tick}, {res.events:,} event(s)"
+            if res.touchdown else f"{res.channels} channel(s)")
+    click.echo(f"{output}: {res.messages:,} message(s) ({what}), {res.schemas} schema(s), "
+               f"{res.metadata} metadata and {res.attachments} attachment(s); chunked, indexed, "
+               f"with its summary and CRCs")
+    if res.damage:
+        click.echo(f"read up to byte {res.damage_at:,} of {log}: {res.damage}")
+    if res.dropped:
+        click.echo(f"the last tick read ({res.dropped} message(s)) was left out: its events may "
+                   f"have been in the part that was lost")
+    if res.summary_added:
+        click.echo(f"a summary was added (complete = false, reason \"recovered\"): "
+                   f"`touchdown replay {output} --verify` checks every tick kept")
+    for note in res.notes:
+        click.echo(f"note: {note}")
 
 
 def _show(logs: list[str], ship_id: str | None = None, output: str | None = None,

@@ -295,7 +295,9 @@ def _walk(f, s: Structure, limit: int, hints: list[int]) -> None:
             body = f.read(length) if length <= MAX_INDEX_BYTES else b""
             problem = _message_index(body, last) if body else \
                 f"a message index of {length:,} bytes (at most {MAX_INDEX_BYTES:,} read)"
-            if problem:
+            if problem.startswith("its message index"):  # the chunk's times, or the entry's
+                s.add("chunk", last.offset, problem)
+            elif problem:
                 s.add("message index", pos, problem)
             else:
                 channel = struct.unpack_from("<H", body, 0)[0]
@@ -335,8 +337,9 @@ def _message_index(body: bytes, chunk: ChunkRef | None) -> str:
     bad = np.flatnonzero((e["t"] < chunk.start_ns) | (e["t"] > chunk.end_ns))
     if bad.size:
         k = int(bad[0])
-        return (f"entry {k}'s time {int(e['t'][k])} is outside its chunk's "
-                f"{chunk.start_ns}..{chunk.end_ns}")
+        return (f"its message index's entry {k} (channel "
+                f"{struct.unpack_from('<H', body, 0)[0]}) has time {int(e['t'][k])}, outside "
+                f"the chunk's message times {chunk.start_ns}..{chunk.end_ns}")
     return ""
 
 

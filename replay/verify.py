@@ -20,7 +20,8 @@ are compared. A whole log's summary must say where the file ends and why: ``comp
 "" at the run's last tick (``n_ticks``; for an open-ended run, the last tick recorded), "rotated"
 (the run goes on in the next file), "stopped" (a live run stopped), "handed over" or "lost" (a
 live run goes on in another worker's log) at the last tick recorded; ``complete = false`` with
-"interrupted" or "stopped" (REASONS).
+"interrupted", "stopped" or "recovered" (``touchdown recover``: the whole ticks of a cut or
+damaged file) (REASONS).
 """
 from __future__ import annotations
 
@@ -81,6 +82,16 @@ class VerifyResult:
     structure_note: str = ""
     #: a file rotated at its run's last tick: the whole run is here, and the next file repeats it
     segment_note: str = ""
+    #: the whole file was read (not cut, nothing damaged in its way) and its summary says it
+    #: is complete (LogSummary.complete): what --require-complete asks for
+    file_complete: bool = False
+    #: why file_complete is False ("" when it is)
+    incomplete_why: str = ""
+
+    @property
+    def verified_whole(self) -> bool:
+        """Identical, and the whole log, as its writer finished it, was checked."""
+        return self.identical and self.file_complete
 
     @property
     def identical(self) -> bool:
@@ -206,6 +217,7 @@ def verify(path: str, first: int | None = None, last: int | None = None,
         if whole:  # every chunk was read: the data section's CRC says if anything else changed
             reader.check_data_crc()
         res.structure_note = reader.structure_note()
+        _say_if_complete(reader, res, not window and index is None and last is None)
         return res
 
 
@@ -371,9 +383,10 @@ def _compare_events(reader: LogReader, res: VerifyResult, replayed: list[tuple[i
 #: why a file ends where it does (LogSummary.reason), by its ``complete``: "" the run's end;
 #: "rotated" the run goes on in the next file; "stopped" a live run was stopped (finished, or
 #: not); "handed over", "lost" a live run's ships go on in another worker's log (touchdown
-#: serve); "interrupted" Ctrl-C before the end
+#: serve); "interrupted" Ctrl-C before the end; "recovered" the whole ticks of a cut or damaged
+#: file, rewritten by ``touchdown recover``
 REASONS = {True: ("", "rotated", "stopped", "handed over", "lost"),
-           False: ("interrupted", "stopped")}
+           False: ("interrupted", "stopped", "recovered")}
 
 
 def _compare_summary(reader: LogReader, res: VerifyResult, n_events: int) -> None:
@@ -422,6 +435,8 @@ def _say_what_was_checked(reader: LogReader, res: VerifyResult, target: int, eve
         why = ("it was cut" if not reader.status.complete else
                "it is one file of a longer run: the run goes on in the next file (rotated)"
                if rotated else
+               "it was recovered from a cut or damaged file: `touchdown recover` kept its "
+               "whole ticks" if summary is not None and summary.reason == "recovered" else
                f"its run was stopped: {summary.reason or 'no reason given'}" if stopped
                else "it holds no more")
         of = "" if target >= UNBOUNDED else f" of {target}"
@@ -436,6 +451,20 @@ def _say_what_was_checked(reader: LogReader, res: VerifyResult, target: int, eve
         gaps.append(f"the events of tick {res.last_tick} may have been lost with the cut and were "
                     f"not compared")
     res.partial_note = "; ".join(gaps)
+
+
+def _say_if_complete(reader: LogReader, res: VerifyResult, all_asked: bool) -> None:
+    """Whether the file was read whole and its summary says it is complete."""
+    summary = reader.read_summary() if reader.status.complete else None
+    res.incomplete_why = (
+        "the log ends without a footer (cut, or its writer was killed)"
+        if not reader.status.complete else
+        "only part of the log was asked for (--from-tick, --to-tick or --ship)"
+        if not all_asked else
+        "the log holds no summary" if summary is None else
+        f"its summary says it is incomplete ({summary.reason or 'no reason given'})"
+        if not summary.complete else "")
+    res.file_complete = not res.incomplete_why
 
 
 def _decode(reader: LogReader, cls, data: bytes, what: str):
