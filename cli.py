@@ -210,8 +210,11 @@ def _binary_stdout():
 @main.command()
 @click.argument("log", type=click.Path(dir_okay=False))
 @click.option("--events", is_flag=True, help="one row per state transition instead of per tick")
-@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv", "parquet"]), default="jsonl",
-              show_default=True, help="JSON Lines, CSV, or Parquet (columnar, zstd; needs -o)")
+@click.option("--format", "fmt", type=click.Choice(["jsonl", "csv", "parquet", "foxglove"]),
+              default="jsonl", show_default=True,
+              help="JSON Lines, CSV, Parquet (columnar, zstd; needs -o), or foxglove (an MCAP "
+                   "file of Foxglove's schemas: poses, landers, events, values by ship id; "
+                   "needs -o)")
 @click.option("--ship", "ships", multiple=True, metavar="ID", help="only this ship (repeatable)")
 @click.option("--ticks", default=None, metavar="A:B", help="only ticks A..B (inclusive)")
 @click.option("--time", "time_range", default=None, metavar="A:B",
@@ -223,12 +226,18 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
            time_range: str | None, fields: str | None, output: str | None) -> None:
     """One row per ship per tick of LOG (or per event with --events): JSON Lines, CSV or
     Parquet. Parquet keeps each field's unit in its metadata; a tick table in Parquet is written
-    with its events beside it (OUT.events.parquet)."""
+    with its events beside it (OUT.events.parquet). With --format foxglove: an MCAP file for
+    Foxglove (each ship's pose as a transform from the frame `site`, the landers drawn in their
+    state's colour, the events as a log, every value by ship id; docs/foxglove-layout.json)."""
     from touchdown.logs import export as ex
     from touchdown.logs.reader import LogReader
 
-    if fmt == "parquet" and not output:
-        raise UserError("--format parquet writes a file: give -o OUT.parquet")
+    if fmt in ("parquet", "foxglove") and not output:
+        raise UserError(f"--format {fmt} writes a file: give -o OUT."
+                        f"{'parquet' if fmt == 'parquet' else 'mcap'}")
+    if fmt == "foxglove" and (events or fields):
+        raise UserError("--format foxglove writes every value and the events: no --events or "
+                        "--fields")
     if ticks is not None and time_range is not None:
         raise UserError("--ticks and --time both given: choose one")
     first, last = _range(ticks, "--ticks", int)
@@ -258,6 +267,11 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     yield blk
 
             def write(out) -> None:
+                if fmt == "foxglove":
+                    from touchdown.view import foxglove_log
+                    done = foxglove_log.write(reader, out, sel)
+                    last_tick["tick"] = done.last_tick
+                    return
                 if events:
                     ex.write_events(ex.event_table(reader, sel.ships, first, last), info, fmt,
                                     out)
@@ -274,7 +288,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     ex.write_jsonl_blocks(blocks, info, out)
 
             if tmp is not None:
-                if fmt == "parquet":
+                if fmt in ("parquet", "foxglove"):
                     write(str(tmp))
                 else:
                     with open(tmp, "wb") as f:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from touchdown.logs import LogError
 from touchdown.logs.examine import Examination, examine
+from touchdown.logs.header import TOPIC_SCENARIO
 from touchdown.logs.reader import LogReader
 
 
@@ -50,6 +51,11 @@ def report(path: str) -> tuple[list[str], bool]:
     if any(f.part == "magic" for f in x.errors):
         lines.append("  verdict: damaged (not an MCAP file)")
         return lines, True
+    if x.topics and TOPIC_SCENARIO not in x.topics:  # any MCAP file: its structure is all
+        lines.append(f"  content: not a Touchdown log (topics: {', '.join(sorted(x.topics))}); "
+                     f"its structure is what was checked")
+        lines.append("  verdict: " + ("structure damaged" if bad else "ok"))
+        return lines, bad
     try:
         with LogReader(path) as r:
             sr = r.scenario

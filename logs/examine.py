@@ -98,6 +98,7 @@ class Examination:
     data_crc: str = "not reached"  # "matches", "absent" (0), "DIFFERS", "not reached"
     summary_crc: str = "not reached"
     footer: bool = False
+    topics: set = field(default_factory=set)  # every channel's topic
 
     def error(self, part: str, where: int, what: str) -> None:
         self.findings.append(Finding("error", part, where, what))
@@ -377,6 +378,7 @@ class _Doctor:
             self.summary_channels.add(rec.id)
         else:
             self.channels.setdefault(rec.id, key)
+            self.x.topics.add(rec.topic)
 
     def _message(self, channel: int, t: int, pos: int) -> None:
         if channel not in self.channels:

@@ -208,6 +208,11 @@ class ColumnBlock:
     missing: dict[str, np.ndarray]
     first_tick: int
     last_tick: int
+    #: (rows, 4) each row's attitude as a body -> landing-site quaternion (x, y, z, w), when
+    #: asked for (tick_blocks' ``attitude``): what a 3-D view turns a ship's frame by
+    quat_site_xyzw: np.ndarray | None = None
+    #: the ships' keys, one per row (ship_id holds them as int32)
+    keys: np.ndarray | None = None
 
 
 @dataclass
@@ -243,13 +248,14 @@ def table_info(reader: LogReader, columns: tuple[str, ...] = TICK_NAMES) -> Tabl
 
 
 def tick_blocks(reader: LogReader, sel: Selection = Selection(),
-                block_bytes: int = 64 << 20) -> Iterator[ColumnBlock]:
+                block_bytes: int = 64 << 20, attitude: bool = False) -> Iterator[ColumnBlock]:
     """The tick table of ``reader`` as blocks of columns (module comment above), each block
     decoded in one compiled pass (LogReader.blocks). A number that is not finite (only a damaged
-    log holds one) is a LogError naming the tick, ship and field."""
+    log holds one) is a LogError naming the tick, ship and field. ``attitude``: each block also
+    holds each row's attitude in the landing-site frame (ColumnBlock.quat_site_xyzw)."""
     ids = reader.ship_table().ids
     cols = sel.columns
-    derived = any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
+    derived = attitude or any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
     params = fleet_params(reader, scenario_of(reader)[0]) if derived else None
     wanted = _BASE_FIELDS + (_DERIVED_FIELDS if derived else ())
     keep_keys = None
@@ -266,7 +272,13 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
             b = b.take(np.flatnonzero(np.isin(b.keys, keep_keys)))
         if b.rows == 0:
             continue
-        yield _columns(reader, b, cols, params, ids)
+        blk = _columns(reader, b, cols, params, ids)
+        blk.keys = b.keys
+        if attitude:
+            t = np.repeat(b.t_s, b.counts)
+            c, s_ = measure.body_angles(params, t, b.rows)
+            blk.quat_site_xyzw = measure.site_quats_xyzw(b.columns["quat"], c, s_)
+        yield blk
 
 
 def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> ColumnBlock:

@@ -118,7 +118,8 @@ def test_generated_protobuf_code_is_up_to_date(tmp_path):
     r = subprocess.run([sys.executable, str(ROOT / "proto" / "generate.py"), str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
-    for name in ("touchdown_pb2.py", "touchdown_pb2.pyi", "service_pb2.py", "service_pb2.pyi"):
+    for name in ("touchdown_pb2.py", "touchdown_pb2.pyi", "service_pb2.py", "service_pb2.pyi",
+                 "views_pb2.py", "views_pb2.pyi"):
         assert filecmp.cmp(tmp_path / name, ROOT / "proto" / name, shallow=False), \
             f"proto/{name} is out of date with proto/*.proto: run `python proto/generate.py`"
 

@@ -27,7 +27,8 @@ import redis
 from touchdown.proto import service_pb2 as spb
 from touchdown.service import redis_io as rio
 from touchdown.sim.enums import SurfaceState
-from touchdown.view.rerun_view import STATE_COLORS, ViewError
+from touchdown.view.rerun_view import ViewError
+from touchdown.view.scene import STATE_COLORS
 
 LEVELS = {"ship.crashed": "ERROR", "ship.tipped": "WARN", "ship.command_rejected": "WARN",
           "ship.autoland_failed": "WARN"}

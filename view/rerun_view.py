@@ -27,16 +27,9 @@ import numpy as np
 
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.errors import TouchdownError
-from touchdown.view.scene import ENERGY_PARTS, Run, ShipTrack, read_run, terrain_grid
+from touchdown.view.scene import (ENERGY_PARTS, STATE_COLORS, LanderShape, Run, ShipTrack,
+                                  read_run, terrain_grid)
 
-#: The seed's client display: CONTACT yellow, TIPPED red ("Client Display"); the others ours.
-STATE_COLORS = {
-    SurfaceState.FLYING: (120, 170, 255),
-    SurfaceState.CONTACT: (255, 210, 0),
-    SurfaceState.LANDED: (60, 200, 90),
-    SurfaceState.TIPPED: (230, 40, 40),
-    SurfaceState.CRASHED: (130, 0, 120),
-}
 FORCE_COLORS = {"normal": (40, 200, 80), "friction": (255, 140, 0), "weight": (150, 110, 255),
                 "thrust": (255, 70, 40)}
 #: one run of one ship: a colour per series
@@ -144,22 +137,21 @@ def _force_arrows(track: ShipTrack) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def _ship_geometry(rr, rec, path: str, track: ShipTrack, label: str | None) -> None:
     """A lander in its own frame (static): descent stage, ascent stage, four legs, footpads and
     the footprint the topple turns about."""
-    a, h = track.leg_radius_m, track.com_height_m
-    box_half = (0.55 * a, 0.55 * a, 0.3 * h)
-    box_center = (0.0, 0.0, -0.35 * h)
+    a = track.leg_radius_m
+    shape = LanderShape.of(a, track.com_height_m)
+    box_half, box_center = shape.descent_half, shape.descent_center
     rec.log(f"{path}/ascent_stage", rr.Ellipsoids3D(
-        centers=[(0.0, 0.0, 0.2 * h)], half_sizes=[(0.4 * a, 0.4 * a, 0.35 * h)],
+        centers=[shape.ascent_center], half_sizes=[shape.ascent_half],
         colors=[(200, 200, 205)], fill_mode="solid", labels=[label] if label else None,
         show_labels=bool(label)), static=True)
-    feet = [(a, 0.0, -h), (0.0, a, -h), (-a, 0.0, -h), (0.0, -a, -h)]
-    tops = [(0.55 * x, 0.55 * y, -0.2 * h) for x, y, _ in feet]
-    rec.log(f"{path}/legs", rr.LineStrips3D([[t, f] for t, f in zip(tops, feet)],
-                                             radii=0.03 * a, colors=[(180, 180, 180)]),
+    feet = list(shape.feet)
+    rec.log(f"{path}/legs", rr.LineStrips3D([[t, f] for t, f in zip(shape.leg_tops, feet)],
+                                             radii=shape.leg_radius, colors=[(180, 180, 180)]),
             static=True)
     rec.log(f"{path}/footprint", rr.LineStrips3D([feet + [feet[0]]], radii=0.015 * a,
                                                   colors=[(255, 255, 255)]), static=True)
-    rec.log(f"{path}/footpads", rr.Points3D(feet, radii=0.12 * a, colors=[(160, 160, 160)]),
-            static=True)
+    rec.log(f"{path}/footpads", rr.Points3D(feet, radii=shape.pad_radius,
+                                            colors=[(160, 160, 160)]), static=True)
     # the descent stage wears the state's colour: the status is visible in the 3D view too
     changes = np.flatnonzero(track.changes)
     colors = [[*STATE_COLORS[SurfaceState(int(s))], 255] for s in track.state[changes]]

@@ -24,6 +24,44 @@ from touchdown.sim.measure import ENERGY_PARTS
 from touchdown.sim.params import Params
 
 
+#: The seed's client display: CONTACT yellow, TIPPED red ("Client Display"); the others ours.
+#: Every view colours a ship's state so (Rerun's, Foxglove's).
+STATE_COLORS = {
+    SurfaceState.FLYING: (120, 170, 255),
+    SurfaceState.CONTACT: (255, 210, 0),
+    SurfaceState.LANDED: (60, 200, 90),
+    SurfaceState.TIPPED: (230, 40, 40),
+    SurfaceState.CRASHED: (130, 0, 120),
+}
+
+
+@dataclass(frozen=True)
+class LanderShape:
+    """A lander as the views draw it, in its own frame (origin at the centre of mass, z along
+    the long axis), from its leg radius ``a`` and centre-of-mass height ``h`` (the feet are at
+    z = -h, a from the axis: the footprint the contact model uses): a descent stage (a box, in
+    its state's colour), an ascent stage (an ellipsoid), four legs from the descent stage to
+    the feet, footpads, and the footprint the topple turns about."""
+
+    descent_center: tuple[float, float, float]
+    descent_half: tuple[float, float, float]
+    ascent_center: tuple[float, float, float]
+    ascent_half: tuple[float, float, float]
+    leg_tops: tuple[tuple[float, float, float], ...]
+    feet: tuple[tuple[float, float, float], ...]
+    pad_radius: float
+    leg_radius: float  # the legs' thickness (radius), m
+
+    @staticmethod
+    def of(a: float, h: float) -> "LanderShape":
+        feet = ((a, 0.0, -h), (0.0, a, -h), (-a, 0.0, -h), (0.0, -a, -h))
+        return LanderShape(
+            descent_center=(0.0, 0.0, -0.35 * h), descent_half=(0.55 * a, 0.55 * a, 0.3 * h),
+            ascent_center=(0.0, 0.0, 0.2 * h), ascent_half=(0.4 * a, 0.4 * a, 0.35 * h),
+            leg_tops=tuple((0.55 * x, 0.55 * y, -0.2 * h) for x, y, _ in feet), feet=feet,
+            pad_radius=0.12 * a, leg_radius=0.03 * a)
+
+
 @dataclass(frozen=True)
 class ShipTrack:
     """One ship's run, one entry per recorded tick (T of them)."""
