@@ -461,16 +461,42 @@ def _show(logs: list[str], ship_id: str | None = None, output: str | None = None
 @click.option("--seconds", type=click.FloatRange(min=0.1), default=None,
               help="--redis: follow the fleet this long (default: until Ctrl-C; 5 s with -o or "
                    "--screenshot)")
+@click.option("--foxglove", "foxglove_port", type=click.IntRange(min=0, max=65535), default=None,
+              metavar="PORT",
+              help="--redis: serve the fleet to Foxglove over its WebSocket protocol on "
+                   "ws://127.0.0.1:PORT instead of drawing it in Rerun (docs/foxglove-layout.json)")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="--foxglove: the address to listen on")
 def view(logs: tuple[str, ...], output: str | None, ship_id: str | None, png: str | None,
          at_s: float | None, redis_url: str | None, prefix: str,
-         seconds: float | None) -> None:
+         seconds: float | None, foxglove_port: int | None, host: str) -> None:
     """Show LOG in Rerun: the 3D scene in the landing-site frame, plots over time, the status
     and the events. Two logs (A.mcap B.mcap) are shown together, on the same axes. With
     --redis URL: the running service's fleet, live (ships by state in the landing-site frame,
-    counts per state over time, the event log)."""
+    counts per state over time, the event log); with --foxglove PORT as well, served to
+    Foxglove (the channels of `export --format foxglove`) until Ctrl-C or --seconds."""
+    if foxglove_port is not None and redis_url is None:
+        raise UserError("--foxglove serves a live service: give --redis URL (a log goes to "
+                        "Foxglove as `touchdown export LOG --format foxglove -o OUT.mcap`)")
     if redis_url is not None:
         if logs:
             raise UserError("view: give logs or --redis URL, not both")
+        if foxglove_port is not None:
+            if output or png:
+                raise UserError("--foxglove serves the fleet: no -o or --screenshot")
+            if redis_url == "env":
+                redis_url = os.environ.get("TOUCHDOWN_REDIS_URL", "")
+            from touchdown.view import foxglove_live
+
+            def ready(port: int) -> None:
+                click.echo(f"serving the fleet to Foxglove at ws://{host}:{port} (Foxglove: Open "
+                           f"connection, Foxglove WebSocket; layout docs/foxglove-layout.json); "
+                           f"Ctrl-C stops", err=True)
+            done = foxglove_live.serve(redis_url, prefix, foxglove_port, seconds, host=host,
+                                       ready=ready)
+            click.echo(f"served {done.samples:,} telemetry samples and {done.events:,} events "
+                       f"as {done.messages:,} Foxglove messages; {done.ships} ship(s)")
+            return
         if output and not output.endswith(".rrd"):
             raise UserError(f"{output}: the output of view is an .rrd file")
         if redis_url == "env":

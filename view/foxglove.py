@@ -213,9 +213,13 @@ def event_log(event: str, ship_id: str, from_state: int, to_state: int, t_event_
                 + (f" (player {player_id})" if player_id else ""))
     except ValueError:  # (a live stream's other events: rejections, the autopilot's reports)
         to, text = None, f"{event} {ship_id}"
-    t_ns = int(round(t_event_s * 1e9))
-    return Log(timestamp=_stamp(t_ns), level=LEVEL_BY_STATE.get(to, Log.INFO), message=text,
-               name=ship_id).SerializeToString()
+    return log_message(int(round(t_event_s * 1e9)), LEVEL_BY_STATE.get(to, Log.INFO), text,
+                       ship_id)
+
+
+def log_message(t_ns: int, level: int, text: str, name: str) -> bytes:
+    """A foxglove.Log stamped ``t_ns``."""
+    return Log(timestamp=_stamp(t_ns), level=level, message=text, name=name).SerializeToString()
 
 
 # -- per-tick messages of a fleet, as bytes --------------------------------------------------------
@@ -404,9 +408,15 @@ class FleetEncoder:
     """The per-tick Foxglove messages of a fleet (FrameTransforms, FleetValues) from its
     columns, one encoder per log or live view (it keeps the ships' encoded ids)."""
 
-    def __init__(self) -> None:
+    def __init__(self, value_fields: Sequence[str] = VALUE_FIELDS) -> None:
+        """``value_fields``: the ShipValues fields written (those a source holds: the others
+        are absent from each ship's values, not zero)."""
+        self.value_fields = tuple(value_fields)
+        fixed = _VALUES if self.value_fields == VALUE_FIELDS else Fixed.of(
+            [(f.number, f.name) for f in views_pb2.ShipValues.DESCRIPTOR.fields
+             if f.name in self.value_fields])
         self._transforms = RepeatedEncoder(1, 3, _TRANSFORM)
-        self._values = RepeatedEncoder(3, 1, _VALUES, state_number=2)
+        self._values = RepeatedEncoder(3, 1, fixed, state_number=2)
 
     def ids(self, ship_ids: Sequence[str]) -> None:
         self._transforms.ids(ship_ids)
@@ -441,5 +451,6 @@ def tilt_deg(cos_tilt: np.ndarray) -> np.ndarray:
 
 __all__ = ["SITE_FRAME", "TOPIC_TRANSFORMS", "TOPIC_LANDERS", "TOPIC_GROUND", "TOPIC_EVENTS",
            "TOPIC_SHIPS", "SCHEMAS", "VALUE_FIELDS", "LEVEL_BY_STATE", "scene_period",
-           "lander_entity", "LanderCache", "scene_update", "ground_update", "event_log", "timestamp_field",
+           "lander_entity", "LanderCache", "scene_update", "ground_update", "event_log",
+           "log_message", "timestamp_field",
            "Fixed", "RepeatedEncoder", "FleetEncoder", "tilt_deg"]

@@ -67,7 +67,10 @@ class Fleet:
         self.ships.pop(ship_id, None)
 
 
-def _client(url: str, password: str | None) -> redis.Redis:
+def connect(url: str, password: str | None) -> redis.Redis:
+    """A client of the service's Redis (a cluster client on a node of a Redis Cluster); a
+    bad URL or a Redis that cannot be reached is a ViewError (exit 2) naming the URL, without
+    its password."""
     try:
         client = rio.connect(url, password)
         client.ping()
@@ -90,7 +93,7 @@ def _cluster_enabled(client: redis.Redis) -> bool:
         return False  # (an ACL user without INFO: a single Redis, as before)
 
 
-def _read(client, last: dict, block_ms: int, cluster: bool):
+def read_streams(client, last: dict, block_ms: int, cluster: bool):
     """New entries of the streams in ``last`` (stream -> the last id seen): one blocking XREAD
     on a single Redis; on a cluster one XREAD per stream (pipelined: a batch per master), and a
     short sleep when none had anything."""
@@ -111,7 +114,7 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     from the last ``history`` telemetry samples and events. Returns the samples drawn."""
     import rerun as rr
 
-    client = _client(url, password)
+    client = connect(url, password)
     cluster = not isinstance(client, redis.Redis)
     keys = rio.Keys(prefix, cluster=cluster)
     telemetry = f"{prefix}:telemetry"
@@ -124,14 +127,14 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     for stream in last:
         tail = client.xrevrange(stream, count=history)
         if tail:
-            last[stream] = _before(tail[-1][0].decode())
+            last[stream] = entry_before(tail[-1][0].decode())
     drawn = 0
     end = None if seconds is None else time.monotonic() + seconds
     try:
         while end is None or time.monotonic() < end:
             block = 200 if end is None else max(1, int(min(200, (end - time.monotonic()) * 1e3)))
             try:
-                reply = _read(client, last, block, cluster)
+                reply = read_streams(client, last, block, cluster)
             except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
                 time.sleep(0.25)
                 continue
@@ -156,7 +159,7 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     return drawn
 
 
-def _before(entry_id: str) -> str:
+def entry_before(entry_id: str) -> str:
     """The id just before ``entry_id`` (XREAD returns entries after the id it is given)."""
     ms, seq = (int(x) for x in entry_id.split("-"))
     return f"{ms}-{seq - 1}" if seq else f"{ms - 1}-18446744073709551615"
