@@ -26,9 +26,23 @@ import numpy as np
 from touchdown.sim.enums import SurfaceState
 from touchdown.sweep.cases import Sweep
 
-#: Result columns (SPEC.md section 6), after ``case`` and the varied keys.
-RESULTS = ("outcome", "t_outcome", "max_tilt_deg", "max_penetration", "peak_normal_force",
-           "slide_distance", "energy_dissipated_j", "fuel_used")
+#: Result columns (SPEC.md section 6), after ``case`` and the varied keys: (name, unit, what it
+#: is), each written with its unit and description in its Parquet field's metadata, as the
+#: export's columns are (logs.export.arrow_schema)
+RESULT_COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("outcome", "", "the state at the end: landed, tipped, crashed, contact or flying "
+                    "(empty: the case was not run, the sweep was interrupted)"),
+    ("t_outcome", "s", "when the case entered its outcome (empty for contact and flying)"),
+    ("max_tilt_deg", "deg", "the largest tilt of the long axis from local vertical"),
+    ("max_penetration", "m", "the deepest a foot went into the ground"),
+    ("peak_normal_force", "N", "the largest push of the ground"),
+    ("slide_distance", "m", "how far the footprint travelled along the ground while touching it"),
+    ("energy_dissipated_j", "J", "the mechanical energy (energy_j, MODEL-NOTES 28) at the "
+                                 "first tick less at the last"),
+    ("fuel_used", "kg", "fuel burnt"),
+)
+RESULTS = tuple(name for name, _, _ in RESULT_COLUMNS)
+CASE_COLUMN = ("case", "", "the case's number (0-based), its place in the grid or the samples")
 OUTCOMES = tuple(s.label for s in SurfaceState)  # flying, contact, landed, tipped, crashed
 
 #: Ship-ticks of a chunk: a fleet big enough that the interpreter's share is nothing, small
@@ -122,13 +136,28 @@ class Result:
                 "touchdown.scenario": scenario_json or json.dumps(sw.doc, default=str),
                 "touchdown.version": version("touchdown"),
                 "touchdown.complete": "true" if done.all() else "false"}
-        return pa.table(arrays).replace_schema_metadata(meta)
+        units = {name: (unit, doc) for name, unit, doc in (CASE_COLUMN, *RESULT_COLUMNS)}
+        for a in sw.axes:
+            units[a.key] = _axis_unit(a)
+        schema = pa.schema([pa.field(name, arr.type, metadata={"unit": units[name][0],
+                                                               "description": units[name][1]})
+                            for name, arr in arrays.items()], metadata=meta)
+        return pa.Table.from_arrays(list(arrays.values()), schema=schema)
 
     def write(self, path, scenario_json: str = "") -> None:
         import pyarrow.parquet as pq
         tmp = f"{path}.partial"
         pq.write_table(self.table(scenario_json), tmp)
         os.replace(tmp, path)
+
+
+def _axis_unit(axis) -> tuple[str, str]:
+    """A varied key's unit and description, from its scenario setting (sim.settings)."""
+    from touchdown.sim.settings import BY_KEY
+    s = BY_KEY.get(axis.key)
+    what = f"the varied scenario key {axis.key}" + (f": {s.doc}" if s is not None and s.doc
+                                                     else "")
+    return (s.unit if s is not None else ""), what
 
 
 def _gather(sw: Sweep, parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:

@@ -293,3 +293,25 @@ tilt_deg = 30.0
     assert r.exit_code == 2, r.output
     assert "tilt_deg" in r.output and len(r.output.strip().splitlines()) == 1, r.output
     assert not (tmp_path / "x.parquet").exists()
+
+
+def test_every_column_of_the_table_carries_its_unit_and_description(tmp_path):
+    """As the export's Parquet does (issue 37): each field's metadata holds its unit and what
+    it is; a varied key's unit is its scenario setting's (sim.settings)."""
+    scn = tmp_path / "env.toml"
+    scn.write_text(BASE)
+    out = tmp_path / "t.parquet"
+    r = invoke("sweep", scn, "--vary", VARY[0], "--vary", VARY[1], "--workers", "1", "-o", out)
+    assert r.exit_code == 0, r.output
+    schema = pq.read_schema(out)
+    units = {f.name: f.metadata[b"unit"].decode() for f in schema}
+    assert units == {"case": "", "ships.initial.horizontal_speed": "m/s",
+                     "body.terrain.slope_deg": "deg", "outcome": "", "t_outcome": "s",
+                     "max_tilt_deg": "deg", "max_penetration": "m", "peak_normal_force": "N",
+                     "slide_distance": "m", "energy_dissipated_j": "J", "fuel_used": "kg"}
+    assert all(f.metadata[b"description"] for f in schema)
+    assert b"horizontal_speed" in schema.field("ships.initial.horizontal_speed").metadata[
+        b"description"]
+    import duckdb
+    got = duckdb.sql(f"select count(*), count(outcome) from read_parquet('{out}')").fetchall()
+    assert got == [(12, 12)]
