@@ -273,3 +273,56 @@ def test_record_and_replay_view_their_run_or_say_why_not(tmp_path, monkeypatch):
     assert "-o OUT.rrd" in r.output.splitlines()[-1] and "Traceback" not in r.output
     r = invoke("replay", log, "--set", "sim.dt=0.02", "--view")
     assert r.exit_code == 1 and "could not open a window" in r.output.splitlines()[-1]
+
+
+FAR = """
+name = "far"
+duration = 3.0
+[[ships]]
+id = "near"
+[ships.initial]
+altitude = 1.0
+[[ships]]
+id = "far"
+spawn_t = 1.5
+[ships.initial]
+altitude = 1.0
+east = 800.0
+north = -300.0
+"""
+
+
+def test_the_fleet_view_keeps_every_ship_in_frame(tmp_path):
+    """Issue 37: a ship 850 m away that joins halfway was left out of frame (a view framed by
+    what it showed when it opened). The fleet view's and the site view's cameras now hold every
+    ship's every sampled position (and every drawn ship's feet) in a 20-degree cone about their
+    line of sight, over the whole run; the saved layout carries those cameras."""
+    import rerun.blueprint as rrb
+
+    from touchdown.view import rerun_view as rv
+    from touchdown.view.scene import EYE_HALF_ANGLE_DEG, framing_eye, read_run
+    scn = tmp_path / "far.toml"
+    scn.write_text(FAR)
+    log = tmp_path / "far.mcap"
+    assert invoke("record", scn, "-o", log).exit_code == 0
+    run = read_run(log)
+    ships = run.overview.pos_site_m
+    assert ships[:, 0].max() > 790 and ships[:, 1].min() < -290
+    feet = np.concatenate([t.feet_site_m.reshape(-1, 3) for t in run.ships])
+    views = {}
+
+    def walk(node):
+        if isinstance(node, rrb.Spatial3DView):
+            views[node.origin] = node
+        for c in getattr(node, "contents", None) or []:
+            if not isinstance(c, str):
+                walk(c)
+    walk(rv.blueprint(rv.Layout((run,))).root_container)
+    for origin, pts in (("fleet", ships), ("world", feet)):
+        eye, target = framing_eye(pts)
+        sight = (target - eye) / np.linalg.norm(target - eye)
+        to = pts - eye
+        angles = np.degrees(np.arccos(np.clip(to @ sight / np.linalg.norm(to, axis=1), -1, 1)))
+        assert angles.max() <= EYE_HALF_ANGLE_DEG + 1e-9, (origin, angles.max())
+        assert str(views[origin].origin) == origin and "EyeControls3D" in views[origin].properties
+    assert invoke("view", log, "-o", tmp_path / "far.rrd").exit_code == 0

@@ -28,7 +28,7 @@ import numpy as np
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.errors import TouchdownError
 from touchdown.view.scene import (ENERGY_PARTS, STATE_COLORS, LanderShape, Run, ShipTrack,
-                                  read_run, terrain_grid)
+                                  framing_eye, read_run, terrain_grid)
 
 FORCE_COLORS = {"normal": (40, 200, 80), "friction": (255, 140, 0), "weight": (150, 110, 255),
                 "thrust": (255, 70, 40)}
@@ -306,6 +306,14 @@ no thrust and no RCS it never rises.
 """
 
 
+def _eye(rrb, points: np.ndarray):
+    """A camera holding every one of ``points`` in view over the whole run (view.scene
+    .framing_eye), not only what is shown when the view opens."""
+    position, target = framing_eye(points)
+    return rrb.EyeControls3D(position=position.tolist(), look_target=target.tolist(),
+                             eye_up=[0.0, 0.0, 1.0])
+
+
 def blueprint(layout: Layout):
     import rerun.blueprint as rrb
 
@@ -316,14 +324,20 @@ def blueprint(layout: Layout):
                                 plot_legend=rrb.PlotLegend(corner="RightTop", visible=True))
              for panel, title, _ in PANELS]
     if any(r.overview is not None for r in layout.runs):  # a fleet: the whole of it first
-        plots = [rrb.Spatial3DView(origin="fleet", name="Fleet: every ship, coloured by state"),
+        fleet = np.concatenate([r.overview.pos_site_m for r in layout.runs
+                                if r.overview is not None])
+        plots = [rrb.Spatial3DView(origin="fleet", name="Fleet: every ship, coloured by state",
+                                   eye_controls=_eye(rrb, fleet)),
                  rrb.TimeSeriesView(origin="fleet_states", name="Fleet: ships per state",
                                     plot_legend=rrb.PlotLegend(corner="RightTop", visible=True))
                  ] + plots
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Spatial3DView(origin="world", name="Landing site (east, north, up; m)"),
+                rrb.Spatial3DView(origin="world", name="Landing site (east, north, up; m)",
+                                  eye_controls=_eye(rrb, np.concatenate(
+                                      [t.feet_site_m.reshape(-1, 3) for r in layout.runs
+                                       for t in r.ships] + [np.zeros((0, 3))]))),
                 rrb.StateTimelineView(origin="status", name="Status"),
                 row_shares=[4, 1]),
             rrb.Grid(*plots, grid_columns=2, name="Over time"),

@@ -327,6 +327,33 @@ def _track(params: Params, i: int, col: dict[str, np.ndarray], tick: np.ndarray,
         thrust_site_n=measure.to_site(thrust, c, s), slip_site_mps=slip, series=series)
 
 
+#: the half-angle of the cone a view's camera must hold every ship in (a 3-D view's vertical
+#: field of view is wider; its narrower side keeps this much at the usual aspect ratios)
+EYE_HALF_ANGLE_DEG = 20.0
+#: where the camera looks from, relative to what it frames: from the south-west, above
+EYE_DIRECTION = (-0.55, -0.75, 0.65)
+
+
+def framing_eye(points: np.ndarray, half_angle_deg: float = EYE_HALF_ANGLE_DEG,
+                least_radius_m: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+    """(eye position, look target) of a camera that holds every one of ``points`` (N,3, site
+    frame) in the cone of ``half_angle_deg`` about its line of sight: the target the centre of
+    their bounding box, the eye on EYE_DIRECTION at the distance where the box's bounding
+    sphere (at least ``least_radius_m``) fits that cone. A view that frames its scene by the
+    data shown at one moment leaves out a ship that is elsewhere then, or comes later."""
+    pts = np.asarray(points, float).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if pts.shape[0] == 0:
+        pts = np.zeros((1, 3))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    target = 0.5 * (lo + hi)
+    radius = max(least_radius_m, float(np.linalg.norm(hi - lo)) * 0.5)
+    d = np.asarray(EYE_DIRECTION, float)
+    d /= np.linalg.norm(d)
+    distance = radius / math.sin(math.radians(half_angle_deg))
+    return target + distance * d, target
+
+
 def terrain_grid(params: Params, east_m: tuple[float, float], north_m: tuple[float, float],
                  n: int = 81) -> tuple[np.ndarray, np.ndarray]:
     """The body's surface over a rectangle of the site frame: vertices (n*n, 3) and triangles.
