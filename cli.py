@@ -260,6 +260,8 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
             sel = ex.Selection(ships or None, first, last, columns)
             info = ex.table_info(reader, columns)
             last_tick = {"tick": None}
+            # the events beside a Parquet table: read with the ticks, in the same pass
+            read_events = [] if beside is not None else None
 
             def seen(blocks):
                 for blk in blocks:
@@ -279,7 +281,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                 # Parquet: a row group per block (large); the text formats: smaller blocks,
                 # as each block's text is held whole while it is formatted
                 blocks = seen(ex.tick_blocks(reader, sel, 64 << 20 if fmt == "parquet"
-                                             else 16 << 20))
+                                             else 16 << 20, events=read_events))
                 if fmt == "parquet":
                     ex.write_parquet(blocks, info, out)
                 elif fmt == "csv":
@@ -294,7 +296,7 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     with open(tmp, "wb") as f:
                         write(f)
                 if beside is not None:
-                    ex.write_events(ex.event_table(reader, sel.ships, first, last),
+                    ex.write_events(ex.event_table(reader, sel.ships, first, last, read_events),
                                     ex.table_info(reader, ex.EVENT_NAMES), "parquet",
                                     str(tmp_beside))
                     tmp_beside.replace(beside)

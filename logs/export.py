@@ -72,8 +72,9 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
             yield row
 
 
-def event_rows(reader: LogReader) -> Iterator[dict]:
-    for ev in reader.events():
+def event_rows(reader: LogReader, read: list[bytes] | None = None) -> Iterator[dict]:
+    """One row per event (``read``: the event records already read, LogReader.events)."""
+    for ev in reader.events(read):
         yield {
             "event": ev.event, "tick": ev.tick, "t": ev.t_s,
             # the instant it happened inside the tick (a log before 0.6: the tick's end)
@@ -248,11 +249,14 @@ def table_info(reader: LogReader, columns: tuple[str, ...] = TICK_NAMES) -> Tabl
 
 
 def tick_blocks(reader: LogReader, sel: Selection = Selection(),
-                block_bytes: int = 64 << 20, attitude: bool = False) -> Iterator[ColumnBlock]:
+                block_bytes: int = 64 << 20, attitude: bool = False,
+                events: list | None = None) -> Iterator[ColumnBlock]:
     """The tick table of ``reader`` as blocks of columns (module comment above), each block
     decoded in one compiled pass (LogReader.blocks). A number that is not finite (only a damaged
     log holds one) is a LogError naming the tick, ship and field. ``attitude``: each block also
-    holds each row's attitude in the landing-site frame (ColumnBlock.quat_site_xyzw)."""
+    holds each row's attitude in the landing-site frame (ColumnBlock.quat_site_xyzw).
+    ``events``: a list the event records of the same ticks are appended to, read in the same
+    pass (LogReader.blocks)."""
     ids = reader.ship_table().ids
     cols = sel.columns
     derived = attitude or any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
@@ -267,7 +271,7 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
                                f"{', '.join(ids[:10])}{', ...' if len(ids) > 10 else ''})")
         keep_keys = np.array(sorted(table.key(s) for s in sel.ships), np.int64)
     for b in reader.blocks(sel.first, sel.last, wanted=wanted, block_bytes=block_bytes,
-                           reuse=True):
+                           reuse=True, events=events):
         if keep_keys is not None:
             b = b.take(np.flatnonzero(np.isin(b.keys, keep_keys)))
         if b.rows == 0:
@@ -288,7 +292,10 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
     c = b.columns
     tick = b.tick_of_row()
     t = np.repeat(b.t_s, b.counts)
-    present_rows = {name: np.repeat(p, b.counts) for name, p in b.present.items()}
+    whole = np.ones(R, bool)
+    # (a field on every tick: no per-row mask to make, the common case)
+    present_rows = {name: whole if p.all() else np.repeat(p, b.counts)
+                    for name, p in b.present.items()}
     for name in cols:
         if name == "tick":
             out[name] = tick
@@ -334,6 +341,9 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
     for name, a in out.items():
         if a.dtype.kind != "f":
             continue
+        with np.errstate(all="ignore"):
+            if np.isfinite(np.add.reduce(a)):  # every number finite (a sum that overflows
+                continue  # or meets a NaN or an infinity is looked at number by number)
         bad = ~np.isfinite(a)
         if name in missing:
             bad &= ~missing[name]
@@ -536,10 +546,12 @@ def _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out):
 
 
 def event_table(reader: LogReader, ships: tuple[str, ...] | None = None,
-                first: int | None = None, last: int | None = None) -> dict[str, list]:
-    """The events (optionally of some ships, in ticks first..last) as columns."""
+                first: int | None = None, last: int | None = None,
+                read: list[bytes] | None = None) -> dict[str, list]:
+    """The events (optionally of some ships, in ticks first..last) as columns (``read``: the
+    event records already read with the ticks, tick_blocks' ``events``)."""
     cols: dict[str, list] = {name: [] for name in EVENT_NAMES}
-    for row in event_rows(reader):
+    for row in event_rows(reader, read):
         if ships is not None and row["ship_id"] not in ships:
             continue
         if (first is not None and row["tick"] < first) or (last is not None and

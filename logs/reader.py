@@ -353,12 +353,14 @@ class LogReader:
 
     def blocks(self, first: int | None = None, last: int | None = None,
                wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
-               reuse: bool = False) -> Iterator[TickBlock]:
+               reuse: bool = False, events: list | None = None) -> Iterator[TickBlock]:
         """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
         records at a time, each block decoded and checked in one compiled pass
         (logs.decode.decode_block); ``wanted``: the fields to gather (default all). ``reuse``:
         every block's columns in one buffer, valid until the next block is asked for (a reader
-        that converts or copies each block at once saves the fresh pages' faults)."""
+        that converts or copies each block at once saves the fresh pages' faults). ``events``:
+        a list the event records of the same ticks are appended to (as bytes), read in the same
+        pass (they lie in the same chunks: a second pass would decompress them again)."""
         start = None if first is None else self.tick_time_ns(first)
         end = None if last is None else self.tick_time_ns(last)
         dt_ns = self.tick_time_ns(1)
@@ -380,9 +382,13 @@ class LogReader:
             return decode_block(segments, None, ticks, fmt, table, len(self.scenario.ship_ids),
                                 wanted, str(self.path), columns)
 
-        for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status, self._tick_limits(),
-                                                views=True, walk=self._walk):
+        topics = {TOPIC_TICKS} if events is None else {TOPIC_TICKS, TOPIC_EVENTS}
+        for topic, t_ns, data in iter_messages(self._file, str(self.path), topics, start,
+                                               end, self.status, self._tick_limits(),
+                                               views=True, walk=self._walk):
+            if topic == TOPIC_EVENTS:
+                events.append(bytes(data))
+                continue
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
             n = len(data)
@@ -459,8 +465,11 @@ class LogReader:
                     raise LogError(f"{self.path}: {exc}") from None
         return Timeline.of(spawns, retires, commands)
 
-    def events(self) -> Iterator[pb.TransitionEvent]:
-        for _topic, data in self._iter({TOPIC_EVENTS}):
+    def events(self, read: list[bytes] | None = None) -> Iterator[pb.TransitionEvent]:
+        """The event records, in log order (``read``: those already read, by blocks' ``events``,
+        rather than the log's)."""
+        source = read if read is not None else (data for _t, data in self._iter({TOPIC_EVENTS}))
+        for data in source:
             try:
                 yield pb.TransitionEvent.FromString(data)
             except Exception as exc:
