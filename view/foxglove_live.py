@@ -206,12 +206,15 @@ def serve(url: str = DEFAULT_URL, prefix: str = "galaxy", port: int = 8765,
     cluster = not isinstance(client, redis.Redis)
     keys = rio.Keys(prefix, cluster=cluster)
     telemetry = keys.telemetry
-    scene_json = client.hget(keys.config, "scenario_json") or b""
+    try:  # (a reader's ACL user may not see the config: the defaults then)
+        scene_json = client.hget(keys.config, "scenario_json") or b""
+        shards = int(client.hget(keys.config, "shards") or 1)
+    except (redis.exceptions.RedisError, ValueError):
+        scene_json, shards = b"", 1
     try:
         scene = json.loads(scene_json) if scene_json else {}
     except ValueError:
         scene = {}
-    shards = int(client.hget(keys.config, "shards") or 1)
     fleet = LiveFleet.of(scene)
     scenario = parse_scene(scene)
     if scenario is not None:  # the body as the service resolved it
