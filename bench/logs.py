@@ -1,7 +1,8 @@
 """Logs at fleet scale: ``touchdown bench logs [--quick]``.
 
 Records a fleet log (1,000 ships, 2,001 ticks: 2 million ship-ticks; ``--quick``: 200 ships, 401
-ticks), then runs each command on it as a whole command (a fresh process, pinned to one core;
+ticks), then runs each command on it (the exports, Foxglove's among them, view, verify, doctor)
+as a whole command (a fresh process, pinned to one core;
 wall time and peak memory, startup included) and prints the figures as ratios against the old
 path measured in the same run: the per-row JSON Lines export that ``export`` was before issue 25
 (a dict per row, ``json.dumps`` per row, the tick records decoded in Python). Then where the time
@@ -149,6 +150,11 @@ def main(quick: bool = False) -> None:
                            ("doctor", ["doctor", log])):
             w, c, m = run([cli, *args])
             print(f"{name:36} {w:7.2f} {c:7.2f} {rows / c:11,.0f} {'':>7} {m:8.0f}")
+        fox = os.path.join(tmp, "foxglove.mcap")  # Foxglove's schemas (issue 37)
+        w, c, m = run([cli, "export", log, "--format", "foxglove", "-o", fox])
+        print(f"{'export --format foxglove':36} {w:7.2f} {c:7.2f} {rows / c:11,.0f} "
+              f"{os.path.getsize(fox) / 1e6:7.0f} {m:8.0f}")
+        os.unlink(fox)
         w, c, m = run(["-c", "import cli"])
         print(f"{'(python, import cli: startup)':36} {w:7.2f} {c:7.2f} {'':>11} {'':>7} {m:8.0f}")
         print("a Parquet export, in this process (CPU seconds; each line includes the ones above "
