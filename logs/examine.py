@@ -38,7 +38,7 @@ from typing import IO
 import numpy as np
 
 from touchdown.logs import LogError
-from touchdown.logs.mcap_records import (CHUNK_OPS, DATA_END_RECORD, DATA_OPS, FOOTER_RECORD,
+from touchdown.logs.mcap_records import (CHUNK_OPS, DATA_OPS, FOOTER_RECORD,
                                          MAGIC, NAME, OP, SUMMARY_OPS, RecordError, chunk_header,
                                          parse, records)
 from touchdown.logs.safe_read import ReadLimits, decompress_chunk
@@ -350,6 +350,9 @@ class _Doctor:
         if not rec.encoding and len(rec.data):
             x.error("schema", pos, f"schema {rec.id} has an empty encoding but "
                                    f"{len(rec.data):,} bytes of data")
+        elif not rec.encoding and not summary:
+            x.warn("schema", pos, f"schema {rec.id} ({rec.name!r}) has an empty encoding and "
+                                  f"no data")
         previous = self.schemas.get(rec.id)
         if previous is not None and previous != key:
             x.error("schema", pos, f"two schema records with id {rec.id} differ")

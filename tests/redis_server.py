@@ -60,3 +60,12 @@ def redis_url():
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def remove_prefix(url: str, prefix: str) -> None:
+    """Delete a test's own keys (``prefix:*``), never anything else: no flush."""
+    client = redis.Redis.from_url(url)
+    keys = list(client.scan_iter(f"{prefix}:*", count=10_000))
+    for i in range(0, len(keys), 1000):
+        client.delete(*keys[i:i + 1000])
+    client.close()

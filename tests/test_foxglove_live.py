@@ -30,6 +30,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 from websockets.sync.client import connect
 
 from redis_server import redis_url  # noqa: F401 - the fixture
+from redis_server import remove_prefix
 from touchdown.proto import service_pb2 as spb
 from touchdown.proto import views_pb2
 from touchdown.sim import measure
@@ -72,15 +73,6 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, str(ROOT / "cli.py"), *args]
 
 
-def _cleanup(url: str, prefix: str) -> None:
-    """The test's own keys only (never a flush)."""
-    client = redis.Redis.from_url(url)
-    keys = list(client.scan_iter(f"{prefix}:*", count=10_000))
-    for i in range(0, len(keys), 1000):
-        client.delete(*keys[i:i + 1000])
-    client.close()
-
-
 def _wait(pred, seconds: float, what: str) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
@@ -114,7 +106,7 @@ def service(redis_url, tmp_path):  # noqa: F811
             proc.kill()
         err.close()
         client.close()
-        _cleanup(redis_url, prefix)
+        remove_prefix(redis_url, prefix)
 
 
 def test_foxglove_connects_to_a_running_service_and_sees_its_fleet(service, tmp_path):

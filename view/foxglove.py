@@ -56,6 +56,7 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
+from touchdown.logs.codec import varint
 from touchdown.proto import views_pb2
 from touchdown.sim.compiled import separate
 from touchdown.sim.enums import SurfaceState
@@ -170,10 +171,10 @@ class LanderCache:
         for ship_id in deleted:
             d = SceneEntityDeletion(timestamp=_stamp(t_ns), type=SceneEntityDeletion.MATCHING_ID,
                                     id=ship_id).SerializeToString()
-            parts.append(b"\x0a" + _varint(len(d)) + d)
+            parts.append(b"\x0a" + varint(len(d)) + d)
         for key, state in ships:
             body = stamp + self._entity_rest(key, state)
-            parts.append(b"\x12" + _varint(len(body)) + body)
+            parts.append(b"\x12" + varint(len(body)) + body)
         return b"".join(parts)
 
 
@@ -202,6 +203,18 @@ def ground_update(verts: np.ndarray, tris: np.ndarray, t_ns: int = 0) -> bytes:
     return SceneUpdate(entities=[e]).SerializeToString()
 
 
+def ground_around(params, pos_site_m: np.ndarray, reach_m: float, n: int = 41) -> bytes:
+    """The body's surface (with its terrain: view.scene.terrain_grid) around ships at
+    ``pos_site_m``: their extent and a margin of max(5 landers' reach, 50 m, a quarter of the
+    extent), as a SceneUpdate in the frame ``site``."""
+    from touchdown.view.scene import terrain_grid
+    lo, hi = pos_site_m.min(axis=0), pos_site_m.max(axis=0)
+    margin = max(5.0 * reach_m, 50.0, 0.25 * float(max(hi[0] - lo[0], hi[1] - lo[1])))
+    verts, tris = terrain_grid(params, (lo[0] - margin, hi[0] + margin),
+                               (lo[1] - margin, hi[1] + margin), n=n)
+    return ground_update(verts, tris)
+
+
 def event_log(event: str, ship_id: str, from_state: int, to_state: int, t_event_s: float,
               v_radial_mps: float, tilt_deg: float, player_id: str = "") -> bytes:
     """A transition as a foxglove.Log: stamped with the instant it happened, named by its
@@ -223,23 +236,14 @@ def log_message(t_ns: int, level: int, text: str, name: str) -> bytes:
 
 
 # -- per-tick messages of a fleet, as bytes --------------------------------------------------------
-def _varint(n: int) -> bytes:
-    out = bytearray()
-    while True:
-        b, n = n & 0x7F, n >> 7
-        out.append(b | (0x80 if n else 0))
-        if not n:
-            return bytes(out)
-
-
 def _tag(number: int, wire: int) -> bytes:
-    return _varint(number << 3 | wire)
+    return varint(number << 3 | wire)
 
 
 def _string_table(strings: Sequence[str], number: int) -> tuple[np.ndarray, np.ndarray]:
     """Each string as a length-delimited field ``number`` (tag, length, UTF-8), concatenated,
     with the offsets where each begins (and the end)."""
-    parts = [_tag(number, 2) + _varint(len(b)) + b for b in (s.encode() for s in strings)]
+    parts = [_tag(number, 2) + varint(len(b)) + b for b in (s.encode() for s in strings)]
     off = np.zeros(len(parts) + 1, np.int64)
     np.cumsum([len(p) for p in parts], out=off[1:])
     return np.frombuffer(b"".join(parts), np.uint8).copy() if parts else \
@@ -315,7 +319,7 @@ class Fixed:
                 offsets.append(o)
                 o += 8
             else:
-                const(_tag(number, 2) + _varint(9 * len(what)))
+                const(_tag(number, 2) + varint(9 * len(what)))
                 for k, name in enumerate(what, start=1):
                     const(_tag(k, 1))
                     names.append(name)
@@ -391,14 +395,14 @@ class RepeatedEncoder:
 def timestamp_field(number: int, t_ns: int) -> bytes:
     """A google.protobuf.Timestamp field as protobuf writes it (zero parts left out)."""
     sec, nanos = divmod(int(t_ns), 1_000_000_000)
-    inner = (b"\x08" + _varint(sec) if sec else b"") + (b"\x10" + _varint(nanos) if nanos else b"")
-    return _tag(number, 2) + _varint(len(inner)) + inner
+    inner = (b"\x08" + varint(sec) if sec else b"") + (b"\x10" + varint(nanos) if nanos else b"")
+    return _tag(number, 2) + varint(len(inner)) + inner
 
 
 #: FrameTransform: timestamp 1, parent 2 (the tick's common bytes), child 3 (the ship's id),
 #: translation 4 and rotation 5 (fixed)
 _TRANSFORM = Fixed.of([(4, ("x", "y", "z")), (5, ("qx", "qy", "qz", "qw"))])
-_PARENT = _tag(2, 2) + _varint(len(SITE_FRAME)) + SITE_FRAME.encode()
+_PARENT = _tag(2, 2) + varint(len(SITE_FRAME)) + SITE_FRAME.encode()
 #: ShipValues: ship_id 1, state 2, then every value in number order
 _VALUES = Fixed.of([(f.number, f.name) for f in views_pb2.ShipValues.DESCRIPTOR.fields
                     if f.name in VALUE_FIELDS])
@@ -437,7 +441,7 @@ class FleetEncoder:
                ) -> list[bytes]:
         """A FleetValues per tick; ``columns``: every VALUE_FIELDS name (NaN where a source
         does not hold it: a format-1 log's velocities between keyframes)."""
-        heads = [(b"\x08" + _varint(int(tk)) if tk else b"")
+        heads = [(b"\x08" + varint(int(tk)) if tk else b"")
                  + (b"\x11" + struct.pack("<d", t) if t != 0.0 else b"")
                  for tk, t in zip(ticks, t_s)]
         return self._values.encode(heads, [b""] * len(heads), counts, keys, states, columns)
@@ -451,6 +455,7 @@ def tilt_deg(cos_tilt: np.ndarray) -> np.ndarray:
 
 __all__ = ["SITE_FRAME", "TOPIC_TRANSFORMS", "TOPIC_LANDERS", "TOPIC_GROUND", "TOPIC_EVENTS",
            "TOPIC_SHIPS", "SCHEMAS", "VALUE_FIELDS", "LEVEL_BY_STATE", "scene_period",
-           "lander_entity", "LanderCache", "scene_update", "ground_update", "event_log",
+           "lander_entity", "LanderCache", "scene_update", "ground_update", "ground_around",
+           "event_log",
            "log_message", "timestamp_field",
            "Fixed", "RepeatedEncoder", "FleetEncoder", "tilt_deg"]

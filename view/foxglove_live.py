@@ -38,9 +38,8 @@ from foxglove_schemas_protobuf.Log_pb2 import Log
 
 from touchdown.sim.enums import EventKind, SurfaceState
 from touchdown.view import foxglove as fx
-from touchdown.view.live import connect, entry_before, read_streams
+from touchdown.view.live import ServiceStreams
 from touchdown.view.rerun_view import ViewError
-from touchdown.view.scene import LanderShape, terrain_grid
 
 #: how often the ground and the whole fleet's landers are sent again (wall seconds), for
 #: clients that connected since, and the least time between two fleet updates after changes
@@ -202,31 +201,21 @@ def serve(url: str = DEFAULT_URL, prefix: str = "galaxy", port: int = 8765,
     import foxglove
     from foxglove.websocket import Capability
 
-    client = connect(url, password)
-    cluster = not isinstance(client, redis.Redis)
-    keys = rio.Keys(prefix, cluster=cluster)
-    telemetry = keys.telemetry
-    try:  # (a reader's ACL user may not see the config: the defaults then)
-        scene_json = client.hget(keys.config, "scenario_json") or b""
-        shards = int(client.hget(keys.config, "shards") or 1)
-    except (redis.exceptions.RedisError, ValueError):
-        scene_json, shards = b"", 1
-    try:
-        scene = json.loads(scene_json) if scene_json else {}
-    except ValueError:
-        scene = {}
+    streams = ServiceStreams(url, prefix, password, history)
+    client, keys, scene = streams.client, streams.keys, streams.scene
     fleet = LiveFleet.of(scene)
     scenario = parse_scene(scene)
     if scenario is not None:  # the body as the service resolved it
         fleet.radius = float(scenario.params.body.radius_m)
         fleet.omega = float(scenario.params.body.omega_radps)
-    legs = Legs(client, keys, shards, scenario)
+    legs = Legs(client, keys, streams.shards, scenario)
     ctx = foxglove.Context()
     channels = _Channels(ctx)
     try:
         server = foxglove.start_server(name=f"touchdown ({prefix})", host=host, port=port,
                                        capabilities=[Capability.Time], context=ctx)
     except Exception as exc:  # noqa: BLE001 - the SDK's error: a port in use, a bad host
+        streams.close()
         raise ViewError(f"--foxglove {port}: cannot serve on {host}:{port} ({exc})",
                         exit_code=2) from None
     if ready is not None:
@@ -235,49 +224,30 @@ def serve(url: str = DEFAULT_URL, prefix: str = "galaxy", port: int = 8765,
     enc.ids(fleet.ids)
     landers = fx.LanderCache(fleet.ids, _Column(fleet, 0), _Column(fleet, 1),
                              label=True)
-    last = {telemetry: "0", **{s: "0" for s in keys.all_events(shards)}}
-    for stream in last:
-        tail = client.xrevrange(stream, count=history)
-        if tail:
-            last[stream] = entry_before(tail[-1][0].decode())
     served = Served()
     t_ns = 0
     sent_scene = sent_ground = -math.inf
     gone: set[int] = set()
-    end = None if seconds is None else time.monotonic() + seconds
     try:
-        while end is None or time.monotonic() < end:
-            block = 100 if end is None else max(1, int(min(100, (end - time.monotonic()) * 1e3)))
-            try:
-                reply = read_streams(client, last, block, cluster)
-            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
-                time.sleep(0.25)
-                continue
-            for stream, entries in reply or []:
-                stream = stream.decode()
-                for entry_id, fields in entries:
-                    last[stream] = entry_id.decode()
-                    if stream == telemetry:
-                        try:
-                            sample = spb.Telemetry.FromString(fields.get(b"proto", b""))
-                        except Exception:  # noqa: BLE001 - a damaged entry: skipped
-                            continue
-                        t_ns = max(t_ns, _sample(sample, fleet, legs, enc, channels))
-                        served.samples += 1
-                    else:
-                        k = _event(fields, fleet, channels, t_ns)
-                        if k is not None:
-                            gone.add(k)
-                        served.events += 1
+        for batch in streams.batches(seconds, block_ms=100):
+            for stream, fields in batch:
+                if stream == streams.telemetry:
+                    try:
+                        sample = spb.Telemetry.FromString(fields.get(b"proto", b""))
+                    except Exception:  # noqa: BLE001 - a damaged entry: skipped
+                        continue
+                    t_ns = max(t_ns, _sample(sample, fleet, legs, enc, channels))
+                    served.samples += 1
+                else:
+                    k = _event(fields, fleet, channels, t_ns)
+                    if k is not None:
+                        gone.add(k)
+                    served.events += 1
             now = time.monotonic()
             if t_ns and now - sent_ground >= RESEND_S and fleet.pos and scenario is not None:
-                pos = np.array(list(fleet.pos.values()))
                 reach = max((a + h for a, h in fleet.legs.values()), default=5.0)
-                lo, hi = pos.min(axis=0), pos.max(axis=0)
-                margin = max(5.0 * reach, 50.0, 0.25 * float(max(hi[0] - lo[0], hi[1] - lo[1])))
-                verts, tris = terrain_grid(scenario.params, (lo[0] - margin, hi[0] + margin),
-                                           (lo[1] - margin, hi[1] + margin), n=21)
-                channels.log(fx.TOPIC_GROUND, fx.ground_update(verts, tris, t_ns), t_ns)
+                channels.log(fx.TOPIC_GROUND, fx.ground_around(
+                    scenario.params, np.array(list(fleet.pos.values())), reach, n=21), t_ns)
                 sent_ground = now
             if t_ns and (now - sent_scene >= RESEND_S or (
                     fleet.changed and now - sent_scene >= SCENE_MIN_S)):
@@ -293,7 +263,7 @@ def serve(url: str = DEFAULT_URL, prefix: str = "galaxy", port: int = 8765,
         pass
     finally:
         server.stop()
-        client.close()
+        streams.close()
     served.messages = channels.sent
     served.ships = len(fleet.state)
     return served

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
@@ -22,7 +21,6 @@ from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import fleet_params, scenario_of
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.view import foxglove as fx
-from touchdown.view.scene import terrain_grid
 
 class FoxgloveWriter:
     """The Foxglove channels (view.foxglove.SCHEMAS) on an mcap Writer: ``put(topic, t_ns,
@@ -92,16 +90,6 @@ class Exported:
     last_tick: int | None = None
 
 
-def _ground(params, pos: np.ndarray, reach: float) -> bytes:
-    """The surface around where the ships are at the first tick: their extent and a margin of
-    max(5 landers' reach, 50 m, a quarter of the extent)."""
-    lo, hi = pos.min(axis=0), pos.max(axis=0)
-    margin = max(5.0 * reach, 50.0, 0.25 * float(max(hi[0] - lo[0], hi[1] - lo[1])))
-    verts, tris = terrain_grid(params, (lo[0] - margin, hi[0] + margin),
-                               (lo[1] - margin, hi[1] + margin), n=41)
-    return fx.ground_update(verts, tris)
-
-
 def write(reader: LogReader, out: str | os.PathLike, sel: Selection = Selection(),
           scene_period_s: float | None = None, block_bytes: int = 32 << 20) -> Exported:
     """``reader``'s log (the ships and ticks ``sel`` picks; its columns are ignored: every
@@ -161,7 +149,7 @@ def write(reader: LogReader, out: str | os.PathLike, sel: Selection = Selection(
                 rows = slice(starts[k], starts[k] + counts[k])
                 if res.first_tick is None:
                     res.first_tick = tk
-                    fw.put(fx.TOPIC_GROUND, t, _ground(params, pos[rows], float(
+                    fw.put(fx.TOPIC_GROUND, t, fx.ground_around(params, pos[rows], float(
                         (sh.leg_radius_m + sh.com_height_m).max())))
                 fw.put(fx.TOPIC_TRANSFORMS, t, transforms[k])
                 fw.put(fx.TOPIC_SHIPS, t, ship_values[k])

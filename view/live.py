@@ -108,54 +108,85 @@ def read_streams(client, last: dict, block_ms: int, cluster: bool):
     return out
 
 
+class ServiceStreams:
+    """What a view of a running service follows: its telemetry stream and event stream(s), from
+    their last ``history`` entries on, and its config (its scene and shard count, where this
+    client may read them: defaults otherwise). ``batches`` yields each read's entries."""
+
+    def __init__(self, url: str, prefix: str = "galaxy", password: str | None = None,
+                 history: int = 2000):
+        self.client = connect(url, password)
+        self.cluster = not isinstance(self.client, redis.Redis)
+        self.keys = rio.Keys(prefix, cluster=self.cluster)
+        self.telemetry = self.keys.telemetry
+        try:  # (a reader's ACL user may not see the config)
+            scene_json = self.client.hget(self.keys.config, "scenario_json") or b""
+            self.shards = int(self.client.hget(self.keys.config, "shards") or 1)
+        except (redis.exceptions.RedisError, ValueError):
+            scene_json, self.shards = b"", 1
+        try:
+            self.scene = json.loads(scene_json) if scene_json else {}
+        except ValueError:
+            self.scene = {}
+        self.last = {self.telemetry: "0",
+                     **{stream: "0" for stream in self.keys.all_events(self.shards)}}
+        for stream in self.last:
+            tail = self.client.xrevrange(stream, count=history)
+            if tail:
+                self.last[stream] = entry_before(tail[-1][0].decode())
+
+    def batches(self, seconds: float | None, block_ms: int = 200):
+        """Each read's entries as a list of (stream, fields), for ``seconds`` (None: until the
+        caller stops); an empty list when nothing came (the caller's periodic work goes on).
+        Redis away: a short wait and another read."""
+        end = None if seconds is None else time.monotonic() + seconds
+        while end is None or time.monotonic() < end:
+            block = block_ms if end is None else max(
+                1, int(min(block_ms, (end - time.monotonic()) * 1e3)))
+            try:
+                reply = read_streams(self.client, self.last, block, self.cluster)
+            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
+                time.sleep(0.25)
+                continue
+            out = []
+            for stream, entries in reply or []:
+                stream = stream.decode()
+                for entry_id, fields in entries:
+                    self.last[stream] = entry_id.decode()
+                    out.append((stream, fields))
+            yield out
+
+    def close(self) -> None:
+        self.client.close()
+
+
 def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
            password: str | None = None, history: int = 2000) -> int:
     """Log the fleet into ``rec`` as it arrives, for ``seconds`` (None: until Ctrl-C); starts
     from the last ``history`` telemetry samples and events. Returns the samples drawn."""
     import rerun as rr
 
-    client = connect(url, password)
-    cluster = not isinstance(client, redis.Redis)
-    keys = rio.Keys(prefix, cluster=cluster)
-    telemetry = f"{prefix}:telemetry"
-    scene_json = client.hget(keys.config, "scenario_json") or b""
-    scene = json.loads(scene_json) if scene_json else {}
-    shards = int(client.hget(keys.config, "shards") or 1)
-    fleet = Fleet(scene)
+    streams = ServiceStreams(url, prefix, password, history)
+    fleet = Fleet(streams.scene)
     rec.log("fleet", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    last = {telemetry: "0", **{stream: "0" for stream in keys.all_events(shards)}}
-    for stream in last:
-        tail = client.xrevrange(stream, count=history)
-        if tail:
-            last[stream] = entry_before(tail[-1][0].decode())
     drawn = 0
-    end = None if seconds is None else time.monotonic() + seconds
     try:
-        while end is None or time.monotonic() < end:
-            block = 200 if end is None else max(1, int(min(200, (end - time.monotonic()) * 1e3)))
-            try:
-                reply = read_streams(client, last, block, cluster)
-            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
-                time.sleep(0.25)
-                continue
+        for batch in streams.batches(seconds):
             changed = False
-            for stream, entries in reply or []:
-                stream = stream.decode()
-                for entry_id, fields in entries:
-                    last[stream] = entry_id.decode()
-                    if stream == telemetry:
-                        sample = spb.Telemetry.FromString(fields.get(b"proto", b""))
-                        fleet.add(sample)
-                        changed = True
-                        drawn += 1
-                    else:
-                        _event(rr, rec, fleet, fields)
+            for stream, fields in batch:
+                if stream == streams.telemetry:
+                    sample = spb.Telemetry.FromString(fields.get(b"proto", b""))
+                    fleet.add(sample)
+                    changed = True
+                    drawn += 1
+                else:
+                    _event(rr, rec, fleet, fields)
             if changed:
                 _draw(rr, rec, fleet)
     except KeyboardInterrupt:
         pass
     finally:
-        client.close()
+        streams.close()
     return drawn
 
 
