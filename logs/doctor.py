@@ -46,7 +46,7 @@ def report(path: str) -> tuple[list[str], bool]:
         lines.append(f"  {finding.line()}")
     bad = bool(x.errors)
     if x.data_crc == "absent":
-        lines.append("  note: no data section CRC (written before touchdown 0.8): a changed byte "
+        lines.append("  note: no data section CRC (written before the flight log had one): a changed byte "
                      "outside the chunks would go unnoticed")
     if any(f.part == "magic" for f in x.errors):
         lines.append("  verdict: damaged (not an MCAP file)")

@@ -244,7 +244,7 @@ class LogReader:
     def check_data_crc(self) -> bool | None:
         """The data section's bytes against the CRC its Data End record holds (one more read
         of the file); a mismatch is a problem of the structure (structure_note says it).
-        Returns whether it matched (None: no CRC, as in a log written before touchdown 0.8)."""
+        Returns whether it matched (None: no CRC, as in a log written before issue 37)."""
         ok = data_crc_matches(self._file, self.structure)
         if ok is False:
             self.structure.add("data end", self.structure.data_end,

@@ -412,8 +412,8 @@ def _cross_check(s: Structure, indexes: list, stats: dict | None) -> None:
 
 def data_crc_matches(f, s: Structure) -> bool | None:
     """Whether the data section's bytes (the file's first ``s.data_end`` bytes) have the CRC
-    its Data End record holds: None when it holds none (0: a log written before touchdown
-    0.8) or was not reached. Reads the data section once."""
+    its Data End record holds: None when it holds none (0: a log written before the writer
+    wrote one, issue 37) or was not reached. Reads the data section once."""
     if s.data_end < 0 or s.data_crc <= 0:
         return None
     f.seek(0)
