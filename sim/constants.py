@@ -26,3 +26,6 @@ MOON_GM_M3PS2 = 4.9048695e12
 #: Earth (WGS 84): equatorial radius, m, and GM, m^3/s^2.
 EARTH_RADIUS_M = 6378137.0
 EARTH_GM_M3PS2 = 3.986004418e14
+
+#: Most bumps a terrain may have (the compiled terrain's fixed table, sim.contact.TERRAIN_DTYPE).
+MAX_BUMPS = 1000

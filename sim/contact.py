@@ -36,13 +36,12 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.constants import MAX_BUMPS
 from touchdown.sim.vec import add, body_axes, cross, dot, fmax, norm, quat_rotate, scale, sub, \
     unit
 
 #: Columns of the terrain's bump table (one row per bump).
 BUMP_EAST, BUMP_NORTH, BUMP_RADIUS, BUMP_HEIGHT = 0, 1, 2, 3
-#: Most bumps a terrain may have.
-MAX_BUMPS = 1000
 
 #: The terrain as the kernels read it: one record (a pointer inside the kernels: no reference
 #: counting wherever a Ground goes).

@@ -15,17 +15,13 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Callable
 
-import numpy as np
-
 from touchdown.sim import constants as C
-from touchdown.sim import vec
-from touchdown.sim.compiled import entry, kernel, separate
-from touchdown.sim.contact import MAX_BUMPS, Ground, lowest_foot, lowest_foot_penetration
-from touchdown.sim.enums import HoldMode, SurfaceState
+from touchdown.sim.constants import MAX_BUMPS
+from touchdown.sim.enums import HoldMode
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams,
     SimParams, Terrain)
-from touchdown.sim.settings import REQUIRED, SurfaceNormal, in_table, landing_in
+from touchdown.sim.settings import REQUIRED, in_table, landing_in
 from touchdown.sim.state import Inputs, State
 from touchdown.sim.timeline import Command, Retire, Spawn, Timeline
 
@@ -145,20 +141,34 @@ class Scene:
     def ship(self, spec: dict) -> tuple[ShipParams, State]:
         """One ship's parameters and its state at tick 0 (sim.world turns it to the tick it joins
         at), by the same rules, checks and messages as a scenario's ``[[ships]]`` table."""
+        return self._ship(spec, True)
+
+    def ship_params(self, spec: dict) -> ShipParams:
+        """One ship's parameters as :meth:`ship` gives them, the ship not placed
+        (:func:`parse_params`)."""
+        return self._ship(spec, False)[0]
+
+    def _ship(self, spec: dict, place: bool) -> tuple[ShipParams, State | None]:
         table = {k: v for k, v in spec.items() if k not in TIMING_KEYS}
         sid, pid = table.get("id"), table.get("player_id")
-        if not isinstance(sid, str) or not (pid is None or isinstance(pid, str)):
-            scn = parse({**self.doc, "ships": [table]}, self.source)  # its message
+
+        def parsed() -> tuple[ShipParams, State | None]:
+            doc = {**self.doc, "ships": [table]}
+            if not place:
+                return parse_params(doc, self.source).ships, None
+            scn = parse(doc, self.source)
             return scn.params.ships, scn.initial
+
+        if not isinstance(sid, str) or not (pid is None or isinstance(pid, str)):
+            return parsed()  # its message
         try:
             key = json.dumps({k: v for k, v in table.items() if k not in ("id", "player_id")},
                              sort_keys=True, allow_nan=False)
         except (TypeError, ValueError, RecursionError):
             key = None
         hit = self._ships.get(key) if key is not None else None
-        if hit is None:
-            scn = parse({**self.doc, "ships": [table]}, self.source)
-            hit = (scn.params.ships, scn.initial)
+        if hit is None or (place and hit[1] is None):
+            hit = parsed()
             if key is not None:
                 if len(self._ships) >= SHIP_CACHE:
                     self._ships.clear()
@@ -166,6 +176,8 @@ class Scene:
         ships, initial = hit
         ships = dataclasses.replace(ships, ship_id=(sid,),
                                     player_id=(pid if pid is not None else "player-" + sid,))
+        if initial is None:
+            return ships, None
         return ships, State(rows=initial.rows.copy(), tick=initial.tick)
 
 
@@ -249,12 +261,29 @@ def apply_overrides(doc: dict, overrides: dict[str, Any], source: str) -> dict:
 def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Scenario:
     """Check and resolve a scenario document (a dict as ``tomllib`` or ``json`` gives it)."""
     try:
-        return _parse(doc, source, overrides)
+        return _build(*_checked(doc, source, overrides))
     except RecursionError:  # a document nested past Python's limit (copying or walking it)
         raise ScenarioError(source, "(structure)", "arrays or tables nested too deeply") from None
 
 
-def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario:
+def parse_params(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Params:
+    """The parameters :func:`parse` gives (its ships of tick 0), by the same checks and messages,
+    without placing the ships: the placing is compiled (sim.placement), and a tool that reads a
+    log's numbers with its scenario's parameters (``touchdown export``) then loads no compiled
+    code at all."""
+    try:
+        res, n_substeps = _checked(doc, source, overrides)
+    except RecursionError:
+        raise ScenarioError(source, "(structure)", "arrays or tables nested too deeply") from None
+    params = _params(res, n_substeps)
+    at_start = _at_start(res["ships"], params.sim.dt_s)
+    return params if len(at_start) == len(res["ships"]) else params.take(at_start)
+
+
+def _checked(doc: dict, source: str, overrides: dict[str, Any] | None
+             ) -> tuple[dict, list[int]]:
+    """The resolved document (every key checked, every default filled in) and each ship's
+    sub-steps a tick."""
     if overrides:
         doc = apply_overrides(doc, overrides, source)
     rd = _Reader(source)
@@ -360,7 +389,7 @@ def _parse(doc: dict, source: str, overrides: dict[str, Any] | None) -> Scenario
         _check_initial(rd, sh, con, pre + "initial.")
         ships.append(sh)
     resolved = {**top, "sim": sim, "contact": con, "body": body, "controller": ctl, "ships": ships}
-    return _build(resolved, _substeps(rd, sim, con, ships))
+    return resolved, _substeps(rd, sim, con, ships)
 
 
 #: Bounds on the work a scenario may ask for: a run does bounded work per tick.
@@ -483,29 +512,6 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
         rd.fail(pre + "tilt_deg", "a ship in contact must be tilted less than contact.tipped_angle_deg")
 
 
-@kernel
-def quat_from_axes(ex, ey, ez):
-    """The unit quaternion (w, x, y, z) of the rotation whose matrix has columns ex, ey, ez
-    (Shepperd's method: the largest of the four candidates' diagonals, for accuracy)."""
-    m00, m10, m20 = ex
-    m01, m11, m21 = ey
-    m02, m12, m22 = ez
-    tr = m00 + m11 + m22
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2
-        q = (0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s)
-    elif m00 > m11 and m00 > m22:
-        s = math.sqrt(1.0 + m00 - m11 - m22) * 2
-        q = ((m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s)
-    elif m11 > m22:
-        s = math.sqrt(1.0 + m11 - m00 - m22) * 2
-        q = ((m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s)
-    else:
-        s = math.sqrt(1.0 + m22 - m00 - m11) * 2
-        q = ((m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s)
-    return vec.quat_normalize(q)
-
-
 def _params_of(cls, section: str, tables: dict, **extra):
     """The dataclass of one section of the parameters from the resolved document: each setting
     landing there (sim.settings), its value converted (an enum's member for its string)."""
@@ -513,7 +519,8 @@ def _params_of(cls, section: str, tables: dict, **extra):
                **extra)
 
 
-def _build(res: dict, n_substeps: list[int]) -> Scenario:
+def _params(res: dict, n_substeps: list[int]) -> Params:
+    """The parameters of every ship of the resolved document ``res``, and of its scene."""
     sim, ships = res["sim"], res["ships"]
     tables = {"": res, "sim": sim, "contact": res["contact"], "body": res["body"],
               "controller": res["controller"]}
@@ -532,15 +539,25 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
         contact_omega_radps=[math.sqrt(s["stiffness_per_kg"]) for s in ships],
         n_substeps=n_substeps)
     ctl = _params_of(ControllerParams, "controller", tables)
-    params = Params(spar, cp, bp, shp, ctl)
-    initial = _initial_state(params, ships)
+    return Params(spar, cp, bp, shp, ctl)
+
+
+def _at_start(ships: list[dict], dt_s: float) -> list[int]:
+    """The ships present at tick 0 (the others join later), by their index."""
+    return [i for i, s in enumerate(ships) if _tick_of(s["spawn_t"], dt_s) == 0]
+
+
+def _build(res: dict, n_substeps: list[int]) -> Scenario:
+    from touchdown.sim.placement import initial_state  # compiled: loaded where ships are placed
+    ships = res["ships"]
+    params = _params(res, n_substeps)
+    spar = params.sim
+    initial = initial_state(params, ships)
     spawns, retires, commands = [], [], []
-    at_start = []
-    for i, s in enumerate(ships):
+    at_start = _at_start(ships, spar.dt_s)
+    for s in ships:
         joins = _tick_of(s["spawn_t"], spar.dt_s)
-        if joins == 0:
-            at_start.append(i)
-        else:
+        if joins != 0:
             spawns.append(Spawn(joins, {k: v for k, v in s.items() if k not in TIMING_KEYS}))
         if s["retire_t"] is not None:
             retires.append(Retire(_tick_of(s["retire_t"], spar.dt_s), s["id"]))
@@ -558,89 +575,3 @@ def _tick_of(t_s: float, dt_s: float) -> int:
     """The first tick at or after ``t_s`` (a time a hair past a tick, from rounding, is that
     tick)."""
     return int(math.ceil(t_s / dt_s - 1e-9))
-
-
-#: Iterations placing a ship by its lowest foot (each moves it by the remaining error; the feet's
-#: site coordinates shift by a fraction of the move, so a few reach rounding on any slope).
-MAX_PLACEMENT_ITERATIONS = 50
-
-#: Columns of the table of starts _place_ships reads, one row per ship.
-(_EAST, _NORTH, _ALT, _COS_HD, _SIN_HD, _COS_TH, _SIN_TH, _COS_YAW, _SIN_YAW, _LEG, _COM, _V_UP,
- _V_FWD, _W_X, _W_Y, _W_Z) = range(16)
-
-
-@separate
-def _place(ground, r_hat, quat, leg_radius_m, com_height_m, altitude_m):
-    """The centre of mass on the ray r_hat such that the lowest foot is ``altitude_m`` above the
-    terrain under it (SPEC.md section 3), whatever the tilt and the slope."""
-    rho = ground.radius_m + altitude_m + com_height_m
-    for _ in range(MAX_PLACEMENT_ITERATIONS):
-        alt = -lowest_foot_penetration(ground, vec.scale(r_hat, rho), quat, leg_radius_m,
-                                       com_height_m)
-        move = altitude_m - alt
-        rho = rho + move
-        if abs(move) <= 4.0 * 2.220446049250313e-16 * rho:
-            break
-    return vec.scale(r_hat, rho)
-
-
-@entry
-def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
-    """Every ship's pose and motion from its row of ``starts``: the landing-site directions at
-    (east, north), the long axis tilted toward the heading and turned by yaw about itself, the
-    lowest foot at the altitude, velocities along local up and the heading (relative to the
-    surface), the body's spin added to the angular velocity. Written into ``rows`` (states)."""
-    ground = Ground(radius_m, terrain[0], 1.0, 0.0, omega_radps, radial)
-    for i in range(starts.shape[0]):
-        st = starts[i]
-        r_hat = vec.unit((radius_m, st[_EAST], st[_NORTH]))
-        east = vec.unit(vec.cross((0.0, 0.0, 1.0), r_hat))
-        north = vec.cross(r_hat, east)
-        fwd = vec.add(vec.scale(north, st[_COS_HD]), vec.scale(east, st[_SIN_HD]))
-        ez = vec.add(vec.scale(r_hat, st[_COS_TH]), vec.scale(fwd, st[_SIN_TH]))
-        ex = vec.sub(vec.scale(fwd, st[_COS_TH]), vec.scale(r_hat, st[_SIN_TH]))
-        ey = vec.cross(ez, ex)
-        ex, ey = (vec.add(vec.scale(ex, st[_COS_YAW]), vec.scale(ey, st[_SIN_YAW])),
-                  vec.sub(vec.scale(ey, st[_COS_YAW]), vec.scale(ex, st[_SIN_YAW])))
-        quat = quat_from_axes(ex, ey, ez)
-        pos = _place(ground, r_hat, quat, st[_LEG], st[_COM], st[_ALT])
-        surf_v = (omega_radps * -pos[1], omega_radps * pos[0], 0.0)
-        vel = vec.add(vec.add(surf_v, vec.scale(r_hat, st[_V_UP])), vec.scale(fwd, st[_V_FWD]))
-        omega = vec.add((st[_W_X], st[_W_Y], st[_W_Z]),
-                        vec.quat_rotate_inv(quat, (0.0, 0.0, omega_radps)))
-        lowest = lowest_foot(ground, pos, quat, st[_LEG], st[_COM])[1]
-        r = rows[i]
-        for k in range(3):
-            r.pos_m[k] = pos[k]
-            r.vel_mps[k] = vel[k]
-            r.omega_body_radps[k] = omega[k]
-            r.pin_pos_bf_m[k] = pos[k]
-            r.pin_pivot_bf_m[k] = lowest[k]
-        for k in range(4):
-            r.quat[k] = quat[k]
-            r.pin_quat_bf[k] = quat[k]
-
-
-def _initial_state(params: Params, ships: list[dict]) -> State:
-    """Every ship where its ``initial`` table puts it (:func:`_place_ships`; the angles' cosines
-    and sines from libm here, once). sim.vec keeps even the set-up elementwise IEEE arithmetic: a
-    replay on another CPU rebuilds this state bit for bit."""
-    sh = params.ships
-    starts = np.empty((len(ships), 16))
-    for i, s in enumerate(ships):
-        ini = s["initial"]
-        hd, th, yaw = (math.radians(ini[k]) for k in ("heading_deg", "tilt_deg", "yaw_deg"))
-        starts[i] = (ini["east"], ini["north"], ini["altitude"], math.cos(hd), math.sin(hd),
-                     math.cos(th), math.sin(th), math.cos(yaw), math.sin(yaw),
-                     sh.leg_radius_m[i], sh.com_height_m[i], ini["vertical_speed"],
-                     ini["horizontal_speed"], *ini["angular_velocity"])
-    st = State.zeros(len(ships))
-    _place_ships(params.terrain, params.body.radius_m, params.body.omega_radps,
-                 params.contact.surface_normal == SurfaceNormal.RADIAL, starts, st.rows)
-    rows = st.rows
-    rows["surface_state"] = [SurfaceState.from_label(s["initial"]["state"]) for s in ships]
-    rows["mass_kg"], rows["fuel_kg"] = sh.mass0_kg, sh.fuel0_kg
-    rows["absorbing"] = [s["initial"]["state"] != "flying"
-                         and abs(s["initial"]["vertical_speed"]) < params.contact.bounce_speed_mps
-                         for s in ships]
-    return st

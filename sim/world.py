@@ -21,7 +21,8 @@ import numpy as np
 from touchdown.sim import vec
 from touchdown.sim.compiled import entry, kernel, separate
 from touchdown.sim.params import Params, ShipParams
-from touchdown.sim.scenario import Scenario, Scene, parse, quat_from_axes
+from touchdown.sim.placement import quat_from_axes
+from touchdown.sim.scenario import Scenario, Scene, parse
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State, concatenate)
 from touchdown.sim.step import (Written, outputs_at, rotations, step_ticks, tick_capacity,
