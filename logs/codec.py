@@ -7,19 +7,16 @@ is byte-for-byte what ``TickBatch.SerializeToString()`` gives (a test checks it)
 reader decodes these messages.
 
 Two encoders write the same bytes: :func:`encode_tick` takes any arrays by field name (what tools
-and tests re-encode, damaged or not), and :func:`encode_block` writes a whole block of ticks
-straight from the run's record arrays, compiled (the recorder's path: no per-field conversions, a
-few microseconds a tick). A test holds them to each other and to protobuf.
+and tests re-encode, damaged or not), and :class:`logs.encode_block.BlockEncoder` writes a whole
+block of ticks straight from the run's record arrays, compiled (the recorder's path: no
+per-field conversions, a few microseconds a tick). A test holds them to each other and to
+protobuf. This module holds the wire's facts and loads no compiled code (a reader needs none).
 """
 from __future__ import annotations
 
 import struct
 
 import numpy as np
-
-from touchdown.sim.compiled import kernel
-from touchdown.sim.fields import BY_LOG_NAME
-from touchdown.sim.state import INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE
 
 from touchdown.logs import LogError
 from touchdown.proto import touchdown_pb2 as pb
@@ -141,178 +138,3 @@ def decode_tick_python(data: bytes) -> tuple[int, float, int, dict[str, np.ndarr
     if i != end:
         raise LogError("tick record ends inside a field")
     return tick, t_s, count, arrays
-
-
-# -- blocks of ticks from the run's records --------------------------------------------------------
-#: Where each packed field's numbers come from: (record kind, field in that record).
-SOURCES = {"state": 0, "outputs": 1, "inputs": 2, "keys": 3}  # _encode_ticks's src
-
-
-def _field_table(keyframe_only: tuple[str, ...], with_keys: bool = True) -> np.ndarray:
-    """One row per packed field, in field-number order: (source, byte offset in its record,
-    numbers per ship, bytes per number in the record, bytes per number on the wire, key,
-    key length, keyframe-only)."""
-    rows = []
-    for num, name, dt in PACKED:
-        if name == "ship_key":  # the block's keys, one int64 per ship (format 3)
-            if with_keys:
-                key = varint((num << 3) | 2)
-                rows.append((SOURCES["keys"], 0, 1, 8, 8, key[0], key[1] if len(key) > 1 else 0,
-                             len(key), False))
-            continue
-        f = BY_LOG_NAME[name]  # the quantity's record and name there (sim.fields)
-        src, fname = SOURCES[f.record], f.name
-        dtype = {"state": STATE_DTYPE, "outputs": OUTPUTS_DTYPE, "inputs": INPUTS_DTYPE}[f.record]
-        ftype, offset = dtype.fields[fname][:2]
-        count = int(np.prod(ftype.shape)) if ftype.shape else 1
-        size = ftype.base.itemsize
-        wire = 1 if dt == "u1" else 8
-        if wire != size or (wire == 8 and offset % 8):  # words are read as words
-            raise AssertionError(f"{name}: {size}-byte numbers at byte {offset} for a "
-                                 f"{wire}-byte wire type")
-        key = varint((num << 3) | 2)
-        rows.append((src, offset, count, size, wire, key[0], key[1] if len(key) > 1 else 0,
-                     len(key), name in keyframe_only))
-    return np.array(rows, dtype=np.int64)
-
-
-@kernel
-def _put_varint(out, o, value):
-    while True:
-        b = value & 0x7F
-        value >>= 7
-        if value:
-            out[o] = b | 0x80
-            o += 1
-        else:
-            out[o] = b
-            return o + 1
-
-
-#: ships gathered at a time: their records stay in cache while every field takes its numbers
-GATHER_SHIPS = 256
-
-
-@kernel
-def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, table, start, out):
-    """One tick's numbers of every field, written to ``out`` where each field's numbers begin
-    (``start[f]``; -1: not in this tick). Ships are taken GATHER_SHIPS at a time, so each record
-    is read from memory once; an eight-byte number is read as a word and stored byte by byte
-    (the wire's little-endian order). Returns -1 if a one-byte number is past 127 (a two-byte
-    varint: never written here)."""
-    n = states.shape[0]
-    for i0 in range(0, n, GATHER_SHIPS):
-        i1 = min(i0 + GATHER_SHIPS, n)
-        for f in range(table.shape[0]):
-            if start[f] < 0:
-                continue
-            src, off, count, size, wire = table[f, 0], table[f, 1], table[f, 2], table[f, 3], \
-                table[f, 4]
-            o = start[f] + i0 * count * wire
-            if wire == 8:
-                words = states64 if src == 0 else (outputs64 if src == 1 else (
-                    inputs64 if src == 2 else keys64))
-                w0 = off // 8
-                for i in range(i0, i1):
-                    for j in range(count):
-                        w = words[i, w0 + j]
-                        for b in range(8):
-                            out[o + b] = (w >> np.uint64(8 * b)) & np.uint64(0xFF)
-                        o += 8
-            else:
-                rec = states if src == 0 else (outputs if src == 1 else inputs)
-                for i in range(i0, i1):
-                    for j in range(count):
-                        v = rec[i, off + j * size]
-                        if v > 127:
-                            return -1
-                        out[o] = v
-                        o += 1
-    return 0
-
-
-@kernel
-def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, keyframe_interval,
-                  keyframe_phase, first_keyframe, out, offsets):
-    """Each tick of a block as a TickBatch, one after another into ``out``; ``offsets[k]`` is
-    where tick k starts. ``states``, ``outputs``, ``inputs``: the block's records as bytes
-    (K, N, itemsize; 8-byte aligned, so also read as words). Each tick's keys and lengths are
-    written first, then every field's numbers (:func:`_gather`). Returns -1 if a one-byte field
-    holds a value past 127, else the bytes written."""
-    n = states.shape[1]
-    nf = table.shape[0]
-    start = np.empty(nf, np.int64)
-    o = 0
-    for k in range(ticks.shape[0]):
-        offsets[k] = o
-        tick = ticks[k]
-        if tick:
-            out[o] = 0x08
-            o = _put_varint(out, o + 1, tick)
-        if t_s[k] != 0.0:
-            out[o] = 0x11
-            for b in range(8):
-                out[o + 1 + b] = t_bytes[k, b]
-            o += 9
-        if n:
-            out[o] = 0x18
-            o = _put_varint(out, o + 1, n)
-        # logs.header.keyframe_due (ticks are never negative)
-        keyframe = tick % keyframe_interval == keyframe_phase or (k == 0 and first_keyframe)
-        for f in range(nf):
-            count, wire, key_len, kf_only = table[f, 2], table[f, 4], table[f, 7], table[f, 8]
-            length = n * count * wire
-            start[f] = -1
-            if (kf_only and not keyframe) or length == 0:
-                continue
-            out[o] = table[f, 5]
-            if key_len > 1:
-                out[o + 1] = table[f, 6]
-            o = _put_varint(out, o + key_len, length)
-            start[f] = o
-            o += length
-        s8, o8, i8 = states[k], outputs[k], inputs[k]
-        if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), keys64,
-                   table, start, out) < 0:
-            return -1
-    offsets[ticks.shape[0]] = o
-    return o
-
-
-class BlockEncoder:
-    """Encodes blocks of ticks (sim.world.Block) as TickBatch messages; the keyframe-only fields
-    (``keyframe_only``) go only into ticks = ``keyframe_phase`` (mod ``keyframe_interval``), and
-    into the first tick a writer writes (a log that starts later, or one cut from another,
-    starts with a keyframe). ``with_keys``: the ships' keys go into each tick (log format 3)."""
-
-    def __init__(self, dt_s: float, keyframe_only: tuple[str, ...], keyframe_interval: int = 1,
-                 with_keys: bool = True, keyframe_phase: int = 0):
-        self.dt_s = dt_s
-        self.keyframe_interval = max(1, keyframe_interval)
-        self.keyframe_phase = keyframe_phase % self.keyframe_interval
-        self.table = _field_table(keyframe_only, with_keys)
-
-    def _bytes_per_tick(self, n: int) -> int:
-        """At most: the header, and each field's key, length and numbers."""
-        return 31 + sum(12 + n * count * wire for _, _, count, _, wire, *_ in self.table.tolist())
-
-    def encode(self, first_tick: int, states: np.ndarray, outputs: np.ndarray,
-               inputs: np.ndarray, keys: np.ndarray | None = None, first_keyframe: bool = False
-               ) -> tuple[np.ndarray, np.ndarray]:
-        """(bytes, offsets): tick ``first_tick + k`` is ``bytes[offsets[k]:offsets[k + 1]]``.
-        ``keys``: the ships' keys (N,), for a table with them; ``first_keyframe``: the block's
-        first tick is a keyframe whatever its number."""
-        k, n = states.shape
-        keys64 = np.zeros((n, 1), np.uint64) if keys is None else \
-            np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64).reshape(n, 1)
-        views = [np.ascontiguousarray(a).view(np.uint8).reshape(k, n, a.dtype.itemsize)
-                 for a in (states, outputs, inputs)]
-        ticks = np.arange(first_tick, first_tick + k, dtype=np.int64)
-        t_s = ticks * self.dt_s
-        t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
-        out = np.empty(k * self._bytes_per_tick(n), np.uint8)
-        offsets = np.empty(k + 1, np.int64)
-        if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
-                         self.keyframe_phase, first_keyframe, out, offsets) < 0:
-            raise ValueError("a one-byte field holds a value outside 0..127")
-        return out, offsets

@@ -18,19 +18,20 @@ import dataclasses
 import functools
 import json
 import math
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from touchdown.logs.codec import varint
-from touchdown.logs.encode import resolved_json_bytes
+from touchdown.logs.codec import PACKED, varint
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim import fields
 from touchdown.sim.enums import EventKind, SurfaceState
 from touchdown.sim.scenario import TIMING_KEYS, Scenario, parse
 from touchdown.sim.state import State
-from touchdown.sim.world import TickRecord, World
+
+if TYPE_CHECKING:  # (sim.world is compiled: a reader of logs loads none of it)
+    from touchdown.sim.world import TickRecord, World
 
 #: The log formats and their fields: sim.fields (LOG_FORMAT, EVERY_TICK_BY_FORMAT,
 #: KEYFRAME_BY_FORMAT), where the rule is written. 2 (touchdown 0.3): per-foot ``sliding`` (4 per
@@ -181,6 +182,7 @@ def world_header_later(world: World, name: str, source: str, keyframe_interval: 
         body=world.params.body.name, source=source, n_ticks=sim.n_ticks,
         keyframe_interval=keyframe_interval, start_tick=world.tick, open_ended=open_ended,
         keyframe_phase=_phase(keyframe_interval, keyframe_phase))
+    from touchdown.logs.encode import resolved_json_bytes  # (a writer's: mcap's writer, 18 ms)
     return header, functools.partial(resolved_json_bytes, resolved, ids, tables)
 
 
@@ -235,7 +237,20 @@ class ShipTable:
         return len(self.ids)
 
 
+#: the most a writer puts in a chunk before it closes it (LogWriter's chunk_size at most), bytes
+CHUNK_BYTES_MAX = 1 << 20
+
+
+def tick_bytes_bound(ships: int) -> int:
+    """The most bytes a tick record of ``ships`` ships holds, with margin: its header, and each
+    field's key, length and numbers (every field, a keyframe's too), then a quarter more."""
+    per_ship = sum(fields.per_ship(name) * (1 if dt == "u1" else 8) for _, name, dt in PACKED)
+    exact = 32 + 16 * len(PACKED) + ships * per_ship
+    return exact + exact // 4 + 4096
+
+
 __all__ = ["LOG_FORMAT_VERSION", "TOPIC_SCENARIO", "TOPIC_TICKS", "TOPIC_EVENTS", "TOPIC_SUMMARY",
            "TOPIC_FLEET", "TOPIC_COMMANDS", "KEYFRAME_ONLY", "WIDTH", "keyframe_due",
            "tick_arrays", "ship_state_message", "event_message", "scenario_message",
-           "world_header", "world_header_later", "record_bytes", "ShipTable"]
+           "world_header", "world_header_later", "record_bytes", "ShipTable", "CHUNK_BYTES_MAX",
+           "tick_bytes_bound"]

@@ -15,15 +15,14 @@ from typing import Iterator
 import numpy as np
 
 from touchdown.logs import LogError
-from touchdown.logs.decode import TickBlock, decode_block, decode_tick
+from touchdown.logs.decode import BlockDecoder, TickBlock, decode_tick
 from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
-                         TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, ShipTable,
-                         keyframe_due)
-from touchdown.logs.safe_read import ReadLimits, ReadStatus, iter_messages
+                         TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
+                         ShipTable, keyframe_due, tick_bytes_bound)
+from touchdown.logs.safe_read import ChunkBuffers, ReadLimits, ReadStatus, iter_messages
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
 from touchdown.logs.structure import data_crc_matches
-from touchdown.logs.writer import CHUNK_BYTES_MAX, tick_bytes_bound
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim import fields
@@ -355,37 +354,51 @@ class LogReader:
                wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
                reuse: bool = False, events: list | None = None) -> Iterator[TickBlock]:
         """The tick records (optionally ticks first..last) as columns, about ``block_bytes`` of
-        records at a time, each block decoded and checked in one compiled pass
-        (logs.decode.decode_block); ``wanted``: the fields to gather (default all). ``reuse``:
-        every block's columns in one buffer, valid until the next block is asked for (a reader
-        that converts or copies each block at once saves the fresh pages' faults). ``events``:
-        a list the event records of the same ticks are appended to (as bytes), read in the same
-        pass (they lie in the same chunks: a second pass would decompress them again)."""
+        records at a time, each chunk's records decoded as it is read and each block checked as
+        a whole (logs.decode.BlockDecoder); ``wanted``: the fields to gather (default all).
+        ``reuse``: every block's columns in the same buffers, valid until the next block is
+        asked for (a reader that converts or copies each block at once saves the fresh pages'
+        faults). ``events``: a list the event records of the same ticks are appended to (as
+        bytes), read in the same pass (they lie in the same chunks: a second pass would
+        decompress them again)."""
         start = None if first is None else self.tick_time_ns(first)
         end = None if last is None else self.tick_time_ns(last)
         dt_ns = self.tick_time_ns(1)
         fmt = self.log_format
         table = len(self.ship_table()) if fmt >= 3 else len(self.scenario.ship_ids)
         limit = self.max_tick_bytes()
-        # the records are decoded where they lie, in their decompressed chunks: one segment
-        # (buffer, begins, ends) per chunk
-        segments: list = []
-        times: list[int] = []
-        size = 0
-        columns = [None] if reuse else None
+        columns = {} if reuse else None
+
+        def decoder() -> BlockDecoder:
+            return BlockDecoder(fmt, table, len(self.scenario.ship_ids), wanted, str(self.path),
+                                columns if reuse else None)
+
+        # the records are decoded where they lie, in their decompressed chunk, a chunk at a time
+        # (its buffer is then decompressed into again: ChunkBuffers)
+        buffers = ChunkBuffers()
+        dec = decoder()
         base = base_arr = None
         begins: list[int] = []
         ends: list[int] = []
+        times: list[int] = []
+        size = 0
 
-        def flush() -> TickBlock:
-            ticks = np.asarray(times, np.int64) // dt_ns
-            return decode_block(segments, None, ticks, fmt, table, len(self.scenario.ship_ids),
-                                wanted, str(self.path), columns)
+        def feed() -> None:
+            if begins:
+                dec.add(base_arr, begins, ends, np.asarray(times, np.int64) // dt_ns)
+                begins.clear(), ends.clear(), times.clear()
 
         topics = {TOPIC_TICKS} if events is None else {TOPIC_TICKS, TOPIC_EVENTS}
         for topic, t_ns, data in iter_messages(self._file, str(self.path), topics, start,
                                                end, self.status, self._tick_limits(),
-                                               views=True, walk=self._walk):
+                                               views=True, walk=self._walk, buffers=buffers):
+            owner = data.obj if isinstance(data, memoryview) else data
+            if owner is not base:  # the next chunk: the last one's records are decoded
+                feed()
+                if base is not None:
+                    buffers.give(base)
+                base = owner
+                base_arr = np.frombuffer(owner, np.uint8)
             if topic == TOPIC_EVENTS:
                 events.append(bytes(data))
                 continue
@@ -394,22 +407,18 @@ class LogReader:
             n = len(data)
             if n > limit:
                 raise self._oversize(t_ns // dt_ns, n)
-            owner = data.obj if isinstance(data, memoryview) else data
-            if owner is not base:
-                base = owner
-                base_arr = np.frombuffer(owner, np.uint8)
-                begins, ends = [], []
-                segments.append((base_arr, begins, ends))
             at = np.frombuffer(data, np.uint8).ctypes.data - base_arr.ctypes.data if n else 0
             begins.append(at)
             ends.append(at + n)
             times.append(t_ns)
             size += n
             if size >= block_bytes:
-                yield flush()
-                segments, times, size, base = [], [], 0, None
-        if times:
-            yield flush()
+                feed()
+                yield dec.finish()
+                dec, size = decoder(), 0
+        feed()
+        if dec.messages:
+            yield dec.finish()
 
     @property
     def log_format(self) -> int:

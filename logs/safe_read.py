@@ -25,6 +25,7 @@ from __future__ import annotations
 import io
 import os
 import struct
+import weakref
 import zlib
 from dataclasses import dataclass, field
 from typing import IO, Iterator
@@ -93,18 +94,44 @@ class ReadStatus:
             self.notes.append((offset, what))
 
 
-def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits) -> bytes:
+class ChunkBuffers:
+    """Buffers chunks are decompressed into, handed back by a reader that is done with a chunk's
+    messages (:func:`iter_messages`' ``buffers``): a fresh buffer per chunk costs the kernel's
+    zeroing and a page fault per 4 kB (a fifth of a Parquet export's reading, measured), a
+    buffer used again costs neither. A view into a buffer handed back then sees the next chunk."""
+
+    def __init__(self):
+        self._free: list[bytearray] = []
+
+    def take(self, size: int) -> bytearray:
+        while self._free:
+            buf = self._free.pop()
+            if len(buf) >= size:
+                return buf
+        return bytearray(size + size // 8)
+
+    def give(self, buf) -> None:
+        """``buf`` (a chunk's data's ``.obj``) may be used again; anything not taken from here
+        is ignored."""
+        if isinstance(buf, bytearray) and len(self._free) < 4:
+            self._free.append(buf)
+
+
+def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits,
+                buffers: ChunkBuffers | None = None) -> bytes:
     """The chunk's records, decompressed within bounds (module docstring); CRC checked."""
     return decompress_chunk(chunk.data, chunk.compression, chunk.uncompressed_size,
-                            chunk.uncompressed_crc, where, limits)
+                            chunk.uncompressed_crc, where, limits, buffers=buffers)
 
 
 def decompress_chunk(records, compression: str, declared: int, crc: int, where: str,
-                     limits: ReadLimits, lz4: bool = False) -> bytes:
+                     limits: ReadLimits, lz4: bool = False,
+                     buffers: ChunkBuffers | None = None) -> bytes:
     """A chunk's ``records`` field decompressed within bounds: at most ``declared`` bytes,
     which must be within the limits, and exactly that many; its CRC (``crc``, 0: none) checked.
     ``lz4``: take lz4 too (``touchdown doctor`` on any MCAP file; Touchdown's readers refuse it,
-    as its writers never use it). LogError naming ``where`` otherwise."""
+    as its writers never use it). ``buffers``: decompressed into one of them (a memoryview of
+    it is returned). LogError naming ``where`` otherwise."""
     if declared > limits.max_chunk_bytes:
         raise LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
                        f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}); refusing it")
@@ -115,12 +142,12 @@ def decompress_chunk(records, compression: str, declared: int, crc: int, where: 
             dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
             # into a buffer of the declared size (checked above), and one byte more: enough to
             # know a chunk holds more than it declares
-            out = bytearray(declared + 1)
+            out = bytearray(declared + 1) if buffers is None else buffers.take(declared + 1)
             view = memoryview(out)
             got = 0
             with dctx.stream_reader(io.BytesIO(records), read_across_frames=True) as r:
                 while got <= declared:
-                    n = r.readinto(view[got:])
+                    n = r.readinto(view[got:declared + 1])
                     if not n:
                         break
                     got += n
@@ -129,7 +156,7 @@ def decompress_chunk(records, compression: str, declared: int, crc: int, where: 
             raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
                            f"is at most {limits.max_window_bytes:,} bytes, "
                            f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
-        data = out if got == len(out) else memoryview(out)[:got]
+        data = out if got == len(out) and buffers is None else memoryview(out)[:got]
     elif compression == "lz4" and lz4:
         import lz4.frame as lz4f
         try:
@@ -208,14 +235,17 @@ def _has_footer(f: IO[bytes], size: int) -> bool:
 
 def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None = None,
                   end_ns: int | None = None, status: ReadStatus | None = None,
-                  limits: ReadLimits | None = None, views: bool = False, walk: bool = False
-                  ) -> Iterator[tuple[str, int, bytes]]:
+                  limits: ReadLimits | None = None, views: bool = False, walk: bool = False,
+                  buffers: ChunkBuffers | None = None) -> Iterator[tuple[str, int, bytes]]:
     """(topic, log_time_ns, data) of the messages on ``topics`` with start <= log_time <= end,
     within ``limits`` (default: ReadLimits.from_environment()). ``views``: data as memoryviews
-    into the decompressed chunk (no copy), else bytes. ``walk``: read the data section record
-    by record, not through the summary (a finished file whose summary or footer is damaged, but
-    whose data section is whole: logs.structure)."""
-    messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk)
+    into the decompressed chunk (no copy), else bytes; ``buffers``: the chunks decompressed into
+    these (with ``views``: the caller hands each chunk's buffer, its data's ``.obj``, back when
+    done with its messages). ``walk``: read the data section record by record, not through the
+    summary (a finished file whose summary or footer is damaged, but whose data section is
+    whole: logs.structure)."""
+    messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk,
+                         buffers if views else None)
     if views:
         yield from messages
     else:
@@ -225,7 +255,8 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
 
 def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
               end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None,
-              walk: bool = False) -> Iterator[tuple[str, int, bytes]]:
+              walk: bool = False, buffers: ChunkBuffers | None = None
+              ) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     limits = limits if limits is not None else ReadLimits.from_environment()
     f.seek(0, io.SEEK_END)
@@ -241,16 +272,17 @@ def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
 
     if not _has_footer(f, size):  # cut, or its writer was killed: read the intact part
         status.complete = False
-        yield from _walk(f, name, wanted, status, limits)
+        yield from _walk(f, name, wanted, status, limits, buffers)
         return
     footer = None if walk else _footer(f, name, size)
     if walk or footer.summary_start == 0:  # finished, without a summary section (MCAP allows
         # it), or with a damaged summary or footer (logs.structure): the data section, walked
-        yield from _walk(f, name, wanted, status, limits)
+        yield from _walk(f, name, wanted, status, limits, buffers)
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
         return
-    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics, status)
+    yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics, status,
+                        buffers)
 
 
 def _footer(f, name: str, size: int) -> Footer:
@@ -266,25 +298,10 @@ def _footer(f, name: str, size: int) -> Footer:
 
 def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | None,
              end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset(),
-             status: ReadStatus | None = None) -> Iterator[tuple[str, int, bytes]]:
+             status: ReadStatus | None = None, buffers: ChunkBuffers | None = None
+             ) -> Iterator[tuple[str, int, bytes]]:
     try:
-        f.seek(footer.summary_start)
-        summary_len = size - len(MAGIC) - _FOOTER_RECORD - footer.summary_start
-        if summary_len > limits.max_chunk_bytes:
-            raise LogError(f"{name}: the summary section is {summary_len:,} bytes (limit "
-                           f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
-        buf = io.BytesIO(f.read(summary_len))
-        reader = StreamReader(buf, skip_magic=True, validate_crcs=True,
-                              record_size_limit=limits.max_chunk_bytes).records
-        channels: dict[int, str] = {}
-        chunk_indexes = []
-        while buf.tell() < summary_len:  # the summary has no terminator: stop at its end
-            rec = next(reader)
-            if isinstance(rec, Channel):
-                _add_channel(channels, rec, name)
-            elif type(rec).__name__ == "ChunkIndex":
-                chunk_indexes.append(rec)
-        chunk_indexes.sort(key=lambda c: (c.message_start_time, c.chunk_start_offset))
+        channels, chunk_indexes = _summary(f, name, size, footer, limits)
         mine = {cid for cid, topic in channels.items() if topic in topics}
         for ci in chunk_indexes:
             if ((start_ns is not None and ci.message_end_time < start_ns)
@@ -300,8 +317,8 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
                 raise LogError(f"{name}: a chunk of {ci.chunk_length:,} bytes (limit "
                                f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
             chunk = _read_chunk(f, ci.chunk_start_offset, ci.chunk_length, name)
-            for rec in _chunk_records(_chunk_data(chunk, name, limits), name, limits, chunk,
-                                      status, ci.chunk_start_offset):
+            for rec in _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits,
+                                      chunk, status, ci.chunk_start_offset):
                 if isinstance(rec, Channel):
                     _add_channel(channels, rec, name)
                 elif wanted(rec, channels):
@@ -310,6 +327,45 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
         raise
     except Exception as exc:  # CRC, zstd, struct, record-length errors: all mean damage
         raise LogError(f"{name}: damaged ({type(exc).__name__}: {exc})") from None
+
+
+#: a file's summary as read (its channels, its chunk indexes in order of time), by the file
+#: object, its size and where its summary starts: the several reads of one log parse it once
+_SUMMARIES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _summary(f, name: str, size: int, footer: Footer, limits: ReadLimits
+             ) -> tuple[dict[int, str], list]:
+    """(channels by id, chunk indexes in order of time) of the file's summary section."""
+    key = (size, footer.summary_start, limits.max_chunk_bytes)
+    try:
+        known = _SUMMARIES.get(f)
+    except TypeError:  # a file object that takes no weak reference: read each time
+        known = None
+    if known is not None and known[0] == key:
+        return dict(known[1]), known[2]
+    f.seek(footer.summary_start)
+    summary_len = size - len(MAGIC) - _FOOTER_RECORD - footer.summary_start
+    if summary_len > limits.max_chunk_bytes:
+        raise LogError(f"{name}: the summary section is {summary_len:,} bytes (limit "
+                       f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
+    buf = io.BytesIO(f.read(summary_len))
+    reader = StreamReader(buf, skip_magic=True, validate_crcs=True,
+                          record_size_limit=limits.max_chunk_bytes).records
+    channels: dict[int, str] = {}
+    chunk_indexes = []
+    while buf.tell() < summary_len:  # the summary has no terminator: stop at its end
+        rec = next(reader)
+        if isinstance(rec, Channel):
+            _add_channel(channels, rec, name)
+        elif type(rec).__name__ == "ChunkIndex":
+            chunk_indexes.append(rec)
+    chunk_indexes.sort(key=lambda c: (c.message_start_time, c.chunk_start_offset))
+    try:
+        _SUMMARIES[f] = (key, dict(channels), chunk_indexes)
+    except TypeError:
+        pass
+    return channels, chunk_indexes
 
 
 def _read_chunk(f, offset: int, length: int, name: str) -> Chunk:
@@ -336,8 +392,8 @@ def _read_chunk(f, offset: int, length: int, name: str) -> Chunk:
                  message_end_time=end, uncompressed_crc=crc, uncompressed_size=size)
 
 
-def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
-          ) -> Iterator[tuple[str, int, bytes]]:
+def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits,
+          buffers: ChunkBuffers | None = None) -> Iterator[tuple[str, int, bytes]]:
     f.seek(len(MAGIC))
     reader = StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
                           record_size_limit=limits.max_chunk_bytes)
@@ -359,8 +415,8 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits
                 # where it began: the bytes read, less the record (opcode, length, fields)
                 at = len(MAGIC) + reader._stream.count - (9 + 8 * 3 + 4 + 4 + 8 + len(
                     rec.compression.encode()) + len(rec.data))
-                batch = list(_chunk_records(_chunk_data(rec, name, limits), name, limits, rec,
-                                            status, at))
+                batch = list(_chunk_records(_chunk_data(rec, name, limits, buffers), name,
+                                            limits, rec, status, at))
             except LogError as exc:  # a damaged or refused chunk ends the intact part too
                 status.damage = str(exc).removeprefix(f"{name}: ")
                 return
@@ -388,4 +444,5 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
     return _chunk_data(chunk, name, limits)
 
 
-__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "chunk_at", "decompress_chunk"]
+__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "chunk_at",
+           "decompress_chunk"]

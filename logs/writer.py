@@ -18,14 +18,14 @@ import numpy as np
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
-from touchdown.logs.codec import PACKED, BlockEncoder
+from touchdown.logs.encode_block import BlockEncoder
 from touchdown.logs.encode import chunk_level
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
                          event_message, record_bytes)
+from touchdown.logs.header import CHUNK_BYTES_MAX, tick_bytes_bound  # noqa: F401 (the writer's)
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
-from touchdown.sim import fields
 from touchdown.sim.state import State
 from touchdown.sim.world import Block
 
@@ -419,18 +419,6 @@ class LogWriter(FinishedOrGone):
         except OSError:
             pass
         self.partial.unlink(missing_ok=True)
-
-
-#: the most a writer puts in a chunk before it closes it (LogWriter's chunk_size at most), bytes
-CHUNK_BYTES_MAX = 1 << 20
-
-
-def tick_bytes_bound(ships: int) -> int:
-    """The most bytes a tick record of ``ships`` ships holds, with margin: its header, and each
-    field's key, length and numbers (every field, a keyframe's too), then a quarter more."""
-    per_ship = sum(fields.per_ship(name) * (1 if dt == "u1" else 8) for _, name, dt in PACKED)
-    exact = 32 + 16 * len(PACKED) + ships * per_ship
-    return exact + exact // 4 + 4096
 
 
 __all__ = ["LogWriter", "FinishedOrGone", "QUEUE_BLOCKS", "QUEUE_BYTES", "LIVE_QUEUE_BLOCKS",

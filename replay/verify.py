@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from touchdown.logs import LogError
-from touchdown.logs.codec import PACKED, BlockEncoder
+from touchdown.logs.codec import PACKED
+from touchdown.logs.encode_block import BlockEncoder
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
                          ShipTable, event_message, tick_arrays)
 from touchdown.logs.reader import LogReader

@@ -150,9 +150,9 @@ def test_writer_close_is_idempotent_and_failure_leaves_no_log(tmp_path):
 
 @pytest.mark.parametrize("interval", [1, 3])
 def test_the_recorder_encodes_a_block_as_protobuf_does_each_tick(interval):
-    """The recorder's compiled block encoder (logs.codec.BlockEncoder) gives, for every tick of a
+    """The recorder's compiled block encoder (logs.encode_block.BlockEncoder) gives, for every tick of a
     run, the bytes protobuf gives for that tick's TickBatch (keyframe fields only on keyframes)."""
-    from touchdown.logs.codec import BlockEncoder
+    from touchdown.logs.encode_block import BlockEncoder
     from touchdown.logs.header import KEYFRAME_ONLY, tick_arrays
     from touchdown.sim.run import run_blocks
 
