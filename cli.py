@@ -22,8 +22,8 @@ import touchdown.scenarios as builtin
 from touchdown.bench.commands import bench
 from touchdown.logs import LogError
 from touchdown.sim.errors import TouchdownError, UserError, WorkFailed
-from touchdown.sim.integrators import METHODS
 from touchdown.sim.scenario import ScenarioError, load_toml, parse_text
+from touchdown.sim.settings import Integrator
 
 
 class _Told(click.ClickException):
@@ -93,8 +93,14 @@ def scenario_text(spec: str) -> tuple[str, str]:
 
 @click.group(cls=Touchdown, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="touchdown", message="%(version)s")
-def main() -> None:
+@click.pass_context
+def main(ctx: click.Context) -> None:
     """Touchdown: what a spacecraft does in the seconds after it touches a planet's surface."""
+    if ctx.invoked_subcommand != "export":  # (export loads compiled code only for some formats)
+        _notify_compilation()
+
+
+def _notify_compilation() -> None:
     from touchdown.sim.compiled import notify_compilation
     notify_compilation()  # one line on stderr while the kernels compile (first run after install)
 
@@ -112,7 +118,7 @@ def scenarios_cmd() -> None:
 
 
 @main.command(help="Run SCENARIO (a .toml file or a built-in name) and write its MCAP log. "
-                   "Integrators (sim.integrator): " + ", ".join(sorted(METHODS)) + ".")
+                   "Integrators (sim.integrator): " + ", ".join(sorted(Integrator.labels())) + ".")
 @click.argument("scenario")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="log file (default NAME.mcap)")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
@@ -269,6 +275,8 @@ def export(log: str, events: bool, fmt: str, ships: tuple[str, ...], ticks: str 
                     yield blk
 
             def write(out) -> None:
+                if fmt in ("foxglove", "jsonl") and not events:  # compiled (Parquet, CSV: none)
+                    _notify_compilation()
                 if fmt == "foxglove":
                     from touchdown.view import foxglove_log
                     done = foxglove_log.write(reader, out, sel)

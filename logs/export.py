@@ -14,12 +14,11 @@ from typing import IO, Iterator
 
 import numpy as np
 
-from touchdown.logs import LogError
+from touchdown.logs import LogError, derived
 from touchdown.logs.reader import LogReader, TickData
-from touchdown.logs.rebuild import fleet_params, scenario_of
+from touchdown.logs.rebuild import fleet_params, log_params, scenario_of
 from touchdown.proto import touchdown_pb2 as pb
-from touchdown.sim import fields, measure
-from touchdown.sim.compiled import separate
+from touchdown.sim import fields
 from touchdown.sim.enums import SurfaceState
 
 _STATE = {int(s): s.label for s in SurfaceState}
@@ -35,7 +34,9 @@ DERIVED = (("east", "pos", 0), ("north", "pos", 1), ("up", "pos", 2), ("v_east",
 
 def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     """Site-frame position and velocity, body rates and energy of every ship at one tick
-    (``params``: every ship of the log in key order, logs.rebuild.fleet_params)."""
+    (``params``: every ship of the log in key order, logs.rebuild.fleet_params), by the compiled
+    functions of sim.measure (the reference logs.derived is held to)."""
+    from touchdown.sim import measure
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
         return None
@@ -222,20 +223,9 @@ class TableInfo:
     ship_ids: list[str]
     columns: tuple[str, ...]
     metadata: dict[str, str]
-
-
-@separate
-def _tilt_deg(cos_tilt, out):
-    """degrees(acos(c)) with c clipped to [-1, 1], as math.degrees(math.acos(c)) gives it (libm's
-    acos: numpy's own differs in the last digit for one value in ten)."""
-    k = 180.0 / math.pi
-    for i in range(cos_tilt.shape[0]):
-        c = cos_tilt[i]
-        if c > 1.0:
-            c = 1.0
-        elif c < -1.0:
-            c = -1.0
-        out[i] = math.acos(c) * k
+    #: the columns that may hold a null (a number the log does not hold on some tick); every
+    #: other column is declared without nulls (Parquet's ``required``)
+    nullable: tuple[str, ...] = ()
 
 
 def table_info(reader: LogReader, columns: tuple[str, ...] = TICK_NAMES) -> TableInfo:
@@ -245,7 +235,18 @@ def table_info(reader: LogReader, columns: tuple[str, ...] = TICK_NAMES) -> Tabl
         "touchdown.project_version": sr.project_version,
         "touchdown.log_format_version": str(sr.log_format_version),
         "touchdown.integrator": sr.integrator, "touchdown.dt_s": repr(sr.dt_s),
-        "touchdown.body": sr.body})
+        "touchdown.body": sr.body}, nullable_columns(reader.log_format))
+
+
+def nullable_columns(log_format: int) -> tuple[str, ...]:
+    """The tick table's columns made from a field the log need not hold on every tick (a
+    format-1 log's velocities, between keyframes; its energy_guard_j, never): the ones a tick
+    table of a log of ``log_format`` may hold a null in."""
+    every = fields.EVERY_TICK_BY_FORMAT[log_format]
+    out = [f.export for f in EXPORTED if f.in_log not in every]
+    if "vel_mps" not in every or "omega_body_radps" not in every:
+        out += [*_SITE[3:], *_OMEGA, "energy_j"]
+    return tuple(n for n in TICK_NAMES if n in out)
 
 
 def tick_blocks(reader: LogReader, sel: Selection = Selection(),
@@ -259,9 +260,9 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
     pass (LogReader.blocks)."""
     ids = reader.ship_table().ids
     cols = sel.columns
-    derived = attitude or any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
-    params = fleet_params(reader, scenario_of(reader)[0]) if derived else None
-    wanted = _BASE_FIELDS + (_DERIVED_FIELDS if derived else ())
+    need = attitude or any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
+    params = log_params(reader) if need else None
+    wanted = _BASE_FIELDS + (_DERIVED_FIELDS if need else ())
     keep_keys = None
     if sel.ships is not None:
         table = reader.ship_table()
@@ -279,6 +280,7 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
         blk = _columns(reader, b, cols, params, ids)
         blk.keys = b.keys
         if attitude:
+            from touchdown.sim import measure  # compiled: a 3-D view's attitudes
             t = np.repeat(b.t_s, b.counts)
             c, s_ = measure.body_angles(params, t, b.rows)
             blk.quat_site_xyzw = measure.site_quats_xyzw(b.columns["quat"], c, s_)
@@ -304,8 +306,7 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
         elif name == "ship_id":
             out[name] = b.keys.astype(np.int32)
         elif name == "tilt_deg":
-            out[name] = np.empty(R)
-            _tilt_deg(np.ascontiguousarray(c["cos_tilt"].reshape(R)), out[name])
+            out[name] = derived.tilt_deg(c["cos_tilt"].reshape(R))
     for f in EXPORTED:
         if f.export not in cols:
             continue
@@ -323,17 +324,14 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
         q, w = c["quat"], c["omega_body_radps"]
         has_v = present_rows["vel_mps"] & present_rows["omega_body_radps"]
         with np.errstate(all="ignore"):  # a damaged log's overflow is named below, in one line
+            cos_t, sin_t = derived.body_angles(params, t)
             if any(n in cols for n in _SITE):
-                pos, vel = measure.site_frame(params, p, v, t)
-                for k, name in enumerate(_SITE[:3]):
-                    out[name] = pos[:, k]
-                for k, name in enumerate(_SITE[3:]):
-                    out[name] = vel[:, k]
+                out.update(zip(_SITE, derived.site_frame(params, p, v, cos_t, sin_t)))
             for k, name in enumerate(_OMEGA):
-                out[name] = w[:, k]
+                out[name] = np.ascontiguousarray(w[:, k])
             if "energy_j" in cols:
-                out["energy_j"] = measure.energy(params, b.keys, t, p, v, q, w,
-                                                 c["mass_kg"].reshape(R))["total_j"]
+                out["energy_j"] = derived.energy(params, b.keys, p, v, q, w,
+                                                 c["mass_kg"].reshape(R), cos_t, sin_t)
         if not has_v.all():
             for name in _SITE[3:] + _OMEGA + ("energy_j",):
                 missing[name] = ~has_v
@@ -372,7 +370,8 @@ def arrow_schema(info: TableInfo, events: bool = False):
             continue
         typ = types.get(name, pa.string() if events and name not in (
             "t", "t_event", "v_radial", "tilt_deg") else pa.float64())
-        out.append(pa.field(name, typ, metadata={"unit": unit, "description": doc}))
+        out.append(pa.field(name, typ, nullable=events or name in info.nullable,
+                            metadata={"unit": unit, "description": doc}))
     return pa.schema(out, metadata=info.metadata)
 
 
@@ -402,8 +401,14 @@ class _ArrowBlocks:
                               else values.take(idx))
             else:
                 mask = blk.missing.get(f.name)
+                if mask is not None and not f.nullable:  # pragma: no cover - nullable_columns
+                    raise AssertionError(f"{f.name}: a null in a column declared without")
                 arrays.append(pa.array(a, f.type, mask=mask))
         return pa.RecordBatch.from_arrays(arrays, schema=self.schema)
+
+
+#: the tick table's zstd level
+PARQUET_LEVEL = 1
 
 
 def write_parquet(blocks: Iterator[ColumnBlock], info: TableInfo, path: str) -> int:
@@ -411,7 +416,7 @@ def write_parquet(blocks: Iterator[ColumnBlock], info: TableInfo, path: str) -> 
     import pyarrow.parquet as pq
     conv = _ArrowBlocks(info)
     n = 0
-    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=1,
+    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=PARQUET_LEVEL,
                           use_dictionary=["ship_id", "state"], write_statistics=["tick", "t"],
                           store_schema=True) as w:
         for blk in blocks:
@@ -440,6 +445,8 @@ def write_jsonl_blocks(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> i
     once. ``out``: a binary file."""
     import pyarrow as pa
     import pyarrow.compute as pc
+
+    from touchdown.logs.json_lines import json_lines
     ids = pa.array([json.dumps(s) for s in info.ship_ids], pa.string())
     states = pa.array([json.dumps(s) for s in STATE_LABELS], pa.string())
     keys = [("{" if k == 0 else ",") + json.dumps(name) + ":" for k, name in
@@ -477,72 +484,13 @@ def write_jsonl_blocks(blocks: Iterator[ColumnBlock], info: TableInfo, out) -> i
             bases[k + 1] = bases[k] + data.shape[0]
         data = np.concatenate(datas) if datas else np.zeros(0, np.uint8)
         kinds_a = np.asarray(kinds, np.int64)
-        size = _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, None)
+        size = json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, None)
         if buf.shape[0] < size:  # one buffer for every block: fresh pages fault as they fill
             buf = np.empty(size + size // 4, np.uint8)
-        _json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, buf[:size])
+        json_lines(offsets, data, bases, kinds_a, missing, key_bytes, key_off, buf[:size])
         out.write(memoryview(buf[:size]))
         n += R
     return n
-
-
-def _json_lines(offsets, data, bases, kinds, missing, key_bytes, key_off, out) -> int:
-    if out is None:
-        return int(_json_size(offsets, data, bases, kinds, missing, key_off))
-    _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out)
-    return out.shape[0]
-
-
-@separate
-def _needs_point(data, a, b):
-    """A double's text with neither a point nor an exponent (Arrow writes 3 for 3.0): Python's
-    JSON writes 3.0."""
-    for i in range(a, b):
-        c = data[i]
-        if c == 46 or c == 101 or c == 69 or c == 110:  # . e E n
-            return False
-    return True
-
-
-@separate
-def _json_size(offsets, data, bases, kinds, missing, key_off):
-    total = 0
-    nc, R = offsets.shape[0], offsets.shape[1] - 1
-    for r in range(R):
-        for k in range(nc):
-            total += key_off[k + 1] - key_off[k]
-            if missing[k, r]:
-                total += 4
-                continue
-            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
-            total += b - a
-            if kinds[k] == 1 and _needs_point(data, a, b):
-                total += 2
-        total += 2
-    return total
-
-
-@separate
-def _json_fill(offsets, data, bases, kinds, missing, key_bytes, key_off, out):
-    o = 0
-    nc, R = offsets.shape[0], offsets.shape[1] - 1
-    for r in range(R):
-        for k in range(nc):
-            n = key_off[k + 1] - key_off[k]
-            out[o:o + n] = key_bytes[key_off[k]:key_off[k + 1]]
-            o += n
-            if missing[k, r]:
-                out[o], out[o + 1], out[o + 2], out[o + 3] = 110, 117, 108, 108  # null
-                o += 4
-                continue
-            a, b = bases[k] + offsets[k, r], bases[k] + offsets[k, r + 1]
-            out[o:o + b - a] = data[a:b]
-            o += b - a
-            if kinds[k] == 1 and _needs_point(data, a, b):
-                out[o], out[o + 1] = 46, 48  # .0
-                o += 2
-        out[o], out[o + 1] = 125, 10  # }\n
-        o += 2
 
 
 def event_table(reader: LogReader, ships: tuple[str, ...] | None = None,
