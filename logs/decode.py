@@ -466,11 +466,14 @@ class BlockDecoder:
     segment's buffer may be reused at once), then checked as a whole (:meth:`finish`), in the
     order and with the messages of TickData's checks. ``out``: a dict of column buffers kept
     from block to block (the block's columns are then valid only until the next block is
-    decoded into them); ``wanted``: the fields to gather (default every field of the format)."""
+    decoded into them); ``wanted``: the fields to gather (default every field of the format);
+    ``expect_bytes``: about how many bytes of records the block will hold (its columns' buffers
+    are sized for them when first made, rather than grown)."""
 
     def __init__(self, log_format: int, table_size: int, header_ships: int = 0,
                  wanted: tuple[str, ...] | None = None, where: str = "",
-                 out: dict | None = None):
+                 out: dict | None = None, expect_bytes: int = 0):
+        self.expect_bytes = expect_bytes  # of records the block will hold, about
         self.format, self.table_size, self.header_ships = log_format, table_size, header_ships
         self.where = where
         self.every = fields.EVERY_TICK_BY_FORMAT[log_format]
@@ -535,9 +538,13 @@ class BlockDecoder:
             all_starts = res.starts[:, self.idx].T.tolist()
             all_sizes = expect[:, self.idx].T.tolist()
         mv = memoryview(data)
+        # the block's share of each column in these messages' bytes: a column's buffer, when it
+        # grows, grows to what ``expect_bytes`` of records fill (else by half)
+        share = self.expect_bytes / max(1, int((ends - begins).sum()))
         for name, at, sizes in zip(self.names, all_starts, all_sizes):
             o = self.used[name]
-            buf = self._room(name, o + sum(sizes))
+            need = sum(sizes)
+            buf = self._room(name, o + need, int(need * share * 1.05))
             dst = self.views[name]
             for s, n in zip(at, sizes):
                 if s >= 0:
@@ -554,10 +561,10 @@ class BlockDecoder:
         return not (((~has[:, every]).any(axis=1) & (counts > 0)).any()
                     or (has & (lengths != expect)).any() or (counts < 0).any())
 
-    def _room(self, name: str, size: int) -> np.ndarray:
+    def _room(self, name: str, size: int, likely: int = 0) -> np.ndarray:
         buf = self.buffers.get(name)
         if buf is None or buf.shape[0] < size:
-            grown = np.empty(max(size + size // 4, 1 << 16), np.uint8)
+            grown = np.empty(max(size + size // 2, likely, 1 << 16), np.uint8)
             if buf is not None:
                 grown[:self.used[name]] = buf[:self.used[name]]
             buf = self.buffers[name] = grown

@@ -29,7 +29,7 @@ ROWS = 8192
 _DEG = 180.0 / math.pi
 
 
-def tilt_deg(cos_tilt: np.ndarray) -> np.ndarray:
+def tilt_deg(cos_tilt: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """degrees(acos(c)), c clipped to [-1, 1]: ``math.degrees(math.acos(c))``, libm's acos."""
     import pyarrow as pa
     try:  # pyarrow.compute's own (importing pyarrow.compute itself costs 25 ms: it builds a
@@ -38,7 +38,7 @@ def tilt_deg(cos_tilt: np.ndarray) -> np.ndarray:
         from pyarrow.compute import call_function
     c = np.clip(np.ascontiguousarray(cos_tilt, float), -1.0, 1.0)
     acos = call_function("acos", [pa.array(c, pa.float64())])
-    return np.multiply(acos.to_numpy(zero_copy_only=False), _DEG)
+    return np.multiply(acos.to_numpy(zero_copy_only=False), _DEG, out=out)
 
 
 def body_angles(params: Params, t_s: np.ndarray) -> tuple[np.ndarray | float, np.ndarray | float]:
@@ -62,15 +62,17 @@ def _rows(c, lo: int, hi: int):
     return c if np.ndim(c) == 0 else c[lo:hi]
 
 
-def site_frame(params: Params, p: np.ndarray, v: np.ndarray, cos_t, sin_t
-               ) -> tuple[np.ndarray, ...]:
+def site_frame(params: Params, p: np.ndarray, v: np.ndarray, cos_t, sin_t,
+               out: tuple[np.ndarray, ...] | None = None) -> tuple[np.ndarray, ...]:
     """(east, north, up) of centres of mass (N,3), m, and their velocity relative to the surface
     in the same axes (v_east, v_north, v_up), m/s, each a column of its own
     (sim.measure.site_frame: sim.frames.rotate_z by the body's angle undone, site_axes, less
-    the reference radius)."""
+    the reference radius). ``out``: the six columns' arrays."""
     n = p.shape[0]
     radius, om = params.body.radius_m, params.body.omega_radps
-    east, up, v_east, v_up = (np.empty(n) for _ in range(4))
+    if out is None:
+        out = tuple(np.empty(n) for _ in range(6))
+    east, north, up, v_east, v_north, v_up = out
     for lo in range(0, n, ROWS):
         hi = min(lo + ROWS, n)
         c, ms = _rows(cos_t, lo, hi), -_rows(sin_t, lo, hi)
@@ -86,17 +88,22 @@ def site_frame(params: Params, p: np.ndarray, v: np.ndarray, cos_t, sin_t
             np.multiply(x0, c, out=z)
             z -= ms * x1
         up[lo:hi] -= radius
-    v2 = v[:, 2] if om == 0.0 else v[:, 2] - 0.0
-    return east, np.ascontiguousarray(p[:, 2]), up, v_east, np.ascontiguousarray(v2), v_up
+    north[:] = p[:, 2]
+    if om == 0.0:
+        v_north[:] = v[:, 2]
+    else:
+        np.subtract(v[:, 2], 0.0, out=v_north)
+    return out
 
 
 def energy(params: Params, ship: np.ndarray, p: np.ndarray, v: np.ndarray, q: np.ndarray,
-           w: np.ndarray, mass_kg: np.ndarray, cos_t, sin_t) -> np.ndarray:
+           w: np.ndarray, mass_kg: np.ndarray, cos_t, sin_t, out: np.ndarray | None = None
+           ) -> np.ndarray:
     """sim.energy.mechanical's total (sim.measure.energy's ``total_j``) of each row: row i is
     ship ``ship[i]`` of ``params`` in state (p, v, q, w, mass) at body angle (cos_t, sin_t)."""
     sh, body, ter = params.ships, params.body, params.body.terrain
     n = p.shape[0]
-    out = np.empty(n)
+    out = np.empty(n) if out is None else out
     scene = _Scene(float(body.gm_m3ps2), float(body.radius_m), float(body.omega_radps),
                    bool(ter.flat), float(ter.base_height_m), *map(float, ter.gradient),
                    np.array([ter.bump_east_m, ter.bump_north_m, ter.bump_radius_m,
@@ -206,11 +213,13 @@ def _spring(scene: _Scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k
     spring = np.zeros_like(p0)
     ground = scene.radius + scene.base
     half_k = 0.5 * k_leg
-    for axis, a in ((ex, leg), (ey, leg), (ex, -leg), (ey, -leg)):
+    along = ([ex[j] * leg for j in range(3)], [ey[j] * leg for j in range(3)])
+    # the feet in sim.contact's order, +x, +y, -x, -y: p + (down + axis a), p + (down + axis
+    # (-a)), where axis (-a) is -(axis a) to the bit, and down + -(x) is down - x
+    for k in range(4):
         foot = []
         for j, pj in enumerate((p0, p1, p2)):
-            fj = axis[j] * a  # p + (down + axis a)
-            fj += down[j]
+            fj = down[j] + along[k % 2][j] if k < 2 else down[j] - along[k % 2][j]
             fj += pj
             foot.append(fj)
         r = foot[0] * foot[0]
@@ -218,7 +227,7 @@ def _spring(scene: _Scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k
         r += foot[2] * foot[2]
         np.sqrt(r, out=r)
         if scene.flat:
-            x = ground - r
+            x = np.subtract(ground, r, out=r)
         else:  # sim.contact.site_coords, height_and_slope
             east, north = -sin_t * foot[0] + cos_t * foot[1], foot[2]
             hgt = scene.base + scene.slope_e * east + scene.slope_n * north

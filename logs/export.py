@@ -253,17 +253,20 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
                 block_bytes: int = 64 << 20, attitude: bool = False,
                 events: list | None = None) -> Iterator[ColumnBlock]:
     """The tick table of ``reader`` as blocks of columns (module comment above), each block
-    decoded in one compiled pass (LogReader.blocks). A number that is not finite (only a damaged
-    log holds one) is a LogError naming the tick, ship and field. ``attitude``: each block also
-    holds each row's attitude in the landing-site frame (ColumnBlock.quat_site_xyzw).
+    decoded as its chunks are read (LogReader.blocks). A number that is not finite (only a
+    damaged log holds one) is a LogError naming the tick, ship and field. ``attitude``: each
+    block also holds each row's attitude in the landing-site frame (ColumnBlock.quat_site_xyzw).
     ``events``: a list the event records of the same ticks are appended to, read in the same
-    pass (LogReader.blocks)."""
+    pass (LogReader.blocks). Every block's columns lie in the same buffers: a block is valid
+    until the next one is asked for (fresh arrays for each block cost a page fault per 4 kB
+    of them: a tenth of a Parquet export, measured)."""
     ids = reader.ship_table().ids
     cols = sel.columns
     need = attitude or any(c in _SITE or c in _OMEGA or c == "energy_j" for c in cols)
     params = log_params(reader) if need else None
     wanted = _BASE_FIELDS + (_DERIVED_FIELDS if need else ())
     keep_keys = None
+    scratch: dict[str, np.ndarray] = {}  # the blocks' columns, one buffer each
     if sel.ships is not None:
         table = reader.ship_table()
         for sid in sel.ships:
@@ -277,7 +280,7 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
             b = b.take(np.flatnonzero(np.isin(b.keys, keep_keys)))
         if b.rows == 0:
             continue
-        blk = _columns(reader, b, cols, params, ids)
+        blk = _columns(reader, b, cols, params, ids, scratch)
         blk.keys = b.keys
         if attitude:
             from touchdown.sim import measure  # compiled: a 3-D view's attitudes
@@ -287,13 +290,30 @@ def tick_blocks(reader: LogReader, sel: Selection = Selection(),
         yield blk
 
 
-def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> ColumnBlock:
+def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids,
+             scratch: dict[str, np.ndarray] | None = None) -> ColumnBlock:
     R = b.rows
     out: dict[str, np.ndarray] = {}
     missing: dict[str, np.ndarray] = {}
     c = b.columns
-    tick = b.tick_of_row()
-    t = np.repeat(b.t_s, b.counts)
+    scratch = {} if scratch is None else scratch
+
+    def column(name: str, dtype=np.float64) -> np.ndarray:
+        """The block's column ``name``: R numbers in the buffer kept for it."""
+        buf = scratch.get(name)
+        if buf is None or buf.shape[0] < R or buf.dtype != dtype:
+            buf = scratch[name] = np.empty(R + R // 8, dtype)
+        return buf[:R]
+
+    def per_row(name: str, per_tick: np.ndarray) -> np.ndarray:
+        """Each tick's number on each of its rows (np.repeat, into its buffer)."""
+        a = column(name, per_tick.dtype)
+        for k, (lo, hi) in enumerate(zip(b.row_off[:-1].tolist(), b.row_off[1:].tolist())):
+            a[lo:hi] = per_tick[k]
+        return a
+
+    tick = per_row("tick", b.ticks)
+    t = per_row("t", b.t_s)
     whole = np.ones(R, bool)
     # (a field on every tick: no per-row mask to make, the common case)
     present_rows = {name: whole if p.all() else np.repeat(p, b.counts)
@@ -304,14 +324,16 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
         elif name == "t":
             out[name] = t
         elif name == "ship_id":
-            out[name] = b.keys.astype(np.int32)
+            out[name] = column(name, np.int32)
+            out[name][:] = b.keys
         elif name == "tilt_deg":
-            out[name] = derived.tilt_deg(c["cos_tilt"].reshape(R))
+            out[name] = derived.tilt_deg(c["cos_tilt"].reshape(R), column(name))
     for f in EXPORTED:
         if f.export not in cols:
             continue
         if f.name == "surface_state":
-            out[f.export] = c[f.in_log].reshape(R).astype(np.int32)
+            out[f.export] = column(f.export, np.int32)
+            out[f.export][:] = c[f.in_log].reshape(R)
             continue
         a = c.get(f.in_log)
         if a is None or not b.present[f.in_log].all():  # a format-1 log has no energy_guard_j
@@ -326,12 +348,15 @@ def _columns(reader: LogReader, b, cols: tuple[str, ...], params, ids) -> Column
         with np.errstate(all="ignore"):  # a damaged log's overflow is named below, in one line
             cos_t, sin_t = derived.body_angles(params, t)
             if any(n in cols for n in _SITE):
-                out.update(zip(_SITE, derived.site_frame(params, p, v, cos_t, sin_t)))
+                out.update(zip(_SITE, derived.site_frame(params, p, v, cos_t, sin_t,
+                                                         tuple(column(n) for n in _SITE))))
             for k, name in enumerate(_OMEGA):
-                out[name] = np.ascontiguousarray(w[:, k])
+                out[name] = column(name)
+                out[name][:] = w[:, k]
             if "energy_j" in cols:
                 out["energy_j"] = derived.energy(params, b.keys, p, v, q, w,
-                                                 c["mass_kg"].reshape(R), cos_t, sin_t)
+                                                 c["mass_kg"].reshape(R), cos_t, sin_t,
+                                                 column("energy_j"))
         if not has_v.all():
             for name in _SITE[3:] + _OMEGA + ("energy_j",):
                 missing[name] = ~has_v

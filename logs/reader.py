@@ -371,7 +371,7 @@ class LogReader:
 
         def decoder() -> BlockDecoder:
             return BlockDecoder(fmt, table, len(self.scenario.ship_ids), wanted, str(self.path),
-                                columns if reuse else None)
+                                columns if reuse else None, block_bytes)
 
         # the records are decoded where they lie, in their decompressed chunk, a chunk at a time
         # (its buffer is then decompressed into again: ChunkBuffers)

@@ -145,7 +145,7 @@ def decompress_chunk(records, compression: str, declared: int, crc: int, where: 
             out = bytearray(declared + 1) if buffers is None else buffers.take(declared + 1)
             view = memoryview(out)
             got = 0
-            with dctx.stream_reader(io.BytesIO(records), read_across_frames=True) as r:
+            with dctx.stream_reader(records, read_across_frames=True) as r:  # (no copy)
                 while got <= declared:
                     n = r.readinto(view[got:declared + 1])
                     if not n:
