@@ -108,14 +108,24 @@ def energy(params: Params, ship: np.ndarray, p: np.ndarray, v: np.ndarray, q: np
                    bool(ter.flat), float(ter.base_height_m), *map(float, ter.gradient),
                    np.array([ter.bump_east_m, ter.bump_north_m, ter.bump_radius_m,
                              ter.bump_height_m], float).reshape(4, -1).T.tolist())
-    ships = (sh.inertia0_kgm2, sh.mass0_kg, sh.leg_radius_m, sh.com_height_m,
-             sh.stiffness_per_kg)
+    # each row's ship's numbers (a fleet of one class: the one number, no gather)
+    inertia0, mass0, leg, com, kpm = (_per_row(a, ship) for a in (
+        sh.inertia0_kgm2, sh.mass0_kg, sh.leg_radius_m, sh.com_height_m, sh.stiffness_per_kg))
     for lo in range(0, n, ROWS):
         hi = min(lo + ROWS, n)
-        out[lo:hi] = _energy(scene, ships, ship[lo:hi], _rows(cos_t, lo, hi),
-                             _rows(sin_t, lo, hi), p[lo:hi], v[lo:hi], q[lo:hi], w[lo:hi],
-                             mass_kg[lo:hi])
+        ships = (inertia0 if inertia0.ndim == 1 else inertia0[lo:hi],
+                 *(_rows(a, lo, hi) for a in (mass0, leg, com, kpm)))
+        out[lo:hi] = _energy(scene, ships, _rows(cos_t, lo, hi), _rows(sin_t, lo, hi),
+                             p[lo:hi], v[lo:hi], q[lo:hi], w[lo:hi], mass_kg[lo:hi])
     return out
+
+
+def _per_row(table: np.ndarray, ship: np.ndarray):
+    """``table[ship]``: each row's ship's number (or row of numbers), or the one every ship
+    has."""
+    if table.shape[0] and (table == table[0]).all():
+        return table[0] if table.ndim > 1 else float(table[0])
+    return table[ship]
 
 
 class _Scene(NamedTuple):
@@ -129,15 +139,15 @@ class _Scene(NamedTuple):
     bumps: list  # (east, north, radius, height) of each bump
 
 
-def _energy(scene: _Scene, ships, ship, cos_t, sin_t, p, v, q, w, m) -> np.ndarray:
+def _energy(scene: _Scene, ships, cos_t, sin_t, p, v, q, w, m) -> np.ndarray:
     """sim.energy.mechanical (``may_touch``) and sim.energy.total, for rows. The products keep
     the kernels' grouping; ``x += y`` for ``y + x`` (IEEE addition and multiplication commute:
     the same bits)."""
     gm, radius, spin = scene.gm, scene.radius, scene.spin
-    inertia0, mass0, leg0, com0, kpm = ships
+    inertia0, mass0, leg, com, kpm = ships
     # the ship's numbers of each row, as sim.measure.energy takes them
-    f = m / mass0[ship]
-    i0, i1, i2 = (inertia0[ship, j] * f for j in range(3))
+    f = m / mass0
+    i0, i1, i2 = (inertia0[..., j] * f for j in range(3))
     p0, p1, p2 = p[:, 0], p[:, 1], p[:, 2]
     v0, v1, v2 = v[:, 0], v[:, 1], v[:, 2]
     qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
@@ -189,8 +199,8 @@ def _energy(scene: _Scene, ships, ship, cos_t, sin_t, p, v, q, w, m) -> np.ndarr
         total += 0.0
         rot += 0.0
     total += rot
-    total += _spring(scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg0[ship], com0[ship],
-                     0.25 * (kpm[ship] * m))
+    total += _spring(scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com,
+                     0.25 * (kpm * m))
     if spin == 0.0:
         odd = qw + qx
         odd += qy
@@ -204,12 +214,15 @@ def _energy(scene: _Scene, ships, ship, cos_t, sin_t, p, v, q, w, m) -> np.ndarr
 
 def _spring(scene: _Scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k_leg):
     """What the four feet's springs store (sim.contact.feet: foot_offsets_w, under)."""
-    # body_axes(q): the rotation matrix's columns
-    ex = (1.0 - 2.0 * (qy * qy + qz * qz), 2.0 * (qx * qy + qw * qz), 2.0 * (qx * qz - qw * qy))
-    ey = (2.0 * (qx * qy - qw * qz), 1.0 - 2.0 * (qx * qx + qz * qz), 2.0 * (qy * qz + qw * qx))
+    # body_axes(q): the rotation matrix's columns (each product taken once: it is the same
+    # operation on the same numbers wherever the kernel takes it)
+    xx, yy, zz = qx * qx, qy * qy, qz * qz
+    xy, wz, xz, wy, yz, wx = qx * qy, qw * qz, qx * qz, qw * qy, qy * qz, qw * qx
+    ex = (1.0 - 2.0 * (yy + zz), 2.0 * (xy + wz), 2.0 * (xz - wy))
+    ey = (2.0 * (xy - wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz + wx))
     h = -com
-    down = (2.0 * (qx * qz + qw * qy) * h, 2.0 * (qy * qz - qw * qx) * h,
-            (1.0 - 2.0 * (qx * qx + qy * qy)) * h)  # scale(ez, -com_height)
+    down = (2.0 * (xz + wy) * h, 2.0 * (yz - wx) * h,
+            (1.0 - 2.0 * (xx + yy)) * h)  # scale(ez, -com_height)
     spring = np.zeros_like(p0)
     ground = scene.radius + scene.base
     half_k = 0.5 * k_leg
