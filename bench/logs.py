@@ -8,6 +8,11 @@ path measured in the same run: the per-row JSON Lines export that ``export`` was
 (a dict per row, ``json.dumps`` per row, the tick records decoded in Python). Then where the time
 of a Parquet export goes (in this process: opening, decoding, converting, writing), and the
 bounded reader's refusal of a tick record larger than the fleet can fill.
+
+``python -m touchdown.bench.logs --against REV [--rounds N] [--quick]``: the Parquet export of
+this tree beside that of git revision REV (another commit, or main) on the same log, alternating,
+each a fresh process pinned to one core: CPU seconds (median of N), rows per CPU second, and
+their ratio.
 """
 from __future__ import annotations
 
@@ -36,14 +41,14 @@ def _one_core() -> None:
     os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
 
 
-def run(args: list[str]) -> tuple[float, float, float]:
+def run(args: list[str], env: dict | None = None) -> tuple[float, float, float]:
     """(wall seconds, CPU seconds, peak resident MB) of a command in a fresh process on one
     core. The CPU seconds (user + system) are the figure on a shared machine: the wall time
     also counts the time others held the core."""
     with tempfile.TemporaryFile() as err:
         t0 = time.perf_counter()
         proc = subprocess.Popen([sys.executable, *args], cwd=ROOT, stdout=subprocess.DEVNULL,
-                                stderr=err, preexec_fn=_one_core)
+                                stderr=err, preexec_fn=_one_core, env=env)
         _pid, status, usage = os.wait4(proc.pid, 0)
         took = time.perf_counter() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
@@ -65,28 +70,79 @@ def record_fleet(path: str, ships: int, ticks: int) -> float:
 
 
 def breakdown(log: str, out: str) -> dict[str, float]:
-    """Where a Parquet export's time goes, in this process (the kernels loaded already)."""
+    """Where a Parquet export's time goes, in this process (its modules imported already)."""
     from touchdown.logs import export as ex
     from touchdown.logs.reader import LogReader
+    from touchdown.logs.rebuild import log_params
     t = {}
     clock = time.process_time
+    block = 64 << 20  # as the command reads them (a row group each)
     t0 = clock()
     with LogReader(log) as r:
         r.ship_table()
         ex.table_info(r)
         t["open the log, its ships"] = clock() - t0
         t0 = clock()
-        for _ in r.blocks(wanted=ex.SOURCE_FIELDS, reuse=True):
-            pass
-        t["read and decode (compiled)"] = clock() - t0
+        log_params(r)
+        t["its scenario checked, its parameters"] = clock() - t0
         t0 = clock()
-        for _ in ex.tick_blocks(r):
+        for _ in r.blocks(wanted=ex.SOURCE_FIELDS, block_bytes=block, reuse=True):
+            pass
+        t["read and decode"] = clock() - t0
+        t0 = clock()
+        for _ in ex.tick_blocks(r, ex.Selection(), block):
             pass
         t["... and derive the columns"] = clock() - t0
         t0 = clock()
-        ex.write_parquet(ex.tick_blocks(r), ex.table_info(r), out)
+        ex.write_parquet(ex.tick_blocks(r, ex.Selection(), block), ex.table_info(r), out)
         t["... and write Parquet"] = clock() - t0
     return t
+
+
+def against(ref: str, rounds: int = 5, quick: bool = False) -> None:
+    """The Parquet export of this tree and of git revision ``ref`` (git archive into a
+    temporary directory, imported as the package ``touchdown`` there through PYTHONPATH) on one
+    log, alternating, each a fresh process on one core: the median CPU seconds of ``rounds``
+    each (after one of each not counted: ``ref``'s kernels compile there), rows per CPU second,
+    the ratio. Startup and imports included, as a user runs the command."""
+    import statistics
+    from touchdown.bench.speed import machine
+    ships, ticks = (200, 400) if quick else (1000, 2000)
+    rows = ships * (ticks + 1)
+    with tempfile.TemporaryDirectory(prefix="touchdown-bench-against-") as tmp:
+        tree = Path(tmp) / "ref"
+        tree.mkdir()
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", ref], check=True,
+                                 capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
+        (Path(tmp) / "pkg").mkdir()
+        (Path(tmp) / "pkg" / "touchdown").symlink_to(tree)
+        log = os.path.join(tmp, "fleet.mcap")
+        record_fleet(log, ships, ticks)
+        env_ref = {**os.environ, "PYTHONPATH": str(Path(tmp) / "pkg")}
+        sides = {ref: (str(tree / "cli.py"), env_ref), "this tree": (str(ROOT / "cli.py"), None)}
+        cpu: dict[str, list[float]] = {name: [] for name in sides}
+        sizes = {}
+        print(f"machine: {machine()}; {rows:,} rows ({ships:,} ships x {ticks + 1:,} ticks), "
+              f"`export LOG --format parquet -o OUT`, fresh processes on one core, alternating")
+        for k in range(rounds + 1):
+            order = list(sides.items()) if k % 2 == 0 else list(sides.items())[::-1]
+            for name, (cli, env) in order:
+                out = os.path.join(tmp, "out.parquet")
+                for path in (out, os.path.join(tmp, "out.events.parquet")):
+                    if os.path.exists(path):
+                        os.unlink(path)
+                _wall, c, _mem = run([cli, "export", log, "--format", "parquet", "-o", out], env)
+                sizes[name] = os.path.getsize(out)
+                if k:
+                    cpu[name].append(c)
+        for name, xs in cpu.items():
+            med = statistics.median(xs)
+            print(f"  {name:12} {med:6.3f} CPU s (median of {len(xs)}: "
+                  f"{', '.join(f'{x:.2f}' for x in sorted(xs))}) {rows / med:11,.0f} rows/CPU s"
+                  f"  {sizes[name] / 1e6:5.1f} MB")
+        a, b = (statistics.median(cpu[n]) for n in (ref, "this tree"))
+        print(f"  this tree: {a / b:.2f}x the rows per CPU second of {ref}")
 
 
 def bounded_refusal(tmp: str) -> float:
@@ -167,4 +223,9 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main(quick="--quick" in sys.argv)
+    if "--against" in sys.argv:
+        i = sys.argv.index("--against")
+        n = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 5
+        against(sys.argv[i + 1], n, quick="--quick" in sys.argv)
+    else:
+        main(quick="--quick" in sys.argv)

@@ -669,5 +669,5 @@ def _keys_at_fault(keys: np.ndarray, row_off: np.ndarray, table_size: int) -> in
     return first if first < k else -1
 
 
-__all__ = ["TickBlock", "BlockDecoder", "decode_block", "decode_one", "decode_tick", "scan", "width_of", "NAMES",
-           "INDEX"]
+__all__ = ["TickBlock", "BlockDecoder", "decode_block", "decode_one", "decode_tick", "scan",
+           "width_of", "NAMES", "INDEX"]

@@ -111,13 +111,47 @@ def energy(params: Params, ship: np.ndarray, p: np.ndarray, v: np.ndarray, q: np
     # each row's ship's numbers (a fleet of one class: the one number, no gather)
     inertia0, mass0, leg, com, kpm = (_per_row(a, ship) for a in (
         sh.inertia0_kgm2, sh.mass0_kg, sh.leg_radius_m, sh.com_height_m, sh.stiffness_per_kg))
+    work = _Work(min(n, ROWS))
     for lo in range(0, n, ROWS):
         hi = min(lo + ROWS, n)
         ships = (inertia0 if inertia0.ndim == 1 else inertia0[lo:hi],
                  *(_rows(a, lo, hi) for a in (mass0, leg, com, kpm)))
-        out[lo:hi] = _energy(scene, ships, _rows(cos_t, lo, hi), _rows(sin_t, lo, hi),
-                             p[lo:hi], v[lo:hi], q[lo:hi], w[lo:hi], mass_kg[lo:hi])
+        work.rows = hi - lo
+        _energy(scene, ships, _rows(cos_t, lo, hi), _rows(sin_t, lo, hi), p[lo:hi], v[lo:hi],
+                q[lo:hi], w[lo:hi], mass_kg[lo:hi], work, out[lo:hi])
     return out
+
+
+class _Work:
+    """Scratch arrays for a stretch of rows, each handed out once per stretch (``__call__``)
+    and all taken back for the next (``rows =``): the intermediates of every stretch lie in
+    the same memory. (numpy's own temporaries, freed at the end of each stretch and taken again
+    for the next, cost glibc's trimming of its heap and a page fault per 4 kB: 120,000 faults,
+    a fifth of the export's time, measured.)"""
+
+    def __init__(self, n: int):
+        self._n, self._arrays, self._bools, self._i, self._j = n, [], [], 0, 0
+        self._rows = n
+
+    @property
+    def rows(self) -> int:
+        return self._rows
+
+    @rows.setter
+    def rows(self, n: int) -> None:
+        self._rows, self._i, self._j = n, 0, 0
+
+    def __call__(self) -> np.ndarray:
+        if self._i == len(self._arrays):
+            self._arrays.append(np.empty(self._n))
+        self._i += 1
+        return self._arrays[self._i - 1][:self._rows]
+
+    def mask(self) -> np.ndarray:
+        if self._j == len(self._bools):
+            self._bools.append(np.empty(self._n, bool))
+        self._j += 1
+        return self._bools[self._j - 1][:self._rows]
 
 
 def _per_row(table: np.ndarray, ship: np.ndarray):
@@ -139,120 +173,155 @@ class _Scene(NamedTuple):
     bumps: list  # (east, north, radius, height) of each bump
 
 
-def _energy(scene: _Scene, ships, cos_t, sin_t, p, v, q, w, m) -> np.ndarray:
-    """sim.energy.mechanical (``may_touch``) and sim.energy.total, for rows. The products keep
-    the kernels' grouping; ``x += y`` for ``y + x`` (IEEE addition and multiplication commute:
-    the same bits)."""
+def _energy(scene: _Scene, ships, cos_t, sin_t, p, v, q, w, m, work: _Work, out: np.ndarray
+            ) -> None:
+    """sim.energy.mechanical (``may_touch``) and sim.energy.total, for rows, into ``out``.
+    Each product and sum is the kernel's, in its grouping: ``add(x, y)`` for ``x + y`` or
+    ``y + x``, ``multiply(x, y)`` for ``x y`` or ``y x`` (IEEE addition and multiplication
+    commute: the same bits); the intermediates in ``work``."""
+    add, sub, mul, div = np.add, np.subtract, np.multiply, np.divide
     gm, radius, spin = scene.gm, scene.radius, scene.spin
     inertia0, mass0, leg, com, kpm = ships
+    W = work
     # the ship's numbers of each row, as sim.measure.energy takes them
-    f = m / mass0
-    i0, i1, i2 = (inertia0[..., j] * f for j in range(3))
+    f = div(m, mass0, out=W())
+    i0, i1, i2 = (mul(inertia0[..., j], f, out=W()) for j in range(3))
     p0, p1, p2 = p[:, 0], p[:, 1], p[:, 2]
     v0, v1, v2 = v[:, 0], v[:, 1], v[:, 2]
     qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     w0, w1, w2 = w[:, 0], w[:, 1], w[:, 2]
+    a, b = W(), W()
     if spin != 0.0:
-        # spin_b = quat_rotate_inv(q, (0, 0, spin)): quat_rotate((w, -x, -y, -z), v)
-        ux, uy, uz = -qx, -qy, -qz
-        t0 = uy * spin - uz * 0.0
-        t1 = uz * 0.0 - ux * spin
-        t2 = ux * 0.0 - uy * 0.0
-        t0, t1, t2 = t0 + t0, t1 + t1, t2 + t2
-        c0, c1, c2 = uy * t2 - uz * t1, uz * t0 - ux * t2, ux * t1 - uy * t0
-        b0, b1, b2 = (0.0 + t0 * qw) + c0, (0.0 + t1 * qw) + c1, (spin + t2 * qw) + c2
-        # v - sim.contact.surface_velocity(ground, p)
-        v0, v1, v2 = v0 - -spin * p1, v1 - spin * p0, v2 - 0.0
-        w0, w1, w2 = w0 - b0, w1 - b1, w2 - b2
+        # spin_b = quat_rotate_inv(q, (0, 0, spin)): quat_rotate((w, -x, -y, -z), (0, 0, spin))
+        ux, uy, uz = (np.negative(c, out=W()) for c in (qx, qy, qz))
+        t0 = sub(mul(uy, spin, out=a), mul(uz, 0.0, out=b), out=W())
+        t1 = sub(mul(uz, 0.0, out=a), mul(ux, spin, out=b), out=W())
+        t2 = sub(mul(ux, 0.0, out=a), mul(uy, 0.0, out=b), out=W())
+        for t in (t0, t1, t2):
+            add(t, t, out=t)
+        c0 = sub(mul(uy, t2, out=a), mul(uz, t1, out=b), out=W())
+        c1 = sub(mul(uz, t0, out=a), mul(ux, t2, out=b), out=W())
+        c2 = sub(mul(ux, t1, out=a), mul(uy, t0, out=b), out=W())
+        spin_b = []
+        for t, c, s0 in ((t0, c0, 0.0), (t1, c1, 0.0), (t2, c2, spin)):  # (s0 + t w) + c
+            bj = add(mul(t, qw, out=W()), s0, out=a)
+            spin_b.append(add(bj, c, out=c))
+        b0, b1, b2 = spin_b
+        # v - sim.contact.surface_velocity(ground, p) = v - (-spin p1, spin p0, 0.0)
+        v0 = sub(v0, mul(p1, -spin, out=a), out=W())
+        v1 = sub(v1, mul(p0, spin, out=a), out=W())
+        v2 = sub(v2, 0.0, out=W())
+        w0, w1, w2 = (sub(wj, bj, out=W()) for wj, bj in ((w0, b0), (w1, b1), (w2, b2)))
     # (Omega = 0: the surface's velocity is 0, and v - 0.0 is v to the bit; the body's spin in
     # the ship's frame is 0 or -0 for a finite q, whose sign the squares below drop, and NaN
     # for any other q, which makes the energy NaN: set below)
-    trans = v0 * v0
-    trans += v1 * v1
-    trans += v2 * v2
-    trans *= 0.5 * m
-    rot = w0 * (i0 * w0)
-    rot += w1 * (i1 * w1)
-    rot += w2 * (i2 * w2)
-    rot *= 0.5
-    r = p0 * p0
-    r += p1 * p1
-    r += p2 * p2
+    trans = mul(v0, v0, out=W())  # 0.5 m (v.v)
+    add(trans, mul(v1, v1, out=a), out=trans)
+    add(trans, mul(v2, v2, out=a), out=trans)
+    mul(trans, mul(m, 0.5, out=a), out=trans)
+    rot = mul(w0, mul(i0, w0, out=a), out=W())  # 0.5 (w . I w)
+    add(rot, mul(w1, mul(i1, w1, out=a), out=a), out=rot)
+    add(rot, mul(w2, mul(i2, w2, out=a), out=a), out=rot)
+    mul(rot, 0.5, out=rot)
+    r = mul(p0, p0, out=W())  # |p|
+    add(r, mul(p1, p1, out=a), out=r)
+    add(r, mul(p2, p2, out=a), out=r)
     np.sqrt(r, out=r)
-    grav = r - radius
-    grav /= radius * r
-    grav *= m * gm
-    total = trans
-    total += grav
+    grav = sub(r, radius, out=W())  # m GM ((r - R) / (R r))
+    div(grav, mul(r, radius, out=a), out=grav)
+    mul(grav, mul(m, gm, out=a), out=grav)
+    total = add(trans, grav, out=out)
     if spin != 0.0:
-        rho = p0 * p0
-        rho += p1 * p1
-        rho -= radius * radius
-        rho *= -0.5 * m * spin * spin
-        total += rho  # the centre of mass's centrifugal part
-        cs = b0 * (i0 * b0)
-        cs += b1 * (i1 * b1)
-        cs += b2 * (i2 * b2)
-        cs *= -0.5
-        rot += cs  # the rotation's
+        rho = mul(p0, p0, out=W())  # -0.5 m spin spin (p0 p0 + p1 p1 - R R)
+        add(rho, mul(p1, p1, out=a), out=rho)
+        sub(rho, radius * radius, out=rho)
+        k = mul(m, -0.5, out=a)
+        mul(k, spin, out=k)
+        mul(k, spin, out=k)
+        add(total, mul(rho, k, out=rho), out=total)
+        cs = mul(b0, mul(i0, b0, out=a), out=W())  # -0.5 (spin_b . I spin_b)
+        add(cs, mul(b1, mul(i1, b1, out=a), out=a), out=cs)
+        add(cs, mul(b2, mul(i2, b2, out=a), out=a), out=cs)
+        add(rot, mul(cs, -0.5, out=cs), out=rot)
     else:
-        total += 0.0
-        rot += 0.0
-    total += rot
-    total += _spring(scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com,
-                     0.25 * (kpm * m))
+        add(total, 0.0, out=total)
+        add(rot, 0.0, out=rot)
+    add(total, rot, out=total)
+    k_leg = mul(mul(kpm, m, out=W()), 0.25, out=f)  # (f is done with)
+    add(total, _spring(scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k_leg, W),
+        out=total)
     if spin == 0.0:
-        odd = qw + qx
-        odd += qy
-        odd += qz
-        odd = ~np.isfinite(odd)  # (a sum of finite numbers may overflow: each is looked at)
-        if odd.any():
-            odd[odd] = ~np.isfinite(q[odd]).all(axis=1)
-            total[odd] = np.nan
-    return total
+        odd = add(add(add(qw, qx, out=a), qy, out=a), qz, out=a)
+        odd = np.isfinite(odd, out=W.mask())
+        if not odd.all():  # (a sum of finite numbers may overflow: each is looked at)
+            rows = np.flatnonzero(~odd)
+            total[rows[~np.isfinite(q[rows]).all(axis=1)]] = np.nan
 
 
-def _spring(scene: _Scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k_leg):
+def _spring(scene: _Scene, cos_t, sin_t, p0, p1, p2, qw, qx, qy, qz, leg, com, k_leg, W):
     """What the four feet's springs store (sim.contact.feet: foot_offsets_w, under)."""
+    add, sub, mul = np.add, np.subtract, np.multiply
+    a = W()
     # body_axes(q): the rotation matrix's columns (each product taken once: it is the same
     # operation on the same numbers wherever the kernel takes it)
-    xx, yy, zz = qx * qx, qy * qy, qz * qz
-    xy, wz, xz, wy, yz, wx = qx * qy, qw * qz, qx * qz, qw * qy, qy * qz, qw * qx
-    ex = (1.0 - 2.0 * (yy + zz), 2.0 * (xy + wz), 2.0 * (xz - wy))
-    ey = (2.0 * (xy - wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz + wx))
-    h = -com
-    down = (2.0 * (xz + wy) * h, 2.0 * (yz - wx) * h,
-            (1.0 - 2.0 * (xx + yy)) * h)  # scale(ez, -com_height)
-    spring = np.zeros_like(p0)
+    xx, yy, zz = (mul(c, c, out=W()) for c in (qx, qy, qz))
+    xy, wz, xz, wy, yz, wx = (mul(c, d, out=W()) for c, d in (
+        (qx, qy), (qw, qz), (qx, qz), (qw, qy), (qy, qz), (qw, qx)))
+
+    def twice(op, x, y):  # 2 (x op y)
+        o = op(x, y, out=W())
+        return mul(o, 2.0, out=o)
+
+    ex = (sub(1.0, mul(add(yy, zz, out=a), 2.0, out=a), out=W()), twice(add, xy, wz),
+          twice(sub, xz, wy))
+    ey = (twice(sub, xy, wz), sub(1.0, mul(add(xx, zz, out=a), 2.0, out=a), out=W()),
+          twice(add, yz, wx))
+    ez = (twice(add, xz, wy), twice(sub, yz, wx),
+          sub(1.0, mul(add(xx, yy, out=a), 2.0, out=a), out=W()))
+    h = np.negative(com)
+    down = [mul(e, h, out=e) for e in ez]  # scale(ez, -com_height)
+    # axis a, for each axis (ex and ey are done with)
+    along = ([mul(e, leg, out=e) for e in ex], [mul(e, leg, out=e) for e in ey])
+    spring = W()
+    spring[:] = 0.0
     ground = scene.radius + scene.base
-    half_k = 0.5 * k_leg
-    along = ([ex[j] * leg for j in range(3)], [ey[j] * leg for j in range(3)])
+    half_k = mul(k_leg, 0.5, out=k_leg)
+    foot = [W(), W(), W()]
+    r, e, off = W(), W(), W.mask()
+    if not scene.flat:
+        ms = np.negative(sin_t)
+        hgt, t1, de, dn, bump = W(), W(), W(), W(), W()
     # the feet in sim.contact's order, +x, +y, -x, -y: p + (down + axis a), p + (down + axis
     # (-a)), where axis (-a) is -(axis a) to the bit, and down + -(x) is down - x
     for k in range(4):
-        foot = []
         for j, pj in enumerate((p0, p1, p2)):
-            fj = down[j] + along[k % 2][j] if k < 2 else down[j] - along[k % 2][j]
-            fj += pj
-            foot.append(fj)
-        r = foot[0] * foot[0]
-        r += foot[1] * foot[1]
-        r += foot[2] * foot[2]
+            (add if k < 2 else sub)(down[j], along[k % 2][j], out=foot[j])
+            add(foot[j], pj, out=foot[j])
+        mul(foot[0], foot[0], out=r)
+        add(r, mul(foot[1], foot[1], out=a), out=r)
+        add(r, mul(foot[2], foot[2], out=a), out=r)
         np.sqrt(r, out=r)
         if scene.flat:
-            x = np.subtract(ground, r, out=r)
+            x = sub(ground, r, out=r)
         else:  # sim.contact.site_coords, height_and_slope
-            east, north = -sin_t * foot[0] + cos_t * foot[1], foot[2]
-            hgt = scene.base + scene.slope_e * east + scene.slope_n * north
+            east = add(mul(foot[0], ms, out=t1), mul(foot[1], cos_t, out=a), out=e)
+            north = foot[2]
+            add(mul(east, scene.slope_e, out=hgt), scene.base, out=hgt)
+            add(hgt, mul(north, scene.slope_n, out=a), out=hgt)
             for be, bn, brad, bh in scene.bumps:
-                de, dn = east - be, north - bn
-                s = (de * de + dn * dn) * (1.0 / (brad * brad))
-                w = 1.0 - s
-                hgt = hgt + np.where(s < 1.0, bh * w * w, 0.0)
-            x = (scene.radius + hgt) - r
-        e = half_k * x
-        e *= x
-        spring += np.where(x > 0.0, e, 0.0)  # (spring + 0.0 for a foot off the ground)
+                sub(east, be, out=de)
+                sub(north, bn, out=dn)
+                s = add(mul(de, de, out=de), mul(dn, dn, out=dn), out=de)
+                mul(s, 1.0 / (brad * brad), out=s)
+                w = sub(1.0, s, out=dn)
+                mul(mul(w, bh, out=bump), w, out=bump)
+                np.copyto(bump, 0.0, where=np.logical_not(np.less(s, 1.0, out=off), out=off))
+                add(hgt, bump, out=hgt)
+            x = sub(add(hgt, scene.radius, out=hgt), r, out=r)
+        mul(half_k, x, out=e)
+        mul(e, x, out=e)
+        np.copyto(e, 0.0, where=np.logical_not(np.greater(x, 0.0, out=off), out=off))
+        add(spring, e, out=spring)  # (spring + 0.0 for a foot off the ground)
     return spring
 
 

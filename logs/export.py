@@ -432,18 +432,24 @@ class _ArrowBlocks:
         return pa.RecordBatch.from_arrays(arrays, schema=self.schema)
 
 
-#: the tick table's zstd level
-PARQUET_LEVEL = 1
+#: the tick table's zstd level: one of zstd's fast levels. The fleet's 2,001,000 rows of 26
+#: columns: 77.7 MB (level 1: 67.6 MB, level -1: 72.3 MB; snappy, pyarrow's and DuckDB's own
+#: default, 105.5 MB; the log itself 123 MB), written in 0.22 CPU s (level 1: 0.34 s), and read
+#: back twice as fast as level 1's (pyarrow's read_table 0.11 s against 0.21 s; DuckDB the same
+#: way): the same codec, which every Parquet reader reads (README, "Logs at fleet scale")
+PARQUET_LEVEL = -4
 
 
 def write_parquet(blocks: Iterator[ColumnBlock], info: TableInfo, path: str) -> int:
-    """The tick table to a Parquet file, block by block (a row group each), zstd."""
+    """The tick table to a Parquet file, block by block (a row group each), zstd at
+    PARQUET_LEVEL; dictionaries for ship_id and state only (a float column gains nothing by
+    one), statistics for tick and t only (what a reader selects row groups by)."""
     import pyarrow.parquet as pq
     conv = _ArrowBlocks(info)
     n = 0
-    with pq.ParquetWriter(path, conv.schema, compression="zstd", compression_level=PARQUET_LEVEL,
-                          use_dictionary=["ship_id", "state"], write_statistics=["tick", "t"],
-                          store_schema=True) as w:
+    with pq.ParquetWriter(path, conv.schema, compression="zstd",
+                          compression_level=PARQUET_LEVEL, use_dictionary=["ship_id", "state"],
+                          write_statistics=["tick", "t"], store_schema=True) as w:
         for blk in blocks:
             w.write_batch(conv.batch(blk), row_group_size=blk.rows)
             n += blk.rows

@@ -199,8 +199,8 @@ def test_the_log_params_are_the_scenarios(tmp_path):
 def test_parquet_and_csv_export_load_no_compiled_code(tmp_path):
     """The command imports neither numba nor scipy: half a second of a Parquet export (numba's
     import, and the registry refresh loading cached kernels triggers, which imports scipy)."""
-    code = ("import sys\nfrom touchdown.cli import main\ntry:\n    main()\nexcept SystemExit as e:\n"
-            "    assert not e.code, e.code\n"
+    code = ("import sys\nfrom touchdown.cli import main\ntry:\n    main()\n"
+            "except SystemExit as e:\n    assert not e.code, e.code\n"
             "print(sorted(m for m in ('numba', 'scipy', 'llvmlite') if m in sys.modules))\n")
     for fmt in ("parquet", "csv"):
         out = tmp_path / f"x.{fmt}"
@@ -212,7 +212,7 @@ def test_parquet_and_csv_export_load_no_compiled_code(tmp_path):
         assert out.stat().st_size > 0
 
 
-# -- the decoder ------------------------------------------------------------------------------------
+# -- the decoder -----------------------------------------------------------------------------------
 def ticks_of(log: Path, n: int):
     with LogReader(log) as r:
         fmt, table = r.log_format, len(r.ship_table())
