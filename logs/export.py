@@ -2,8 +2,9 @@
 
 Positions, velocities, angular velocities and energy come from the logged state through the same
 ``sim`` functions the step uses (sim.measure: the site frame, sim.energy), with the parameters of the
-log's own recorded scenario. A field the log does not hold on a tick (a format-1 log's velocities
-between keyframes) is null.
+log's own recorded scenario; the columnar export (below, what the command line runs) computes the
+same numbers, bit for bit, in numpy (logs.derived), and loads no compiled code for Parquet or CSV.
+A field the log does not hold on a tick (a format-1 log's velocities between keyframes) is null.
 """
 from __future__ import annotations
 
