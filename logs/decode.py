@@ -46,7 +46,7 @@ _NUM_INDEX = np.full(64, -1, np.int64)
 for _f, (_num, _name, _dt) in enumerate(PACKED):
     _NUM_INDEX[_num] = _f
 
-#: what an error code from :func:`_scan` means
+#: what an error code of a scan means (_scan_one; logs.scan_compiled.scan_messages)
 ERRORS = {
     1: "truncated varint in a tick record",
     2: "malformed varint in a tick record",
@@ -112,8 +112,8 @@ def _int64(v: int) -> int:
 
 def _scan_one(mv, data: np.ndarray, i: int, end: int) -> tuple[int, _Layout | None]:
     """(error code, layout) of the message ``data[i:end]`` (``mv``: a memoryview of ``data``);
-    error ``_LONG`` for more than PY_FIELDS fields. The walk of logs.scan_compiled._scan, field
-    by field."""
+    error ``_LONG`` for more than PY_FIELDS fields. The walk of
+    logs.scan_compiled.scan_messages, field by field."""
     begin = i
     count = 0
     tick_at, tick_bytes, t_at = -1, 0, -1
@@ -319,12 +319,12 @@ class _Scanner:
 def _compiled(data, begins, ends, header, t_at, starts, lengths, idx) -> tuple[int, int]:
     """The messages ``idx`` scanned by the compiled scan (logs.scan_compiled), into the rows
     ``idx`` of the outputs; (error code, message index) of the first error, (0, -1) if none."""
-    from touchdown.logs.scan_compiled import _scan
+    from touchdown.logs.scan_compiled import scan_messages
     k = idx.shape[0]
     h, t, s, n = (np.empty((k, 2), np.int64), np.empty(k, np.int64),
                   np.empty((k, _NF), np.int64), np.empty((k, _NF), np.int64))
-    err, at = _scan(data, np.ascontiguousarray(begins), np.ascontiguousarray(ends), _NUM_INDEX,
-                    WIRE, h, t, s, n)
+    err, at = scan_messages(data, np.ascontiguousarray(begins), np.ascontiguousarray(ends),
+                            _NUM_INDEX, WIRE, h, t, s, n)
     done = idx if not err else idx[:at]
     m = done.shape[0]
     header[done], t_at[done], starts[done], lengths[done] = h[:m], t[:m], s[:m], n[:m]

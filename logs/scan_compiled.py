@@ -30,7 +30,7 @@ def _varint(data, i, end):
 
 
 @separate
-def _scan(data, begins, ends, num_index, wire, header, t_at, starts, lengths):
+def scan_messages(data, begins, ends, num_index, wire, header, t_at, starts, lengths):
     """Fields of every message ``data[begins[k]:ends[k]]``: ``header[k]`` = (tick, ship
     count), ``t_at[k]`` where its time's 8 bytes are (-1: absent, 0.0), ``starts[k, f]`` and
     ``lengths[k, f]`` where field f's numbers are (start -1: absent). Returns (error code, the
@@ -95,4 +95,4 @@ def _scan(data, begins, ends, num_index, wire, header, t_at, starts, lengths):
     return 0, -1
 
 
-__all__ = ["_scan"]
+__all__ = ["scan_messages"]
