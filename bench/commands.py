@@ -153,3 +153,34 @@ def logs(quick: bool) -> None:
     commands on one core, as ratios against the old per-row JSON Lines export."""
     from touchdown.bench import logs as bench_logs
     bench_logs.main(quick=quick)
+
+
+@bench.command()
+@click.option("--fault", "faults", multiple=True,
+              type=click.Choice(["worker-kill", "pause-5", "pause-30", "aof-restart",
+                                 "empty-restart", "failover", "reshard"]),
+              help="a fault to inject (repeatable; default: every one, in turn)")
+@click.option("--minutes", type=click.FloatRange(min=0.0), default=None,
+              help="run faults drawn from the seed until this much time has passed (default: "
+                   "each fault once)")
+@click.option("--seed", type=int, default=None,
+              help="the seed the faults and the traffic are drawn from (default: from the "
+                   "clock; always printed)")
+@click.option("--seconds", type=click.FloatRange(min=4.0), default=16.0, show_default=True,
+              help="traffic per case (the fault in its middle)")
+@click.option("--rate", type=click.FloatRange(min=1.0), default=150.0, show_default=True,
+              help="command entries a second the gateway writes")
+@click.option("--keep", "keep_dir", default=None, type=click.Path(file_okay=False),
+              help="keep each case's servers' data, flight logs and workers' lines here")
+def chaos(faults: tuple[str, ...], minutes: float | None, seed: int | None, seconds: float,
+          rate: float, keep_dir: str | None) -> None:
+    """Every command accounted for under faults: a gateway writes uniquely-valued commands
+    while workers are killed and private redis-servers are paused, killed, emptied, failed
+    over and resharded; each entry Redis accepted must be found applied once in the flight
+    logs or rejected once to its sender (exit 1 otherwise). Needs redis-server and redis-cli."""
+    import time as _time
+
+    from touchdown.bench import chaos as bench_chaos
+    seed = seed if seed is not None else int(_time.time()) % 1_000_000
+    chosen = list(faults) or list(bench_chaos.FAULTS)
+    sys.exit(bench_chaos.main(chosen, seconds, rate, seed, minutes, keep_dir))
