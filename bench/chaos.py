@@ -35,7 +35,6 @@ import sys
 import tempfile
 import threading
 import time
-from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -285,7 +284,10 @@ class Verdict:
     unreplicated: int = 0
     wrong_recipient: list = field(default_factory=list)  # a rejection not to its sender
     pending_left: int = 0
-    backwards: list = field(default_factory=list)  # (shard, detail): a tick went backward
+    #: sent in the second before Redis was restarted empty and not found: lost with Redis's data
+    lost_with_redis: int = 0
+    #: a worker's lines saying a shard went back (lost to another worker, or started anew)
+    backwards: list = field(default_factory=list)
 
     def line(self) -> str:
         maybe = sum(1 for w in self.lost if w[-1] == "a later throttle of the ship applied")
@@ -293,7 +295,10 @@ class Verdict:
                 f"superseded {self.superseded:,}; LOST {len(self.lost)} ({maybe} followed by a "
                 f"later throttle of the same ship that was applied), TWICE "
                 f"{len(self.twice)}; rejections to the wrong player {len(self.wrong_recipient)}; "
-                f"left pending {self.pending_left}")
+                f"left pending {self.pending_left}"
+                + (f"; lost with Redis's data {self.lost_with_redis}" if self.lost_with_redis
+                   else "")
+                + (f"; shards gone back {len(self.backwards)}" if self.backwards else ""))
 
     @property
     def ok(self) -> bool:
@@ -365,7 +370,8 @@ def read_results(client, keys, shards: int) -> dict:
     return out
 
 
-def account(sent: list[Sent], folder: Path, client, keys, shards: int) -> Verdict:
+def account(sent: list[Sent], folder: Path, client, keys, shards: int,
+            wiped: tuple[float, float] | None = None) -> Verdict:
     """Each entry sent found exactly once: applied in the logs, rejected on the event stream (or
     by the results stream), or superseded."""
     joins, leaves, throttles = from_logs(folder)
@@ -413,6 +419,9 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int) -> Verdic
         if found == 0:
             if s.unreplicated:
                 continue  # Redis's own loss in a failover, counted apart
+            if wiped and wiped[0] <= s.sent_at <= wiped[1]:
+                v.lost_with_redis += 1
+                continue
             nxt = later.get((s.ship_id, s.value))
             if s.cmd == "throttle" and nxt and throttles.get(nxt, {}).get(s.ship_id):
                 what = what + ("a later throttle of the ship applied",)
@@ -647,6 +656,8 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
         time.sleep(seconds / 2)
         ticks_before = _ticks(client, keys, SHARDS)
         notes.append(f"fault at {time.monotonic() - t0:.1f} s, ticks {ticks_before}")
+        t_fault = time.monotonic()
+        notes.append("wall@" + time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime()))
         inject(fault, server, cl, workers, gw, keys, notes)
         time.sleep(seconds / 2)
         gw.halt()
@@ -660,8 +671,16 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
             err = workers.err(name)
             if "Traceback" in err:
                 notes.append(f"{name}: a traceback")
-        verdict = account(gw.sent, flight, client, keys, SHARDS)
-        verdict.unknown_found = verdict.unknown_found
+        # Redis restarted empty: what it held but no worker had read yet went with it (the
+        # entries of the second before; the shared stream's not yet routed)
+        wiped = (t_fault - 1.0, time.monotonic()) if fault == "empty-restart" else None
+        verdict = account(gw.sent, flight, client, keys, SHARDS, wiped)
+        for name in workers.procs:
+            for line in workers.err(name).splitlines():
+                if ": lost at tick" in line or (
+                        "taken (new" in line and '"time"' in line
+                        and _after(line, notes)):
+                    verdict.backwards.append((name, json.loads(line)["msg"][:160]))
     finally:
         if gw is not None and gw.is_alive():
             gw.halt()
@@ -679,7 +698,10 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
     if verbose:
         print(out.line(), flush=True)
         for n in notes:
-            print(f"    {n}", flush=True)
+            if not n.startswith("wall@"):
+                print(f"    {n}", flush=True)
+        for what in verdict.backwards[:10]:
+            print(f"    went back: {what}", flush=True)
         for what in verdict.lost[:10]:
             print(f"    lost: {what}", flush=True)
         for what in verdict.twice[:10]:
@@ -687,6 +709,12 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
         for what in verdict.wrong_recipient[:5]:
             print(f"    to the wrong player: {what}", flush=True)
     return out
+
+
+def _after(line: str, notes: list) -> bool:
+    """A worker's line written after the fault (the fault's wall time is in the notes)."""
+    when = next((n.split("@", 1)[1] for n in notes if n.startswith("wall@")), None)
+    return when is not None and json.loads(line)["time"] > when
 
 
 def inject(fault: str, server, cl, workers: Workers, gw: Gateways, keys, notes: list) -> None:
