@@ -284,6 +284,7 @@ class Verdict:
     unreplicated: int = 0
     wrong_recipient: list = field(default_factory=list)  # a rejection not to its sender
     pending_left: int = 0
+    pending_detail: list = field(default_factory=list)
     #: sent in the second before Redis was restarted empty and not found: lost with Redis's data
     lost_with_redis: int = 0
     #: a worker's lines saying a shard went back (lost to another worker, or started anew)
@@ -445,6 +446,10 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int,
         try:
             for g in client.xinfo_groups(stream):
                 v.pending_left += int(g["pending"])
+                if int(g["pending"]):
+                    p = client.xpending_range(stream, g["name"], "-", "+", 10)
+                    v.pending_detail.append((stream, [(x["message_id"].decode(),
+                                                       x["consumer"].decode()) for x in p]))
         except redis.exceptions.ResponseError:
             pass
     return v
@@ -462,12 +467,13 @@ class Server:
     """A private redis-server on a free port, data in ``folder`` (AOF, fsync always: what it
     acknowledged survives a SIGKILL), which the faults pause, kill and start again."""
 
-    def __init__(self, folder: Path, fsync: str = "always"):
+    def __init__(self, folder: Path, fsync: str = "always", aof: bool = True):
         self.binary = shutil.which("redis-server")
         if self.binary is None:
             raise RuntimeError("bench chaos needs redis-server on PATH")
         self.folder = folder
         self.fsync = fsync
+        self.aof = aof
         self.port = _free_port()
         self.proc: subprocess.Popen | None = None
         self.start()
@@ -480,7 +486,8 @@ class Server:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.proc = subprocess.Popen(
             [self.binary, "--port", str(self.port), "--bind", "127.0.0.1", "--dir",
-             str(self.folder), "--save", "", "--appendonly", "yes", "--appendfsync", self.fsync],
+             str(self.folder), "--save", "", "--appendonly", "yes" if self.aof else "no",
+             "--appendfsync", self.fsync],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         _until(self.answers, 20, "redis-server to start")
 
@@ -512,6 +519,21 @@ class Server:
         if empty:
             shutil.rmtree(self.folder, ignore_errors=True)
         time.sleep(down_s)
+        self.start()
+
+    def snapshot(self) -> Path:
+        """SAVE now, the snapshot copied aside (to start from it again later)."""
+        c = self.client()
+        c.save()
+        c.close()
+        aside = self.folder.parent / "snapshot.rdb"
+        shutil.copy(self.folder / "dump.rdb", aside)
+        return aside
+
+    def restart_from(self, snapshot: Path) -> None:
+        """SIGKILLed and started from an older snapshot: every write since is lost."""
+        self.kill()
+        shutil.copy(snapshot, self.folder / "dump.rdb")
         self.start()
 
     def stop(self) -> None:
@@ -574,7 +596,7 @@ def _until(pred, timeout: float, what: str) -> None:
 
 
 # -- the cases ----------------------------------------------------------------------------------
-FAULTS = ("worker-kill", "pause-5", "pause-30", "aof-restart", "empty-restart",
+FAULTS = ("worker-kill", "pause-5", "pause-30", "aof-restart", "empty-restart", "rollback",
           "failover", "reshard")
 
 
@@ -633,7 +655,7 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
         url_args = ["--redis-cluster", cl.url]
         connect = cl.client
     else:
-        server = Server(folder / "redis")
+        server = Server(folder / "redis", aof=fault != "rollback")
         url_args = ["--redis", server.url]
         connect = lambda: server.client(socket_timeout=120)  # noqa: E731  (blocks through pauses)
     args = [*url_args, "--prefix", prefix, "--log-dir", str(flight), "--shards", str(SHARDS),
@@ -656,7 +678,6 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
         time.sleep(seconds / 2)
         ticks_before = _ticks(client, keys, SHARDS)
         notes.append(f"fault at {time.monotonic() - t0:.1f} s, ticks {ticks_before}")
-        t_fault = time.monotonic()
         notes.append("wall@" + time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime()))
         inject(fault, server, cl, workers, gw, keys, notes)
         time.sleep(seconds / 2)
@@ -673,7 +694,9 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
                 notes.append(f"{name}: a traceback")
         # Redis restarted empty: what it held but no worker had read yet went with it (the
         # entries of the second before; the shared stream's not yet routed)
-        wiped = (t_fault - 1.0, time.monotonic()) if fault == "empty-restart" else None
+        marks = {n.split("@")[0]: float(n.split("@")[1]) for n in notes
+                 if n.startswith("wiped")}
+        wiped = (marks["wiped"], marks["wiped-until"]) if marks else None
         verdict = account(gw.sent, flight, client, keys, SHARDS, wiped)
         for name in workers.procs:
             for line in workers.err(name).splitlines():
@@ -698,8 +721,10 @@ def run_case(fault: str, folder: Path, seconds: float = 12.0, rate: float = 150.
     if verbose:
         print(out.line(), flush=True)
         for n in notes:
-            if not n.startswith("wall@"):
+            if "@" not in n:
                 print(f"    {n}", flush=True)
+        for what in verdict.pending_detail[:5]:
+            print(f"    pending: {what}", flush=True)
         for what in verdict.backwards[:10]:
             print(f"    went back: {what}", flush=True)
         for what in verdict.lost[:10]:
@@ -733,8 +758,18 @@ def inject(fault: str, server, cl, workers: Workers, gw: Gateways, keys, notes: 
         server.restart()
         notes.append("redis SIGKILLed and started on its AOF")
     elif fault == "empty-restart":
+        notes.append(f"wiped@{time.monotonic() - 1.0}")
         server.restart(empty=True)
+        notes.append(f"wiped-until@{time.monotonic()}")
         notes.append("redis SIGKILLed and started empty")
+    elif fault == "rollback":
+        snap = server.snapshot()
+        notes.append(f"wiped@{time.monotonic() - 0.2}")
+        time.sleep(2.0)
+        server.restart_from(snap)
+        notes.append(f"wiped-until@{time.monotonic()}")
+        notes.append("redis SIGKILLed and started from a snapshot 2 s old (every write since "
+                     "lost: what a failover to a lagging replica does, longer)")
     elif fault == "failover":
         i = cl.node_of(keys.shard(1, "owner"))
         cl.kill(i)

@@ -158,7 +158,7 @@ def logs(quick: bool) -> None:
 @bench.command()
 @click.option("--fault", "faults", multiple=True,
               type=click.Choice(["worker-kill", "pause-5", "pause-30", "aof-restart",
-                                 "empty-restart", "failover", "reshard"]),
+                                 "empty-restart", "rollback", "failover", "reshard"]),
               help="a fault to inject (repeatable; default: every one, in turn)")
 @click.option("--minutes", type=click.FloatRange(min=0.0), default=None,
               help="run faults drawn from the seed until this much time has passed (default: "

@@ -20,11 +20,15 @@ Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first
     P:shard:{k}:epoch          "N:worker": the Nth take of shard k, and who took it (never
                                expires): a worker whose lease lapsed while nobody took the shard
                                holds the same epoch and goes on; a new owner makes a new one
+    P:shard:{k}:from           "epoch tick": the tick the latest epoch went on from (what Redis
+                               held when it took the shard): a worker that lost the shard marks
+                               its flight log superseded after it (superseded_after_tick)
     P:shard:{k}:results        stream, entry ``{tick}-1`` a tick that applied commands: each
                                entry's result (applied, rejected) by stream and entry id
                                (bounded: --results-maxlen)
     P:shard:{k}:checkpoint     ShardCheckpoint (proto/service.proto): the shard at a tick
     P:shard:{k}:journal        stream, entry ``{tick}-1``: the requests applied at that tick
+    P:shard:{k}:journaled      the last tick journaled (a journal trimmed by a checkpoint keeps it)
     P:shard:{k}:specs          hash: ship id -> [join tick, its table] (JSON), the shard's ships
                                (a retired ship's removed by the first checkpoint after it left)
     P:shard:{k}:params         hash: ship id -> its parameter record (SHIP_DTYPE bytes), written
@@ -208,11 +212,14 @@ return mine
 """
 
 #: Shard k's entries for the event stream, above its mark: KEYS owner, epoch, mark, events, tick;
-#: ARGV worker, epoch, lease ms, the tick, maxlen (0: none), then per entry: number, field
-#: count, fields...
+#: ARGV worker, epoch, lease ms, the tick, maxlen (0: none), the mark the worker last saw Redis
+#: confirm, then per entry: number, field count, fields... Returns how many were added, or -5
+#: (nothing written) if the mark is below what the worker saw confirmed: Redis lost writes (a
+#: failover, an older snapshot), which the worker writes again first (no gap in seq).
 PUBLISH = fenced("""
 local mark = tonumber(redis.call('GET', KEYS[3]) or '-1')
-local i, added = 6, 0
+if mark < tonumber(ARGV[6]) then return -5 end
+local i, added = 7, 0
 while i <= #ARGV do
   local n, nf = tonumber(ARGV[i]), tonumber(ARGV[i + 1])
   if n > mark then
@@ -234,13 +241,16 @@ return added
 
 #: The requests a tick applies, journaled before the tick applies them, with their command
 #: entries acknowledged, then the command stream trimmed below its oldest unacknowledged entry
-#: (acknowledged commands only): KEYS owner, epoch, journal, the shard's commands; ARGV worker,
-#: epoch, lease ms, group, journal id, payload ('' = nothing to journal), the journal ids (comma-
-#: separated; '' none) of writes whose reply never came and whose requests this one carries
-#: instead (removed if they are there, in the same step, after the XADD: a refused XADD leaves
-#: everything as it was), ids... Returns 1, or -4 if the journal already holds a later tick
-#: (nothing written, nothing acknowledged).
+#: (acknowledged commands only): KEYS owner, epoch, journal, the shard's commands, the last
+#: journaled tick; ARGV worker, epoch, lease ms, group, journal id, payload ('' = nothing to
+#: journal), the journal ids (comma-separated; '' none) of writes whose reply never came and whose
+#: requests this one carries instead (removed if they are there, in the same step, after the
+#: XADD: a refused XADD leaves everything as it was), the last tick the worker saw journaled (-1
+#: none), the tick, ids... Returns 1; -4 if the journal already holds a later tick; -5 if it
+#: lacks a tick the worker saw journaled (Redis lost writes: written again first); nothing is
+#: written or acknowledged on either.
 JOURNAL = fenced("""
+if tonumber(redis.call('GET', KEYS[5]) or '-1') < tonumber(ARGV[8]) then return -5 end
 if ARGV[6] ~= '' then
   local ok = redis.pcall('XADD', KEYS[3], ARGV[5], 'requests', ARGV[6])
   if type(ok) == 'table' and ok.err then
@@ -252,8 +262,11 @@ end
 for id in string.gmatch(ARGV[7], '[^,]+') do
   if id ~= ARGV[5] then redis.call('XDEL', KEYS[3], id) end
 end
-if #ARGV > 7 then
-  redis.call('XACK', KEYS[4], ARGV[4], unpack(ARGV, 8))
+if ARGV[6] ~= '' and tonumber(redis.call('GET', KEYS[5]) or '-1') < tonumber(ARGV[9]) then
+  redis.call('SET', KEYS[5], ARGV[9])
+end
+if #ARGV > 9 then
+  redis.call('XACK', KEYS[4], ARGV[4], unpack(ARGV, 10))
   local p = redis.call('XPENDING', KEYS[4], ARGV[4])
   local floor = ARGV[#ARGV]
   if p[1] > 0 then floor = p[2] end
@@ -366,14 +379,11 @@ redis.call('SET', KEYS[4], ARGV[5])
 return 1
 """
 
-#: What Redis holds of a shard, for a worker back from an outage to compare with what it wrote:
-#: KEYS epoch, mark, tick, journal. Returns [epoch or false, mark, tick, last journal id or ''].
+#: What Redis holds of a shard, for a worker to compare with what it wrote: KEYS epoch, mark,
+#: tick, the last journaled tick. Returns [epoch or false, mark, tick, last journaled tick].
 STATE = """
-local last = redis.call('XREVRANGE', KEYS[4], '+', '-', 'COUNT', 1)
-local j = ''
-if #last > 0 then j = last[1][1] end
 return {redis.call('GET', KEYS[1]), redis.call('GET', KEYS[2]) or '-1',
-        redis.call('GET', KEYS[3]) or '-1', j}
+        redis.call('GET', KEYS[3]) or '-1', redis.call('GET', KEYS[4]) or '-1'}
 """
 
 

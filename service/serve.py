@@ -126,9 +126,11 @@ class ServeConfig:
 TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
 GC_EVERY = 50  # loops between the full collections a worker runs between its ticks
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
-#: entries a shard keeps after Redis confirmed them, to write them again if Redis loses them (a
-#: failover's last writes, a restart without its data)
+#: what a shard keeps after Redis confirmed it, to write it again if Redis loses it (a failover's
+#: last writes, a restart from an older snapshot, or without its data): the last entries out,
+#: and the journal's last records (their requests, at most)
 RETAIN_ENTRIES = 20_000
+RETAIN_REQUESTS = 100_000
 
 
 @dataclass
@@ -185,13 +187,15 @@ class _Owned:
     #: another worker goes on from there, and its flight log says so (superseded_after_tick)
     delivered: int = 0
     #: what Redis confirmed, kept to write it again if Redis loses it: the last entry number out,
-    #: the entries out (the latest RETAIN_ENTRIES), the journal's records since the checkpoint
-    #: before the last and their entry ids
+    #: the entries out (the latest RETAIN_ENTRIES), the journal's latest records (at most
+    #: RETAIN_REQUESTS requests) and their entry ids (an entry found pending again is not
+    #: applied twice)
     confirmed_mark: int = -1
+    journal_mark: int = -1  # the last tick this worker saw journaled (JOURNAL checks it)
+    stale: set = field(default_factory=set)  # applied entries found pending again (acks lost)
     sent: deque = field(default_factory=lambda: deque(maxlen=RETAIN_ENTRIES))
     journaled: deque = field(default_factory=deque)  # (tick, [requests])
     applied: dict = field(default_factory=dict)  # entry id -> the tick it was applied at
-    checkpoints: list = field(default_factory=list)  # the last two confirmed checkpoints' ticks
     step_s: float = 0.0  # the last step's wall time (seconds)
 
 
@@ -218,6 +222,7 @@ class Worker:
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
         self._gone: set[int] = set()  # shards whose state Redis lost (their epoch gone)
+        self._suspect: set[int] = set()  # shards whose last writes Redis may have lost
         self._epochs: dict[int, Fence] = {}  # the fence of each shard owned or being taken
         self._take_after = 0.0  # no shard of another worker is taken before (after an outage)
         self._said_gone: set[int] = set()
@@ -451,6 +456,9 @@ class Worker:
             gone, self._gone = self._gone, set()
             for k in sorted(gone & set(self.owned)):
                 self._redis(self._restore, k)
+        if self._suspect and self.redis_up:
+            suspect, self._suspect = self._suspect, set()
+            self._redis(self._reconcile, suspect)
         ph = self.phase
         if self.redis_up and now >= self._next_lease:
             with ph("leases"):
@@ -531,7 +539,8 @@ class Worker:
         for k in sorted(plans):
             if plans[k] and k in self.owned:
                 o = self.owned[k]
-                writes.append((k, o.fence, o.shard.tick, plans[k], list(o.unsure)))
+                writes.append((k, o.fence, o.shard.tick, plans[k], list(o.unsure),
+                               o.journal_mark))
                 before[k] = list(o.unsure)
                 o.unsure.append(o.shard.tick)  # until Redis says what it did
         for j in self.store.journal(writes):
@@ -544,13 +553,15 @@ class Worker:
                 o.unsure = []
                 confirmed.add(j.k)
                 tick, requests = o.shard.tick, plans[j.k]
-                ids = [r.entry_id for r in requests]
-                o.inflight.difference_update(ids)
-                o.journaled.append((tick, requests))
-                o.applied.update(dict.fromkeys(ids, tick))
+                o.journal_mark = tick
+                o.inflight.difference_update(r.entry_id for r in requests)
+                self._journaled(o, tick, requests)
                 o.delivered = max(o.delivered, tick + 1)
             elif j.code == -3:
                 self._gone.add(j.k)
+            elif j.code == -5:  # Redis lost journal records: written again first
+                o.unsure = before[j.k]
+                self._suspect.add(j.k)
             elif j.code == -4:
                 self.log(f"shard {j.k}: its journal holds a tick after {o.shard.tick}: another "
                          f"history; dropping the shard", "error")
@@ -694,7 +705,8 @@ class Worker:
             o.read_count = self._adapt(o.read_count, entries)
             for entry_id, raw in entries:
                 self._enqueue(k, o, entry_id.decode(), raw)
-            if rd.mine > len(o.inflight) and o.reread is None:
+            # (checked after a read of new entries: a re-read in pages does not loop on them)
+            if start == ">" and rd.mine > len(o.inflight) + len(o.stale):
                 o.reread = "0"
             if rd.others:
                 for eid, raw in self.store.claim(k):
@@ -706,7 +718,9 @@ class Worker:
         with ``max_commands_per_ship`` commands waiting has further ones rejected."""
         if raw is None or eid in o.inflight:
             return
-        if eid in o.applied:
+        if eid in o.applied:  # applied, and pending again: Redis lost its acknowledgement
+            o.stale.add(eid)
+            self._suspect.add(k)
             return
         o.inflight.add(eid)
         req = self._parse(k, eid, raw)
@@ -793,6 +807,8 @@ class Worker:
                 lost.add(k)
             if f.gone:
                 self._gone.add(k)
+            if f.behind:
+                self._suspect.add(k)
         if result.unreachable is not None:
             raise result.unreachable  # _redis: Redis is away; what was not written stays held
         for k in sorted(set(self.owned) - lost):
@@ -805,14 +821,18 @@ class Worker:
             raise result.refused  # said once by _redis; what failed stays held
 
     def _checkpointed(self, o: _Owned, tick: int, gone: set) -> None:
-        """A checkpoint of ``tick`` is in Redis: the ships that left before it are forgotten, and
-        the journal's records kept to write again are those after the checkpoint before it."""
+        """A checkpoint of ``tick`` is in Redis: the ships that left before it are forgotten."""
         o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
-        o.checkpoints = (o.checkpoints + [tick])[-2:]
-        keep_from = o.checkpoints[0]
-        while o.journaled and o.journaled[0][0] < keep_from:
-            _t, requests = o.journaled.popleft()
-            for r in requests:
+
+    @staticmethod
+    def _journaled(o: _Owned, tick: int, requests: list) -> None:
+        """A tick's requests Redis holds in the journal: kept (the latest RETAIN_REQUESTS) to
+        write again if Redis loses them."""
+        o.journaled.append((tick, requests))
+        o.applied.update(dict.fromkeys((r.entry_id for r in requests), tick))
+        while len(o.applied) > RETAIN_REQUESTS and len(o.journaled) > 1:
+            _t, old = o.journaled.popleft()
+            for r in old:
                 o.applied.pop(r.entry_id, None)
 
     def _writes(self, k: int) -> ShardWrites:
@@ -834,7 +854,7 @@ class Worker:
             packed, tick, published, _, gone = o.checkpoint
             cp = CheckpointWrite(packed.result(), tick, published, tuple(gone))
         return ShardWrites(k, sh.tick, list(o.unsent), o.hashes, o.specs, o.params,
-                           o.telemetry, cp, o.fence, list(o.results))
+                           o.telemetry, cp, o.fence, list(o.results), o.confirmed_mark)
 
     def _packer(self) -> ThreadPoolExecutor:
         """The thread that packs checkpoints (zstd; off the tick)."""
@@ -1004,8 +1024,7 @@ class Worker:
         while shard.tick < last:
             requests = journal.get(shard.tick, [])
             if requests:  # (kept as this worker's own journal writes are: Redis may lose them)
-                o.journaled.append((shard.tick, requests))
-                o.applied.update(dict.fromkeys((r.entry_id for r in requests), shard.tick))
+                self._journaled(o, shard.tick, requests)
             self._take(o, shard.step(requests))
             caught += 1
         o.telemetry.clear()  # (specs and parameters are written again: a spawn journaled by
@@ -1015,8 +1034,8 @@ class Worker:
             self._enqueue(k, o, eid, raw)
         o.reread = "0"
         o.delivered = shard.tick  # what Redis holds: this worker goes on from here
-        # the journal's records kept to write again: from the checkpoint this worker began at
-        o.checkpoints = [state.tick] if blob is not None else [0]
+        o.journal_mark = max(journal, default=-1)
+        store.began(k, fence, shard.tick)
         self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
@@ -1042,6 +1061,15 @@ class Worker:
         if o is None:
             return
         self._keep_counts(o)
+        # where the new owner went on from: what Redis held when it took the shard, which is
+        # less than what this worker delivered if Redis lost writes (a failover, an old
+        # snapshot) before the new owner took it
+        try:
+            began = self.store.successor_from(k)
+        except ERRORS:
+            began = None
+        if began is not None and began[0] != o.fence.epoch and began[1] < o.delivered:
+            o.delivered = began[1]
         # the ticks after the last one Redis holds were never published: the next owner goes
         # on from that tick, and may apply what this worker applied since at other ticks
         o.shard.log.close(complete=True, reason="lost", superseded_after_tick=o.delivered)
@@ -1050,13 +1078,17 @@ class Worker:
                  f"entries left to its new owner, which re-derives them", "warning")
 
     # -- when Redis lost what it held ------------------------------------------------------------
-    def _reconcile(self) -> None:
-        """Back from an outage: what Redis holds of each owned shard against what this worker
-        wrote. A shard whose epoch is gone (Redis restarted empty) is written back whole
-        (_restore); one whose last writes Redis lost (a failover to a replica that had not
-        received them; an append-only file fsynced every second) has them written again
-        (_rewrite); one with another epoch is another worker's now."""
-        held = self.store.state(sorted(self.owned))
+    def _reconcile(self, shards: set | None = None) -> None:
+        """What Redis holds of each owned shard (or of ``shards``: those a script or a read
+        found behind) against what this worker wrote. A shard whose epoch is gone (Redis
+        restarted empty) is written back whole (_restore); one whose last writes Redis lost (a
+        failover to a replica that had not received them, an append-only file fsynced every
+        second, a restart from an older snapshot) has them written again (_rewrite); one with
+        another epoch is another worker's now. Then the entries found pending again though
+        applied (their acknowledgements lost with the journal, now written again) are
+        acknowledged."""
+        ks = sorted(set(self.owned) if shards is None else set(shards) & set(self.owned))
+        held = self.store.state(ks)
         for k, (epoch, mark, _tick, journal_tick) in held.items():
             o = self.owned.get(k)
             if o is None:
@@ -1065,10 +1097,13 @@ class Worker:
                 self._restore(k)
             elif epoch != o.fence.epoch:
                 self._lose(k, "another worker took it while Redis was away")
-            else:
-                last = o.journaled[-1][0] if o.journaled else -1
-                if mark < o.confirmed_mark or journal_tick < last:
-                    self._rewrite(k, mark, journal_tick)
+            elif mark < o.confirmed_mark or journal_tick < o.journal_mark:
+                self._rewrite(k, mark, journal_tick)
+        for k in ks:
+            o = self.owned.get(k)
+            if o is not None and o.stale:
+                self.store.ack(k, sorted(o.stale))
+                o.stale.clear()
 
     def _rewrite(self, k: int, mark: int, journal_tick: int) -> None:
         """Redis lost shard k's last writes: the journal's records after ``journal_tick`` and the
@@ -1086,7 +1121,9 @@ class Worker:
         again = [e for e in o.sent if e[0] > mark]
         gap = bool(again) and again[0][0] > mark + 1 or (not again and o.confirmed_mark > mark)
         o.unsent.extendleft(reversed(again))
+        o.sent = deque((e for e in o.sent if e[0] <= mark), maxlen=RETAIN_ENTRIES)
         o.confirmed_mark = mark
+        o.journal_mark = min(o.journal_mark, journal_tick) if not records else o.journal_mark
         o.hashes.update(o.shard.hashes_of(np.arange(o.shard.world.state.n), o.shard.tick))
         o.force_checkpoint = True
         self.log(f"shard {k}: redis lost its last writes (its journal at tick {journal_tick}, "
@@ -1126,8 +1163,10 @@ class Worker:
         o.unsent.extendleft(reversed(again))
         o.sent.clear()
         o.confirmed_mark = first - 1
+        o.journal_mark = -1
         o.journaled.clear()
         o.applied.clear()
+        o.stale.clear()
         o.unsure = []
         o.checkpoint = None
         o.reread = "0"

@@ -92,6 +92,7 @@ class ShardWrites:
     checkpoint: "CheckpointWrite | None" = None
     fence: "Fence | None" = None
     results: list = field(default_factory=list)  # (tick, results JSON) to write
+    mark: int = -1  # the shard's mark the worker last saw Redis confirm (PUBLISH checks it)
 
 
 @dataclass(frozen=True)
@@ -127,6 +128,7 @@ class Flushed:
     lost: bool = False
     refused: Exception | None = None
     gone: bool = False  # the shard's epoch is gone: Redis lost its state
+    behind: bool = False  # the shard's mark is below what the worker saw: Redis lost writes
     results: int = 0  # results entries written (or there already), in order from the first
 
 
@@ -338,13 +340,13 @@ class ShardStore:
     # -- the journal ------------------------------------------------------------------------------
     def journal(self, writes: list) -> list[Journaled]:
         """JOURNAL, before a tick applies its requests: each (shard, fence, tick, requests,
-        retract) written with its entries' acknowledgements, one script a shard, in one round
+        retract, the last tick the worker saw journaled) written with its entries' acknowledgements, one script a shard, in one round
         trip. ``retract``: the ticks of earlier writes whose reply never came (their requests are
         among these, now at this tick): removed in the same step. Redis unreachable raises (the
         outcome of each is then unknown)."""
         pipe = self.r.pipeline(transaction=False)
-        for k, fence, tick, requests, retract in writes:
-            self._journal(pipe, k, fence, tick, requests, retract)
+        for k, fence, tick, requests, retract, seen in writes:
+            self._journal(pipe, k, fence, tick, requests, retract, seen)
         replies = pipe.execute(raise_on_error=False)
         out = []
         for (k, *_rest), reply in zip(writes, replies):
@@ -357,12 +359,12 @@ class ShardStore:
         return out
 
     def _journal(self, pipe, k: int, fence: Fence, tick: int, requests: list,
-                 retract: list | None) -> None:
+                 retract: list | None, seen: int) -> None:
         payload = json.dumps([r.as_json() for r in requests]) if requests else ""
         self._script("JOURNAL", [*self._fence_keys(k), self.keys.shard(k, "journal"),
-                                 self.keys.shard_commands(k)],
+                                 self.keys.shard_commands(k), self.keys.shard(k, "journaled")],
                      [*fence.args(), rio.Keys.group(k), f"{tick}-1", payload,
-                      ",".join(f"{t}-1" for t in retract or ()),
+                      ",".join(f"{t}-1" for t in retract or ()), seen, tick,
                       *[r.entry_id for r in requests]], client=pipe)
 
     def rejournal(self, k: int, fence: Fence, records: list) -> int:
@@ -373,7 +375,7 @@ class ShardStore:
             return 1
         pipe = self.r.pipeline(transaction=False)
         for tick, requests in records:
-            self._journal(pipe, k, fence, tick, requests, None)
+            self._journal(pipe, k, fence, tick, requests, None, -1)
         codes = [int(x) for x in pipe.execute()]
         return next((c for c in codes if c != 1), 1)
 
@@ -396,8 +398,8 @@ class ShardStore:
                 tick = w.tick if c == len(chunks) - 1 else -1
                 self._script("PUBLISH", [*self._fence_keys(k), keys.shard(k, "published"),
                                          keys.shard_events(k), keys.shard(k, "tick")],
-                             [*w.fence.args(), tick, events_maxlen, *rio.flat_entries(chunk)],
-                             client=pipe)
+                             [*w.fence.args(), tick, events_maxlen, w.mark,
+                              *rio.flat_entries(chunk)], client=pipe)
                 plan.append(("publish", k, len(chunk), tick))
             for tick, payload in w.results:
                 self._script("RESULTS", [keys.shard_results(k)],
@@ -447,11 +449,13 @@ class ShardStore:
                 f.lost = True
             elif reply == -3 and what in ("publish", "checkpoint"):
                 f.gone = True
+            elif reply == -5 and what == "publish":
+                f.behind = True
             elif what == "results":
                 f.results += 1
             elif what == "checkpoint" and reply == 1:
                 f.checkpointed = True
-            elif what == "publish" and not (f.lost or f.gone):
+            elif what == "publish" and not (f.lost or f.gone or f.behind):
                 f.out += n
                 f.added += reply
                 if tick != -1:
@@ -478,13 +482,12 @@ class ShardStore:
         pipe = self.r.pipeline(transaction=False)
         for k in shards:
             self._script("STATE", [self.keys.shard(k, w) for w in ("epoch", "published", "tick",
-                                                                    "journal")], [],
+                                                                    "journaled")], [],
                          client=pipe)
         out = {}
         for k, (epoch, mark, tick, last) in zip(shards, pipe.execute()):
-            last = last.decode() if isinstance(last, bytes) else last
             out[k] = (epoch.decode() if isinstance(epoch, bytes) else epoch, int(mark),
-                      int(tick), int(last.split("-")[0]) if last else -1)
+                      int(tick), int(last))
         return out
 
     def restore(self, k: int, fence: Fence, mark: int, tick: int, specs: dict, params: dict,
@@ -531,6 +534,19 @@ class ShardStore:
     def recorded_tick(self, k: int) -> int:
         """The last tick whose entries are on the event stream (-1: none)."""
         return int(self.r.get(self.keys.shard(k, "tick")) or -1)
+
+    def began(self, k: int, fence: Fence, tick: int) -> None:
+        """The tick this epoch of shard k goes on from (the new owner, once it has re-stepped
+        what Redis holds)."""
+        self.r.set(self.keys.shard(k, "from"), f"{fence.epoch} {tick}")
+
+    def successor_from(self, k: int) -> tuple[str, int] | None:
+        """(epoch, tick) the shard's latest owner went on from, or None."""
+        got = self.r.get(self.keys.shard(k, "from"))
+        if not got:
+            return None
+        epoch, tick = got.decode().rsplit(" ", 1)
+        return epoch, int(tick)
 
     def write_tables(self, k: int, specs: dict, params: dict) -> None:
         """A new shard's ships' specs and parameters."""
