@@ -197,6 +197,7 @@ class _Owned:
     journaled: deque = field(default_factory=deque)  # (tick, [requests])
     applied: dict = field(default_factory=dict)  # entry id -> the tick it was applied at
     step_s: float = 0.0  # the last step's wall time (seconds)
+    taken_at: float | None = None  # when its lease was taken (until its first tick after)
 
 
 class Worker:
@@ -362,8 +363,17 @@ class Worker:
         self._metric_shards: set = set()
 
     # -- the loop ------------------------------------------------------------------------------
+    def warm(self) -> None:
+        """Compile (or load from the cache) every kernel a tick runs, before taking any lease:
+        a worker that cannot step a shard yet does not take one (service.warm)."""
+        from touchdown.service import warm
+        seconds = warm.warm(self.scene, self.dt_s, self.body)
+        self.log(f"compiled code ready in {seconds:.1f} s (kernels in {warm.where()}): taking "
+                 f"shards")
+
     def run(self) -> Stats:
         cfg = self.cfg
+        self.warm()
         rate = (1.0 / self.dt_s) if cfg.rate_hz is None else cfg.rate_hz
         period = 1.0 / rate if rate > 0 else 0.0
         due = time.monotonic()
@@ -575,6 +585,10 @@ class Worker:
         t0 = time.perf_counter()
         out = sh.step(requests, self.phase)
         o.step_s = time.perf_counter() - t0
+        if o.taken_at is not None:
+            self.log(f"shard {sh.index}: first tick {time.monotonic() - o.taken_at:.3f} s after "
+                     f"its lease was taken")
+            o.taken_at = None
         if out.results:
             o.results.append((tick, out.results))
         with self.phase("take"):
@@ -934,6 +948,7 @@ class Worker:
                 break
             if k in self.owned:
                 continue
+            taken_at = time.monotonic()
             epoch = self.store.take_lease(k, lease_ms)
             if epoch:
                 fence = Fence(self.id, epoch, lease_ms)
@@ -947,6 +962,7 @@ class Worker:
                     raise
                 finally:
                     self._taking.discard(k)
+                self.owned[k].taken_at = taken_at
                 # what a take-over built (the ships' tables, ids, the log's header cache: a
                 # million objects at 50,000 ships) lives as long as the shard: out of the
                 # collector's sight, a full collection no longer walks it (a pause of tens of

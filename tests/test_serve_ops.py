@@ -425,7 +425,7 @@ def test_a_full_then_read_only_log_disk_pauses_the_log_and_the_ships_go_on(redis
 
 # -- players, ACLs, TLS, secrets --------------------------------------------------------------------
 WORKER_ACL = ("+ping +time +eval +xadd +xreadgroup +xack +xautoclaim "
-              "+xgroup|create +xrange +xpending +xtrim +get +set +del +hset +hsetnx +hgetall "
+              "+xgroup|create +xrange +xpending +xtrim +xdel +get +set +del +hset +hsetnx +hgetall "
               "+hmget +hdel +expire +pexpire +zadd +zremrangebyscore +zcard +zrem")
 GATEWAY_ACL = "+ping +xadd"
 READER_ACL = "+ping +xread +xrange +xrevrange +hgetall +hget"
