@@ -271,6 +271,54 @@ class Gateway(threading.Thread):
         self.join(timeout=120)
 
 
+class Follower(threading.Thread):
+    """What a gateway reads as it goes: every event stream and results stream, followed with XREAD
+    from the last id seen (through restarts: a stream begun anew has later ids), each event kept
+    once by its ``seq`` and each results entry once by its shard and tick. Redis may lose what it
+    held (restarted empty, rolled back): what was read before is kept here."""
+
+    def __init__(self, connect, keys, shards: int):
+        super().__init__(daemon=True, name="chaos-follower")
+        self.connect, self.keys, self.shards = connect, keys, shards
+        self.events: dict = {}  # seq -> fields
+        self.results: dict = {}  # (shard, tick) -> fields
+        self.stop_flag = threading.Event()
+        self.last = {s: "0" for s in keys.all_events(shards)}
+        self.last.update({keys.shard_results(k): "0" for k in range(shards)})
+
+    def run(self) -> None:
+        client = None
+        while not self.stop_flag.is_set():
+            try:
+                if client is None:
+                    client = self.connect()
+                self.poll(client)
+            except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
+                client = None
+                time.sleep(0.2)
+            self.stop_flag.wait(0.05)
+
+    def poll(self, client) -> None:
+        for stream in list(self.last):
+            for entry_id, f in client.xrange(stream, f"({self.last[stream]}" if
+                                             self.last[stream] != "0" else "-", count=2000):
+                self.last[stream] = entry_id.decode()
+                d = _decode(f)
+                if "seq" in d:
+                    self.events.setdefault(d["seq"], d)
+                elif "results" in d:
+                    k = int(stream.split("{")[1].split("}")[0])
+                    self.results.setdefault((k, d["tick"]), d)
+
+    def halt(self, client) -> None:
+        self.stop_flag.set()
+        self.join(timeout=30)
+        try:
+            self.poll(client)
+        except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
+            pass
+
+
 # -- accounting ---------------------------------------------------------------------------------
 @dataclass
 class Verdict:
@@ -390,12 +438,26 @@ def read_results(client, keys, shards: int) -> dict:
     return out
 
 
+def _results_of(entries) -> dict:
+    out: dict = {}
+    for d in entries:
+        for stream, by in json.loads(d["results"]).items():
+            for result, ids in by.items():
+                for eid in ids:
+                    out.setdefault((stream, eid), []).append((result, int(d["tick"])))
+    return out
+
+
 def account(sent: list[Sent], folder: Path, client, keys, shards: int,
-            wiped: list | None = None) -> Verdict:
+            wiped: list | None = None, follower: Follower | None = None) -> Verdict:
     """Each entry sent found exactly once: applied in the logs, rejected on the event stream (or
-    by the results stream), or superseded."""
+    by the results stream), or superseded. ``follower``: what a gateway read as it went (else
+    the streams as they are at the end)."""
     joins, leaves, throttles = from_logs(folder)
-    events = read_events(client, keys, shards)
+    if follower is not None:
+        events = list(follower.events.values())
+    else:
+        events = read_events(client, keys, shards)
     rejected: dict = {}
     for e in events:
         if e.get("event") == "ship.command_rejected":
@@ -404,7 +466,8 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int,
             key = ((e["stream"], e["entry_id"]) if e.get("stream") else
                    (e["entry_id"], e.get("ship_id")))
             rejected.setdefault(key, []).append(e)
-    results = read_results(client, keys, shards)
+    results = read_results(client, keys, shards) if follower is None else \
+        _results_of(follower.results.values())
     v = Verdict()
     for k in range(shards):  # each shard's seq: no hole, no repeat (from the first kept)
         nums = sorted(int(e["seq"].split(":")[1]) for e in events
@@ -452,6 +515,8 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int,
             nxt = later.get((s.ship_id, s.value))
             if s.cmd == "throttle" and nxt and throttles.get(nxt, {}).get(s.ship_id):
                 what = what + ("a later throttle of the ship applied",)
+            if res:
+                what = what + ("results say", res)
             v.lost.append(what)
         elif found > 1:
             v.twice.append(what + ("applied", applied, "rejected", n_rej,
@@ -733,6 +798,8 @@ def run_session(faults: list[str], folder: Path, seconds_between: float = 6.0,
             _until(lambda: set(_owners(client, keys, SHARDS).values()) == want, 120,
                    f"the shards shared by {len(names)} worker(s)")
         gws.start()
+        follower = Follower(connect, keys, SHARDS)
+        follower.start()
         for fault in faults:
             time.sleep(seconds_between)
             ses.notes.append(f"{fault} at {time.monotonic() - t0:.1f} s, ticks "
@@ -750,7 +817,14 @@ def run_session(faults: list[str], folder: Path, seconds_between: float = 6.0,
         time.sleep(1.0)
         codes = pool.stop_all()
         ses.notes.append(f"exit codes {codes}")
-        verdict = account(gws.sent, flight, client, keys, SHARDS, ses.wiped)
+        follower.halt(client)
+        verdict = account(gws.sent, flight, client, keys, SHARDS, ses.wiped, follower)
+        with open(folder / "sent.jsonl", "w") as f:  # (for a look afterwards)
+            for x in gws.sent:
+                f.write(json.dumps(x.__dict__) + "\n")
+        with open(folder / "events.jsonl", "w") as f:
+            for e in follower.events.values():
+                f.write(json.dumps({k: v for k, v in e.items() if k != "proto"}) + "\n")
         if verify:
             verdict.unverified = verify_logs(flight)
         for name in pool.procs:

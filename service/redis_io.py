@@ -372,9 +372,7 @@ local o = redis.call('GET', KEYS[1])
 if o and o ~= ARGV[1] then return -1 end
 redis.call('SET', KEYS[2], ARGV[2])
 redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[3])
-local mark = tonumber(redis.call('GET', KEYS[3]) or '-1')
-if mark > tonumber(ARGV[4]) then mark = tonumber(ARGV[4]) end
-redis.call('SET', KEYS[3], mark)
+redis.call('SET', KEYS[3], ARGV[4])
 redis.call('SET', KEYS[4], ARGV[5])
 return 1
 """

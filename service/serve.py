@@ -131,6 +131,7 @@ STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 #: and the journal's last records (their requests, at most)
 RETAIN_ENTRIES = 20_000
 RETAIN_REQUESTS = 100_000
+ROUTED_KEY = "routed:"  # (_Owned.applied: a routed entry's id on the shared stream, apart)
 
 
 @dataclass
@@ -197,6 +198,7 @@ class _Owned:
     journaled: deque = field(default_factory=deque)  # (tick, [requests])
     applied: dict = field(default_factory=dict)  # entry id -> the tick it was applied at
     step_s: float = 0.0  # the last step's wall time (seconds)
+    joined: dict = field(default_factory=dict)  # ship id -> its join tick (its spec's)
     taken_at: float | None = None  # when its lease was taken (until its first tick after)
 
 
@@ -611,6 +613,7 @@ class Worker:
         world = o.shard.world
         for block in out.blocks:
             for sp in block.spawned:
+                o.joined[sp.ship_id] = block.first_tick
                 o.specs[sp.ship_id] = json.dumps([block.first_tick, sp.spec], sort_keys=True)
                 i = world.row(sp.ship_id)
                 if i is not None:
@@ -732,7 +735,11 @@ class Worker:
         with ``max_commands_per_ship`` commands waiting has further ones rejected."""
         if raw is None or eid in o.inflight:
             return
-        if eid in o.applied:  # applied, and pending again: Redis lost its acknowledgement
+        origin = (raw.get(rio.ROUTED.encode()) or b"").decode("ascii", "replace")
+        if eid in o.applied or (origin and ROUTED_KEY + origin in o.applied):
+            # applied, and pending again (Redis lost its acknowledgement), or routed again (a
+            # rollback lost the route's acknowledgement): acknowledged once the journal that
+            # holds it is in Redis again
             o.stale.add(eid)
             self._suspect.add(k)
             return
@@ -841,13 +848,18 @@ class Worker:
     @staticmethod
     def _journaled(o: _Owned, tick: int, requests: list) -> None:
         """A tick's requests Redis holds in the journal: kept (the latest RETAIN_REQUESTS) to
-        write again if Redis loses them."""
+        write again if Redis loses them; their ids (and a routed one's id on the shared stream)
+        known as applied."""
         o.journaled.append((tick, requests))
-        o.applied.update(dict.fromkeys((r.entry_id for r in requests), tick))
-        while len(o.applied) > RETAIN_REQUESTS and len(o.journaled) > 1:
+        for r in requests:
+            o.applied[r.entry_id] = tick
+            if r.origin:  # (ids repeat across streams: a routed one's is kept apart)
+                o.applied[ROUTED_KEY + r.origin] = tick
+        while len(o.applied) > 2 * RETAIN_REQUESTS and len(o.journaled) > 1:
             _t, old = o.journaled.popleft()
             for r in old:
                 o.applied.pop(r.entry_id, None)
+                o.applied.pop(ROUTED_KEY + r.origin, None)
 
     def _writes(self, k: int) -> ShardWrites:
         """Shard k's writes for this flush; its checkpoint taken when due (the records copied
@@ -956,6 +968,11 @@ class Worker:
                 self._taking.add(k)  # the lease thread renews it meanwhile
                 try:
                     self._take_over(k, fence)
+                except ServeError as exc:  # (a checkpoint this worker cannot read)
+                    self._epochs.pop(k, None)
+                    self.store.release(k, fence)
+                    self.log_every(f"take:{k}", f"shard {k}: not taken: {exc}", "error")
+                    continue
                 except BaseException:
                     self._epochs.pop(k, None)
                     self.store.release(k, fence)
@@ -1033,6 +1050,7 @@ class Worker:
             first_bytes=self.cfg.log_max_bytes * (k + 1) // self.cfg.shards)
         shard.log.start()  # the file's first record: the state it starts at
         o = _Owned(shard, fence)
+        o.joined = {sid: int(v[0]) for sid, v in specs_json.items()}
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
         # the journal's requests, at their ticks, up to the last tick whose entries are out:
         # the same entries, with the same numbers, as the last owner's (dropped by the mark)
@@ -1139,6 +1157,9 @@ class Worker:
         o.unsent.extendleft(reversed(again))
         o.sent = deque((e for e in o.sent if e[0] <= mark), maxlen=RETAIN_ENTRIES)
         o.confirmed_mark = mark
+        specs, params = self._tables(o)
+        o.specs.update(specs)
+        o.params.update(params)
         o.journal_mark = min(o.journal_mark, journal_tick) if not records else o.journal_mark
         o.hashes.update(o.shard.hashes_of(np.arange(o.shard.world.state.n), o.shard.tick))
         o.force_checkpoint = True
@@ -1146,6 +1167,17 @@ class Worker:
                  f"its events at number {mark}): writing them again ({len(records)} journal "
                  f"records, {len(again)} entries{', a gap before them' if gap else ''}) and a "
                  f"checkpoint", "error")
+
+    @staticmethod
+    def _tables(o: _Owned) -> tuple[dict, dict]:
+        """Every present ship's spec ([join tick, table] JSON) and parameter record, as the
+        take-over reads them (to write again what Redis lost)."""
+        world = o.shard.world
+        specs = {sid: json.dumps([o.joined.get(sid, -1), world.known.get(sid, {})],
+                                 sort_keys=True) for sid in world.ship_ids}
+        params = {sid: world.params.ships.rows[i].tobytes()
+                  for i, sid in enumerate(world.ship_ids)}
+        return specs, params
 
     def _restore(self, k: int) -> None:
         """Redis lost shard k's state (restarted empty, or without its data): said once at
@@ -1164,10 +1196,7 @@ class Worker:
         again = list(o.sent)
         first = again[0][0] if again else (o.unsent[0][0] if o.unsent else sh.published)
         world = sh.world
-        specs = {sid: json.dumps([-1, world.known.get(sid, {})], sort_keys=True)
-                 for sid in world.ship_ids}
-        params = {sid: world.params.ships.rows[i].tobytes()
-                  for i, sid in enumerate(world.ship_ids)}
+        specs, params = self._tables(o)
         hashes = sh.hashes_of(np.arange(world.state.n), sh.tick)
         got = store.restore(k, o.fence, first - 1, o.delivered, specs, params, hashes)
         if got != 1:

@@ -23,12 +23,12 @@ def _need(binary: str) -> None:
         pytest.fail(f"the fault campaign needs {binary} on PATH")
 
 
-def _assert_accounted(out) -> None:
+def _assert_accounted(out, least: int = 300) -> None:
     v = out.verdict
     print("\n" + out.line())
     for note in out.notes:
         print(f"    {note}")
-    assert v.sent > 300, v.line()
+    assert v.sent > least, v.line()
     assert not v.lost, v.lost[:10]
     assert not v.twice, v.twice[:10]
     assert not v.wrong_recipient, v.wrong_recipient[:10]
@@ -73,4 +73,4 @@ def test_a_cluster_failover_and_a_reshard_lose_and_double_nothing(tmp_path):
     _need("redis-cli")
     out = run_session(["failover", "reshard"], tmp_path, seconds_between=2.5, rate=100.0,
                       lease_s=LEASE_S, seed=7)
-    _assert_accounted(out)
+    _assert_accounted(out, least=100)  # (a gateway that WAITs for a replica writes fewer)
