@@ -755,14 +755,21 @@ def test_operators_see_stats_lines_a_stats_hash_with_a_ttl_and_prometheus_metric
         assert 0 < client.ttl(key) <= 2
         fig = {k.decode(): v.decode() for k, v in client.hgetall(key).items()}
         for name in ("tick", "tick_p50_ms", "tick_p99_ms", "ships", "held", "lag_s",
-                     "late_share", "commands_per_s", "events_per_s", "dropped"):
+                     "late_share", "commands_per_s", "events_per_s", "dropped",
+                     "rejections_unpublished", "redis", "redis_down_s", "logs_paused",
+                     "shard_ticks", "shard_step_ms", "version"):
             assert name in fig, name
+        assert fig["redis"] == "up" and fig["logs_paused"] == "0"
+        assert set(json.loads(fig["shard_ticks"])) == {"0", "1"}
         body = urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=5).read()
         text = body.decode()
         for name in ("touchdown_tick_seconds_bucket", "touchdown_ships ",
                      "touchdown_late_ticks_total", "touchdown_commands_applied_total",
                      "touchdown_commands_rejected_total", "touchdown_lag_seconds",
-                     "touchdown_held_entries"):
+                     "touchdown_held_entries", "touchdown_rejections_unpublished_total",
+                     "touchdown_redis_up 1.0", 'touchdown_redis_state{state="up"} 1.0',
+                     "touchdown_logs_paused 0.0", 'touchdown_shard_tick{shard="0"',
+                     'touchdown_shard_step_seconds{shard="1"', "touchdown_build_info{"):
             assert name in text, name
         line = next(json.loads(ln) for ln in w.said if '"stats"' in ln)
         for name in ("time", "level", "worker", "tick", "tick_p99_ms", "ships", "held"):
@@ -844,10 +851,11 @@ def test_a_long_tick_keeps_its_lease_and_the_late_count_survives_it(redis_url, t
 def test_view_redis_draws_the_running_fleet(worker, tmp_path):
     """`touchdown view --redis URL` follows the telemetry and event streams of a running service
     into Rerun (here to an .rrd, and a screenshot where software Vulkan is installed)."""
-    w, th = worker(rate_hz=40.0, telemetry_hz=10.0)
+    w, th = worker(rate_hz=40.0, telemetry_hz=10.0, stats_every_s=0.5)
     client = redis.Redis.from_url(worker.url)
     try:
         _wait(lambda: client.xlen(f"{worker.prefix}:telemetry") > 5, 60, "telemetry")
+        _wait(lambda: client.exists(Keys(worker.prefix).stats(w.id)), 30, "the stats hash")
         out = tmp_path / "live.rrd"
         done = subprocess.run(_cli("view", "--redis", worker.url, "--prefix", worker.prefix,
                                    "--seconds", "2", "-o", str(out)), capture_output=True,
@@ -856,6 +864,15 @@ def test_view_redis_draws_the_running_fleet(worker, tmp_path):
         assert out.exists() and out.stat().st_size > 1000
         n = int(done.stdout.split(":")[1].split()[0].replace(",", ""))
         assert n > 5
+        from touchdown.view import live  # the service's health, as the view draws it
+        workers = live.health(client, Keys(worker.prefix))
+        assert [w["worker"] for w in workers] == [w.id]
+        assert set(workers[0]["shards"]) == {0, 1}
+        table = live.health_table(workers)
+        assert w.id in table and "tick p50 / p99 ms" in table
+        import rerun.chunk as rc
+        seen = {ch.entity_path for ch in rc.RrdReader(out).stream().to_chunks()}
+        assert "/health/workers" in seen and f"/health/{w.id}/tick_p99_ms" in seen, sorted(seen)
         icd = Path("/usr/share/vulkan/icd.d")
         if icd.is_dir() and any(icd.glob("lvp_icd*.json")):
             png = tmp_path / "live.png"
