@@ -697,8 +697,8 @@ def _until(pred, timeout: float, what: str) -> None:
 
 # -- the cases ----------------------------------------------------------------------------------
 #: the faults ``bench chaos`` draws from (``pause-S``, ``rollback-S``: any seconds)
-FAULTS = ("worker-kill", "pause-5", "pause-30", "aof-restart", "empty-restart", "rollback-2",
-          "failover", "reshard")
+FAULTS = ("worker-kill", "takeover-kill", "pause-5", "pause-30", "aof-restart", "empty-restart",
+          "rollback-2", "failover", "reshard")
 CLUSTER_FAULTS = ("failover", "reshard")
 
 
@@ -750,6 +750,7 @@ class Session:
     #: legitimately move a shard to another worker
     faults_at: list = field(default_factory=list)
     next_worker: int = 0
+    lease_s: float = 2.0
 
 
 def run_session(faults: list[str], folder: Path, seconds_between: float = 6.0,
@@ -786,7 +787,7 @@ def run_session(faults: list[str], folder: Path, seconds_between: float = 6.0,
     client = connect()
     gws = Gateways(GATEWAYS, connect, keys, SHARDS, rate, seed, cluster=cluster,
                    wait="failover" in faults)
-    ses = Session(server, cl, pool, gws, keys)
+    ses = Session(server, cl, pool, gws, keys, lease_s=lease_s)
     verdict = Verdict()
     try:
         names = []
@@ -890,6 +891,18 @@ def inject(fault: str, ses: Session) -> None:
         name = _next_name(ses)
         ses.workers.start(name)
         notes.append(f"    worker {name} started")
+    elif fault == "takeover-kill":
+        alive = ses.workers.alive()
+        ses.workers.kill(alive[0])
+        time.sleep(ses.lease_s + 0.02)  # about when the other takes its shards over
+        for name in alive[1:]:
+            ses.workers.kill(name)
+        notes.append(f"    worker {alive[0]} SIGKILLed, then {', '.join(alive[1:])} a lease "
+                     f"later, while taking its shards over")
+        for _ in range(max(1, len(alive))):
+            name = _next_name(ses)
+            ses.workers.start(name)
+            notes.append(f"    worker {name} started")
     elif fault.startswith("pause-"):
         s = float(fault.split("-")[1])
         server.pause(s)
@@ -947,7 +960,8 @@ def main(faults: list[str], seconds: float, rate: float, seed: int, minutes: flo
         else:
             if time.monotonic() >= end:
                 break
-            kind = [f for f in faults if (f in CLUSTER_FAULTS) == (rng.random() < 0.3)] or faults
+            on_cluster = rng.random() < 0.3
+            kind = [f for f in faults if (f in CLUSTER_FAULTS) == on_cluster] or faults
             kind = [f for f in kind if (f in CLUSTER_FAULTS) == (kind[0] in CLUSTER_FAULTS)]
             chosen = [rng.choice(kind) for _ in range(3)]
         outcomes.append(run_session(chosen, base / f"{i:03d}-{'+'.join(chosen)}", seconds / 2,

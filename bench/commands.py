@@ -158,8 +158,10 @@ def logs(quick: bool) -> None:
 @bench.command()
 @click.option("--fault", "faults", multiple=True, metavar="FAULT",
               help="a fault to inject (repeatable): worker-kill, pause-S (Redis SIGSTOPped S "
-                   "seconds), aof-restart, empty-restart, rollback-S (restarted from a snapshot "
-                   "S seconds old), failover, reshard; default: worker-kill, pause-5, pause-30, "
+                   "seconds), takeover-kill (a worker killed, then the one taking its shards "
+                   "over), aof-restart, empty-restart, rollback-S (restarted from a snapshot "
+                   "S seconds old), failover, reshard; default: worker-kill, takeover-kill, "
+                   "pause-5, pause-30, "
                    "aof-restart, empty-restart, rollback-2, failover, reshard, each once")
 @click.option("--minutes", type=click.FloatRange(min=0.0), default=None,
               help="sessions of three faults drawn from the seed until this much time has "

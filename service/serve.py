@@ -844,6 +844,8 @@ class Worker:
     def _checkpointed(self, o: _Owned, tick: int, gone: set) -> None:
         """A checkpoint of ``tick`` is in Redis: the ships that left before it are forgotten."""
         o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
+        for sid in gone:
+            o.joined.pop(sid, None)
 
     @staticmethod
     def _journaled(o: _Owned, tick: int, requests: list) -> None:

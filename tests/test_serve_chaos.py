@@ -44,12 +44,14 @@ def test_one_redis_killed_workers_pauses_restarts_and_a_rollback_lose_and_double
     """Two workers on one Redis (append-only file, fsync always), four shards, half the gateways
     on the shared stream: a worker SIGKILLed in a burst of 200 spawns (a fresh one started),
     Redis paused shorter (0.5 s) and longer (3 s) than the lease, SIGKILLed and started on its
-    append-only file, started empty (the workers write back what they hold), and started from a
-    snapshot 1 s old (every write since lost: the workers write again what they kept)."""
+    append-only file, started empty (the workers write back what they hold), started from a
+    snapshot 1 s old (every write since lost: the workers write again what they kept), and a
+    worker SIGKILLed, then a lease later the one taking its shards over (two fresh ones
+    started)."""
     _need("redis-server")
     out = run_session(["worker-kill", "pause-0.5", "pause-3", "aof-restart", "empty-restart",
-                       "rollback-1"], tmp_path, seconds_between=2.5, rate=120.0,
-                      lease_s=LEASE_S, seed=34)
+                       "rollback-1", "takeover-kill"], tmp_path, seconds_between=2.5,
+                      rate=120.0, lease_s=LEASE_S, seed=34)
     _assert_accounted(out)
     assert out.verdict.lost_with_redis < 60  # (sent in the second before it was emptied)
 

@@ -145,3 +145,14 @@ def test_a_read_whose_reply_was_lost_shows_in_the_pending_count(store):
     client.xreadgroup(rio.Keys.group(0), "old-owner", {keys.shard_commands(0): ">"})
     got = a.read([(0, ">", 10)])[0]
     assert got.others == 2
+
+
+def test_shard_of_is_crc32_ieee_of_the_utf8_id_as_docs_service_says():
+    """The test vectors docs/SERVICE.md gives a gateway in any language."""
+    from touchdown.service.commands import shard_of
+    import zlib
+    for sid, crc, of4, of12 in (("s1", 0x141538F0, 0, 4), ("ship-42", 0x183E5A9B, 3, 7),
+                                ("Ω-7", 0xF9E8DF26, 2, 10)):
+        assert zlib.crc32(sid.encode("utf-8")) == crc
+        assert (shard_of(sid, 4), shard_of(sid, 12)) == (of4, of12)
+    assert "Ω-7".encode("utf-8") == bytes.fromhex("cea92d37")
