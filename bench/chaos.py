@@ -375,6 +375,8 @@ def from_logs(folder: Path) -> tuple[dict, dict, dict]:
     leaves: dict[str, set] = {}
     throttles: dict[str, dict[str, set]] = {}
     for path in _files(folder):
+        if path.suffix == ".partial" and _empty_start(path):
+            continue  # (begun by a worker SIGKILLed before it wrote anything)
         try:
             with LogReader(path) as r:
                 s = r.read_summary() if r.status.complete else None
@@ -398,14 +400,29 @@ def from_logs(folder: Path) -> tuple[dict, dict, dict]:
 
 
 def verify_logs(folder: Path) -> list:
-    """Every flight log's ``replay --verify``: those that do not verify, with the report."""
+    """Every flight log's ``replay --verify``: those that do not verify, with the report. A
+    ``.partial`` file without even the MCAP magic (a worker SIGKILLed as it began the file) holds
+    nothing to verify and is left out."""
+    from touchdown.logs import LogError
     from touchdown.replay.verify import verify
     bad = []
     for path in _files(folder):
-        res = verify(str(path))
+        if path.suffix == ".partial" and _empty_start(path):
+            continue
+        try:
+            res = verify(str(path))
+        except LogError as exc:
+            bad.append((path.name, str(exc)[:300]))
+            continue
         if res.divergence is not None:
             bad.append((path.name, res.report()[:300]))
     return bad
+
+
+def _empty_start(path: Path) -> bool:
+    from touchdown.logs.safe_read import MAGIC
+    with open(path, "rb") as f:
+        return f.read(len(MAGIC)) != MAGIC
 
 
 def _decode(fields: dict) -> dict:
