@@ -255,7 +255,7 @@ class Gateway(threading.Thread):
         pipe = r.pipeline(transaction=False)
         pipe.xadd(stream, fields)
         if self.wait:
-            pipe.execute_command("WAIT", 1, 500)
+            pipe.execute_command("WAIT", 1, 200)
         got = pipe.execute()
         return got[0].decode(), (int(got[1]) if self.wait else None)
 
