@@ -653,11 +653,16 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
 @click.option("--events-maxlen", type=click.IntRange(min=0), default=1_000_000,
               show_default=True, help="the event stream is trimmed to about this many entries "
                                       "(0: never)")
+@click.option("--results-maxlen", type=click.IntRange(min=1), default=10_000, show_default=True,
+              help="each shard's results stream PREFIX:shard:{k}:results (what each command "
+                   "came to, a tick's entry) is trimmed to about this many entries")
 @click.option("--log-max-mb", type=click.FloatRange(min=0.01), default=1024.0, show_default=True,
               help="a flight log file is closed and the next begun past this size (each "
                    "shard's first file at (k+1)/S of it: the shards' rotations staggered)")
-@click.option("--log-keep-mb", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
-              help="a shard's flight logs are kept under this total, oldest removed (0: all)")
+@click.option("--log-keep-mb", type=click.FloatRange(min=0.0), default=2048.0, show_default=True,
+              help="a shard's flight logs are kept under this total, oldest finished files "
+                   "removed (0: all kept, for ever): 8 GiB for the default four shards; at "
+                   "3,000 ships (3.4 MB/s) about 40 minutes of flight")
 @click.option("--log-keep-hours", type=click.FloatRange(min=0.0), default=0.0,
               show_default=True, help="flight-log files older than this are removed (0: kept)")
 @click.option("--log-min-free-mb", type=click.FloatRange(min=0.0), default=64.0,
@@ -677,6 +682,10 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
               help="serve the worker's figures at http://127.0.0.1:PORT/metrics (Prometheus)")
 @click.option("--stats-every", type=click.FloatRange(min=0.1), default=5.0, show_default=True,
               help="seconds between stats lines (and the stats hash's refresh)")
+@click.option("--warm-only", is_flag=True,
+              help="compile (or load from the cache) the kernels a worker runs, say where the "
+                   "cache is, and exit: an image's build step (docs/SERVICE.md); a worker "
+                   "always does this before it takes a shard")
 @click.option("--stats-json", default=None, hidden=True, type=click.Path(dir_okay=False),
               help="(bench serve) write each tick's working time and the counts here at exit")
 def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | None,
@@ -688,12 +697,21 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
           log_keep_mb: float, log_keep_hours: float, log_min_free_mb: float, max_ships: int,
           max_commands_per_ship: int, max_spawns_per_tick: int, max_commands_per_tick: int,
           max_shards: int | None, worker_id: str, metrics_port: int | None, stats_every: float,
-          stats_json: str | None) -> None:
+          stats_json: str | None, results_maxlen: int, warm_only: bool) -> None:
     """The live service: step the ships of a scenario and those spawned by commands, read
     commands from Redis, publish events, keep each ship's state in Redis, write flight logs
     (SPEC.md section 5; docs/SERVICE.md)."""
     from touchdown.service.serve import ServeConfig, Worker, install_stop
     from touchdown.service.shard import Limits
+
+    if warm_only:
+        from touchdown.service import warm
+        from touchdown.service.serve import default_scenario
+        scn = load_scenario(scenario)[0] if scenario else default_scenario()
+        seconds = warm.warm(scn.scene, scn.params.sim.dt_s, scn.params.body.name)
+        click.echo(f"touchdown serve --warm-only: compiled code ready in {seconds:.1f} s; "
+                   f"kernels in {warm.where()}")
+        return
 
     password = None
     if redis_password_file:
@@ -709,7 +727,7 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
                       events_stream=events_stream, commands_stream=commands_stream,
                       shards=shards, lease_s=lease_s, checkpoint_every=checkpoint_every,
                       telemetry_hz=telemetry_hz, telemetry_maxlen=telemetry_maxlen,
-                      events_maxlen=events_maxlen,
+                      events_maxlen=events_maxlen, results_maxlen=results_maxlen,
                       log_max_bytes=int(log_max_mb * (1 << 20)),
                       log_max_total_bytes=int(log_keep_mb * (1 << 20)),
                       log_max_age_s=log_keep_hours * 3600.0,

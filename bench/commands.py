@@ -153,3 +153,50 @@ def logs(quick: bool) -> None:
     commands on one core, as ratios against the old per-row JSON Lines export."""
     from touchdown.bench import logs as bench_logs
     bench_logs.main(quick=quick)
+
+
+@bench.command()
+@click.option("--fault", "faults", multiple=True, metavar="FAULT",
+              help="a fault to inject (repeatable): worker-kill, pause-S (Redis SIGSTOPped S "
+                   "seconds), takeover-kill (a worker killed, then the one taking its shards "
+                   "over), aof-restart, empty-restart, rollback-S (restarted from a snapshot "
+                   "S seconds old), failover, reshard; default: worker-kill, takeover-kill, "
+                   "pause-5, pause-30, "
+                   "aof-restart, empty-restart, rollback-2, failover, reshard, each once")
+@click.option("--minutes", type=click.FloatRange(min=0.0), default=None,
+              help="sessions of three faults drawn from the seed until this much time has "
+                   "passed (default: each fault once)")
+@click.option("--seed", type=int, default=None,
+              help="the seed the faults and the traffic are drawn from (default: from the "
+                   "clock; always printed)")
+@click.option("--seconds", type=click.FloatRange(min=2.0), default=16.0, show_default=True,
+              help="traffic around each fault (half before it, half after)")
+@click.option("--rate", type=click.FloatRange(min=1.0), default=150.0, show_default=True,
+              help="command entries a second the gateways write")
+@click.option("--keep", "keep_dir", default=None, type=click.Path(file_okay=False),
+              help="keep each session's servers' data, flight logs and workers' lines here")
+@click.option("--worker-python", default=None, metavar="PYTHON",
+              help="run the workers with this Python (another checkout's venv)")
+@click.option("--worker-cwd", default=None, metavar="DIR",
+              help="run DIR/cli.py serve (another checkout: the version before, measured in "
+                   "the same session)")
+def chaos(faults: tuple[str, ...], minutes: float | None, seed: int | None, seconds: float,
+          rate: float, keep_dir: str | None, worker_python: str | None,
+          worker_cwd: str | None) -> None:
+    """Every command accounted for under faults: gateways write uniquely-valued commands
+    while workers are killed and private redis-servers are paused, killed, emptied, rolled
+    back, failed over and resharded; each entry Redis accepted must be found applied once in
+    the flight logs or rejected once to its sender (exit 1 otherwise). Needs redis-server and
+    redis-cli."""
+    import time as _time
+
+    from touchdown.bench import chaos as bench_chaos
+    seed = seed if seed is not None else int(_time.time()) % 1_000_000
+    chosen = list(faults) or list(bench_chaos.FAULTS)
+    for f in chosen:
+        if not bench_chaos.known(f):
+            raise click.BadParameter(f"{f}: not a fault (see --help)", param_hint="--fault")
+    if worker_cwd:
+        bench_chaos.ROOT = __import__("pathlib").Path(worker_cwd).resolve()
+    sys.exit(bench_chaos.main(chosen, seconds, rate, seed, minutes, keep_dir,
+                              python=worker_python or sys.executable))

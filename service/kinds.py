@@ -58,6 +58,9 @@ class Kind:
     of_ship: bool = True
     #: how the shard's ship count changes (a spawn into a full shard is refused)
     ships: int = 0
+    #: the parts of a ship the command sets (a ship takes one command a tick for each part:
+    #: service.serve's admission); a spawn, a retire or an autoland sets the whole ship
+    parts: frozenset = frozenset()
 
 
 def number(text: str) -> float | None:
@@ -150,17 +153,27 @@ def _autoland(world, req, pending, autoland, i):
 
 
 #: every command, by name (SPEC.md section 5; docs/SERVICE.md)
+WHOLE = frozenset(("throttle", "rcs", "hold", "ship"))  # every part of a ship
+
 KINDS: dict[str, Kind] = {k.name: k for k in (
-    Kind("throttle", (_number_in(*THROTTLE, "value"),), _sets("throttle", lambda v: v["value"])),
+    Kind("throttle", (_number_in(*THROTTLE, "value"),), _sets("throttle", lambda v: v["value"]),
+         parts=frozenset(("throttle",))),
     Kind("rcs", tuple(_number_in(*RCS, axis) for axis in ("x", "y", "z")),
-         _sets("rcs", lambda v: (v["x"], v["y"], v["z"]))),
+         _sets("rcs", lambda v: (v["x"], v["y"], v["z"])), parts=frozenset(("rcs",))),
     Kind("hold", (_one_of(HOLD_MODES, "mode"),),
-         _sets("hold", lambda v: int(HoldMode.from_label(v["mode"])))),
+         _sets("hold", lambda v: int(HoldMode.from_label(v["mode"]))),
+         parts=frozenset(("hold",))),
     Kind("spawn", (Field("ship", str, printable=False),), _spawn, check=_spawn_table,
-         present=False, of_ship=False, ships=1),
-    Kind("retire", (), _retire, present=False, ships=-1),
-    Kind("autoland", (), _autoland),
+         present=False, of_ship=False, ships=1, parts=WHOLE),
+    Kind("retire", (), _retire, present=False, ships=-1, parts=WHOLE),
+    Kind("autoland", (), _autoland, parts=WHOLE),
 )}
+
+
+def parts_of(req) -> frozenset:
+    """The parts of its ship a request sets (none for an entry rejected as it was read)."""
+    kind = KINDS.get(getattr(req, "cmd", ""))
+    return kind.parts if kind is not None and not hasattr(req, "reason") else frozenset()
 
 
 def apply(world: World, req, pending: dict, autoland: dict) -> str | None:
@@ -181,4 +194,4 @@ def show(s: str) -> str:
     return ascii(s)
 
 
-__all__ = ["KINDS", "Kind", "Field", "apply", "in_force", "number", "show"]
+__all__ = ["KINDS", "Kind", "Field", "WHOLE", "apply", "in_force", "number", "parts_of", "show"]

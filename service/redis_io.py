@@ -17,8 +17,18 @@ Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first
     P:service:config           hash: the shard count and the scene every worker shares
     P:service:workers          sorted set: live workers, scored by when their heartbeat expires
     P:shard:{k}:owner          string with a time-out: the worker that owns shard k (its lease)
+    P:shard:{k}:epoch          "N:worker": the Nth take of shard k, and who took it (never
+                               expires): a worker whose lease lapsed while nobody took the shard
+                               holds the same epoch and goes on; a new owner makes a new one
+    P:shard:{k}:from           "epoch tick": the tick the latest epoch went on from (what Redis
+                               held when it took the shard): a worker that lost the shard marks
+                               its flight log superseded after it (superseded_after_tick)
+    P:shard:{k}:results        stream, entry ``{tick}-1`` a tick that applied commands: each
+                               entry's result (applied, rejected) by stream and entry id
+                               (bounded: --results-maxlen)
     P:shard:{k}:checkpoint     ShardCheckpoint (proto/service.proto): the shard at a tick
     P:shard:{k}:journal        stream, entry ``{tick}-1``: the requests applied at that tick
+    P:shard:{k}:journaled      the last tick journaled (a journal trimmed by a checkpoint keeps it)
     P:shard:{k}:specs          hash: ship id -> [join tick, its table] (JSON), the shard's ships
                                (a retired ship's removed by the first checkpoint after it left)
     P:shard:{k}:params         hash: ship id -> its parameter record (SHIP_DTYPE bytes), written
@@ -27,10 +37,12 @@ Keys (``P`` is the prefix, default ``galaxy``; SPEC.md section 5 fixes the first
     P:shard:{k}:published      how many entries shard k has put on P:ships (its high-water mark)
     P:shard:{k}:tick           the last tick whose entries are on P:ships
 
-No coordinator: a worker owns a shard while it holds the shard's lease (SET NX PX, renewed each
-tick), and every write that must come from the owner alone (journal, checkpoint, events) is a Lua
-script that first checks the lease, so a worker that lost its lease (paused, cut off) cannot
-write over its successor. Events are numbered per shard; PUBLISH adds only those above the
+No coordinator: a worker owns a shard while it holds the shard's lease (TAKE: SET NX PX, and a new
+epoch; renewed every lease / 4), and every write that must come from the owner alone (journal,
+checkpoint, events) is a Lua script that first checks the shard's epoch (``FENCE``), so a worker
+that lost the shard (paused, cut off) cannot write over its successor, and a worker whose lease
+merely lapsed (Redis paused past it, nobody took the shard) takes it back and goes on. A shard
+whose epoch is gone (Redis restarted empty) is answered -3: its owner writes back what it holds. Events are numbered per shard; PUBLISH adds only those above the
 shard's mark, so re-sending after a lost reply, a Redis restart or a takeover adds nothing twice.
 """
 from __future__ import annotations
@@ -89,8 +101,13 @@ class Keys:
     def stats(self, worker: str) -> str:
         return f"{self.prefix}:worker:{worker}:stats"
 
+    def shard_results(self, k: int) -> str:
+        """Shard k's results stream: each command entry applied or rejected, by tick."""
+        return self.shard(k, "results")
+
     def shard(self, k: int, what: str) -> str:
-        """``what``: owner, checkpoint, journal, specs, published or tick."""
+        """``what``: owner, epoch, checkpoint, journal, specs, params, published, tick or
+        results."""
         return f"{self.prefix}:shard:{{{k}}}:{what}"  # {k}: a Redis Cluster hash tag
 
     @staticmethod
@@ -158,67 +175,137 @@ def connect(url: str, password: str | None = None, timeout: float = 2.0,
                                 health_check_interval=0, **extra)
 
 
-#: Shard k's entries for the event stream, above its mark: KEYS owner, mark, events, tick;
-#: ARGV worker, the tick, maxlen (0: none), then per entry: number, field count, fields...
-PUBLISH = """
-if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
-local mark = tonumber(redis.call('GET', KEYS[2]) or '-1')
-local i, added = 4, 0
+#: The fence every owner-only script begins with: KEYS[1] the shard's owner key, KEYS[2] its epoch
+#: key; ARGV[1] the worker, ARGV[2] its epoch ("N:worker", from TAKE), ARGV[3] the lease in ms.
+#: 1: this worker's (a lapsed lease taken back: nobody took the shard since), -1: another worker's
+#: (a new epoch), -3: the epoch is gone (Redis lost the shard's state: restarted empty).
+FENCE = """
+local function fence()
+  local e = redis.call('GET', KEYS[2])
+  if not e then return -3 end
+  if e ~= ARGV[2] then return -1 end
+  local o = redis.call('GET', KEYS[1])
+  if o == ARGV[1] then return 1 end
+  if o then return -1 end
+  redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[3])
+  return 1
+end
+"""
+
+
+def fenced(body: str) -> str:
+    """A script whose body runs only if ``fence()`` says the shard is this worker's (else it
+    returns what fence() said); its own KEYS begin at 3 and its ARGV at 4."""
+    return FENCE + "local f = fence()\nif f ~= 1 then return f end\n" + body
+
+
+#: TAKE: a free shard's lease, and a new epoch "N:worker". KEYS owner, epoch; ARGV worker, lease
+#: ms. Returns the epoch, or nil (taken by another).
+TAKE = """
+if not redis.call('SET', KEYS[1], ARGV[1], 'NX', 'PX', ARGV[2]) then return false end
+local e = redis.call('GET', KEYS[2])
+local n = 0
+if e then n = tonumber(string.match(e, '^(%d+):')) or 0 end
+local mine = tostring(n + 1) .. ':' .. ARGV[1]
+redis.call('SET', KEYS[2], mine)
+return mine
+"""
+
+#: Shard k's entries for the event stream, above its mark: KEYS owner, epoch, mark, events, tick;
+#: ARGV worker, epoch, lease ms, the tick, maxlen (0: none), the mark the worker last saw Redis
+#: confirm, then per entry: number, field count, fields... Returns how many were added, or -5
+#: (nothing written) if the mark is below what the worker saw confirmed: Redis lost writes (a
+#: failover, an older snapshot), which the worker writes again first (no gap in seq).
+PUBLISH = fenced("""
+local mark = tonumber(redis.call('GET', KEYS[3]) or '-1')
+if mark < tonumber(ARGV[6]) then return -5 end
+local i, added = 7, 0
 while i <= #ARGV do
   local n, nf = tonumber(ARGV[i]), tonumber(ARGV[i + 1])
   if n > mark then
     local args = {}
     for j = 0, 2 * nf - 1 do args[#args + 1] = ARGV[i + 2 + j] end
-    if ARGV[3] ~= '0' then
-      redis.call('XADD', KEYS[3], 'MAXLEN', '~', ARGV[3], '*', unpack(args))
+    if ARGV[5] ~= '0' then
+      redis.call('XADD', KEYS[4], 'MAXLEN', '~', ARGV[5], '*', unpack(args))
     else
-      redis.call('XADD', KEYS[3], '*', unpack(args))
+      redis.call('XADD', KEYS[4], '*', unpack(args))
     end
     mark, added = n, added + 1
   end
   i = i + 2 + 2 * nf
 end
-redis.call('SET', KEYS[2], mark)
-if ARGV[2] ~= '-1' then redis.call('SET', KEYS[4], ARGV[2]) end
+redis.call('SET', KEYS[3], mark)
+if ARGV[4] ~= '-1' then redis.call('SET', KEYS[5], ARGV[4]) end
 return added
-"""
+""")
 
-#: The requests applied at a tick, then their command entries acknowledged, then the command
-#: stream trimmed below its oldest unacknowledged entry (acknowledged commands only): KEYS owner,
-#: journal, the shard's commands; ARGV worker, group, journal id, payload ('' = nothing to
-#: journal), ids...
-JOURNAL = """
-if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
-if ARGV[4] ~= '' then
-  local ok = redis.pcall('XADD', KEYS[2], ARGV[3], 'requests', ARGV[4])
-  if type(ok) == 'table' and ok.err and not string.find(ok.err, 'equal or smaller') then
-    return redis.error_reply(ok.err)
+#: The requests a tick applies, journaled before the tick applies them, with their command
+#: entries acknowledged, then the command stream trimmed below its oldest unacknowledged entry
+#: (acknowledged commands only): KEYS owner, epoch, journal, the shard's commands, the last
+#: journaled tick; ARGV worker, epoch, lease ms, group, journal id, payload ('' = nothing to
+#: journal), the journal ids (comma-separated; '' none) of writes whose reply never came and whose
+#: requests this one carries instead (removed if they are there, in the same step, after the
+#: XADD: a refused XADD leaves everything as it was), the last tick the worker saw journaled (-1
+#: none), the tick, ids... Returns 1; -4 if the journal already holds a later tick; -5 if it
+#: lacks a tick the worker saw journaled (Redis lost writes: written again first); nothing is
+#: written or acknowledged on either.
+JOURNAL = fenced("""
+if tonumber(redis.call('GET', KEYS[5]) or '-1') < tonumber(ARGV[8]) then return -5 end
+if ARGV[6] ~= '' then
+  local ok = redis.pcall('XADD', KEYS[3], ARGV[5], 'requests', ARGV[6])
+  if type(ok) == 'table' and ok.err then
+    if not string.find(ok.err, 'equal or smaller') then return redis.error_reply(ok.err) end
+    -- a re-send of this very entry (its reply lost) is fine; anything else is not
+    if #redis.call('XRANGE', KEYS[3], ARGV[5], ARGV[5]) == 0 then return -4 end
   end
 end
-if #ARGV > 4 then
-  redis.call('XACK', KEYS[3], ARGV[2], unpack(ARGV, 5))
-  local p = redis.call('XPENDING', KEYS[3], ARGV[2])
+for id in string.gmatch(ARGV[7], '[^,]+') do
+  if id ~= ARGV[5] then redis.call('XDEL', KEYS[3], id) end
+end
+if ARGV[6] ~= '' and tonumber(redis.call('GET', KEYS[5]) or '-1') < tonumber(ARGV[9]) then
+  redis.call('SET', KEYS[5], ARGV[9])
+end
+if #ARGV > 9 then
+  redis.call('XACK', KEYS[4], ARGV[4], unpack(ARGV, 10))
+  local p = redis.call('XPENDING', KEYS[4], ARGV[4])
   local floor = ARGV[#ARGV]
   if p[1] > 0 then floor = p[2] end
-  redis.call('XTRIM', KEYS[3], 'MINID', '~', floor)
+  redis.call('XTRIM', KEYS[4], 'MINID', '~', floor)
+end
+return 1
+""")
+
+#: A tick's results (what each command entry it applied came to) at id ``{tick}-1``, once (a
+#: re-send, or a successor re-stepping the tick, adds nothing): KEYS results; ARGV id, maxlen,
+#: tick, results JSON. Returns 1 added, 0 there already.
+RESULTS = """
+local ok = redis.pcall('XADD', KEYS[1], 'MAXLEN', '~', ARGV[2], ARGV[1], 'tick', ARGV[3],
+                       'results', ARGV[4])
+if type(ok) == 'table' and ok.err then
+  if string.find(ok.err, 'equal or smaller') then return 0 end
+  return redis.error_reply(ok.err)
 end
 return 1
 """
 
 #: Entries of the shared command stream moved to their shards' streams and acknowledged, in one
 #: step (nothing routed twice, nothing lost): KEYS source, then shard 0..S-1's streams; ARGV
-#: group, then per entry: id, shard, field count, fields...
+#: group, the router (consumer), then per entry: id, shard, field count, fields...
 ROUTED = "routed_from"  # the field ROUTE adds: the entry's id on the shared stream
 ROUTE = """
 local ROUTED = 'routed_from'
-local i, moved, last = 2, 0, nil
+local i, moved, last = 3, 0, nil
 while i <= #ARGV do
   local id, k, nf = ARGV[i], tonumber(ARGV[i + 1]), tonumber(ARGV[i + 2])
-  local args = {}
-  for j = 0, 2 * nf - 1 do args[#args + 1] = ARGV[i + 3 + j] end
-  if nf > 0 then redis.call('XADD', KEYS[k + 2], '*', ROUTED, id, unpack(args)) end
-  redis.call('XACK', KEYS[1], ARGV[1], id)
-  moved, last = moved + 1, id
+  -- only an entry still pending to this router: another that claimed it may have moved it
+  if #redis.call('XPENDING', KEYS[1], ARGV[1], id, id, 1, ARGV[2]) == 1 then
+    local args = {}
+    for j = 0, 2 * nf - 1 do args[#args + 1] = ARGV[i + 3 + j] end
+    if nf > 0 then redis.call('XADD', KEYS[k + 2], '*', ROUTED, id, unpack(args)) end
+    redis.call('XACK', KEYS[1], ARGV[1], id)
+    moved = moved + 1
+  end
+  last = id
   i = i + 3 + 2 * nf
 end
 if last then
@@ -230,39 +317,71 @@ end
 return moved
 """
 
-#: KEYS owner, checkpoint, journal, published mark, specs, params; ARGV worker, blob, the
-#: checkpoint's tick (journal entries before it are dropped: the checkpoint holds what they
-#: did), the entries the shard has emitted (refused, -2, unless all of them are out: a
-#: successor starts counting there, and would never send the missing ones), then the ships that
-#: left before the checkpoint (their specs and parameters are dropped)
-CHECKPOINT = """
-if redis.call('GET', KEYS[1]) ~= ARGV[1] then return -1 end
-if tonumber(redis.call('GET', KEYS[4]) or '-1') < tonumber(ARGV[4]) - 1 then return -2 end
-redis.call('SET', KEYS[2], ARGV[2])
-redis.call('XTRIM', KEYS[3], 'MINID', ARGV[3])
-if #ARGV > 4 then
-  redis.call('HDEL', KEYS[5], unpack(ARGV, 5))
-  redis.call('HDEL', KEYS[6], unpack(ARGV, 5))
+#: KEYS owner, epoch, checkpoint, journal, published mark, specs, params; ARGV worker, epoch,
+#: lease ms, blob, the checkpoint's tick (journal entries before it are dropped: the checkpoint
+#: holds what they did), the entries the shard has emitted (refused, -2, unless all of them are
+#: out: a successor starts counting there, and would never send the missing ones), then the
+#: ships that left before the checkpoint (their specs and parameters are dropped)
+CHECKPOINT = fenced("""
+if tonumber(redis.call('GET', KEYS[5]) or '-1') < tonumber(ARGV[6]) - 1 then return -2 end
+redis.call('SET', KEYS[3], ARGV[4])
+redis.call('XTRIM', KEYS[4], 'MINID', ARGV[5])
+if #ARGV > 6 then
+  redis.call('HDEL', KEYS[6], unpack(ARGV, 7))
+  redis.call('HDEL', KEYS[7], unpack(ARGV, 7))
 end
 return 1
-"""
+""")
 
-#: KEYS the owner keys of the shards the worker holds; ARGV worker, lease ms.
-#: Returns 1 for each lease renewed, 0 for each lost.
+#: KEYS the owner and epoch keys of the shards the worker holds, in pairs; ARGV worker, lease
+#: ms, then each shard's epoch. Per shard: 1 renewed (or a lapsed lease taken back: nobody took
+#: it), 0 another's, -3 its epoch gone (Redis lost the shard's state).
 RENEW = """
 local out = {}
-for i, key in ipairs(KEYS) do
-  if redis.call('GET', key) == ARGV[1] then
-    redis.call('PEXPIRE', key, ARGV[2]); out[i] = 1
-  else out[i] = 0 end
+for i = 1, #KEYS / 2 do
+  local owner, epoch = KEYS[2 * i - 1], KEYS[2 * i]
+  local e = redis.call('GET', epoch)
+  if not e then out[i] = -3
+  elseif e ~= ARGV[2 + i] then out[i] = 0
+  else
+    local o = redis.call('GET', owner)
+    if o == ARGV[1] then redis.call('PEXPIRE', owner, ARGV[2]); out[i] = 1
+    elseif not o then redis.call('SET', owner, ARGV[1], 'PX', ARGV[2]); out[i] = 1
+    else out[i] = 0 end
+  end
 end
 return out
 """
 
-#: KEYS owner; ARGV worker
+#: KEYS owner, epoch; ARGV worker, epoch
 RELEASE = """
-if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('DEL', KEYS[1]) end
+if redis.call('GET', KEYS[2]) == ARGV[2] and redis.call('GET', KEYS[1]) == ARGV[1] then
+  return redis.call('DEL', KEYS[1])
+end
 return 0
+"""
+
+#: A shard's keys written back by the worker that holds it, after Redis lost them (restarted
+#: empty, or a failover lost its last writes): KEYS owner, epoch, mark, tick; ARGV worker, its
+#: epoch, lease ms, the mark (the last entry number out), the tick Redis records. Refused (-1)
+#: if another worker has taken the shard meanwhile (a new epoch).
+RESTORE = """
+local e = redis.call('GET', KEYS[2])
+if e and e ~= ARGV[2] then return -1 end
+local o = redis.call('GET', KEYS[1])
+if o and o ~= ARGV[1] then return -1 end
+redis.call('SET', KEYS[2], ARGV[2])
+redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[3])
+redis.call('SET', KEYS[3], ARGV[4])
+redis.call('SET', KEYS[4], ARGV[5])
+return 1
+"""
+
+#: What Redis holds of a shard, for a worker to compare with what it wrote: KEYS epoch, mark,
+#: tick, the last journaled tick. Returns [epoch or false, mark, tick, last journaled tick].
+STATE = """
+return {redis.call('GET', KEYS[1]), redis.call('GET', KEYS[2]) or '-1',
+        redis.call('GET', KEYS[3]) or '-1', redis.call('GET', KEYS[4]) or '-1'}
 """
 
 

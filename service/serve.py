@@ -4,23 +4,33 @@ Each worker owns some of the service's shards (a ship's shard: service.commands.
 steps each owned shard's World one tick per loop, at ``rate`` ticks per wall-clock second:
 
     leases (renew; take free shards up to a fair share; hand extra ones over)
-    commands: each owned shard's consumer group -> parsed requests, applied at this tick
+    commands: each owned shard's consumer group -> parsed requests into its backlog
+    admit each shard's requests for this tick (budgets; one command a tick per part of a ship)
+    journal them (and ack their entries), all shards in one round trip; only then apply them
     step each shard -> its flight log (rotating MCAP files) -> its numbered entries
-    Redis: journal the requests (and ack them) -> publish the entries -> hashes, telemetry
-    every ``checkpoint_every`` ticks: the shard's checkpoint
+    Redis: publish the entries, the tick's results, hashes, telemetry; the checkpoint when due
 
-Redis is written in that order, and a shard's entries are published only once its requests are
-journaled, so whatever Redis holds is a prefix of one history: the checkpoint, the journal after
-it, the events up to the shard's recorded tick. A worker that takes a shard over (its owner died,
-or handed it over) restores the checkpoint, re-steps the journal's requests at their ticks up to
+A command is applied only once Redis holds it in the shard's journal, so whatever Redis holds is
+a prefix of one history: the checkpoint, the journal after it, the events up to the shard's
+recorded tick; and no worker (paused, cut off, or killed with its flight log on disk) ever applies
+a command its successor applies again. A worker that takes a shard over (its owner died, or
+handed it over) restores the checkpoint, re-steps the journal's requests at their ticks up to
 that recorded tick (re-sent entries are dropped by the shard's mark), claims the commands its
 predecessor read but never journaled, and goes on.
 
-While Redis is unreachable the worker keeps stepping and logging; it holds the unsent entries (at
-most ``buffer_max``; the flight log always has them) and the requests to journal, says so on
-stderr, and delivers them in order once Redis answers again. Telemetry is a sample: the samples
-of an outage are dropped. A shard lost meanwhile (its lease passed to another worker) has its
-flight log closed with the last tick Redis holds of it (``superseded_after_tick``).
+Every owner-only write is fenced by the shard's epoch (service.redis_io.FENCE): a worker whose
+lease lapsed while nobody took the shard (Redis paused past it) takes it back and goes on, and
+only a real new owner restores from the checkpoint. After each read a worker compares the entries
+pending to it with those it holds: a read whose reply was lost (a time-out, a pipeline re-sent by
+the client) is read again, and entries pending to a former owner are claimed.
+
+While Redis is unreachable the worker keeps stepping and logging (the commands wait); it holds the
+unsent entries (at most ``buffer_max``; the flight log always has them), says so on stderr, and
+delivers them in order once Redis answers again. Back from an outage it compares what Redis holds
+with what it wrote: what Redis lost (a failover's last writes, a restart without its data) it
+writes again. Telemetry is a sample: the samples of an outage are dropped. A shard lost meanwhile
+(its epoch passed to another worker) has its flight log closed with the last tick Redis holds of
+it (``superseded_after_tick``).
 
 Every Redis call is service.store's (``ShardStore``); this module is the policy.
 """
@@ -36,7 +46,7 @@ import socket
 import sys
 import threading
 import time
-from collections import deque
+from collections import Counter, deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,12 +56,14 @@ import numpy as np
 
 from touchdown.service import redis_io as rio
 from touchdown.service.commands import Rejected, Request, decode_entry, parse, shard_of
+from touchdown.service.kinds import parts_of
 from touchdown.service.flightlog import ServiceLog, lower_priority
 from touchdown.service.phases import GcTimer, Phases, SlowTicks
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.service.shard import Limits, Shard, TickOut
-from touchdown.service.store import (ERRORS, REFUSALS, UNREACHABLE, CheckpointWrite, ShardStore,
-                                     ShardWrites, refusal_kind)
+from touchdown.service.store import (ERRORS, REFUSALS, UNREACHABLE, CheckpointWrite, Fence,
+                                     ShardStore, ShardWrites, refusal_kind)
+from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.scenario import Scenario, parse as parse_doc
 from touchdown.sim.timeline import Timeline
@@ -85,11 +97,15 @@ class ServeConfig:
     #: the service sends in TELEMETRY_KEEP_S simulated seconds (100 per shard at dt 0.1 s)
     telemetry_maxlen: int | None = None
     events_maxlen: int = 1_000_000  # the event stream, approximately (0: not trimmed)
+    #: each shard's results stream (a tick's entry: what each command came to), approximately
+    results_maxlen: int = 10_000
     buffer_max: int = 100_000  # unsent entries held while Redis is away
     #: a flight-log file's bound: at 104 bytes a ship-tick, a 20,000-ship shard fills 1 GiB in
     #: 50 s; each rotation (a header of every ship's table) costs that shard's tick tens of ms
     log_max_bytes: int = 1 << 30
-    log_max_total_bytes: int = 0  # a shard's flight-log folder, oldest files removed (0: all kept)
+    #: a shard's flight-log folder, oldest files removed (0: all kept): two files of the default
+    #: size, 8 GiB for the default four shards (at 3,000 ships, 3.4 MB/s, about 40 minutes)
+    log_max_total_bytes: int = 2 << 30
     log_max_age_s: float = 0.0  # flight-log files older than this are removed (0: kept)
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
     keyframe_every: int = 10
@@ -110,6 +126,12 @@ class ServeConfig:
 TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
 GC_EVERY = 50  # loops between the full collections a worker runs between its ticks
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
+#: what a shard keeps after Redis confirmed it, to write it again if Redis loses it (a failover's
+#: last writes, a restart from an older snapshot, or without its data): the last entries out,
+#: and the journal's last records (their requests, at most)
+RETAIN_ENTRIES = 20_000
+RETAIN_REQUESTS = 100_000
+ROUTED_KEY = "routed:"  # (_Owned.applied: a routed entry's id on the shared stream, apart)
 
 
 @dataclass
@@ -139,26 +161,45 @@ class Stats:
 @dataclass
 class _Owned:
     shard: Shard
-    journal: deque = field(default_factory=deque)  # (tick, [requests], [entry ids]) to write
+    fence: Fence  # this worker's epoch of the shard (every owner-only script checks it)
     unsent: deque = field(default_factory=deque)  # (number, fields) to publish
     specs: dict = field(default_factory=dict)  # ship id -> [join tick, table] JSON, to write
     params: dict = field(default_factory=dict)  # ship id -> its parameter record, to write
     hashes: dict = field(default_factory=dict)  # ship id -> fields or None, to write
     telemetry: list = field(default_factory=list)  # serialized samples to add
+    results: deque = field(default_factory=deque)  # (tick, results JSON) to write
     tele: TelemetryEncoder = field(default_factory=TelemetryEncoder)
     backlog: deque = field(default_factory=deque)  # requests read, waiting for their tick
+    waiting: Counter = field(default_factory=Counter)  # ship id -> its commands in the backlog
     inflight: set = field(default_factory=set)  # entry ids read and not yet acknowledged
-    #: the start id of a re-read of this worker's own pending entries (after a Redis error: a
-    #: read whose reply was lost left them pending), or None
+    #: the start id of a re-read of this worker's own pending entries (after a Redis error, or
+    #: more pending to it than it holds: a read whose reply was lost), or None
     reread: str | None = "0"
+    #: journal writes whose reply never came (their ticks): each may be in Redis, with its
+    #: entries acknowledged, though this worker did not apply them; the next write removes them
+    unsure: list = field(default_factory=list)
     retired: list = field(default_factory=list)  # (tick, ship id) of ships that left
     read_count: int = 100  # entries asked for a tick: follows the byte budget (_adapt)
     #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
     #: the log's flush Event, the ships whose specs it drops)
     checkpoint: tuple | None = None
+    force_checkpoint: bool = False  # Redis lost the shard's writes: one as soon as it can
     #: the last tick of this shard Redis holds (its journal and its events): a shard lost to
     #: another worker goes on from there, and its flight log says so (superseded_after_tick)
     delivered: int = 0
+    #: what Redis confirmed, kept to write it again if Redis loses it: the last entry number out,
+    #: the entries out (the latest RETAIN_ENTRIES), the journal's latest records (at most
+    #: RETAIN_REQUESTS requests) and their entry ids (an entry found pending again is not
+    #: applied twice)
+    confirmed_mark: int = -1
+    journal_mark: int = -1  # the last tick this worker saw journaled (JOURNAL checks it)
+    stale: set = field(default_factory=set)  # applied entries found pending again (acks lost)
+    sent: deque = field(default_factory=lambda: deque(maxlen=RETAIN_ENTRIES))
+    journaled: deque = field(default_factory=deque)  # (tick, [requests])
+    applied: dict = field(default_factory=dict)  # entry id -> the tick it was applied at
+    step_s: float = 0.0  # the last step's wall time (seconds)
+    joined: dict = field(default_factory=dict)  # ship id -> its join tick (its spec's)
+    taken_at: float | None = None  # when its lease was taken (until its first tick after)
 
 
 class Worker:
@@ -183,6 +224,11 @@ class Worker:
         self._loop_refused = False
         self._started = time.monotonic()
         self._lease_lost: set[int] = set()
+        self._gone: set[int] = set()  # shards whose state Redis lost (their epoch gone)
+        self._suspect: set[int] = set()  # shards whose last writes Redis may have lost
+        self._epochs: dict[int, Fence] = {}  # the fence of each shard owned or being taken
+        self._take_after = 0.0  # no shard of another worker is taken before (after an outage)
+        self._said_gone: set[int] = set()
         self._taking: set[int] = set()  # shards being taken over (their leases renewed too)
         self._collected = 0  # the loop of the last full collection (_collect)
         self._lease_stop = threading.Event()
@@ -237,8 +283,10 @@ class Worker:
             self.log(msg, level)
 
     def _text(self, exc: BaseException) -> str:
-        return rio.scrub(f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc),
-                         self.cfg.password, rio.password_of(self.cfg.url))
+        text = f"{type(exc).__name__}: {exc}" if not str(exc) else str(exc)
+        # (redis-py names a pipeline's failed command with its arguments: a whole script)
+        text = text.split(" of pipeline caused error: ", 1)[-1]
+        return rio.scrub(text, self.cfg.password, rio.password_of(self.cfg.url))
 
     # -- start ---------------------------------------------------------------------------------
     def _agree_on_config(self) -> tuple[Scenario, str]:
@@ -277,24 +325,57 @@ class Worker:
                                 "or only counted)", registry=reg),
             "events": Counter("touchdown_events_published", "entries put on the event stream",
                               registry=reg),
-            "dropped": Counter("touchdown_dropped", "entries dropped from a full buffer and "
-                               "rejections counted but not published", registry=reg),
+            "dropped": Counter("touchdown_dropped", "events lost: dropped from a full buffer "
+                               "while Redis was away (the flight logs have them)", registry=reg),
+            "unpublished": Counter("touchdown_rejections_unpublished", "rejections counted, "
+                                   "not published (past a sender's cap in a tick)",
+                                   registry=reg),
+            "redis_up": Gauge("touchdown_redis_up", "1 while Redis answers, 0 while it is "
+                              "unreachable (or its replies time out)", registry=reg),
+            "redis_state": Gauge("touchdown_redis_state", "1 for the state Redis is in, as "
+                                 "this worker sees it: up, refusing (OOM, NOPERM, READONLY, "
+                                 "...) or down", ["state"], registry=reg),
+            "logs_paused": Gauge("touchdown_logs_paused", "shards whose flight log is paused "
+                                 "(disk full, unwritable)", registry=reg),
+            "shard_tick": Gauge("touchdown_shard_tick", "the tick of each shard this worker "
+                                "owns", ["shard", "worker"], registry=reg),
+            "shard_step": Gauge("touchdown_shard_step_seconds", "the wall time of each owned "
+                                "shard's last step", ["shard", "worker"], registry=reg),
             "held": Gauge("touchdown_held_entries", "entries and requests waiting for Redis",
                           registry=reg),
             "tick_no": Gauge("touchdown_tick", "the latest tick of this worker's shards",
                              registry=reg),
         }
+        from prometheus_client import Info
+        import platform
+        import redis as redis_py
+        from touchdown.sim.fields import LOG_FORMAT
+        Info("touchdown_build", "the build this worker runs", registry=reg).info({
+            "version": PROJECT_VERSION, "log_format": str(LOG_FORMAT),
+            "checkpoint_format": str(rio.CHECKPOINT_FORMAT), "python": platform.python_version(),
+            "redis_py": redis_py.__version__, "worker": self.id})
         try:
             out = start_http_server(port, addr="127.0.0.1", registry=reg)
         except OSError as exc:
             raise ServeError(f"--metrics-port {port}: {exc.strerror or exc}") from None
         self._metrics_server = out[0] if isinstance(out, tuple) else None
         self._metrics = m
-        self._metric_seen = {"applied": 0, "rejected": 0, "dropped": 0, "events": 0, "late": 0}
+        self._metric_seen = {"applied": 0, "rejected": 0, "dropped": 0, "events": 0, "late": 0,
+                             "unpublished": 0}
+        self._metric_shards: set = set()
 
     # -- the loop ------------------------------------------------------------------------------
+    def warm(self) -> None:
+        """Compile (or load from the cache) every kernel a tick runs, before taking any lease:
+        a worker that cannot step a shard yet does not take one (service.warm)."""
+        from touchdown.service import warm
+        seconds = warm.warm(self.scene, self.dt_s, self.body)
+        self.log(f"compiled code ready in {seconds:.1f} s (kernels in {warm.where()}): taking "
+                 f"shards")
+
     def run(self) -> Stats:
         cfg = self.cfg
+        self.warm()
         rate = (1.0 / self.dt_s) if cfg.rate_hz is None else cfg.rate_hz
         period = 1.0 / rate if rate > 0 else 0.0
         due = time.monotonic()
@@ -382,7 +463,14 @@ class Worker:
         if self._lease_lost:
             lost, self._lease_lost = self._lease_lost, set()
             for k in sorted(lost & set(self.owned)):
-                self._redis(self._relet, k)
+                self._lose(k, "its lease passed to another worker")
+        if self._gone and self.redis_up:
+            gone, self._gone = self._gone, set()
+            for k in sorted(gone & set(self.owned)):
+                self._redis(self._restore, k)
+        if self._suspect and self.redis_up:
+            suspect, self._suspect = self._suspect, set()
+            self._redis(self._reconcile, suspect)
         ph = self.phase
         if self.redis_up and now >= self._next_lease:
             with ph("leases"):
@@ -393,39 +481,118 @@ class Worker:
                 self._redis(self._read_commands)
                 if 0 in self.owned and not self.cfg.cluster:  # no router on a cluster
                     self._redis(self._route)
+        plans = {k: self._admit(o) for k, o in self.owned.items()}
+        confirmed: set[int] = set()
+        if any(plans.values()):
+            with ph("journal"):
+                if self.redis_up:
+                    self._redis(self._journal, plans, confirmed)
         for k in sorted(self.owned):
             o = self.owned[k]
-            self._step(o, self._admit(o))
+            requests = plans.get(k, [])
+            if requests and k not in confirmed:
+                self._put_back(o, requests)  # not journaled: applied at a later tick
+                requests = []
+            self._step(o, requests)
         if self.redis_up:
             with ph("flush"):
                 self._redis(self._flush, clears=True)
 
     def _admit(self, o: _Owned) -> list:
         """The backlog's requests for this tick, in order, within the tick's budget of
-        commands, spawns and bytes; the rest wait for the next tick."""
+        commands, spawns and bytes; the rest wait for the next tick. A ship takes at most one
+        command a tick for each part of it a command sets (its throttle, its RCS, its hold; a
+        spawn, a retire or an autoland the whole ship): a command that would change what an
+        earlier command of the same tick set waits for the next tick, and so do the ship's later
+        commands (in order), so every command is in force for at least one tick and is in the
+        flight log at its own tick. Other ships' commands go past it."""
         cfg = self.cfg
-        out, spawned, size = [], set(), 0
+        out, keep, used, closed = [], [], {}, set()
+        spawns, size = 0, 0
         while o.backlog and len(out) < cfg.max_commands_per_tick:
             req = o.backlog[0]
             is_spawn = isinstance(req, Request) and req.cmd == "spawn"
-            if is_spawn and len(spawned) >= cfg.max_spawns_per_tick:
+            if is_spawn and spawns >= cfg.max_spawns_per_tick:
                 break
             if out and size + req.size > cfg.max_command_bytes_per_tick:
                 break
-            if not is_spawn and req.ship_id in spawned:
-                break  # a ship's commands after its spawn wait for the tick it has joined
             o.backlog.popleft()
+            sid = req.ship_id
+            parts = parts_of(req)
+            if sid in closed or (parts & used.get(sid, frozenset())):
+                closed.add(sid)
+                keep.append(req)
+                continue
+            if parts:
+                used[sid] = used.get(sid, frozenset()) | parts
             out.append(req)
-            if is_spawn:
-                spawned.add(req.ship_id)
+            spawns += is_spawn
             size += req.size
+            if isinstance(req, Request):
+                o.waiting[sid] -= 1
+                if o.waiting[sid] <= 0:
+                    del o.waiting[sid]
+        o.backlog.extendleft(reversed(keep))
         return out
+
+    def _put_back(self, o: _Owned, requests: list) -> None:
+        """Requests admitted but not journaled (Redis away or refusing): first in line again."""
+        o.backlog.extendleft(reversed(requests))
+        for req in requests:
+            if isinstance(req, Request):
+                o.waiting[req.ship_id] += 1
+
+    def _journal(self, plans: dict, confirmed: set) -> None:
+        """JOURNAL each shard's requests of this tick before the tick applies them, in one round
+        trip: only what Redis holds is applied, so no worker (paused, cut off, or killed with its
+        flight log on disk) ever applies a command its successor applies again. A write whose
+        reply never came is ``unsure``: the shard's next write removes it if it is there."""
+        writes, before = [], {}
+        for k in sorted(plans):
+            if plans[k] and k in self.owned:
+                o = self.owned[k]
+                writes.append((k, o.fence, o.shard.tick, plans[k], list(o.unsure),
+                               o.journal_mark))
+                before[k] = list(o.unsure)
+                o.unsure.append(o.shard.tick)  # until Redis says what it did
+        for j in self.store.journal(writes):
+            o = self.owned[j.k]
+            if j.refused is not None:  # refused: nothing written (the XADD comes first)
+                o.unsure = before[j.k]
+                self._refusal(j.refused)
+                continue
+            if j.code == 1:
+                o.unsure = []
+                confirmed.add(j.k)
+                tick, requests = o.shard.tick, plans[j.k]
+                o.journal_mark = tick
+                o.inflight.difference_update(r.entry_id for r in requests)
+                self._journaled(o, tick, requests)
+                o.delivered = max(o.delivered, tick + 1)
+            elif j.code == -3:
+                self._gone.add(j.k)
+            elif j.code == -5:  # Redis lost journal records: written again first
+                o.unsure = before[j.k]
+                self._suspect.add(j.k)
+            elif j.code == -4:
+                self.log(f"shard {j.k}: its journal holds a tick after {o.shard.tick}: another "
+                         f"history; dropping the shard", "error")
+                self._lose(j.k, "its journal went on without it")
+            else:
+                self._lose(j.k, "its lease passed to another worker")
 
     def _step(self, o: _Owned, requests: list) -> None:
         sh = o.shard
-        if requests:
-            o.journal.append((sh.tick, requests, [r.entry_id for r in requests]))
+        tick = sh.tick
+        t0 = time.perf_counter()
         out = sh.step(requests, self.phase)
+        o.step_s = time.perf_counter() - t0
+        if o.taken_at is not None:
+            self.log(f"shard {sh.index}: first tick {time.monotonic() - o.taken_at:.3f} s after "
+                     f"its lease was taken")
+            o.taken_at = None
+        if out.results:
+            o.results.append((tick, out.results))
         with self.phase("take"):
             self._take(o, out)
         every = self.telemetry_every
@@ -446,6 +613,7 @@ class Worker:
         world = o.shard.world
         for block in out.blocks:
             for sp in block.spawned:
+                o.joined[sp.ship_id] = block.first_tick
                 o.specs[sp.ship_id] = json.dumps([block.first_tick, sp.spec], sort_keys=True)
                 i = world.row(sp.ship_id)
                 if i is not None:
@@ -486,22 +654,27 @@ class Worker:
                          "error")
             self._next_try = time.monotonic() + 0.25
         except ERRORS as exc:
-            text = self._text(exc)
-            kind = refusal_kind(exc, text)
-            self._loop_refused = True
-            self._refused = REFUSALS.get(kind, kind)
-            self.log_every(f"refused:{kind}",
-                           f"redis {self.where} refused: {kind} {text} ({self._refused}): "
-                           f"ticking on; holding events and commands to journal until it "
-                           f"accepts them (the flight logs have every tick)", "error")
+            self._refusal(exc)
         self._reread_all()
         return None
+
+    def _refusal(self, exc: BaseException) -> None:
+        """Redis refused a write (OOM, NOPERM, READONLY, ...): said at most every 10 s."""
+        text = self._text(exc)
+        kind = refusal_kind(exc, text)
+        self._loop_refused = True
+        self._refused = REFUSALS.get(kind, kind)
+        self.log_every(f"refused:{kind}",
+                       f"redis {self.where} refused: {kind} {text} ({self._refused}): "
+                       f"ticking on; holding events and commands until it accepts them "
+                       f"(the flight logs have every tick)", "error")
 
     def _reread_all(self) -> None:
         """After any error a read's reply may have been lost, leaving its entries pending to
         this worker: read them again (those already in hand are skipped)."""
         for o in self.owned.values():
             o.reread = "0"
+        self._route_from = "0"
 
     def _reconnect(self) -> None:
         try:
@@ -514,10 +687,17 @@ class Worker:
         self.log(f"redis back after {time.monotonic() - self._down_since:.1f} s: delivering "
                  f"{held:,} held entries")
         self._next_lease = 0.0
+        # the other workers' leases lapsed too: each takes its own shards back first (RENEW,
+        # or its next script) before any worker takes another's
+        self._take_after = time.monotonic() + self.cfg.lease_s
+        self._redis(self._reconcile)
 
     def _read_commands(self) -> None:
         """Each owned shard's new entries (and, after an error, its own pending ones) into its
-        backlog. A shard with a full backlog reads nothing (the stream holds the rest)."""
+        backlog. A shard with a full backlog reads nothing (the stream holds the rest). After
+        each read: more entries pending to this worker than it holds (a read's reply lost: a
+        re-sent pipeline, a time-out) are read again from id 0; entries pending to another
+        consumer of a shard this worker owns (read by an owner that lost it) are claimed."""
         if not self.owned:
             return
         plan = []
@@ -541,12 +721,40 @@ class Worker:
                 o.reread = entries[-1][0].decode() if entries else None
             o.read_count = self._adapt(o.read_count, entries)
             for entry_id, raw in entries:
-                eid = entry_id.decode()
-                if eid in o.inflight or raw is None:
-                    continue
-                o.inflight.add(eid)
-                o.backlog.append(self._parse(k, eid, raw))
-                self.stats.commands_read += 1
+                self._enqueue(k, o, entry_id.decode(), raw)
+            # (checked after a read of new entries: a re-read in pages does not loop on them)
+            if start == ">" and rd.mine > len(o.inflight) + len(o.stale):
+                o.reread = "0"
+            if rd.others:
+                for eid, raw in self.store.claim(k):
+                    self._enqueue(k, o, eid, raw)
+
+    def _enqueue(self, k: int, o: _Owned, eid: str, raw: dict | None) -> None:
+        """An entry read (or claimed) into shard k's backlog, unless it is in hand already or was
+        applied (Redis lost its acknowledgement: it is written again with its journal). A ship
+        with ``max_commands_per_ship`` commands waiting has further ones rejected."""
+        if raw is None or eid in o.inflight:
+            return
+        origin = (raw.get(rio.ROUTED.encode()) or b"").decode("ascii", "replace")
+        if eid in o.applied or (origin and ROUTED_KEY + origin in o.applied):
+            # applied, and pending again (Redis lost its acknowledgement), or routed again (a
+            # rollback lost the route's acknowledgement): acknowledged once the journal that
+            # holds it is in Redis again
+            o.stale.add(eid)
+            self._suspect.add(k)
+            return
+        o.inflight.add(eid)
+        req = self._parse(k, eid, raw)
+        limit = self.cfg.limits.max_commands_per_ship
+        if isinstance(req, Request):
+            if limit and o.waiting[req.ship_id] >= limit:
+                req = Rejected(eid, req.ship_id, f"{req.cmd}: {limit} commands for ship "
+                               f"{req.ship_id!r} are already waiting for their ticks (the "
+                               f"per-ship rate)", req.cmd, req.player_id, req.size, req.origin)
+            else:
+                o.waiting[req.ship_id] += 1
+        o.backlog.append(req)
+        self.stats.commands_read += 1
 
     def _adapt(self, count: int, entries: list) -> int:
         """The next read's entry count: a read costs a tick at most the byte budget (commands
@@ -574,16 +782,17 @@ class Worker:
 
     def _route(self) -> None:
         """The owner of shard 0 moves the shared command stream's entries (SPEC.md section 5's
-        ``P:commands``) to their shards' streams."""
-        start = getattr(self, "_route_from", "0")
+        ``P:commands``) to their shards' streams: its own pending ones (a read whose reply was
+        lost) and new ones, each read; those pending to another router (that lost shard 0)
+        claimed."""
         count = getattr(self, "_route_count", 100)
-        entries = self.store.read_router(start, count)
-        if entries is None:  # its group lost (Redis restarted without its data): made again
+        got = self.store.read_router(count)
+        if got is None:  # its group lost (Redis restarted without its data): made again
             return
+        entries, others = got
+        if others:
+            self.store.claim_router()
         self._route_count = self._adapt(count, entries)
-        if start != ">" and not entries:
-            self._route_from = ">"
-            return
         if not entries:
             return
         moves = []
@@ -592,40 +801,35 @@ class Worker:
             sid = raw.get(b"ship_id", b"").decode("utf-8", "surrogateescape")
             moves.append((entry_id, shard_of(sid, self.cfg.shards), raw))
         self.store.route(moves, self.cfg.shards)
-        if start != ">":
-            self._route_from = entries[-1][0].decode()
 
     def _flush(self) -> None:
-        """Journal (rare: only ticks that had commands), then in one round trip: each shard's
-        entries, hashes, specs and telemetry, and its checkpoint when due. A shard whose lease
-        is another worker's is dropped; what Redis refused stays held."""
+        """In one round trip: each shard's entries, results, hashes, specs and telemetry, and
+        its checkpoint when due. A shard whose epoch is another worker's is dropped; one whose
+        state Redis lost is written back (next loop); what Redis refused stays held."""
         lost: set[int] = set()
-        for k in sorted(self.owned):
-            o = self.owned[k]
-            while o.journal:
-                tick, reqs, ids = o.journal[0]
-                if not self.store.journal(k, tick, reqs, ids):
-                    lost.add(k)
-                    break
-                o.journal.popleft()
-                o.inflight.difference_update(ids)
-                o.delivered = max(o.delivered, tick + 1)
-        writes = [self._writes(k) for k in sorted(set(self.owned) - lost)]
+        writes = [self._writes(k) for k in sorted(self.owned)]
         result = self.store.flush(writes, self.cfg.events_maxlen, self.telemetry_maxlen,
-                                  self.phase)
+                                  self.phase, self.cfg.results_maxlen)
         for k, f in result.shards.items():
             o = self.owned[k]
             for _ in range(f.out):
-                o.unsent.popleft()
+                o.sent.append(o.unsent.popleft())
+            if f.out:
+                o.confirmed_mark = o.sent[-1][0]
+            for _ in range(min(f.results, len(o.results))):
+                o.results.popleft()
             self.stats.entries_sent += f.added
             if f.tick is not None:
                 o.delivered = max(o.delivered, f.tick)
             if f.checkpointed:
-                gone = set(o.checkpoint[4])
-                o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
+                self._checkpointed(o, o.checkpoint[1], set(o.checkpoint[4]))
                 o.checkpoint = None
             if f.lost:
                 lost.add(k)
+            if f.gone:
+                self._gone.add(k)
+            if f.behind:
+                self._suspect.add(k)
         if result.unreachable is not None:
             raise result.unreachable  # _redis: Redis is away; what was not written stays held
         for k in sorted(set(self.owned) - lost):
@@ -637,13 +841,36 @@ class Worker:
         if result.refused is not None:
             raise result.refused  # said once by _redis; what failed stays held
 
+    def _checkpointed(self, o: _Owned, tick: int, gone: set) -> None:
+        """A checkpoint of ``tick`` is in Redis: the ships that left before it are forgotten."""
+        o.retired = [(t, sid) for t, sid in o.retired if sid not in gone]
+        for sid in gone:
+            o.joined.pop(sid, None)
+
+    @staticmethod
+    def _journaled(o: _Owned, tick: int, requests: list) -> None:
+        """A tick's requests Redis holds in the journal: kept (the latest RETAIN_REQUESTS) to
+        write again if Redis loses them; their ids (and a routed one's id on the shared stream)
+        known as applied."""
+        o.journaled.append((tick, requests))
+        for r in requests:
+            o.applied[r.entry_id] = tick
+            if r.origin:  # (ids repeat across streams: a routed one's is kept apart)
+                o.applied[ROUTED_KEY + r.origin] = tick
+        while len(o.applied) > 2 * RETAIN_REQUESTS and len(o.journaled) > 1:
+            _t, old = o.journaled.popleft()
+            for r in old:
+                o.applied.pop(r.entry_id, None)
+                o.applied.pop(ROUTED_KEY + r.origin, None)
+
     def _writes(self, k: int) -> ShardWrites:
         """Shard k's writes for this flush; its checkpoint taken when due (the records copied
         now, packed on a thread) and sent once packed and once the log has its tick on disk
         (no waiting on the log's thread here: that was the slowest tick's time)."""
         o = self.owned[k]
         sh = o.shard
-        if self._checkpoint_due(k, sh.tick) and o.checkpoint is None:
+        if (self._checkpoint_due(k, sh.tick) or o.force_checkpoint) and o.checkpoint is None:
+            o.force_checkpoint = False
             gone = [sid for t, sid in o.retired if t <= sh.tick]
             with self.phase("checkpoint"):  # the records copied; packed on a thread
                 pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
@@ -655,7 +882,7 @@ class Worker:
             packed, tick, published, _, gone = o.checkpoint
             cp = CheckpointWrite(packed.result(), tick, published, tuple(gone))
         return ShardWrites(k, sh.tick, list(o.unsent), o.hashes, o.specs, o.params,
-                           o.telemetry, cp)
+                           o.telemetry, cp, o.fence, list(o.results), o.confirmed_mark)
 
     def _packer(self) -> ThreadPoolExecutor:
         """The thread that packs checkpoints (zstd; off the tick)."""
@@ -670,15 +897,17 @@ class Worker:
 
     def _checkpoint(self, k: int) -> int:
         """Shard k's checkpoint now (refused by the script unless every entry it counts is
-        out): 1 written, -1 the lease lost, -2 refused."""
+        out): 1 written, -1 the lease lost, -2 refused, -3 the shard's state gone."""
         o = self.owned[k]
         sh = o.shard
         sh.log.flush()  # the log holds every tick up to the checkpoint before Redis does
-        blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland, sh.published)
+        published = sh.published
+        blob = rio.checkpoint_blob(k, self.cfg.shards, sh.world, sh.autoland, published)
         gone = [sid for t, sid in o.retired if t <= sh.tick]
-        ok = self.store.checkpoint(k, CheckpointWrite(blob, sh.tick, sh.published, tuple(gone)))
+        ok = self.store.checkpoint(k, o.fence, CheckpointWrite(blob, sh.tick, published,
+                                                               tuple(gone)))
         if ok == 1:
-            o.retired = [(t, sid) for t, sid in o.retired if t > sh.tick]
+            self._checkpointed(o, sh.tick, set(gone))
         return ok
 
     # -- shards: leases, taking over, handing over --------------------------------------------
@@ -701,9 +930,11 @@ class Worker:
                         keeper = self.store.lease_keeper(timeout=max(0.2, cfg.lease_s / 4))
                     self._live = keeper.heartbeat(cfg.lease_s)
                     # (and a shard being taken: restoring a large one outlasts a lease)
-                    order = sorted(set(self.owned) | self._taking)
-                    kept = keeper.renew(order, lease_ms)
-                    self._lease_lost.update(k for k, ok in zip(order, kept) if not ok)
+                    fences = dict(self._epochs)
+                    order = sorted(k for k in set(self.owned) | self._taking if k in fences)
+                    kept = keeper.renew([(k, fences[k].epoch) for k in order], lease_ms)
+                    self._lease_lost.update(k for k, ok in zip(order, kept) if ok == 0)
+                    self._gone.update(k for k, ok in zip(order, kept) if ok == -3)
                 except UNREACHABLE:
                     pass  # the loop says Redis is away
                 except (*ERRORS, RuntimeError) as exc:
@@ -715,13 +946,6 @@ class Worker:
             if keeper is not None:
                 keeper.close()
 
-    def _relet(self, k: int) -> None:
-        """Shard k's lease was not renewed (Redis away past it, or taken): take it again if it
-        is free, else the shard is another worker's now."""
-        if k in self.owned and not self.store.take_lease(k, int(self.cfg.lease_s * 1000)):
-            if not self.store.holds_lease(k):
-                self._lose(k, "its lease passed to another worker while it could not renew it")
-
     def _leases(self) -> None:
         cfg = self.cfg
         lease_ms = int(cfg.lease_s * 1000)
@@ -731,25 +955,40 @@ class Worker:
             share = min(share, cfg.max_shards)
         if len(self.owned) > share and time.monotonic() - self._started > cfg.lease_s:
             self._hand_over(max(self.owned))
+        if time.monotonic() < self._take_after:
+            return  # after an outage: the owners take their own shards back first
         for k in range(cfg.shards):
             if len(self.owned) >= share:
                 break
-            if k not in self.owned and self.store.take_lease(k, lease_ms):
+            if k in self.owned:
+                continue
+            taken_at = time.monotonic()
+            epoch = self.store.take_lease(k, lease_ms)
+            if epoch:
+                fence = Fence(self.id, epoch, lease_ms)
+                self._epochs[k] = fence
                 self._taking.add(k)  # the lease thread renews it meanwhile
                 try:
-                    self._take_over(k)
+                    self._take_over(k, fence)
+                except ServeError as exc:  # (a checkpoint this worker cannot read)
+                    self._epochs.pop(k, None)
+                    self.store.release(k, fence)
+                    self.log_every(f"take:{k}", f"shard {k}: not taken: {exc}", "error")
+                    continue
                 except BaseException:
-                    self.store.release(k)
+                    self._epochs.pop(k, None)
+                    self.store.release(k, fence)
                     raise
                 finally:
                     self._taking.discard(k)
+                self.owned[k].taken_at = taken_at
                 # what a take-over built (the ships' tables, ids, the log's header cache: a
                 # million objects at 50,000 ships) lives as long as the shard: out of the
                 # collector's sight, a full collection no longer walks it (a pause of tens of
                 # milliseconds in whichever tick it struck); reference counting still frees it
                 gc.freeze()
 
-    def _take_over(self, k: int) -> None:
+    def _take_over(self, k: int, fence: Fence) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
         scenario's ships of this shard)."""
         store = self.store
@@ -784,7 +1023,8 @@ class Worker:
         # everything read from Redis first: a failure here leaves nothing half made
         tail = store.journal_since(k, world.tick)
         journal = tail.requests
-        last = max([store.recorded_tick(k)] + [t + 1 for t in journal])
+        recorded = store.recorded_tick(k)
+        last = max([recorded] + [t + 1 for t in journal])
         # what the last owner read but never journaled is new: this worker applies it next
         claimed, acks = [], []
         for eid, raw in store.claim(k):
@@ -799,7 +1039,8 @@ class Worker:
             self._route_from = "0"
             store.claim_router()
         shard = Shard(k, world, None, self.body, dict.fromkeys(autoland), published,
-                      limits=self.cfg.limits)
+                      limits=self.cfg.limits,
+                      streams=(self.keys.shard_commands(k), self.keys.commands))
         shard.log = ServiceLog(
             self.cfg.log_dir / f"shard-{k:03d}", lambda: shard.world, self.log,
             prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
@@ -810,21 +1051,27 @@ class Worker:
             zstd_level=self.cfg.log_zstd_level,
             first_bytes=self.cfg.log_max_bytes * (k + 1) // self.cfg.shards)
         shard.log.start()  # the file's first record: the state it starts at
-        o = _Owned(shard)
+        o = _Owned(shard, fence)
+        o.joined = {sid: int(v[0]) for sid, v in specs_json.items()}
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
         # the journal's requests, at their ticks, up to the last tick whose entries are out:
         # the same entries, with the same numbers, as the last owner's (dropped by the mark)
         caught = 0
         while shard.tick < last:
-            self._take(o, shard.step(journal.get(shard.tick, [])))
+            requests = journal.get(shard.tick, [])
+            if requests:  # (kept as this worker's own journal writes are: Redis may lose them)
+                self._journaled(o, shard.tick, requests)
+            self._take(o, shard.step(requests))
             caught += 1
         o.telemetry.clear()  # (specs and parameters are written again: a spawn journaled by
         # an owner that died before writing them would otherwise have none)
+        o.results.clear()  # (the re-stepped ticks' results are in Redis already)
         for eid, raw in claimed:
-            o.inflight.add(eid)
-            o.backlog.append(self._parse(k, eid, raw))
+            self._enqueue(k, o, eid, raw)
         o.reread = "0"
         o.delivered = shard.tick  # what Redis holds: this worker goes on from here
+        o.journal_mark = max(journal, default=-1)
+        store.began(k, fence, shard.tick)
         self.owned[k] = o
         if blob is not None:
             self.stats.takeovers += 1
@@ -835,9 +1082,10 @@ class Worker:
         """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed.
         Its backlog (read, not applied) stays pending in its group for the next owner."""
         o = self.owned[k]
-        if o.journal or o.unsent or self._checkpoint(k) != 1:
+        if o.unsent or o.results or o.unsure or self._checkpoint(k) != 1:
             return  # try again at the next lease round
-        self.store.release(k)
+        self.store.release(k, o.fence)
+        self._epochs.pop(k, None)
         o.shard.log.close(complete=True, reason="handed over")
         self._keep_counts(o)
         del self.owned[k]
@@ -845,15 +1093,138 @@ class Worker:
 
     def _lose(self, k: int, why: str) -> None:
         o = self.owned.pop(k, None)
+        self._epochs.pop(k, None)
         if o is None:
             return
         self._keep_counts(o)
+        # where the new owner went on from: what Redis held when it took the shard, which is
+        # less than what this worker delivered if Redis lost writes (a failover, an old
+        # snapshot) before the new owner took it
+        try:
+            began = self.store.successor_from(k)
+        except ERRORS:
+            began = None
+        if began is not None and began[0] != o.fence.epoch and began[1] < o.delivered:
+            o.delivered = began[1]
         # the ticks after the last one Redis holds were never published: the next owner goes
         # on from that tick, and may apply what this worker applied since at other ticks
         o.shard.log.close(complete=True, reason="lost", superseded_after_tick=o.delivered)
         self.log(f"shard {k}: lost at tick {o.shard.tick} ({why}); its flight log superseded "
                  f"after tick {o.delivered} (the last Redis holds); {len(o.unsent)} unsent "
                  f"entries left to its new owner, which re-derives them", "warning")
+
+    # -- when Redis lost what it held ------------------------------------------------------------
+    def _reconcile(self, shards: set | None = None) -> None:
+        """What Redis holds of each owned shard (or of ``shards``: those a script or a read
+        found behind) against what this worker wrote. A shard whose epoch is gone (Redis
+        restarted empty) is written back whole (_restore); one whose last writes Redis lost (a
+        failover to a replica that had not received them, an append-only file fsynced every
+        second, a restart from an older snapshot) has them written again (_rewrite); one with
+        another epoch is another worker's now. Then the entries found pending again though
+        applied (their acknowledgements lost with the journal, now written again) are
+        acknowledged."""
+        ks = sorted(set(self.owned) if shards is None else set(shards) & set(self.owned))
+        held = self.store.state(ks)
+        for k, (epoch, mark, _tick, journal_tick) in held.items():
+            o = self.owned.get(k)
+            if o is None:
+                continue
+            if epoch is None:
+                self._restore(k)
+            elif epoch != o.fence.epoch:
+                self._lose(k, "another worker took it while Redis was away")
+            elif mark < o.confirmed_mark or journal_tick < o.journal_mark:
+                self._rewrite(k, mark, journal_tick)
+        for k in ks:
+            o = self.owned.get(k)
+            if o is not None and o.stale:
+                self.store.ack(k, sorted(o.stale))
+                o.stale.clear()
+
+    def _rewrite(self, k: int, mark: int, journal_tick: int) -> None:
+        """Redis lost shard k's last writes: the journal's records after ``journal_tick`` and the
+        entries after ``mark`` written again (each at its own id or number: nothing twice), every
+        ship's hash, and a checkpoint as soon as it can."""
+        o = self.owned[k]
+        records = [(t, reqs) for t, reqs in o.journaled if t > journal_tick]
+        code = self.store.rejournal(k, o.fence, records)
+        if code == -1:
+            self._lose(k, "another worker took it while Redis was away")
+            return
+        if code == -3:
+            self._restore(k)
+            return
+        again = [e for e in o.sent if e[0] > mark]
+        gap = bool(again) and again[0][0] > mark + 1 or (not again and o.confirmed_mark > mark)
+        o.unsent.extendleft(reversed(again))
+        o.sent = deque((e for e in o.sent if e[0] <= mark), maxlen=RETAIN_ENTRIES)
+        o.confirmed_mark = mark
+        specs, params = self._tables(o)
+        o.specs.update(specs)
+        o.params.update(params)
+        o.journal_mark = min(o.journal_mark, journal_tick) if not records else o.journal_mark
+        o.hashes.update(o.shard.hashes_of(np.arange(o.shard.world.state.n), o.shard.tick))
+        o.force_checkpoint = True
+        self.log(f"shard {k}: redis lost its last writes (its journal at tick {journal_tick}, "
+                 f"its events at number {mark}): writing them again ({len(records)} journal "
+                 f"records, {len(again)} entries{', a gap before them' if gap else ''}) and a "
+                 f"checkpoint", "error")
+
+    @staticmethod
+    def _tables(o: _Owned) -> tuple[dict, dict]:
+        """Every present ship's spec ([join tick, table] JSON) and parameter record, as the
+        take-over reads them (to write again what Redis lost)."""
+        world = o.shard.world
+        specs = {sid: json.dumps([o.joined.get(sid, -1), world.known.get(sid, {})],
+                                 sort_keys=True) for sid in world.ship_ids}
+        params = {sid: world.params.ships.rows[i].tobytes()
+                  for i, sid in enumerate(world.ship_ids)}
+        return specs, params
+
+    def _restore(self, k: int) -> None:
+        """Redis lost shard k's state (restarted empty, or without its data): said once at
+        error level, and what this worker holds written back: the shard's epoch, lease, marks,
+        its ships' specs, parameters and hashes, the service's config and the group, a
+        checkpoint of the tick in hand, and the entries it kept (re-sent to the new stream). If
+        another worker took the shard meanwhile (it started the shard anew), the shard is
+        dropped, and the line says its ships are lost."""
+        o = self.owned.get(k)
+        if o is None:
+            return
+        sh = o.shard
+        store = self.store
+        store.agree_on_config(self.cfg.shards, self.scenario_json)
+        store.ensure_group(k)
+        again = list(o.sent)
+        first = again[0][0] if again else (o.unsent[0][0] if o.unsent else sh.published)
+        world = sh.world
+        specs, params = self._tables(o)
+        hashes = sh.hashes_of(np.arange(world.state.n), sh.tick)
+        got = store.restore(k, o.fence, first - 1, o.delivered, specs, params, hashes)
+        if got != 1:
+            self.log(f"shard {k}: redis lost its state and another worker has taken it anew "
+                     f"meanwhile: this worker's {world.state.n} ships at tick {sh.tick} are "
+                     f"not written back (its flight log has them)", "error")
+            self._lose(k, "another worker took it while Redis was empty")
+            return
+        o.unsent.extendleft(reversed(again))
+        o.sent.clear()
+        o.confirmed_mark = first - 1
+        o.journal_mark = -1
+        o.journaled.clear()
+        o.applied.clear()
+        o.stale.clear()
+        o.unsure = []
+        o.checkpoint = None
+        o.reread = "0"
+        # a checkpoint as soon as every entry it counts is out (its script refuses it before)
+        o.force_checkpoint = True
+        if k not in self._said_gone:
+            self._said_gone.add(k)
+            self.log(f"shard {k}: redis lost its state (restarted empty?): wrote back what this "
+                     f"worker holds ({world.state.n} ships at tick {sh.tick}: their specs, "
+                     f"parameters and hashes, then a checkpoint; the events from number "
+                     f"{first} sent again, those before it are gone with Redis)", "error")
 
     # -- figures -------------------------------------------------------------------------------
     def figures(self) -> dict:
@@ -877,15 +1248,23 @@ class Worker:
             "late_share": round(min(1.0, self.stats.late / max(1, self.stats.ticks)), 4),
             "ships": sum(o.shard.world.state.n for o in self.owned.values()),
             "shards": len(self.owned),
-            "held": sum(len(o.unsent) + len(o.backlog) + sum(len(j[1]) for j in o.journal)
+            "held": sum(len(o.unsent) + len(o.backlog) + len(o.results)
                         for o in self.owned.values()),
             "commands_per_s": round((cmds - c0) / span, 1),
             "events_per_s": round((self.stats.entries_sent - e0) / span, 1),
             "applied": applied, "rejected": rejected, "rejections_unpublished": unpublished,
-            "dropped": self.stats.entries_dropped + unpublished,
+            # events lost: dropped from a full buffer while Redis was away (the logs have them)
+            "dropped": self.stats.entries_dropped,
             "redis": "up" if self.redis_up and self._refused is None else
                      ("refusing" if self.redis_up else "down"),
+            "redis_down_s": round(now - self._down_since, 1) if not self.redis_up else 0.0,
             "logs_paused": sum(o.shard.log.paused for o in self.owned.values()),
+            # each shard this worker owns: its tick and the wall time of its last step
+            "shard_ticks": json.dumps({str(k): o.shard.tick for k, o in
+                                       sorted(self.owned.items())}),
+            "shard_step_ms": json.dumps({str(k): round(o.step_s * 1e3, 3) for k, o in
+                                         sorted(self.owned.items())}),
+            "version": PROJECT_VERSION,
         }
         return fig
 
@@ -908,8 +1287,22 @@ class Worker:
             m["lag"].set(fig["lag_s"])
             m["held"].set(fig["held"])
             m["tick_no"].set(fig["tick"])
+            m["redis_up"].set(0 if fig["redis"] == "down" else 1)
+            for state in ("up", "refusing", "down"):
+                m["redis_state"].labels(state).set(1 if fig["redis"] == state else 0)
+            m["logs_paused"].set(fig["logs_paused"])
+            now_shards = set()
+            for k, o in self.owned.items():
+                now_shards.add(str(k))
+                m["shard_tick"].labels(str(k), self.id).set(o.shard.tick)
+                m["shard_step"].labels(str(k), self.id).set(o.step_s)
+            for k in self._metric_shards - now_shards:  # a shard gone: its series too
+                m["shard_tick"].remove(k, self.id)
+                m["shard_step"].remove(k, self.id)
+            self._metric_shards = now_shards
             for name, value in (("applied", fig["applied"]), ("rejected", fig["rejected"]),
                                 ("dropped", fig["dropped"]),
+                                ("unpublished", fig["rejections_unpublished"]),
                                 ("events", self.stats.entries_sent), ("late", fig["late"])):
                 if value > seen[name]:
                     m[name].inc(value - seen[name])
@@ -956,10 +1349,10 @@ class Worker:
         self._flush()
         for k in sorted(self.owned):
             o = self.owned[k]
-            if o.journal or o.unsent:
+            if o.unsent or o.results:
                 return False
             if self._checkpoint(k) == 1:
-                self.store.release(k)
+                self.store.release(k, o.fence)
         return True
 
 

@@ -13,6 +13,7 @@ the same numbers, and the event stream keeps the first of each (service.redis_io
 """
 from __future__ import annotations
 
+import json
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -42,6 +43,9 @@ class TickOut:
     entries: list[tuple[int, dict]] = field(default_factory=list)
     hashes: dict[str, dict | None] = field(default_factory=dict)
     blocks: list[Block] = field(default_factory=list)
+    #: what each request came to, for the shard's results stream: JSON of {stream: {"applied":
+    #: [entry ids], "rejected": [entry ids]}} ("" when the tick had no requests)
+    results: str = ""
 
 
 @dataclass(frozen=True)
@@ -50,7 +54,8 @@ class Limits:
 
     max_ships: int = 20_000  # ships in the shard; a spawn past it is rejected
     max_commands_per_ship: int = 4  # commands for one ship in one tick; the rest rejected
-    max_rejections: int = 100  # rejection events a tick; the rest counted, not published
+    #: rejection events a tick for one sender (a player); the rest counted, not published
+    max_rejections: int = 100
 
 
 @dataclass
@@ -70,6 +75,9 @@ class Shard:
     published: int = 0  # entries emitted so far: the next one's number
     limits: Limits = field(default_factory=Limits)
     counts: Counts = field(default_factory=Counts)
+    #: the command streams its entries come from: its own, and the shared one they are routed
+    #: from (a rejection names the entry by stream and id)
+    streams: tuple[str, str] = ("", "")
 
     @property
     def tick(self) -> int:
@@ -84,18 +92,25 @@ class Shard:
         pending: dict[str, list] = {}
         self._per_ship: dict[str, int] = {}
         self._ships_next = self.world.state.n  # with the spawns accepted this tick
-        shown = 0
+        shown: dict[str, int] = {}
+        results: dict[str, dict[str, list]] = {}
         for req in requests:
             reason = self._apply(req, pending) if isinstance(req, Request) else req.reason
+            stream = self.streams[1] if req.origin else self.streams[0]
+            by = results.setdefault(stream, {"applied": [], "rejected": []})
+            by["applied" if reason is None else "rejected"].append(req.origin or req.entry_id)
             if reason is None:
                 self.counts.applied += 1
                 continue
             self.counts.rejected += 1
-            if self.limits.max_rejections and shown >= self.limits.max_rejections:
+            sender = req.player_id
+            if self.limits.max_rejections and shown.get(sender, 0) >= self.limits.max_rejections:
                 self.counts.unpublished += 1
                 continue
-            shown += 1
+            shown[sender] = shown.get(sender, 0) + 1
             self._emit(out, self._rejection(req, reason, t))
+        if results:
+            out.results = json.dumps(results, separators=(",", ":"))
         with phase("autopilot"):
             self._autopilot(out, pending, t)
         self.world.commands((sid, *given) for sid, given in pending.items())
@@ -176,9 +191,17 @@ class Shard:
                              "body": self.body, "tick": str(t), "result": outcome.label})
 
     def _rejection(self, req, reason: str, t: int) -> dict:
-        return {"event": REJECTED, "ship_id": req.ship_id,
-                "player_id": self._player(req.ship_id), "body": self.body, "tick": str(t),
-                "cmd": req.cmd, "reason": reason, "entry_id": req.origin or req.entry_id}
+        """The event that tells the sender: ``player_id`` is the sender's (the entry's), the
+        ship's owner is ``owner_id`` where it is another player, and the entry is named by the
+        ``stream`` it was read from and its ``entry_id`` there."""
+        fields = {"event": REJECTED, "ship_id": req.ship_id, "player_id": req.player_id,
+                  "body": self.body, "tick": str(t), "cmd": req.cmd, "reason": reason,
+                  "stream": self.streams[1] if req.origin else self.streams[0],
+                  "entry_id": req.origin or req.entry_id}
+        owner = self._owner(req.ship_id) if req.ship_id else None
+        if owner and owner != req.player_id:
+            fields["owner_id"] = owner
+        return fields
 
     def _owner(self, sid: str) -> str | None:
         """The player of ship ``sid`` (present, or known to this shard), or None."""

@@ -53,12 +53,28 @@ def is_unreachable(exc: BaseException) -> bool:
 @dataclass
 class Read:
     """One shard's read: its entries (id, raw fields or None: deleted), or ``nogroup`` (Redis
-    lost the group: made again), or the ``error`` Redis answered."""
+    lost the group: made again), or the ``error`` Redis answered; and, after the read, how many
+    entries of the group are pending to this worker (``mine``) and to other consumers
+    (``others``): more of them pending to this worker than it holds means a read's reply was
+    lost (a re-sent pipeline, a time-out); any pending to another consumer, on a shard this
+    worker owns, were read by an owner that has lost it."""
     k: int
     start: str
     entries: list = field(default_factory=list)
     nogroup: bool = False
     error: Exception | None = None
+    mine: int = 0
+    others: int = 0
+
+
+@dataclass
+class Journaled:
+    """One shard's JOURNAL: ``code`` 1 written (or there already), -1 the shard is another
+    worker's, -3 its state is gone (Redis restarted empty), -4 refused (the journal holds a later
+    tick); or the ``refused`` error Redis answered."""
+    k: int
+    code: int = 0
+    refused: Exception | None = None
 
 
 @dataclass
@@ -74,6 +90,20 @@ class ShardWrites:
     params: dict
     telemetry: list
     checkpoint: "CheckpointWrite | None" = None
+    fence: "Fence | None" = None
+    results: list = field(default_factory=list)  # (tick, results JSON) to write
+    mark: int = -1  # the shard's mark the worker last saw Redis confirm (PUBLISH checks it)
+
+
+@dataclass(frozen=True)
+class Fence:
+    """What every owner-only script is given: the worker, the shard's epoch it took, the lease."""
+    worker: str
+    epoch: str
+    lease_ms: int
+
+    def args(self) -> list:
+        return [self.worker, self.epoch, self.lease_ms]
 
 
 @dataclass(frozen=True)
@@ -97,6 +127,9 @@ class Flushed:
     checkpointed: bool = False
     lost: bool = False
     refused: Exception | None = None
+    gone: bool = False  # the shard's epoch is gone: Redis lost its state
+    behind: bool = False  # the shard's mark is below what the worker saw: Redis lost writes
+    results: int = 0  # results entries written (or there already), in order from the first
 
 
 @dataclass
@@ -195,14 +228,19 @@ class ShardStore:
     def live_workers(self) -> int:
         return self.r.zcard(self.keys.workers) or 1
 
-    def take_lease(self, k: int, lease_ms: int) -> bool:
-        return bool(self.r.set(self.keys.shard(k, "owner"), self.worker, nx=True, px=lease_ms))
+    def take_lease(self, k: int, lease_ms: int) -> str | None:
+        """TAKE: shard k's lease if it is free, with a new epoch (returned), else None."""
+        got = self._script("TAKE", self._fence_keys(k), [self.worker, lease_ms])
+        return got.decode() if isinstance(got, bytes) else got
 
     def holds_lease(self, k: int) -> bool:
         return self.r.get(self.keys.shard(k, "owner")) == self.worker.encode()
 
-    def release(self, k: int) -> None:
-        self._script("RELEASE", [self.keys.shard(k, "owner")], [self.worker])
+    def release(self, k: int, fence: Fence) -> None:
+        self._script("RELEASE", self._fence_keys(k), [self.worker, fence.epoch])
+
+    def _fence_keys(self, k: int) -> list[str]:
+        return [self.keys.shard(k, "owner"), self.keys.shard(k, "epoch")]
 
     def lease_keeper(self, timeout: float) -> "LeaseKeeper":
         """A connection of its own for the lease thread."""
@@ -210,16 +248,22 @@ class ShardStore:
 
     # -- commands ---------------------------------------------------------------------------------
     def read(self, plan: list[tuple[int, str, int]]) -> list[Read]:
-        """Each (shard, start id, count): its entries from its consumer group, in one round
-        trip (``>``: new ones; an id: this worker's own pending ones after it). A shard whose
-        group Redis lost has it made again (``nogroup``)."""
+        """Each (shard, start id, count): its entries from its consumer group, and then who has
+        entries pending in the group (XPENDING's summary), in one round trip (``>``: new ones;
+        an id: this worker's own pending ones after it). A shard whose group Redis lost has it
+        made again (``nogroup``)."""
         pipe = self.r.pipeline(transaction=False)
         for k, start, count in plan:
-            pipe.xreadgroup(rio.Keys.group(k), self.worker, {self.keys.shard_commands(k): start},
-                            count=count)
+            stream = self.keys.shard_commands(k)
+            pipe.xreadgroup(rio.Keys.group(k), self.worker, {stream: start}, count=count)
+            pipe.xpending(stream, rio.Keys.group(k))
         replies = pipe.execute(raise_on_error=False)
         out = []
-        for (k, start, _count), reply in zip(plan, replies):
+        for i, (k, start, _count) in enumerate(plan):
+            reply, pending = replies[2 * i], replies[2 * i + 1]
+            for r in (reply, pending):
+                if isinstance(r, UNREACHABLE):
+                    raise r
             if isinstance(reply, redis.exceptions.ResponseError) and "NOGROUP" in str(reply):
                 self.ensure_group(k)  # Redis lost it (restarted without its data)
                 out.append(Read(k, start, nogroup=True))
@@ -227,26 +271,40 @@ class ShardStore:
             if isinstance(reply, Exception):
                 out.append(Read(k, start, error=reply))
                 continue
-            out.append(Read(k, start, [e for _s, es in (reply or []) for e in es]))
+            rd = Read(k, start, [e for _s, es in (reply or []) for e in es])
+            rd.mine, rd.others = _pending_counts(pending, self.worker)
+            out.append(rd)
         return out
 
-    def read_router(self, start: str, count: int) -> list | None:
-        """The shared command stream's entries for the router (None: the group was lost, and
-        made again)."""
-        try:
-            reply = self.r.xreadgroup(rio.Keys.ROUTER, self.worker, {self.keys.commands: start},
-                                      count=count)
-        except redis.exceptions.ResponseError as exc:
-            if "NOGROUP" not in str(exc):
-                raise
-            self.ensure_group(None)
-            return None
-        return [e for _s, es in (reply or []) for e in es]
+    def read_router(self, count: int) -> tuple[list, int] | None:
+        """The shared command stream's entries for the router: its own pending ones (a read
+        whose reply was lost, a route refused) and new ones, in one round trip, and how many are
+        pending to other consumers (a former router's). None: the group was lost, and made
+        again."""
+        pipe = self.r.pipeline(transaction=False)
+        pipe.xreadgroup(rio.Keys.ROUTER, self.worker, {self.keys.commands: "0"}, count=count)
+        pipe.xreadgroup(rio.Keys.ROUTER, self.worker, {self.keys.commands: ">"}, count=count)
+        pipe.xpending(self.keys.commands, rio.Keys.ROUTER)
+        replies = pipe.execute(raise_on_error=False)
+        for reply in replies:
+            if isinstance(reply, redis.exceptions.ResponseError) and "NOGROUP" in str(reply):
+                self.ensure_group(None)
+                return None
+            if isinstance(reply, Exception):
+                raise reply
+        seen, entries = set(), []
+        for reply in replies[:2]:
+            for _s, es in reply or []:
+                for e in es:
+                    if e[0] not in seen and e[1] is not None:
+                        seen.add(e[0])
+                        entries.append(e)
+        return entries, _pending_counts(replies[2], self.worker)[1]
 
     def route(self, moves: list[tuple[bytes, int, dict]], shards: int) -> int:
-        """ROUTE: each (entry id, shard, raw fields) moved to its shard's stream and
-        acknowledged, in one script."""
-        args: list = [rio.Keys.ROUTER]
+        """ROUTE: each (entry id, shard, raw fields) still pending to this router moved to its
+        shard's stream and acknowledged, in one script."""
+        args: list = [rio.Keys.ROUTER, self.worker]
         for entry_id, k, raw in moves:
             args += [entry_id, k, len(raw)]
             for f, v in raw.items():
@@ -280,18 +338,50 @@ class ShardStore:
         self.r.xack(self.keys.shard_commands(k), rio.Keys.group(k), *ids)
 
     # -- the journal ------------------------------------------------------------------------------
-    def journal(self, k: int, tick: int, requests: list, ids: list[str]) -> bool:
-        """JOURNAL: the requests applied at ``tick`` with their entries' acknowledgements, in
-        one script; False if the lease is another worker's."""
+    def journal(self, writes: list) -> list[Journaled]:
+        """JOURNAL, before a tick applies its requests: each (shard, fence, tick, requests,
+        retract, the last tick the worker saw journaled) written with its entries' acknowledgements, one script a shard, in one round
+        trip. ``retract``: the ticks of earlier writes whose reply never came (their requests are
+        among these, now at this tick): removed in the same step. Redis unreachable raises (the
+        outcome of each is then unknown)."""
+        pipe = self.r.pipeline(transaction=False)
+        for k, fence, tick, requests, retract, seen in writes:
+            self._journal(pipe, k, fence, tick, requests, retract, seen)
+        replies = pipe.execute(raise_on_error=False)
+        out = []
+        for (k, *_rest), reply in zip(writes, replies):
+            if isinstance(reply, UNREACHABLE):
+                raise reply
+            if isinstance(reply, Exception):
+                out.append(Journaled(k, refused=reply))
+            else:
+                out.append(Journaled(k, int(reply)))
+        return out
+
+    def _journal(self, pipe, k: int, fence: Fence, tick: int, requests: list,
+                 retract: list | None, seen: int) -> None:
         payload = json.dumps([r.as_json() for r in requests]) if requests else ""
-        ok = self._script("JOURNAL", [self.keys.shard(k, "owner"), self.keys.shard(k, "journal"),
-                                      self.keys.shard_commands(k)],
-                          [self.worker, rio.Keys.group(k), f"{tick}-1", payload, *ids])
-        return ok != -1
+        self._script("JOURNAL", [*self._fence_keys(k), self.keys.shard(k, "journal"),
+                                 self.keys.shard_commands(k), self.keys.shard(k, "journaled")],
+                     [*fence.args(), rio.Keys.group(k), f"{tick}-1", payload,
+                      ",".join(f"{t}-1" for t in retract or ()), seen, tick,
+                      *[r.entry_id for r in requests]], client=pipe)
+
+    def rejournal(self, k: int, fence: Fence, records: list) -> int:
+        """The journal's records (tick, requests) written again after Redis lost them (a
+        failover's last writes): each at its own id, with its acknowledgements. 1, or the
+        first script's code that was not (-1, -3, -4)."""
+        if not records:
+            return 1
+        pipe = self.r.pipeline(transaction=False)
+        for tick, requests in records:
+            self._journal(pipe, k, fence, tick, requests, None, -1)
+        codes = [int(x) for x in pipe.execute()]
+        return next((c for c in codes if c != 1), 1)
 
     # -- a flush: the events, hashes, specs, parameters, telemetry, checkpoints ------------------
     def flush(self, shards: list[ShardWrites], events_maxlen: int, telemetry_maxlen: int,
-              phase=None) -> FlushResult:
+              phase=None, results_maxlen: int = 10_000) -> FlushResult:
         """Every shard's writes in one pipeline (one round trip; a cluster's: one per master).
         A shard's entries go in PUBLISH scripts of up to PUBLISH_CHUNK, its tick with the last.
         ``phase``: the worker's phase timer (service.phases), the round trip timed as
@@ -306,11 +396,15 @@ class ShardStore:
                       for i in range(0, len(entries), PUBLISH_CHUNK)] or [[]]
             for c, chunk in enumerate(chunks):
                 tick = w.tick if c == len(chunks) - 1 else -1
-                self._script("PUBLISH", [keys.shard(k, "owner"), keys.shard(k, "published"),
+                self._script("PUBLISH", [*self._fence_keys(k), keys.shard(k, "published"),
                                          keys.shard_events(k), keys.shard(k, "tick")],
-                             [self.worker, tick, events_maxlen, *rio.flat_entries(chunk)],
-                             client=pipe)
+                             [*w.fence.args(), tick, events_maxlen, w.mark,
+                              *rio.flat_entries(chunk)], client=pipe)
                 plan.append(("publish", k, len(chunk), tick))
+            for tick, payload in w.results:
+                self._script("RESULTS", [keys.shard_results(k)],
+                             [f"{tick}-1", results_maxlen, tick, payload], client=pipe)
+                plan.append(("results", k, 0, -1))
             for sid, fields in w.hashes.items():
                 if fields is None:
                     pipe.delete(keys.ship(sid))
@@ -331,7 +425,7 @@ class ShardStore:
             cp = w.checkpoint
             if cp is not None:
                 self._script("CHECKPOINT", self._checkpoint_keys(k),
-                             [self.worker, cp.blob, cp.tick, cp.published, *cp.gone],
+                             [*w.fence.args(), cp.blob, cp.tick, cp.published, *cp.gone],
                              client=pipe)
                 plan.append(("checkpoint", k, 0, -1))
         result = FlushResult({w.k: Flushed() for w in shards})
@@ -353,9 +447,15 @@ class ShardStore:
                 continue
             if reply == -1 and what in ("publish", "checkpoint"):
                 f.lost = True
+            elif reply == -3 and what in ("publish", "checkpoint"):
+                f.gone = True
+            elif reply == -5 and what == "publish":
+                f.behind = True
+            elif what == "results":
+                f.results += 1
             elif what == "checkpoint" and reply == 1:
                 f.checkpointed = True
-            elif what == "publish" and not f.lost:
+            elif what == "publish" and not (f.lost or f.gone or f.behind):
                 f.out += n
                 f.added += reply
                 if tick != -1:
@@ -363,15 +463,52 @@ class ShardStore:
         return result
 
     # -- checkpoints ------------------------------------------------------------------------------
-    def checkpoint(self, k: int, cp: CheckpointWrite) -> int:
+    def checkpoint(self, k: int, fence: Fence, cp: CheckpointWrite) -> int:
         """CHECKPOINT now (a hand-over, a stop): 1 written, -1 the lease lost, -2 refused (not
-        every entry it counts is out)."""
+        every entry it counts is out), -3 the shard's state gone."""
         return self._script("CHECKPOINT", self._checkpoint_keys(k),
-                            [self.worker, cp.blob, cp.tick, cp.published, *cp.gone])
+                            [*fence.args(), cp.blob, cp.tick, cp.published, *cp.gone])
 
     def _checkpoint_keys(self, k: int) -> list[str]:
-        return [self.keys.shard(k, w) for w in ("owner", "checkpoint", "journal", "published",
-                                                "specs", "params")]
+        return [self.keys.shard(k, w) for w in ("owner", "epoch", "checkpoint", "journal",
+                                                "published", "specs", "params")]
+
+    # -- after an outage: what Redis still holds, and writing back what it lost ---------------
+    def state(self, shards: list[int]) -> dict:
+        """Each shard's (epoch or None: gone, mark, recorded tick, last journal tick or -1), in
+        one round trip."""
+        if not shards:
+            return {}
+        pipe = self.r.pipeline(transaction=False)
+        for k in shards:
+            self._script("STATE", [self.keys.shard(k, w) for w in ("epoch", "published", "tick",
+                                                                    "journaled")], [],
+                         client=pipe)
+        out = {}
+        for k, (epoch, mark, tick, last) in zip(shards, pipe.execute()):
+            out[k] = (epoch.decode() if isinstance(epoch, bytes) else epoch, int(mark),
+                      int(tick), int(last))
+        return out
+
+    def restore(self, k: int, fence: Fence, mark: int, tick: int, specs: dict, params: dict,
+                hashes: dict) -> int:
+        """RESTORE shard k's epoch, lease, mark and recorded tick (-1: another worker took it
+        meanwhile), then its ships' specs, parameters and hashes."""
+        got = self._script("RESTORE", [*self._fence_keys(k), self.keys.shard(k, "published"),
+                                       self.keys.shard(k, "tick")],
+                           [*fence.args(), mark, tick])
+        if got != 1:
+            return int(got)
+        pipe = self.r.pipeline(transaction=False)
+        if specs:
+            pipe.hset(self.keys.shard(k, "specs"), mapping=specs)
+        if params:
+            pipe.hset(self.keys.shard(k, "params"), mapping=params)
+        for sid, fields in hashes.items():
+            if fields is not None:
+                pipe.hset(self.keys.ship(sid), mapping=fields)
+        pipe.execute()
+        return 1
 
     # -- a take-over ------------------------------------------------------------------------------
     def load(self, k: int) -> Loaded:
@@ -398,6 +535,19 @@ class ShardStore:
         """The last tick whose entries are on the event stream (-1: none)."""
         return int(self.r.get(self.keys.shard(k, "tick")) or -1)
 
+    def began(self, k: int, fence: Fence, tick: int) -> None:
+        """The tick this epoch of shard k goes on from (the new owner, once it has re-stepped
+        what Redis holds)."""
+        self.r.set(self.keys.shard(k, "from"), f"{fence.epoch} {tick}")
+
+    def successor_from(self, k: int) -> tuple[str, int] | None:
+        """(epoch, tick) the shard's latest owner went on from, or None."""
+        got = self.r.get(self.keys.shard(k, "from"))
+        if not got:
+            return None
+        epoch, tick = got.decode().rsplit(" ", 1)
+        return epoch, int(tick)
+
     def write_tables(self, k: int, specs: dict, params: dict) -> None:
         """A new shard's ships' specs and parameters."""
         if specs:
@@ -411,6 +561,19 @@ class ShardStore:
         # (execute_command: a cluster's pipeline has no eval(), but routes EVAL by its keys)
         return (client or self.r).execute_command("EVAL", getattr(rio, name), len(keys), *keys,
                                                   *args)
+
+
+def _pending_counts(summary, worker: str) -> tuple[int, int]:
+    """XPENDING's summary: the entries pending to ``worker``, and to every other consumer."""
+    mine = others = 0
+    if isinstance(summary, dict):
+        for c in summary.get("consumers") or ():
+            name = c["name"].decode() if isinstance(c["name"], bytes) else c["name"]
+            if name == worker:
+                mine += int(c["pending"])
+            else:
+                others += int(c["pending"])
+    return mine, others
 
 
 class LeaseKeeper:
@@ -429,22 +592,24 @@ class LeaseKeeper:
         pipe.zcard(self.keys.workers)
         return pipe.execute()[2]
 
-    def renew(self, shards: list[int], lease_ms: int) -> list[bool]:
-        """RENEW each shard's lease: whether it is still this worker's. One script (a cluster:
-        one per shard, each in its slot, pipelined)."""
+    def renew(self, shards: list[tuple[int, str]], lease_ms: int) -> list[int]:
+        """RENEW each (shard, epoch)'s lease: 1 still this worker's (a lapsed lease nobody took
+        is taken back), 0 another's, -3 its state gone. One script (a cluster: one per shard,
+        each in its slot, pipelined)."""
         if not shards:
             return []
+        keys = lambda k: [self.keys.shard(k, "owner"), self.keys.shard(k, "epoch")]  # noqa
         if self.cluster:
             pipe = self.r.pipeline()
-            for k in shards:
-                pipe.execute_command("EVAL", rio.RENEW, 1, self.keys.shard(k, "owner"),
-                                     self.worker, lease_ms)
+            for k, epoch in shards:
+                pipe.execute_command("EVAL", rio.RENEW, 2, *keys(k), self.worker, lease_ms,
+                                     epoch)
             kept = [x[0] for x in pipe.execute()]
         else:
-            kept = self.r.eval(rio.RENEW, len(shards),
-                               *[self.keys.shard(k, "owner") for k in shards], self.worker,
-                               lease_ms)
-        return [bool(x) for x in kept]
+            flat = [key for k, _e in shards for key in keys(k)]
+            kept = self.r.eval(rio.RENEW, len(flat), *flat, self.worker, lease_ms,
+                               *[e for _k, e in shards])
+        return [int(x) for x in kept]
 
     def close(self) -> None:
         self.r.close()

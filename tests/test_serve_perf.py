@@ -295,12 +295,12 @@ def test_a_take_over_longer_than_the_lease_keeps_the_shard(redis_url, tmp_path):
     client = redis.Redis.from_url(redis_url)
     grabbed = []
 
-    def slow(k):
+    def slow(k, fence):
         time.sleep(0.6)  # past the lease, with the shard not yet owned
         grabbed.append(client.set(f"{prefix}:shard:{{{k}}}:owner", "intruder", nx=True,
                                   px=5000))
         time.sleep(0.4)
-        real(k)
+        real(k, fence)
     w._take_over = slow
     try:
         w.run()
@@ -311,4 +311,4 @@ def test_a_take_over_longer_than_the_lease_keeps_the_shard(redis_url, tmp_path):
         client.close()
     assert grabbed == [None, None]
     assert not [line for line in said if "lost" in line], said
-    assert sum("taken" in line for line in said) == 2
+    assert sum(": taken (" in line for line in said) == 2

@@ -5,7 +5,13 @@ stream as it arrives (``P:telemetry``, service.serve) and the event stream (``P:
   up; m), coloured by state (the log view's colours), labelled with its id;
 - ``counts/{state}``: how many ships are in each state, over time (``tick`` and ``sim_time``);
 - ``events``: the event stream as a text log (transitions, rejections, retirements, the
-  autopilot's reports), levels by kind.
+  autopilot's reports), levels by kind;
+- ``health``: the service's health, once a second, from each live worker's stats hash
+  (``P:worker:{id}:stats``; the live workers are ``P:service:workers``): ``health/workers`` a
+  table of the workers, their shards (each shard's tick and last step time), ships, tick time,
+  lag, late ticks, held entries and what they see of Redis; ``health/{worker}/...`` the tick
+  time (p50, p99, ms), the lag (s), the late ticks, the held entries and Redis up (1) or not (0),
+  over wall-clock time (``service_time``, seconds since the view began).
 
 Telemetry is a rolling slice (each ship once per telemetry period), so the picture is each
 ship's latest sample. On a Redis Cluster (found by asking the node of ``--redis``: ``INFO
@@ -170,8 +176,17 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     fleet = Fleet(streams.scene)
     rec.log("fleet", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     drawn = 0
+    begun = time.monotonic()
+    next_health = begun
     try:
         for batch in streams.batches(seconds):
+            if time.monotonic() >= next_health:
+                next_health += 1.0
+                try:
+                    _health(rr, rec, health(streams.client, streams.keys),
+                            time.monotonic() - begun)
+                except (redis.exceptions.RedisError, redis.exceptions.RedisClusterException):
+                    pass  # (a reader's ACL user may not read the workers' figures)
             changed = False
             for stream, fields in batch:
                 if stream == streams.telemetry:
@@ -188,6 +203,68 @@ def follow(rec, url: str, prefix: str = "galaxy", seconds: float | None = None,
     finally:
         streams.close()
     return drawn
+
+
+#: a worker's figures the health view plots, by the stats hash's names
+HEALTH_SERIES = ("tick_p50_ms", "tick_p99_ms", "lag_s", "late", "held")
+
+
+def health(client, keys) -> list[dict]:
+    """Each live worker's figures (its stats hash, decoded; ``shards`` a dict shard -> (tick,
+    step ms)), by worker id."""
+    now_s = _server_s(client)
+    ids = [w.decode() for w in client.zrangebyscore(keys.workers, now_s, "+inf")]
+    pipe = client.pipeline(transaction=False)
+    for wid in ids:
+        pipe.hgetall(keys.stats(wid))
+    out = []
+    for wid, raw in zip(ids, pipe.execute()):
+        fig = {k.decode(): v.decode() for k, v in (raw or {}).items()}
+        ticks = json.loads(fig.get("shard_ticks") or "{}")
+        steps = json.loads(fig.get("shard_step_ms") or "{}")
+        fig["worker"] = wid
+        fig["shards"] = {int(k): (int(t), float(steps.get(k, 0.0))) for k, t in ticks.items()}
+        out.append(fig)
+    return out
+
+
+def _server_s(client) -> float:
+    t = client.time()
+    if isinstance(t, dict):  # a cluster client may answer per node
+        t = next(iter(t.values()))
+    return t[0] + t[1] * 1e-6
+
+
+def health_table(workers: list[dict]) -> str:
+    """The health view's table (Markdown): a row per live worker."""
+    lines = ["| worker | shards (tick, step ms) | ships | tick p50 / p99 ms | lag s | late | "
+             "held | redis | logs paused |", "| --- | --- | --- | --- | --- | --- | --- | --- "
+             "| --- |"]
+    for w in sorted(workers, key=lambda w: w["worker"]):
+        shards = ", ".join(f"{k} ({t}, {ms:.1f})" for k, (t, ms) in sorted(w["shards"].items()))
+        lines.append(f"| {w['worker']} | {shards or 'none'} | {w.get('ships', '?')} | "
+                     f"{w.get('tick_p50_ms', '?')} / {w.get('tick_p99_ms', '?')} | "
+                     f"{w.get('lag_s', '?')} | {w.get('late', '?')} | {w.get('held', '?')} | "
+                     f"{w.get('redis', '?')} | {w.get('logs_paused', '?')} |")
+    if not workers:
+        lines.append("| (no live worker) | | | | | | | | |")
+    return "\n".join(lines)
+
+
+def _health(rr, rec, workers: list[dict], t_s: float) -> None:
+    if hasattr(rec, "reset_time"):
+        rec.reset_time()
+    rec.set_time("service_time", duration=t_s)
+    rec.log("health/workers", rr.TextDocument(health_table(workers),
+                                              media_type=rr.MediaType.MARKDOWN))
+    for w in workers:
+        for name in HEALTH_SERIES:
+            try:
+                rec.log(f"health/{w['worker']}/{name}", rr.Scalars(float(w[name])))
+            except (KeyError, ValueError):
+                pass
+        rec.log(f"health/{w['worker']}/redis_up", rr.Scalars(0.0 if w.get("redis") == "down"
+                                                             else 1.0))
 
 
 def entry_before(entry_id: str) -> str:
