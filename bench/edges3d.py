@@ -352,3 +352,118 @@ EDGE_20_24 = Scene("edge-20-24", 15.0, altitude_m=0.0, tilt_deg=24.0, yaw_deg=45
 EDGE_20_285 = dataclasses.replace(EDGE_20_24, name="edge-20-28.5", tilt_deg=28.5)
 COMBINED = Scene("combined-out-of-plane", 15.0, altitude_m=0.0, tilt_deg=10.0,
                  vertical_speed_mps=-20.0, side_speed_mps=2.0, side_heading_deg=90.0)
+
+
+# -- what each scene is judged by -----------------------------------------------------------------
+def _fmt(x, spec="{:.4g}"):
+    return "-" if x is None else spec.format(x)
+
+
+def tip_instant(tr: Track) -> float | None:
+    return tr.first("tipped")
+
+
+def landing(tr: Track) -> float | None:
+    """The simulation's ship.landed instant; the reference's settle instant if it stays up."""
+    if tr.path is None:
+        return tr.landed_t_s
+    return settle_instant(tr) if outcome(tr) == "landed" else None
+
+
+def distance_m(tr: Track) -> float:
+    return float(np.linalg.norm(horizontal_m(tr)[-1]))
+
+
+def peak_tilt(tr: Track) -> float:
+    return float(tilt_deg(tr).max())
+
+
+def righting(tr: Track) -> tuple[float | None, float | None]:
+    """(the instant the tilt comes back under 80 degrees, its rate there, deg/s)."""
+    t80 = tr.first("righted")
+    if t80 is None:
+        return None, None
+    til = tilt_deg(tr)
+    rate = np.gradient(til, tr.t)
+    return t80, float(np.interp(t80, tr.t, rate)) if tr.path is not None else _rate_at(tr, t80)
+
+
+def _rate_at(tr: Track, t: float) -> float:
+    """The tilt's rate at t from the samples around it (the simulation's ticks)."""
+    til = tilt_deg(tr)
+    k = int(np.searchsorted(tr.t, t))
+    k = min(max(k, 1), len(tr.t) - 1)
+    return float((til[k] - til[k - 1]) / (tr.t[k] - tr.t[k - 1]))
+
+
+def lowest_after_righting(tr: Track) -> float | None:
+    t80 = tr.first("righted")
+    if t80 is None:
+        return None
+    til = tilt_deg(tr)
+    return float(til[tr.t >= t80].min())
+
+
+def _event_after(tr: Track, kind: str, after: float) -> float | None:
+    for t, k in tr.events:
+        if k == kind and t > after:
+            return t
+    return None
+
+
+#: scene -> [(what, measure(track) -> float | str | None)]
+MEASURES = {
+    EDGE_ON_SLOPE: [("outcome", outcome), ("tipped at (s)", tip_instant),
+                    ("landed at (s)", landing)],
+    SLIDE_39: [("slid in 6 s (m)", distance_m)],
+    EDGE_24: [("landed at (s)", landing)],
+    EDGE_27: [("landed at (s)", landing)],
+    LANDED_THRUST: [("outcome", outcome), ("slid in 6 s (m)", distance_m)],
+    LANDED_TORQUE: [("outcome", outcome), ("tipped at (s)", tip_instant)],
+    TIPPED_RCS: [("under 80 deg at (s)", lambda tr: righting(tr)[0]),
+                 ("its rate (deg/s)", lambda tr: righting(tr)[1]),
+                 ("spin about up at 1 s (rad/s)", lambda tr: at(tr, yaw_rate_up(tr), 1.0)),
+                 ("lowest tilt after (deg)", lowest_after_righting)],
+    TIPPED_RCS_LONG: [("lowest tilt after (deg)", lowest_after_righting)],
+    TIPPED_RCS_PLANE: [("under 80 deg at (s)", lambda tr: righting(tr)[0])],
+    SPIN_SLIDE: [("spin about up at 0.2 s", lambda tr: at(tr, yaw_rate_up(tr), 0.2)),
+                 ("at 1 s (rad/s)", lambda tr: at(tr, yaw_rate_up(tr), 1.0)),
+                 ("yaw at the end (deg)", lambda tr: float(yaw_deg(tr)[-1])),
+                 ("east at the end (m)", lambda tr: float(horizontal_m(tr)[-1, 0])),
+                 ("landed at (s)", landing)],
+    SKID_EDGE: [("peak tilt (deg)", peak_tilt), ("landed at (s)", landing)],
+    SPIN_TOUCHDOWN: [("landed at (s)", landing)],
+    EDGE_20_24: [("tilt at 1 s (deg)", lambda tr: at(tr, tilt_deg(tr), 1.0)),
+                 ("liftoff (s)", lambda tr: tr.first("liftoff")),
+                 ("tipped at (s)", tip_instant)],
+    EDGE_20_285: [("tilt at 1 s (deg)", lambda tr: at(tr, tilt_deg(tr), 1.0)),
+                  ("liftoff (s)", lambda tr: tr.first("liftoff")),
+                  ("tipped at (s)", tip_instant)],
+    COMBINED: [("tilt at 1 s (deg)", lambda tr: at(tr, tilt_deg(tr), 1.0)),
+               ("liftoff (s)", lambda tr: tr.first("liftoff")),
+               ("tipped at (s)", tip_instant)],
+}
+
+
+def table(dts=(0.1, 0.05, 0.005), scenes=None, sim: dict | None = None,
+          contact: dict | None = None) -> list[tuple]:
+    """Rows (scene, what, reference, the simulation at each dt) of every measure of MEASURES."""
+    rows = []
+    for sc, measures in MEASURES.items():
+        if scenes is not None and sc.name not in scenes:
+            continue
+        ref = run_reference(sc)
+        runs = [run_sim(sc, dt, sim, contact) for dt in dts]
+        for what, f in measures:
+            vals = [f(ref)] + [f(r) for r in runs]
+            rows.append((sc.name, what, *[v if isinstance(v, str) else _fmt(v) for v in vals]))
+    return rows
+
+
+if __name__ == "__main__":  # the issue's table: python -m touchdown.bench.edges3d [dt ...]
+    import sys
+    dts = tuple(float(x) for x in sys.argv[1:]) or (0.1, 0.05, 0.02, 0.005)
+    print("| scene | measure | reference | " + " | ".join(f"dt {d:g}" for d in dts) + " |")
+    print("| --- | --- | --- | " + " | ".join("---" for _ in dts) + " |")
+    for row in table(dts):
+        print("| " + " | ".join(str(x) for x in row) + " |")
