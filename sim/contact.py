@@ -218,6 +218,8 @@ class ContactEval(NamedTuple):
     spring_load_n: float
     spring_load_rate_nps: float
     lowest_gamma: float
+    foot_pos_w: tuple  # each foot, inertial
+    push_w: tuple  # g_i of each foot (its length |g_i|)
 
 
 class FrictionForce(NamedTuple):
@@ -229,6 +231,9 @@ class FrictionForce(NamedTuple):
     mu_k: float  # 0 under the seed's law, which acts after the step
     kinetic: tuple  # each foot: dragged by its kinetic friction
     hold_w: tuple  # each foot's static friction carried in, inertial, N
+    #: each dragged foot's drag against this direction, where it is not zero (a foot whose stop is
+    #: being located: sim.step.step_piece), else against its slip
+    drag_dir: tuple
 
 
 class FootForce(NamedTuple):
@@ -328,7 +333,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
     feels its friction throughout the step: the impulse after it only corrects it
     (sim.friction.coulomb)."""
     pos_m, vel_mps, quat, w_b = motion
-    mu_k, kinetic, hold_w = friction_force
+    mu_k, kinetic, hold_w, drag_dir = friction_force
     omega_w = quat_rotate(quat, w_b)
     k_leg = 0.25 * legs.k_npm
     c_leg = 0.25 * c_nspm
@@ -367,9 +372,11 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
         load_rate += f.spring_load_rate_nps
         f_vec = scale(ft.push_w[i], f.force_n)
         speed = norm(slips[i])
-        if kinetic[i] and f.force_n > 0.0 and speed > 0.0:
+        fixed = drag_dir[i]
+        along = fixed[0] != 0.0 or fixed[1] != 0.0 or fixed[2] != 0.0
+        if kinetic[i] and f.force_n > 0.0 and (speed > 0.0 or along):
             drag = mu_k * f.force_n * g[i]
-            f_vec = sub(f_vec, scale(slips[i], drag / speed))
+            f_vec = sub(f_vec, scale(fixed, drag) if along else scale(slips[i], drag / speed))
             friction += drag
         elif f.force_n > 0.0 and not kinetic[i]:
             n_f = friction_normal(pos_m, ft.pos_w[i], ft.push_w[i])
@@ -387,7 +394,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
                                         ff[2].pen_rate_mps, ff[3].pen_rate_mps),
                        (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
-                       damp, load, load_rate, lowest_gamma)
+                       damp, load, load_rate, lowest_gamma, ft.pos_w, ft.push_w)
 
 
 @kernel
@@ -397,4 +404,4 @@ def no_contact(pos_m):
     far = (-math.inf, -math.inf, -math.inf, -math.inf)
     return ContactEval(False, far, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
                        (0.0, 0.0, 0.0, 0.0), z, z, 0.0, (z, z, z, z), 0.0, -math.inf,
-                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0)
+                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0, (z, z, z, z), (z, z, z, z))

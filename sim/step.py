@@ -32,20 +32,20 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from touchdown.sim.compiled import constructor, entry, kernel, separate
-from touchdown.sim.constants import G0_MPS2
+from touchdown.sim.constants import G0_MPS2, SETTLE_SLIP_MPS
 from touchdown.sim.contact import (ContactEval, FrictionForce, Ground, Legs, feet,
-    foot_offsets_w, lowest_foot_penetration, under)
+    foot_offsets_w, foot_slip, foot_velocity, lowest_foot_penetration, under)
 from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
-    with_feet, with_hold)
+    derivatives_held, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from touchdown.sim.frames import (Body, body_rotation, body_spin_in_body_frame,
     effective_gravity, inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, spread_over_step
-from touchdown.sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
+from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, advance, rk4_held, sub_method
 from touchdown.sim.params import Params, Records
 from touchdown.sim.pivot import pinned_motion, pivot_step, rate_from_momentum
-from touchdown.sim.settings import FrictionModel, SurfaceNormal
+from touchdown.sim.settings import FrictionModel, LandedModel, SurfaceNormal
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
@@ -56,6 +56,7 @@ from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
+REST_LANDED = int(LandedModel.REST)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -212,6 +213,7 @@ class Commands(NamedTuple):
     throttle: float
     thrust_n: float
     rcs_torque_body_nm: tuple
+    driven: bool  # the player's engine or RCS acts (not the hold's torque alone)
 
 
 @kernel
@@ -221,7 +223,7 @@ def commands(cfg, sp, s, inp):
     command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
     live = s.fuel_kg > 0.0 and s.surface_state != CRASHED
     if not live:
-        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0))
+        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0), False)
     throttle = fmin(fmax(inp.throttle, 0.0), 1.0)
     max_tau = sp.max_rcs_torque_nm
     auto = (0.0, 0.0, 0.0)
@@ -244,7 +246,8 @@ def commands(cfg, sp, s, inp):
     m2 = fmin(fmax(inp.rcs[2], -1.0), 1.0) * max_tau
     rcs = (m0 if m0 != 0.0 else auto[0], m1 if m1 != 0.0 else auto[1],
            m2 if m2 != 0.0 else auto[2])
-    return Commands(throttle, throttle * sp.max_thrust_n, rcs)
+    thrust = throttle * sp.max_thrust_n
+    return Commands(throttle, thrust, rcs, thrust > 0.0 or m0 != 0.0 or m1 != 0.0 or m2 != 0.0)
 
 
 # -- 2. free flight ------------------------------------------------------------------------------
@@ -328,7 +331,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                     cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
                     0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
-                    s.footing.sliding, s.footing.hold_w)
+                    s.footing.sliding, s.footing.hold_w, NO_HOLD)
 
 
 @kernel
@@ -512,7 +515,19 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
+    carried = fb.hold_w
+    if fb.method == RK4 and fb.touching and cfg.friction_model != SEED_FRICTION:
+        # the holding feet's static friction inside the step, as their constraint's force
+        # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
+        rh = rk4_held(with_hold(body, NO_HOLD), h, p, v, q, w, ce_start, absorbing, t_start, held,
+                      cfg.friction_static)
+        res = rh.stepped
+        hi = rh.held_impulse_w
+        carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
+                   scale(hi[3], 1.0 / h))
+    else:
+        res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
     if not fb.touching:
@@ -530,7 +545,7 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
     ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
     fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
-                 FrictionForce(fb.mu_k, dragged, fb.hold_w), ground_end, h)
+                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), ground_end, h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
@@ -559,20 +574,18 @@ EVENT_TOL_M = 1e-9
 EVENT_TOL_S = 1e-12
 #: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
 NEVER = -math.inf
-#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs,
-#: while its own friction could not stop it within DRAG_REACH times the step; nearer its stop, its
-#: friction is an impulse of mu_k J_i after the step, which stops it without overshoot (a force of
-#: fixed size against a slip that reaches zero inside the step would turn round there).
-DRAG_REACH = 1.0
-
-
 class FootEvents(NamedTuple):
     """Which feet change over a step: those that start to press (``onset``: not pressing at its
-    start, in the ground at its end) and those that stop (``release``: pressing at its start, their
-    spring-damper no longer pushing at its end, or, absorbed, out of the ground)."""
+    start, in the ground at its end), those that stop (``release``: pressing at its start, their
+    spring-damper no longer pushing at its end, or, absorbed, out of the ground), and the sliding
+    feet whose slip turned round (``stop``: dragged by kinetic friction, their slip at the end
+    against their slip at the start, ``stop_dir``: they stop where their slip along it is zero,
+    and stick there: MODEL-NOTES 46)."""
 
     onset: tuple
     release: tuple
+    stop: tuple
+    stop_dir: tuple
     any: bool
 
 
@@ -601,6 +614,8 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
                 out = fmax(out, -ce.pen_m[i])
             else:
                 out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+        if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
+            out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
     return out
 
 
@@ -618,10 +633,64 @@ def foot_events(fb, t_end, st, ce_start, absorbing, engage):
              (not before[3]) and pen[3] > 0.0 and not ce_start.pen_m[3] > -engage[3])
     release = (before[0] and not after[0], before[1] and not after[1],
                before[2] and not after[2], before[3] and not after[3])
+    z = (0.0, 0.0, 0.0)
+    stop = (False, False, False, False)
+    stop_dir = (z, z, z, z)
+    for i in range(4):
+        s0 = ce_start.slip_w[i]
+        turned_round = (fb.kinetic[i] and before[i] and after[i]
+                        and dot(ce.slip_w[i], s0) < 0.0 and dot(s0, s0) > 0.0)
+        d = unit(s0) if turned_round else z
+        stop = (turned_round or stop[0] if i == 0 else stop[0],
+                turned_round or stop[1] if i == 1 else stop[1],
+                turned_round or stop[2] if i == 2 else stop[2],
+                turned_round or stop[3] if i == 3 else stop[3])
+        stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
+                    d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
     found = False
     for i in range(4):
-        found = found or onset[i] or release[i]
-    return FootEvents(onset, release, found)
+        found = found or onset[i] or release[i] or stop[i]
+    return FootEvents(onset, release, stop, stop_dir, found)
+
+
+#: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
+STOPPED_MPS = 1e-6
+
+
+@kernel
+def turned_round(fb, t_s, st, absorbing, ev):
+    """The feet of ``ev.stop`` whose slip has turned round by the end of ``st`` (the located event
+    is the earliest of the feet's: the others stop later)."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, absorbing, ENGAGE_AT_GROUND)
+    out = (False, False, False, False)
+    for i in range(4):
+        done = ev.stop[i] and dot(ce.slip_w[i], ev.stop_dir[i]) <= STOPPED_MPS
+        out = (out[0] or (done and i == 0), out[1] or (done and i == 1),
+               out[2] or (done and i == 2), out[3] or (done and i == 3))
+    return out
+
+
+@kernel
+def holds(cfg, fb, t_s, st, ft, ev):
+    """(stuck, slid on): the feet of ``ev.stop`` that stick at the end of ``st`` (the located
+    instant the first of them stopped): their slip has turned round there
+    (:func:`turned_round`), and static friction can hold them, with the feet that already hold
+    (sim.dynamics.held_friction, within mu_s of their load); and those that cannot: a foot whose
+    slip the ship's own turning keeps up (a foot under an impact's load on a ship turning over
+    it) slides on, and for the rest of the sub-step its stops are not located (its friction is
+    an impulse after each piece: Coulomb's law is stiff there)."""
+    done = turned_round(fb, t_s, st, ft.absorbing, ev)
+    if not (done[0] or done[1] or done[2] or done[3]):
+        return done, NO_SLIP
+    sl = st.sliding
+    held = (not (sl[0] and not done[0]), not (sl[1] and not done[1]),
+            not (sl[2] and not done[2]), not (sl[3] and not done[3]))
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
+                    ENGAGE_AT_GROUND)
+    hf = held_friction(fb, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    if hf.capped:
+        return NO_SLIP, done
+    return done, NO_SLIP
 
 
 class Piece(NamedTuple):
@@ -676,6 +745,16 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
     return Piece(t_hi, st_hi, True)
 
 
+#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs, and
+#: the instant its slip turns round is located (FootEvents.stop); one whose own friction could stop
+#: it within DRAG_REACH times the step takes its friction as an impulse of mu_k J_i after the step
+#: instead (sim.friction.coulomb): so near its stop a force of fixed size turning round with the
+#: slip inside the method's stages would leave the slip where it was.
+DRAG_REACH = 1.0
+#: ... within IMPULSE_REACH of the step: its friction as an impulse (step_piece)
+IMPULSE_REACH = 0.0
+
+
 @kernel
 def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
@@ -692,6 +771,56 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
     inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
+
+
+@kernel
+def slowing(cfg, fb, ce, m, i):
+    """Whether foot i's slip (at ``ce``, the state ``m``) is falling at least half as fast as its own
+    kinetic friction alone would slow it: a foot coming to a stop. A foot whose slip the ship's
+    turning keeps up (under an impact's load, the other feet sliding and one holding) is not
+    slowing, though its friction could stop it within a step: its slip is a balance, and Coulomb's
+    law there is stiff (its direction turns within a fraction of the step)."""
+    s0 = ce.slip_w[i]
+    speed = norm(s0)
+    if not speed > 0.0:
+        return False
+    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+    d, _ = derivatives_held(fb, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    omega_w = quat_rotate(m.q, m.w)
+    alpha_w = quat_rotate(m.q, d[3])
+    r = sub(ce.foot_pos_w[i], m.p)
+    acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
+    spin = (0.0, 0.0, fb.body_omega_radps)
+    acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
+    rate = dot(acc, s_hat)
+    own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
+    arm = quat_rotate_inv(m.q, cross(r, s_hat))
+    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+    return rate < -0.5 * own * inv_m
+
+
+@kernel
+def stopping(cfg, fb, dragged, ce0, ce1, q, h):
+    """The dragged feet that stop inside a step of h (``ce0``, ``ce1``: the contact at its start
+    and at the end of a trial step): those whose own kinetic friction could bring them to the stick
+    speed within it (:func:`_could_stop`, on the larger of their normal forces at the two ends) or
+    whose slip turned round; as a FootEvents of stops, each along the foot's slip at the start."""
+    z = (0.0, 0.0, 0.0)
+    stop = (False, False, False, False)
+    stop_dir = (z, z, z, z)
+    found = False
+    for i in range(4):
+        s0 = ce0.slip_w[i]
+        now = (dragged[i] and dot(s0, s0) > 0.0
+               and (_could_stop(cfg, fb, ce0, ce1, q, i, h) or dot(ce1.slip_w[i], s0) < 0.0))
+        d = unit(s0) if now else z
+        found = found or now
+        stop = (now if i == 0 else stop[0], now if i == 1 else stop[1], now if i == 2 else stop[2],
+                now if i == 3 else stop[3])
+        stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
+                    d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
+    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, found)
 
 
 @kernel
@@ -934,16 +1063,19 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
 
 # -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
 class PieceStep(NamedTuple):
-    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing."""
+    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing,
+    or a sliding foot stops."""
 
     step: SubStep
     tau_s: float  # how far it went
     split: bool  # it ended at a foot's event before the sub-step's end
     onset: tuple  # the feet that event touched
+    stopped: tuple  # the sliding feet that stopped there (they stick from there)
+    slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
 
 
 @constructor
-def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
+def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
@@ -952,24 +1084,67 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
     engage, drag, ce_y = start.engage, start.drag, start.ce
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
     if fb.touching and (drag[0] or drag[1] or drag[2] or drag[3]):
-        # a sliding foot that could stop within the step takes its friction as an impulse
-        ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p, st.v,
-                          st.q, st.w, ft.absorbing, engage)
-        near = dragged_feet(cfg, with_feet(fb, engage, drag), drag, ce_y, ce_e, m.q, rem)
+        body = with_feet(fb, engage, drag)
+        ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
+                          engage)
+        # a sliding foot whose friction could stop it within a fraction of the step (a foot
+        # under an impact's load, where Coulomb's law is stiff) takes its friction as an impulse
+        # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
+        # it without turning it round; so does every foot that could stop within the step once
+        # the pieces' bound is reached
+        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, rem)
+        if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
+            keep = (drag[0] and not near[0] and not stiff[0] and slowing(cfg, body, ce_y, m, 0),
+                    drag[1] and not near[1] and not stiff[1] and slowing(cfg, body, ce_y, m, 1),
+                    drag[2] and not near[2] and not stiff[2] and slowing(cfg, body, ce_y, m, 2),
+                    drag[3] and not near[3] and not stiff[3] and slowing(cfg, body, ce_y, m, 3))
+            near = (near[0] or keep[0], near[1] or keep[1], near[2] or keep[2],
+                    near[3] or keep[3])
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
             drag = near
-            ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m.p, m.v, m.q,
-                              m.w, ft.absorbing, engage)
+            body = with_feet(fb, engage, drag)
+            ce_y = contact_at(body, ground_at(fb, t_abs), m.p, m.v, m.q, m.w, ft.absorbing, engage)
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                          t_abs)
+            ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w,
+                              ft.absorbing, engage)
+        if may_split:
+            # one that stops later in the step (its friction could stop it, or its slip turned
+            # round): dragged along where it slid until the instant its slip along there is
+            # zero, located, and holding from there (MODEL-NOTES 46)
+            stop = stopping(cfg, body, drag, ce_y, ce_e, m.q, rem)
+            if stop.any:
+                pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
+                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                              t_abs, stop)
+                if pc.found and pc.tau_s < rem:
+                    stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on)
+                # it does not stop within the step after all: the step dragged along where it slid
+                # (the trial's drag, turning round with a slip near zero inside the method's
+                # stages, may have left the slip where it was)
+                st = pc.step
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                           t_abs, ev)
             if pc.found and pc.tau_s < rem:
-                return PieceStep(pc.step, pc.tau_s, True, ev.onset)
-    return PieceStep(st, rem, False, NO_SLIP)
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset,
+                                 turned_round(with_feet(fb, engage, drag), t_abs + pc.tau_s,
+                                              pc.step, ft.absorbing, ev), NO_SLIP)
+    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP)
+
+
+@kernel
+def stuck(st, stopped):
+    """``st`` with the sliding feet of ``stopped`` holding from its end: their slip turned round
+    there (a located stop), and static friction holds them while it can (MODEL-NOTES 46)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] and not stopped[0], sl[1] and not stopped[1], sl[2] and not stopped[2],
+                    sl[3] and not stopped[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
 
 
 @kernel
@@ -1169,6 +1344,7 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         t_in = 0.0  # how far into the sub-step the ship has been stepped
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
         stop = False
+        stiff = NO_SLIP  # the feet whose stops are not located for the rest of the sub-step
         for k in range(MAX_PIECES + 1):
             t_abs = start.t_s + t_in
             carried = s.footing.hold_w if carry else NO_HOLD
@@ -1184,9 +1360,11 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
                     stop = True
                     break
                 fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES)
+            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
             st = pc.step
-            s = stepped(s, st)
+            stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
+                     stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
+            s = stepped(s, stuck(st, pc.stopped))
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
                             pieces.aligned, pc.onset)
@@ -1246,6 +1424,87 @@ def over_footprint(cfg, sp, p, q):
 
 
 @kernel
+def stable_at_rest(cfg, sp, s, ground):
+    """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
+    kinetic energy relative to the surface is below the barrier over every edge of its footprint.
+    The barrier over the edge of feet i, j is the potential at the saddle the ship passes to topple
+    over it, less the potential now:
+
+        B = m g (z_s - z) + k_i (x_s,i^2 + x_s,j^2) / 2 - sum_feet k_i x_k^2 / 2,
+
+    at the saddle the two feet carry the whole weight along their pushes (x_s = m g (up . g_i) /
+    (2 k_i |g_i|^2)), the others are clear, and the centre of mass stands straight above the line
+    through the two, at its distance L from it: z_s is the line's midpoint, sunk from the feet's
+    depth now to x_s, raised by L sqrt(1 - (l . up)^2) (l the line's direction, up against the
+    effective gravity). A ship whose springs store more than that saddle asks (a soft-legged ship
+    standing on a slope near its edge limit loads its downhill feet as it turns) has no barrier
+    left. The seed's "stable" (an energy test, SEED-NOTES 3)."""
+    m = s.mass_kg
+    p, q = s.motion.p, s.motion.q
+    a, h = sp.leg_radius_m, sp.com_height_m
+    if not a > 0.0:  # four feet at one point: no edge holds anything
+        return False
+    k_leg = 0.25 * sp.stiffness_per_kg * m
+    ft = feet(ground, p, q, a, h)
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    g_mag = norm(g)
+    up = (-g[0] / g_mag, -g[1] / g_mag, -g[2] / g_mag)
+    om = cfg.omega_radps
+    v_rel = sub(s.motion.v, surface_velocity(om, p))
+    w_rel = sub(s.motion.w, body_spin_in_body_frame(om, q))
+    i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]), sp.mass0_kg, m)
+    kinetic = 0.5 * m * dot(v_rel, v_rel) + 0.5 * dot(w_rel, mul(i_b, w_rel))
+    stored = 0.0
+    for i in range(4):
+        x = fmax(ft.pen_m[i], 0.0)
+        stored = stored + 0.5 * k_leg * x * x
+    least = math.inf
+    for i in range(4):
+        j = (i + 1) % 4  # feet 0, 1, 2, 3 go round the footprint: i, i + 1 span an edge
+        p_i, p_j = ft.pos_w[i], ft.pos_w[j]
+        line = unit(sub(p_j, p_i))
+        r = sub(p, p_i)
+        arm = norm(sub(r, scale(line, dot(r, line))))
+        g_i, g_j = ft.push_w[i], ft.push_w[j]
+        x_i = m * g_mag * dot(up, g_i) / (2.0 * k_leg * dot(g_i, g_i))
+        x_j = m * g_mag * dot(up, g_j) / (2.0 * k_leg * dot(g_j, g_j))
+        sink = 0.5 * ((x_i - ft.pen_m[i]) + (x_j - ft.pen_m[j]))
+        mid = scale(add(p_i, p_j), 0.5)
+        lu = dot(line, up)
+        rise = arm * math.sqrt(fmax(1.0 - lu * lu, 0.0)) - dot(sub(p, mid), up) - sink
+        least = fmin(least, m * g_mag * rise + 0.5 * k_leg * (x_i * x_i + x_j * x_j) - stored)
+    return kinetic < least
+
+
+#: (m/s)^2: a foot slipping faster than sim.constants.SETTLE_SLIP_MPS is not at rest
+SETTLE_SLIP2 = SETTLE_SLIP_MPS * SETTLE_SLIP_MPS
+
+
+@kernel
+def feet_still(cfg, sp, s, ground, up_ground):
+    """The margin of a ship's feet being at rest (> 0: they are): every pressing foot slipping
+    slower than SETTLE_SLIP_MPS (as a fraction, on the squares), and the footprint able to hold
+    the weight by static friction, the effective gravity's part along the ground under the centre
+    of mass within mu_s of its part into it (-1 where it is not: a ship on a slope steeper than
+    atan(mu_s) is never at rest, however slowly it starts to slide)."""
+    m = s.motion
+    ft = feet(ground, m.p, m.q, sp.leg_radius_m, sp.com_height_m)
+    omega_w = quat_rotate(m.q, m.w)
+    worst = 0.0
+    for i in range(4):
+        if ft.pen_m[i] > 0.0:
+            u = foot_velocity(ground, m.v, omega_w, ft.offset_w[i], ft.pos_w[i])
+            slip = foot_slip(m.p, u, ft.pos_w[i], ft.push_w[i])
+            worst = fmax(worst, dot(slip, slip))
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, m.p)
+    g_n = dot(g, up_ground)
+    g_t = sub(g, scale(up_ground, g_n))
+    if dot(g_t, g_t) > cfg.friction_static * cfg.friction_static * g_n * g_n:
+        return -1.0
+    return (SETTLE_SLIP2 - worst) / SETTLE_SLIP2
+
+
+@kernel
 def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     """The settle thresholds' smallest margin, each as a fraction of its threshold (> 0: all
     hold): radial and tangential speed and angular speed against theirs (on their squares), the
@@ -1269,15 +1528,26 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
     m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
-    slides = cfg.friction_model != SEED_FRICTION and (s.footing.sliding[0] or s.footing.sliding[1]
-                                                      or s.footing.sliding[2] or s.footing.sliding[3])
+    coulomb = cfg.friction_model != SEED_FRICTION
+    rest = cfg.landed_model == REST_LANDED
     # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
-    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44)
-    return m if over_footprint(cfg, sp, s.motion.p, s.motion.q) and not slides else fmin(m, -1.0)
+    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44). 0.7 (``attached``) asked
+    # every foot's friction to be static; at rest (MODEL-NOTES 45) the feet must be still and the
+    # footprint able to hold the weight by static friction
+    slides = coulomb and not rest and (s.footing.sliding[0] or s.footing.sliding[1]
+                                       or s.footing.sliding[2] or s.footing.sliding[3])
+    if not over_footprint(cfg, sp, s.motion.p, s.motion.q) or slides:
+        return fmin(m, -1.0)
+    if coulomb and rest:
+        m = fmin(m, feet_still(cfg, sp, s, ground, up_ground))
+    # at rest, but with the energy to pass an edge of its footprint: not stable (MODEL-NOTES 45)
+    if rest and m > 0.0 and not stable_at_rest(cfg, sp, s, ground):
+        return fmin(m, -1.0)
+    return m
 
 
 @kernel
-def settle(cfg, terrain, sp, s, cos1, sin1, log):
+def settle(cfg, terrain, sp, s, cmd, cos1, sin1, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
@@ -1286,7 +1556,9 @@ def settle(cfg, terrain, sp, s, cos1, sin1, log):
     end, once they have held for settle_time in continuous time, and the event carries the instant
     they had (MODEL-NOTES 20)."""
     margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
-    ok = s.surface_state == CONTACT and margin > 0.0
+    # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
+    driven = cfg.landed_model == REST_LANDED and cmd.driven
+    ok = s.surface_state == CONTACT and margin > 0.0 and not driven
     dt = cfg.dt_s
     if not ok:
         held = 0.0
@@ -1372,6 +1644,17 @@ def lift_off(cfg, s, cmd, log):
                 Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
 
 
+@kernel
+def unsettle(s, log):
+    """Landed -> contact at the tick's start: the player's engine (below liftoff) or RCS changes
+    the balance a landed ship rested in, and the physics decides again from its pinned pose at rest
+    (MODEL-NOTES 45). The contact goes on on the springs it had."""
+    emit(log, LANDED, CONTACT, 0.0, 0.0)
+    ft = s.footing
+    return Ship(CONTACT, s.motion, s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, NO_SLIP, 0, 0.0, -1.0, NO_HOLD), s.pin)
+
+
 # -- 5. burn -------------------------------------------------------------------------------------
 @kernel
 def burn(cfg, sp, s, cmd):
@@ -1435,6 +1718,8 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
     report = NO_REPORT
     if s.surface_state == LANDED or s.surface_state == TIPPED:
         s = lift_off(cfg, s, cmd, log)
+    if s.surface_state == LANDED and cfg.landed_model == REST_LANDED and cmd.driven:
+        s = unsettle(s, log)
     if s.surface_state == FLYING or s.surface_state == CONTACT:
         fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
         exact_one = (fine and cfg.vertical_one_step
@@ -1446,11 +1731,13 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
             n_sub = cfg.impact_substeps
         method = sub_method(cfg.method, fine and not exact_one)
         fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
-        # an impact's static friction changes too fast to be carried over: impulses alone
-        fl = free_flight(cfg, fb, s, n_sub, not strikes, cos1, sin1, log)
+        # an impact's static friction changes too fast to be carried over: impulses alone; with
+        # rk4 the holding feet's friction is inside the step (substep), nothing is carried
+        held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
+        fl = free_flight(cfg, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
         s, report = fl.ship, fl.report
         if fine:
-            s = settle(cfg, terrain, sp, s, cos1, sin1, log)
+            s = settle(cfg, terrain, sp, s, cmd, cos1, sin1, log)
     else:
         s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
     s = burn(cfg, sp, s, cmd)
@@ -1589,7 +1876,7 @@ def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""
     cfg, ter = scene[0], terrain[0]
-    idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0))
+    idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0), False)
     for i in range(state.shape[0]):
         observe(cfg, ter, ships[i], load(state[i]), idle, NO_REPORT, cos_t, sin_t, outputs[i])
 
