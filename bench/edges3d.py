@@ -23,6 +23,8 @@ from touchdown.bench.reference3d import (Ground3, Lander3, Law, MOON_GM, MOON_R,
 
 #: what landing asks (the seed's thresholds, Touchdown's defaults)
 SETTLE_TILT_DEG, SETTLE_ANG, SETTLE_LIN, SETTLE_TIME = 5.0, 0.01, 0.5, 0.5
+#: and every pressing foot slipping slower than this (Touchdown's reading, MODEL-NOTES 45)
+SETTLE_SLIP = 0.01
 
 
 @dataclass(frozen=True)
@@ -236,10 +238,10 @@ def yaw_deg(tr: Track) -> np.ndarray:
 
 
 def _margins(tr: Track) -> np.ndarray:
-    """The settle thresholds' smallest margin per sample (> 0: all hold): speeds, angular speed,
-    tilt from the ground's normal, the centre of mass over the footprint (Touchdown's reading of
-    the seed; the reference is judged by the same rule). A reference foot slipping faster than
-    1 mm/s counts as sliding."""
+    """The settle thresholds' smallest margin per sample (> 0: all hold), each linear in its
+    quantity: speeds, angular speed, tilt from the ground's normal, the centre of mass over the
+    footprint, the feet still (Touchdown's reading of the seed, MODEL-NOTES 45; the simulation and
+    the reference are judged by the same rule here)."""
     sc = tr.scene
     gr = sc.ground()
     u = up(tr)
@@ -252,21 +254,19 @@ def _margins(tr: Track) -> np.ndarray:
     ez = _rot(tr.q, np.array([0.0, 0.0, 1.0]))
     cos_t = np.sum(ez * n, axis=1)
     c5 = math.cos(math.radians(SETTLE_TILT_DEG))
-    m = np.minimum((SETTLE_LIN ** 2 - v_rad ** 2) / SETTLE_LIN ** 2,
-                   (SETTLE_LIN ** 2 - v_tan ** 2) / SETTLE_LIN ** 2)
-    m = np.minimum(m, (SETTLE_ANG ** 2 - w ** 2) / SETTLE_ANG ** 2)
+    m = np.minimum((SETTLE_LIN - np.abs(v_rad)) / SETTLE_LIN, (SETTLE_LIN - v_tan) / SETTLE_LIN)
+    m = np.minimum(m, (SETTLE_ANG - w) / SETTLE_ANG)
     m = np.minimum(m, (cos_t - c5) / (1.0 - c5))
     # over the footprint: up in the body frame
     ub = np.array([_rot(np.array([q[0], -q[1], -q[2], -q[3]]), uu)[0] for q, uu in zip(tr.q, u)])
     over = sc.com_height_m * (np.abs(ub[:, 0]) + np.abs(ub[:, 1])) < sc.leg_radius_m * ub[:, 2]
     m = np.where(over, m, np.minimum(m, -1.0))
-    if tr.path is not None:
-        par = params_array(sc.lander(), gr, tr.path.law, False, False)
-        y = np.hstack([tr.d, tr.v, tr.q, tr.w])
-        slides = np.array([bool(np.any((fs[3] > 0.0) & (fs[4] > 1e-3)))
-                           for fs in (feet_state(yy, par) for yy in y)])
-        m = np.where(slides, np.minimum(m, -1.0), m)
-    return m
+    # the feet still: every pressing foot slipping slower than SETTLE_SLIP
+    par = params_array(sc.lander(), gr, Law(), False, False)
+    y = np.hstack([tr.d, tr.v, tr.q, tr.w])
+    slip = np.array([float(np.max(np.where(fs[0] > 0.0, fs[4], 0.0)))
+                     for fs in (feet_state(yy, par) for yy in y)])
+    return np.minimum(m, (SETTLE_SLIP - slip) / SETTLE_SLIP)
 
 
 def settle_instant(tr: Track) -> float | None:

@@ -173,11 +173,12 @@ class Held(NamedTuple):
     torque_w: tuple  # its moment about the centre of mass, N m
     feet_w: tuple  # each foot's share (four vectors, inertial, N)
     capped: bool  # the feet could not hold: the force is mu_s times their load
+    use: float  # how much of their cones holding would take (> 1: capped)
 
 
 #: no foot holds
 NO_HELD = Held((0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
-               ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), False)
+               ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), False, 0.0)
 
 
 @kernel
@@ -292,7 +293,7 @@ def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
                 f_i = add(f_i, scale(cross(nrm, d), x3 * load / lever2))
             shares = (f_i if i == 0 else shares[0], f_i if i == 1 else shares[1],
                       f_i if i == 2 else shares[2], f_i if i == 3 else shares[3])
-    return Held(force, torque, shares, capped)
+    return Held(force, torque, shares, capped, use)
 
 
 @kernel

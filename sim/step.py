@@ -586,6 +586,9 @@ class FootEvents(NamedTuple):
     release: tuple
     stop: tuple
     stop_dir: tuple
+    #: the holding feet (their regime static) break away where holding them would take more
+    #: than their cones give (sim.dynamics.held_friction's use past 1); mu_s (0: not asked)
+    break_mu: float
     any: bool
 
 
@@ -616,6 +619,10 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
                 out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
         if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
             out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
+    if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
+        held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+        hf = held_friction(fb, ce, p, v, q, w, held, ev.break_mu)
+        out = fmax(out, hf.use - 1.0)
     return out
 
 
@@ -650,7 +657,7 @@ def foot_events(fb, t_end, st, ce_start, absorbing, engage):
     found = False
     for i in range(4):
         found = found or onset[i] or release[i] or stop[i]
-    return FootEvents(onset, release, stop, stop_dir, found)
+    return FootEvents(onset, release, stop, stop_dir, 0.0, found)
 
 
 #: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
@@ -773,54 +780,82 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
 
+class SlipRates(NamedTuple):
+    """Each foot's slip, how fast it changes along itself, and how fast its own kinetic friction
+    alone would slow it (sim.step.slip_rates)."""
+
+    speed: tuple  # |s_i|, m/s
+    rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
+    own: tuple  # mu_k N_i / m_eff,i, m/s^2
+
+
 @kernel
-def slowing(cfg, fb, ce, m, i):
-    """Whether foot i's slip (at ``ce``, the state ``m``) is falling at least half as fast as its own
-    kinetic friction alone would slow it: a foot coming to a stop. A foot whose slip the ship's
-    turning keeps up (under an impact's load, the other feet sliding and one holding) is not
-    slowing, though its friction could stop it within a step: its slip is a balance, and Coulomb's
-    law there is stiff (its direction turns within a fraction of the step)."""
-    s0 = ce.slip_w[i]
-    speed = norm(s0)
-    if not speed > 0.0:
-        return False
-    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+def slip_rates(cfg, fb, ce, m):
+    """:class:`SlipRates` at the contact ``ce`` of the state ``m`` (the holding feet's friction
+    among the forces, sim.dynamics.held_friction). A foot coming to a stop has its slip falling at
+    least half as fast as its own friction would slow it; one whose slip the ship's turning keeps
+    up (under an impact's load, the other feet sliding and one holding) has not, though its
+    friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
+    (its direction turns within a fraction of the step)."""
     held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
     d, _ = derivatives_held(fb, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
-    r = sub(ce.foot_pos_w[i], m.p)
-    acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
     spin = (0.0, 0.0, fb.body_omega_radps)
-    acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
-    rate = dot(acc, s_hat)
-    own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
-    arm = quat_rotate_inv(m.q, cross(r, s_hat))
-    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
-    return rate < -0.5 * own * inv_m
+    speeds = (0.0, 0.0, 0.0, 0.0)
+    rates = (0.0, 0.0, 0.0, 0.0)
+    owns = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        s0 = ce.slip_w[i]
+        speed = norm(s0)
+        rate = 0.0
+        own = 0.0
+        if speed > 0.0:
+            s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+            r = sub(ce.foot_pos_w[i], m.p)
+            acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
+            acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
+            rate = dot(acc, s_hat)
+            arm = quat_rotate_inv(m.q, cross(r, s_hat))
+            inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+            own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
+        speeds = (speed if i == 0 else speeds[0], speed if i == 1 else speeds[1],
+                  speed if i == 2 else speeds[2], speed if i == 3 else speeds[3])
+        rates = (rate if i == 0 else rates[0], rate if i == 1 else rates[1],
+                 rate if i == 2 else rates[2], rate if i == 3 else rates[3])
+        owns = (own if i == 0 else owns[0], own if i == 1 else owns[1],
+                own if i == 2 else owns[2], own if i == 3 else owns[3])
+    return SlipRates(speeds, rates, owns)
 
 
 @kernel
-def stopping(cfg, fb, dragged, ce0, ce1, q, h):
-    """The dragged feet that stop inside a step of h (``ce0``, ``ce1``: the contact at its start
-    and at the end of a trial step): those whose own kinetic friction could bring them to the stick
-    speed within it (:func:`_could_stop`, on the larger of their normal forces at the two ends) or
-    whose slip turned round; as a FootEvents of stops, each along the foot's slip at the start."""
+def slowing(sr, i):
+    """Foot i's slip falls at least half as fast as its own friction would slow it."""
+    return sr.speed[i] > 0.0 and sr.rate[i] < -0.5 * sr.own[i]
+
+
+@kernel
+def stopping(cfg, dragged, sr, ce0, ce1, h):
+    """The dragged feet that stop inside a step of h: slowing (:func:`slowing`) at a rate that
+    brings them to the stick speed within 1.5 h, or whose slip turned round in a trial step
+    (``ce1``, its end; ``ce0``, its start); as a FootEvents of stops, each along the foot's slip
+    at the start."""
     z = (0.0, 0.0, 0.0)
     stop = (False, False, False, False)
     stop_dir = (z, z, z, z)
     found = False
     for i in range(4):
         s0 = ce0.slip_w[i]
-        now = (dragged[i] and dot(s0, s0) > 0.0
-               and (_could_stop(cfg, fb, ce0, ce1, q, i, h) or dot(ce1.slip_w[i], s0) < 0.0))
+        soon = sr.speed[i] - cfg.stick_speed_mps < -1.5 * h * sr.rate[i]
+        now = (dragged[i] and dot(s0, s0) > 0.0 and slowing(sr, i)
+               and (soon or dot(ce1.slip_w[i], s0) < 0.0))
         d = unit(s0) if now else z
         found = found or now
         stop = (now if i == 0 else stop[0], now if i == 1 else stop[1], now if i == 2 else stop[2],
                 now if i == 3 else stop[3])
         stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
                     d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
-    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, found)
+    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, 0.0, found)
 
 
 @kernel
@@ -954,6 +989,7 @@ class Flight(NamedTuple):
 
     ship: Ship
     report: Report
+    run: "SettleRun"  # the settle thresholds at its sub-steps' ends (NO_RUN: not sampled)
 
 
 class SubStepStart(NamedTuple):
@@ -1072,6 +1108,7 @@ class PieceStep(NamedTuple):
     onset: tuple  # the feet that event touched
     stopped: tuple  # the sliding feet that stopped there (they stick from there)
     slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
+    broke: tuple  # the holding feet that broke away there (kinetic from there)
 
 
 @constructor
@@ -1093,11 +1130,12 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         # it without turning it round; so does every foot that could stop within the step once
         # the pieces' bound is reached
         near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, rem)
+        sr = slip_rates(cfg, body, ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
-            keep = (drag[0] and not near[0] and not stiff[0] and slowing(cfg, body, ce_y, m, 0),
-                    drag[1] and not near[1] and not stiff[1] and slowing(cfg, body, ce_y, m, 1),
-                    drag[2] and not near[2] and not stiff[2] and slowing(cfg, body, ce_y, m, 2),
-                    drag[3] and not near[3] and not stiff[3] and slowing(cfg, body, ce_y, m, 3))
+            keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
+                    drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
+                    drag[2] and not near[2] and not stiff[2] and slowing(sr, 2),
+                    drag[3] and not near[3] and not stiff[3] and slowing(sr, 3))
             near = (near[0] or keep[0], near[1] or keep[1], near[2] or keep[2],
                     near[3] or keep[3])
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
@@ -1112,18 +1150,35 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             # one that stops later in the step (its friction could stop it, or its slip turned
             # round): dragged along where it slid until the instant its slip along there is
             # zero, located, and holding from there (MODEL-NOTES 46)
-            stop = stopping(cfg, body, drag, ce_y, ce_e, m.q, rem)
+            stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
                               FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                               t_abs, stop)
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
-                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on)
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
+                                     NO_SLIP)
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
                 st = pc.step
+    if fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION:
+        # the holding feet break away where holding them would take more than their cones give:
+        # located, and kinetic from there (MODEL-NOTES 46)
+        body = with_feet(fb, engage, drag)
+        held = (not drag[0], not drag[1], not drag[2], not drag[3])
+        ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
+                          engage)
+        if held_friction(body, ce_e, st.p, st.v, st.q, st.w, held, cfg.friction_static).use > 1.0:
+            hf0 = held_friction(body, ce_y, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+            if hf0.use < 1.0:
+                brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, cfg.friction_static, True)
+                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
+                              ce_y, t_abs, brk)
+                if pc.found and pc.tau_s < rem:
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
+                                     pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held))
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
         if ev.any:
@@ -1132,8 +1187,27 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset,
                                  turned_round(with_feet(fb, engage, drag), t_abs + pc.tau_s,
-                                              pc.step, ft.absorbing, ev), NO_SLIP)
-    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP)
+                                              pc.step, ft.absorbing, ev), NO_SLIP, NO_SLIP)
+    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP)
+
+
+@kernel
+def pressing_held(fb, t_s, st, ft, held):
+    """The feet of ``held`` that press at the end of ``st``."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
+                    ENGAGE_AT_GROUND)
+    f = ce.foot_force_n
+    return (held[0] and f[0] > 0.0, held[1] and f[1] > 0.0, held[2] and f[2] > 0.0,
+            held[3] and f[3] > 0.0)
+
+
+@kernel
+def broken(st, broke):
+    """``st`` with the feet of ``broke`` kinetic from its end (a located breakaway)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] or broke[0], sl[1] or broke[1], sl[2] or broke[2], sl[3] or broke[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
 
 
 @kernel
@@ -1306,9 +1380,37 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     return Transitioned(s, ce, e_ref, v_rad, tip or crash)
 
 
+class SettleRun(NamedTuple):
+    """The settle thresholds sampled at a tick's sub-step ends (MODEL-NOTES 47)."""
+
+    sampled: bool  # sampled at every sub-step's end of the tick
+    margin: float  # at the last sample
+    began_s: float  # where the run of samples that hold, ending at the last, began (from the
+    # tick's start; negative: before it, as far back as the run goes)
+
+
+#: a tick whose thresholds were not sampled at its sub-steps
+NO_RUN = SettleRun(False, -1.0, 0.0)
+
+
+@kernel
+def settle_sample(cfg, sp, s, ground, run, t_prev, t_now):
+    """``run`` with a sample at ``t_now`` (the last was at ``t_prev``): where the thresholds'
+    smallest margin crosses zero between them, linearly."""
+    if s.surface_state != CONTACT:
+        return SettleRun(True, -1.0, t_now)
+    m = margin_on(cfg, sp, s, ground)
+    if not m > 0.0:
+        return SettleRun(True, m, t_now)
+    if run.margin > 0.0:
+        return SettleRun(True, m, run.began_s)
+    f = run.margin / (run.margin - m)
+    return SettleRun(True, m, t_prev + fmin(fmax(f, 0.0), 1.0) * (t_now - t_prev))
+
+
 # -- 2. free flight: the stages in order ----------------------------------------------------------
 @separate
-def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
+def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
 
     a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
@@ -1337,6 +1439,12 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
     carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
+    ft0 = s.footing
+    # the settle thresholds at the tick's start: held for settle_for_s already, or not
+    run = SettleRun(True, ft0.settle_margin,
+                    -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
+    sample = fb.touching and s.surface_state == CONTACT
+    t_seen = 0.0  # the instant of the last sample
     for j in range(n_sub):
         m = s.motion
         start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
@@ -1364,13 +1472,17 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
             st = pc.step
             stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
                      stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
-            s = stepped(s, stuck(st, pc.stopped))
+            s = stepped(s, broken(stuck(st, pc.stopped), pc.broke))
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
                             pieces.aligned, pc.onset)
             if not pc.split:
                 break
             t_in = t_in + pc.tau_s  # from the event, with the feet that press there
+            if sample:  # the thresholds at the event too (a stop changes them at once)
+                run = settle_sample(cfg, sp, s, ground_at(fb_k, start.t_s + t_in), run, t_seen,
+                                    start.t_s + t_in)
+                t_seen = start.t_s + t_in
         friction_n = pieces.friction_n
         if stop:
             break
@@ -1384,6 +1496,9 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
                                        dot(m.v, unit(m.p)), h))
         tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
+        if sample:
+            run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
+            t_seen = t_end
         if tr.stop:
             break
     fb_k = with_hold(fb, carried)
@@ -1403,7 +1518,8 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
                  Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
                          ft.settle_margin, NO_HOLD), s.pin)
-    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j))
+    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
+                  run if sample and s.surface_state == CONTACT else NO_RUN)
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
@@ -1476,14 +1592,10 @@ def stable_at_rest(cfg, sp, s, ground):
     return kinetic < least
 
 
-#: (m/s)^2: a foot slipping faster than sim.constants.SETTLE_SLIP_MPS is not at rest
-SETTLE_SLIP2 = SETTLE_SLIP_MPS * SETTLE_SLIP_MPS
-
-
 @kernel
 def feet_still(cfg, sp, s, ground, up_ground):
     """The margin of a ship's feet being at rest (> 0: they are): every pressing foot slipping
-    slower than SETTLE_SLIP_MPS (as a fraction, on the squares), and the footprint able to hold
+    slower than SETTLE_SLIP_MPS (as a fraction of it), and the footprint able to hold
     the weight by static friction, the effective gravity's part along the ground under the centre
     of mass within mu_s of its part into it (-1 where it is not: a ship on a slope steeper than
     atan(mu_s) is never at rest, however slowly it starts to slide)."""
@@ -1501,11 +1613,17 @@ def feet_still(cfg, sp, s, ground, up_ground):
     g_t = sub(g, scale(up_ground, g_n))
     if dot(g_t, g_t) > cfg.friction_static * cfg.friction_static * g_n * g_n:
         return -1.0
-    return (SETTLE_SLIP2 - worst) / SETTLE_SLIP2
+    return (SETTLE_SLIP_MPS - math.sqrt(worst)) / SETTLE_SLIP_MPS
 
 
 @kernel
 def settle_margin(cfg, terrain, sp, s, cos1, sin1):
+    """:func:`margin_on` the ground at the body's angle (cos1, sin1)."""
+    return margin_on(cfg, sp, s, scene_ground(cfg, terrain, cos1, sin1))
+
+
+@kernel
+def margin_on(cfg, sp, s, ground):
     """The settle thresholds' smallest margin, each as a fraction of its threshold (> 0: all
     hold): radial and tangential speed and angular speed against theirs (on their squares), the
     tilt's cosine against cos(settle_tilt), the centre of mass over the footprint and every foot
@@ -1517,15 +1635,17 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
     om = cfg.omega_radps
     r_hat = unit(s.motion.p)
-    ground = scene_ground(cfg, terrain, cos1, sin1)
     up_ground = unit(under(ground, s.motion.p)[1])
     v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
     v_tan = sub(v_rel, scale(r_hat, v_rad))
     omega_rel = sub(s.motion.w, body_spin_in_body_frame(om, s.motion.q))
-    lin2, ang2 = cfg.settle_lin2, cfg.settle_ang2
-    m = fmin((lin2 - v_rad * v_rad) / lin2, (lin2 - dot(v_tan, v_tan)) / lin2)
-    m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
+    # each as a fraction of its threshold, linear in the speed (a speed falling at a steady rate,
+    # as friction slows it, crosses its threshold where its margin does: the instant the
+    # thresholds begin to hold is interpolated on it, MODEL-NOTES 47)
+    lin, ang = math.sqrt(cfg.settle_lin2), math.sqrt(cfg.settle_ang2)
+    m = fmin((lin - abs(v_rad)) / lin, (lin - norm(v_tan)) / lin)
+    m = fmin(m, (ang - norm(omega_rel)) / ang)
     m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
     coulomb = cfg.friction_model != SEED_FRICTION
@@ -1547,14 +1667,15 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
 
 
 @kernel
-def settle(cfg, terrain, sp, s, cmd, cos1, sin1, log):
+def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
-    instant the thresholds began to hold is interpolated inside the tick of their first sample
-    (linearly in their smallest margin, :func:`settle_margin`), so the ship lands, at a tick's
-    end, once they have held for settle_time in continuous time, and the event carries the instant
-    they had (MODEL-NOTES 20)."""
+    instant the thresholds began to hold is interpolated between the samples around it (linearly
+    in their smallest margin, :func:`margin_on`), so the ship lands, at a tick's end, once they
+    have held for settle_time in continuous time, and the event carries the instant they had
+    (MODEL-NOTES 20). ``run`` (a :class:`SettleRun`): the samples at every sub-step's end of the
+    tick (MODEL-NOTES 47), where there were; otherwise the tick's ends alone."""
     margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
     # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
     driven = cfg.landed_model == REST_LANDED and cmd.driven
@@ -1562,6 +1683,8 @@ def settle(cfg, terrain, sp, s, cmd, cos1, sin1, log):
     dt = cfg.dt_s
     if not ok:
         held = 0.0
+    elif run.sampled:  # sampled at every sub-step's end (MODEL-NOTES 47)
+        held = dt - run.began_s
     elif s.footing.settle_ticks > 0:
         held = s.footing.settle_for_s + dt
     else:  # they began to hold inside this tick: where the margin crossed zero
@@ -1734,10 +1857,10 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
-        fl = free_flight(cfg, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
+        fl = free_flight(cfg, sp, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
         s, report = fl.ship, fl.report
         if fine:
-            s = settle(cfg, terrain, sp, s, cmd, cos1, sin1, log)
+            s = settle(cfg, terrain, sp, s, cmd, fl.run, cos1, sin1, log)
     else:
         s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
     s = burn(cfg, sp, s, cmd)
