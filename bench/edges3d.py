@@ -378,22 +378,21 @@ def peak_tilt(tr: Track) -> float:
     return float(tilt_deg(tr).max())
 
 
+def tilt_rate_dps(tr: Track) -> np.ndarray:
+    """The tilt's rate from the angular velocity, per sample, deg/s: -((w x e_z) . up) / sin."""
+    ez = _rot(tr.q, np.array([0.0, 0.0, 1.0]))
+    w_w = np.array([_rot(q, w)[0] for q, w in zip(tr.q, tr.w)])
+    u = up(tr)
+    c = np.clip(np.sum(ez * u, axis=1), -1.0, 1.0)
+    return np.degrees(-np.sum(np.cross(w_w, ez) * u, axis=1) / np.sqrt(1.0 - c * c))
+
+
 def righting(tr: Track) -> tuple[float | None, float | None]:
     """(the instant the tilt comes back under 80 degrees, its rate there, deg/s)."""
     t80 = tr.first("righted")
     if t80 is None:
         return None, None
-    til = tilt_deg(tr)
-    rate = np.gradient(til, tr.t)
-    return t80, float(np.interp(t80, tr.t, rate)) if tr.path is not None else _rate_at(tr, t80)
-
-
-def _rate_at(tr: Track, t: float) -> float:
-    """The tilt's rate at t from the samples around it (the simulation's ticks)."""
-    til = tilt_deg(tr)
-    k = int(np.searchsorted(tr.t, t))
-    k = min(max(k, 1), len(tr.t) - 1)
-    return float((til[k] - til[k - 1]) / (tr.t[k] - tr.t[k - 1]))
+    return t80, float(np.interp(t80, tr.t, tilt_rate_dps(tr)))
 
 
 def lowest_after_righting(tr: Track) -> float | None:

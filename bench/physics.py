@@ -45,11 +45,14 @@ def inertia(scn, st) -> np.ndarray:
 
 def kinetic(scn, st) -> tuple[float, float]:
     """(translational, rotational) kinetic energy relative to the surface, J; a tipped ship's as
-    its turn about the pivot."""
+    its turn about the pivot under the pivot model (0.7's; since 0.8 a tipped ship moves by the
+    full model and its velocities are its motion)."""
     om = scn.params.body.omega_radps
     p, q = st.pos_m[0], st.quat[0]
     i_b = inertia(scn, st)
-    if int(st.surface_state[0]) == int(SurfaceState.TIPPED):
+    model = getattr(scn.params.contact, "tipped_model", None)  # before 0.8: the pivot model
+    pivot_model = model is None or getattr(model, "label", model) == "pivot"
+    if int(st.surface_state[0]) == int(SurfaceState.TIPPED) and pivot_model:
         up = p / np.linalg.norm(p)
         axis = np.cross(up, _rot(q, np.array([0.0, 0.0, 1.0])))
         axis /= np.linalg.norm(axis)

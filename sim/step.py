@@ -45,7 +45,7 @@ from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, s
 from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, advance, rk4_held, sub_method
 from touchdown.sim.params import Params, Records
 from touchdown.sim.pivot import pinned_motion, pivot_step, rate_from_momentum
-from touchdown.sim.settings import FrictionModel, LandedModel, SurfaceNormal
+from touchdown.sim.settings import FrictionModel, LandedModel, SurfaceNormal, TippedModel
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
@@ -57,6 +57,7 @@ FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 REST_LANDED = int(LandedModel.REST)
+FULL_TIPPED = int(TippedModel.FULL)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -1288,7 +1289,7 @@ class Transitioned(NamedTuple):
     ce: ContactEval
     e_ref: EnergyRef
     v_rad_mps: float  # velocity along local up before any touchdown's alignment
-    stop: bool  # tipped or crashed: pinned for the rest of the tick
+    stop: bool  # pinned for the rest of the tick (crashed, on the hull, the pivot model's)
 
 
 @kernel
@@ -1320,7 +1321,9 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
     # in contact: descending faster than crash_speed at either end of the sub-step (the
     # damper may already have slowed it by the end)
-    crash_in_contact = was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps
+    tipped = was == TIPPED  # the full model's tipped ship (MODEL-NOTES 48)
+    crash_in_contact = ((was == CONTACT or tipped)
+                        and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
     crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
     touch_ok = touch and not crash
     if touch_ok:
@@ -1346,17 +1349,31 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
     crash = crash or tip_crash
     tip = tip and not tip_crash
+    # a tipped ship turning back under tipped_angle is righted; one whose tilt reaches
+    # tipped_rest lies on its hull: at rest there (an inelastic stop), or crashed if it hit it
+    # faster than crash_speed
+    righted = tipped and not crash and cos_tilt > cfg.cos_tipped and cos_tilt > start.cos_tilt
+    hull = tipped and not crash and not righted and cos_tilt <= cfg.cos_tipped_rest
+    hull_crash = hull and dot(v_rel, v_rel) > cfg.crash_speed2
+    crash = crash or hull_crash
     if touch_ok:
         surf = CONTACT
     if lift:
         surf = FLYING
     if tip:
         surf = TIPPED
+    if righted:
+        surf = CONTACT
     if crash:
         surf = CRASHED
+    # pinned for the rest of the tick: crashed, at rest on the hull, or handed to the pivot model
+    stop = crash or (hull and not hull_crash) or (tip and cfg.tipped_model != FULL_TIPPED)
     s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
-    if tip or crash:
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce, t_end))
+    if stop:
+        pin = pinned_at(fb, s, ce, t_end)
+        if hull:  # at rest on the hull
+            pin = Pin(pin.pos_bf_m, pin.quat_bf, pin.pivot_bf_m, 0.0)
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pin)
     # when each happened inside the sub-step
     if touch:
         t_ev = t_end
@@ -1364,6 +1381,10 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         t_ev = t_end - clear_instant(fb, ce, p, v, q, w, h)
     elif crash_in_contact:
         t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, start.t_s, t_end)
+    elif righted:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
+    elif hull_crash:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped_rest, start.t_s, t_end)
     else:  # tipped (or its crash): the tilt passing tipped_angle
         t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
     if touch_ok and tip:  # two transitions in one sub-step
@@ -1377,7 +1398,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         else:
             speed = v_rad
         emit(log, was, surf, speed, t_ev)
-    return Transitioned(s, ce, e_ref, v_rad, tip or crash)
+    return Transitioned(s, ce, e_ref, v_rad, stop)
 
 
 class SettleRun(NamedTuple):
@@ -1445,6 +1466,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
                     -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
     sample = fb.touching and s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
+    pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     for j in range(n_sub):
         m = s.motion
         start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
@@ -1466,6 +1488,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
                                 pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
                 if ps.stop:
                     stop = True
+                    pinned_now = True
                     break
                 fb_k = with_hold(fb, carried)
             pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
@@ -1500,11 +1523,12 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
             run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
             t_seen = t_end
         if tr.stop:
+            pinned_now = True
             break
     fb_k = with_hold(fb, carried)
     surf = s.surface_state
     ft = s.footing
-    if surf == CRASHED or surf == TIPPED:
+    if pinned_now:
         # pinned during the tick: carried with the body to the tick's end, moving as pinned
         pin = s.pin
         p = rotate_z(pin.pos_bf_m, cos1, sin1)
@@ -1514,7 +1538,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
         s = with_motion(s, surf, Motion(p, v, q, w))
         ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt), p, v,
                         q, w, ft.absorbing, ENGAGE_AT_GROUND)
-    if surf != CONTACT:  # flying, tipped or crashed: no foot holds
+    if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
         s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
                  Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
                          ft.settle_margin, NO_HOLD), s.pin)
@@ -1800,7 +1824,8 @@ def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
     r_hat = unit(s.motion.p)
     v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
-    held = s.surface_state == LANDED or s.surface_state == TIPPED
+    held = s.surface_state == LANDED or (s.surface_state == TIPPED and report.normal_n == 0.0
+                                         and report.friction_n == 0.0)
     if held:
         normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), r_hat)
     elif s.surface_state == CRASHED:
@@ -1843,8 +1868,13 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
         s = lift_off(cfg, s, cmd, log)
     if s.surface_state == LANDED and cfg.landed_model == REST_LANDED and cmd.driven:
         s = unsettle(s, log)
-    if s.surface_state == FLYING or s.surface_state == CONTACT:
-        fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
+    # a tipped ship moves by the full model, unless it rests on its hull and no RCS fires
+    # (MODEL-NOTES 48); under the pivot model (0.7's) it is pinned and turns about its foot
+    moving_tipped = (s.surface_state == TIPPED and cfg.tipped_model == FULL_TIPPED
+                     and not (on_hull(cfg, s) and not rcs_fires(cmd)))
+    if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
+        fine = (s.surface_state != FLYING
+                or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0))
         exact_one = (fine and cfg.vertical_one_step
                      and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
                      and purely_vertical(cfg, terrain, sp, s, cmd))
@@ -1866,6 +1896,26 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
     observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
+
+
+@kernel
+def rcs_fires(cmd):
+    rcs = cmd.rcs_torque_body_nm
+    return rcs[0] != 0.0 or rcs[1] != 0.0 or rcs[2] != 0.0
+
+
+@kernel
+def on_hull(cfg, s):
+    """A tipped ship at rest on its hull: tilted to tipped_rest or past it and not moving
+    relative to the surface (the pose the full model leaves it in when its hull meets the ground,
+    or a tipped start lying there)."""
+    m = s.motion
+    om = cfg.omega_radps
+    if dot(quat_axis_z(m.q), unit(m.p)) > cfg.cos_tipped_rest + 1e-12:
+        return False
+    v_rel = sub(m.v, surface_velocity(om, m.p))
+    w_rel = sub(m.w, body_spin_in_body_frame(om, m.q))
+    return dot(v_rel, v_rel) == 0.0 and dot(w_rel, w_rel) == 0.0
 
 
 class Written(NamedTuple):
