@@ -587,6 +587,7 @@ class FootEvents(NamedTuple):
     release: tuple
     stop: tuple
     stop_dir: tuple
+    stop_speed: tuple  # each stopping foot's slip at the step's start, m/s
     #: the holding feet (their regime static) break away where holding them would take more
     #: than their cones give (sim.dynamics.held_friction's use past 1); mu_s (0: not asked)
     break_mu: float
@@ -658,7 +659,7 @@ def foot_events(fb, t_end, st, ce_start, absorbing, engage):
     found = False
     for i in range(4):
         found = found or onset[i] or release[i] or stop[i]
-    return FootEvents(onset, release, stop, stop_dir, 0.0, found)
+    return FootEvents(onset, release, stop, stop_dir, stop_speeds(ce_start, stop), 0.0, found)
 
 
 #: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
@@ -666,16 +667,45 @@ STOPPED_MPS = 1e-6
 
 
 @kernel
+def stop_speeds(ce, stop):
+    """|s_i| at ``ce`` for the feet of ``stop`` (0 for the others)."""
+    z = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        v = norm(ce.slip_w[i]) if stop[i] else 0.0
+        z = (v if i == 0 else z[0], v if i == 1 else z[1], v if i == 2 else z[2],
+             v if i == 3 else z[3])
+    return z
+
+
+#: a located stop is one where what is left of a foot's slip across where it ran is under this
+#: fraction of what it was: a slip that only turned (its size kept up by the ship's turning) has
+#: not stopped
+STOP_LEFT = 0.1
+
+
+@kernel
 def turned_round(fb, t_s, st, absorbing, ev):
     """The feet of ``ev.stop`` whose slip has turned round by the end of ``st`` (the located event
-    is the earliest of the feet's: the others stop later)."""
+    is the earliest of the feet's: the others stop later) and come to rest there (what is left of
+    it across where it ran under STOP_LEFT of what it was)."""
     ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, absorbing, ENGAGE_AT_GROUND)
     out = (False, False, False, False)
     for i in range(4):
-        done = ev.stop[i] and dot(ce.slip_w[i], ev.stop_dir[i]) <= STOPPED_MPS
+        s_i = ce.slip_w[i]
+        along = dot(s_i, ev.stop_dir[i])
+        left = norm(sub(s_i, scale(ev.stop_dir[i], along)))
+        done = (ev.stop[i] and along <= STOPPED_MPS
+                and left <= fmax(STOP_LEFT * ev.stop_speed[i], cfg_stick(fb)))
         out = (out[0] or (done and i == 0), out[1] or (done and i == 1),
                out[2] or (done and i == 2), out[3] or (done and i == 3))
     return out
+
+
+@kernel
+def cfg_stick(fb):
+    """A slip left at a located stop that counts as none, m/s (the default stick speed's
+    order: the rigid feet's kinematic micro-slips)."""
+    return 1e-4
 
 
 @kernel
@@ -759,8 +789,10 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
 #: instead (sim.friction.coulomb): so near its stop a force of fixed size turning round with the
 #: slip inside the method's stages would leave the slip where it was.
 DRAG_REACH = 1.0
-#: ... within IMPULSE_REACH of the step: its friction as an impulse (step_piece)
-IMPULSE_REACH = 0.0
+#: a sliding foot that its friction could stop within STIFF_REACH of the step and that is not
+#: slowing takes its friction as an impulse (step_piece): the drag's direction would turn faster
+#: than rk4's stages follow (its rate over the step past ~2.8)
+STIFF_REACH = 0.4
 
 
 @kernel
@@ -856,7 +888,7 @@ def stopping(cfg, dragged, sr, ce0, ce1, h):
                 now if i == 3 else stop[3])
         stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
                     d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
-    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, 0.0, found)
+    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, stop_speeds(ce0, stop), 0.0, found)
 
 
 @kernel
@@ -1130,7 +1162,10 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
         # it without turning it round; so does every foot that could stop within the step once
         # the pieces' bound is reached
-        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, rem)
+        # a foot whose slip the ship's turning keeps up is dragged too while the direction of
+        # its drag, which turns with its slip at a rate of its friction's deceleration over its
+        # slip, stays within what the method's stages follow (STIFF_REACH of the step)
+        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
         sr = slip_rates(cfg, body, ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
             keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
@@ -1174,7 +1209,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         if held_friction(body, ce_e, st.p, st.v, st.q, st.w, held, cfg.friction_static).use > 1.0:
             hf0 = held_friction(body, ce_y, m.p, m.v, m.q, m.w, held, cfg.friction_static)
             if hf0.use < 1.0:
-                brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, cfg.friction_static, True)
+                brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
+                                 cfg.friction_static, True)
                 pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
                               ce_y, t_abs, brk)
                 if pc.found and pc.tau_s < rem:
