@@ -1,4 +1,5 @@
-"""``touchdown bench physics``: the scenes of "physics that holds everywhere", measured.
+"""``touchdown bench physics``: the scenes of "physics that holds everywhere", measured, and those
+of issue 35 ("3-D contact at the edges", bench.edges3d) beside the 3-D reference.
 
 Each scene is one a user might try off the well-walked paths (a slide on a rotating body, a free
 tumble, a fall onto the side, a spin in contact, a hill, a start on a slope, an impossible start, a
@@ -327,12 +328,28 @@ def _edges():
     return edges.SCENES
 
 
+def _edges3d():
+    """The scenes of issue 35 beside the 3-D reference (bench.edges3d), where this version has
+    them."""
+    try:
+        from touchdown.bench import edges3d
+    except ImportError:  # a version before them
+        return ()
+
+    def edges_in_3d(rows, quick):
+        dts = (0.05,) if quick else (0.1, 0.05, 0.005)
+        for scene, what, ref, *sims in edges3d.table(dts):
+            got = "; ".join(f"dt {dt:g}: {v}" for dt, v in zip(dts, sims))
+            rows.append((f"{scene}: {what}", got, f"3-D reference: {ref}"))
+    return (edges_in_3d,)
+
+
 def main(quick: bool = False) -> None:
     from touchdown.sim import __version__
 
     from touchdown.bench.speed import machine
     print(f"touchdown {__version__}; {machine()}")
-    for fn in SCENES + _edges():
+    for fn in SCENES + _edges() + _edges3d():
         rows: list[tuple[str, str, str]] = []
         t0 = time.perf_counter()
         try:
