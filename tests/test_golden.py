@@ -11,7 +11,8 @@ test does:
 A change that alters bits fails both, says why in its commit message, and regenerates the logs and
 the digests in a commit of its own (``python tests/test_golden.py`` prints the new digests and
 rewrites the logs). Older formats stay readable: one test per format (1: 0.2.0, 2: 0.4.0, 3: 0.5.0,
-4: 0.6.0) replays, verifies with a version notice, and exports the logs those versions wrote.
+4: 0.6.0) replays, verifies with a version notice (their physics differs from today's, so a
+divergence is expected and said), and exports the logs those versions wrote.
 """
 from __future__ import annotations
 
@@ -112,8 +113,7 @@ def test_every_older_format_stays_readable(fmt, tmp_path):
     assert r.exit_code in (0, 1) and "Traceback" not in r.output
     if r.exit_code == 1:
         assert "divergence is expected" in r.output
-    if fmt >= 4:  # the physics is 0.6.0's: the same bits, its keyframes where format 4 put them
-        assert r.exit_code == 0 and "re-runs it to the same bits" in r.output, r.output
+    if fmt >= 4:  # its keyframes where format 4 put them (0.8's physics is not 0.6's: issue 35)
         with LogReader(str(log)) as reader:
             assert reader.keyframe_phase == 0 and reader.keyframe_at_or_before(39) == 35
             assert [td.tick for td in reader.ticks() if td.is_keyframe] == list(range(0, 41, 5))
