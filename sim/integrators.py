@@ -197,12 +197,13 @@ class SteppedHeld(NamedTuple):
 
 
 @separate
-def rk4_held(fb, h, p, v, q, w, ce, absorbing, t0, held, mu_s):
+def rk4_held(fb, h, motion, ce, absorbing, t0, held, mu_s):
     """:func:`rk4` with the static friction of the feet of ``held`` inside the step as the force of
     their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
     friction then follows the ship's motion at the method's order, where a force carried from the
     last step and corrected by an impulse after this one was first order in the step."""
-    y = Motion(p, v, q, w)
+    y = motion
+    p, v, q, w = motion
     k1, f1 = derivatives_held(fb, ce, p, v, q, w, held, mu_s)
     k2, f2, c2 = _rk4_stage_held(fb, h, 0.5, y, k1, absorbing, t0, held, mu_s)
     k3, f3, c3 = _rk4_stage_held(fb, h, 0.5, y, k2, absorbing, t0, held, mu_s)

@@ -521,7 +521,7 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-        rh = rk4_held(with_hold(body, NO_HOLD), h, p, v, q, w, ce_start, absorbing, t_start, held,
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, held,
                       cfg.friction_static)
         res = rh.stepped
         hi = rh.held_impulse_w
@@ -643,23 +643,10 @@ def foot_events(fb, t_end, st, ce_start, absorbing, engage):
     release = (before[0] and not after[0], before[1] and not after[1],
                before[2] and not after[2], before[3] and not after[3])
     z = (0.0, 0.0, 0.0)
-    stop = (False, False, False, False)
-    stop_dir = (z, z, z, z)
-    for i in range(4):
-        s0 = ce_start.slip_w[i]
-        turned_round = (fb.kinetic[i] and before[i] and after[i]
-                        and dot(ce.slip_w[i], s0) < 0.0 and dot(s0, s0) > 0.0)
-        d = unit(s0) if turned_round else z
-        stop = (turned_round or stop[0] if i == 0 else stop[0],
-                turned_round or stop[1] if i == 1 else stop[1],
-                turned_round or stop[2] if i == 2 else stop[2],
-                turned_round or stop[3] if i == 3 else stop[3])
-        stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
-                    d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
     found = False
     for i in range(4):
-        found = found or onset[i] or release[i] or stop[i]
-    return FootEvents(onset, release, stop, stop_dir, stop_speeds(ce_start, stop), 0.0, found)
+        found = found or onset[i] or release[i]
+    return FootEvents(onset, release, NO_SLIP, (z, z, z, z), (0.0, 0.0, 0.0, 0.0), 0.0, found)
 
 
 #: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
@@ -864,7 +851,7 @@ def slip_rates(cfg, fb, ce, m):
 @kernel
 def slowing(sr, i):
     """Foot i's slip falls at least half as fast as its own friction would slow it."""
-    return sr.speed[i] > 0.0 and sr.rate[i] < -0.5 * sr.own[i]
+    return sr.speed[i] > 0.0 and sr.own[i] > 0.0 and sr.rate[i] < -0.5 * sr.own[i]
 
 
 @kernel
@@ -1153,7 +1140,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
-    if fb.touching and (drag[0] or drag[1] or drag[2] or drag[3]):
+    if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
                           engage)
@@ -1199,7 +1186,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
                 st = pc.step
-    if fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION:
+    if (fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION
+            and cfg.friction_static > 0.0):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)
         body = with_feet(fb, engage, drag)
@@ -1222,9 +1210,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                           t_abs, ev)
             if pc.found and pc.tau_s < rem:
-                return PieceStep(pc.step, pc.tau_s, True, ev.onset,
-                                 turned_round(with_feet(fb, engage, drag), t_abs + pc.tau_s,
-                                              pc.step, ft.absorbing, ev), NO_SLIP, NO_SLIP)
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP)
     return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP)
 
 
