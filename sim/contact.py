@@ -218,8 +218,6 @@ class ContactEval(NamedTuple):
     spring_load_n: float
     spring_load_rate_nps: float
     lowest_gamma: float
-    foot_pos_w: tuple  # each foot, inertial
-    push_w: tuple  # g_i of each foot (its length |g_i|)
 
 
 class FrictionForce(NamedTuple):
@@ -394,7 +392,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
                                         ff[2].pen_rate_mps, ff[3].pen_rate_mps),
                        (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
-                       damp, load, load_rate, lowest_gamma, ft.pos_w, ft.push_w)
+                       damp, load, load_rate, lowest_gamma)
 
 
 @kernel
@@ -404,4 +402,4 @@ def no_contact(pos_m):
     far = (-math.inf, -math.inf, -math.inf, -math.inf)
     return ContactEval(False, far, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
                        (0.0, 0.0, 0.0, 0.0), z, z, 0.0, (z, z, z, z), 0.0, -math.inf,
-                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0, (z, z, z, z), (z, z, z, z))
+                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0)

@@ -21,7 +21,8 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import FrictionForce, Ground, Legs, evaluate, friction_normal, no_contact
+from touchdown.sim.contact import (FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
+    friction_normal, no_contact, under)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
 from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
@@ -188,7 +189,7 @@ def _inv_inertia_w(fb, q, x):
 
 
 @kernel
-def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
+def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
     """The static friction of the pressing feet of ``held`` (those whose friction is static over
     the step) as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
     centre of pressure c (loads N_i = F_i |g_i|) and the moment about their load-weighted normal
@@ -209,11 +210,12 @@ def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
     c = (0.0, 0.0, 0.0)
     nrm = (0.0, 0.0, 0.0)
     count = 0
+    off = foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)
     for i in range(4):
         load = ce.foot_force_n[i] * ce.push_norm[i]
         if held[i] and load > 0.0:
-            foot = ce.foot_pos_w[i]
-            nf = friction_normal(p, foot, ce.push_w[i])
+            foot = add(p, off[i])
+            nf = friction_normal(p, foot, under(ground, foot)[1])
             n_sum = n_sum + load
             c = add(c, scale(foot, load))
             nrm = add(nrm, scale(nf, load))
@@ -267,7 +269,7 @@ def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
         for i in range(4):
             load = ce.foot_force_n[i] * ce.push_norm[i]
             if held[i] and load > 0.0:
-                d = sub(ce.foot_pos_w[i], c)
+                d = sub(add(p, off[i]), c)
                 d = sub(d, scale(nrm, dot(d, nrm)))
                 lever2 = lever2 + load * dot(d, d)
                 reach = reach + load * norm(d)
@@ -288,7 +290,7 @@ def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
         if held[i] and load > 0.0:
             f_i = scale(force, load / n_sum)
             if lever2 > 0.0:
-                d = sub(ce.foot_pos_w[i], c)
+                d = sub(add(p, off[i]), c)
                 d = sub(d, scale(nrm, dot(d, nrm)))
                 f_i = add(f_i, scale(cross(nrm, d), x3 * load / lever2))
             shares = (f_i if i == 0 else shares[0], f_i if i == 1 else shares[1],
@@ -297,10 +299,10 @@ def held_friction(fb, ce, p, v, q, w_b, held, mu_s):
 
 
 @kernel
-def derivatives_held(fb, ce, p, v, q, w_b, held, mu_s):
+def derivatives_held(fb, ground, ce, p, v, q, w_b, held, mu_s):
     """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
-    the forces, and that friction."""
-    hf = held_friction(fb, ce, p, v, q, w_b, held, mu_s)
+    the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
+    hf = held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s)
     i_w = mul(fb.inertia_kgm2, w_b)
     tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
     alpha_b = div(sub(tau, cross(w_b, i_w)), fb.inertia_kgm2)

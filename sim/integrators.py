@@ -174,8 +174,9 @@ def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
     hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
-    ce_s = contact_at(fb, ground_at(fb, t0 + hf), ps, vs, qs, ws, absorbing, fb.engage_m)
-    d, hd = derivatives_held(fb, ce_s, ps, vs, qs, ws, held, mu_s)
+    ground = ground_at(fb, t0 + hf)
+    ce_s = contact_at(fb, ground, ps, vs, qs, ws, absorbing, fb.engage_m)
+    d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
     return d, hd, ce_s
 
 
@@ -204,7 +205,7 @@ def rk4_held(fb, h, motion, ce, absorbing, t0, held, mu_s):
     last step and corrected by an impulse after this one was first order in the step."""
     y = motion
     p, v, q, w = motion
-    k1, f1 = derivatives_held(fb, ce, p, v, q, w, held, mu_s)
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, p, v, q, w, held, mu_s)
     k2, f2, c2 = _rk4_stage_held(fb, h, 0.5, y, k1, absorbing, t0, held, mu_s)
     k3, f3, c3 = _rk4_stage_held(fb, h, 0.5, y, k2, absorbing, t0, held, mu_s)
     k4, f4, c4 = _rk4_stage_held(fb, h, 1.0, y, k3, absorbing, t0, held, mu_s)

@@ -517,7 +517,11 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
     carried = fb.hold_w
-    if fb.method == RK4 and fb.touching and cfg.friction_model != SEED_FRICTION:
+    f0 = ce_start.foot_force_n
+    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
+               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
+    if fb.method == RK4 and holding and cfg.friction_model != SEED_FRICTION:
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
@@ -623,7 +627,7 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
             out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
     if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
         held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-        hf = held_friction(fb, ce, p, v, q, w, held, ev.break_mu)
+        hf = held_friction(fb, ground_at(fb, t_s), ce, p, v, q, w, held, ev.break_mu)
         out = fmax(out, hf.use - 1.0)
     return out
 
@@ -710,9 +714,9 @@ def holds(cfg, fb, t_s, st, ft, ev):
     sl = st.sliding
     held = (not (sl[0] and not done[0]), not (sl[1] and not done[1]),
             not (sl[2] and not done[2]), not (sl[3] and not done[3]))
-    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
-                    ENGAGE_AT_GROUND)
-    hf = held_friction(fb, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    ground = ground_at(fb, t_s)
+    ce = contact_at(fb, ground, st.p, st.v, st.q, st.w, ft.absorbing, ENGAGE_AT_GROUND)
+    hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
     if hf.capped:
         return NO_SLIP, done
     return done, NO_SLIP
@@ -810,7 +814,7 @@ class SlipRates(NamedTuple):
 
 
 @kernel
-def slip_rates(cfg, fb, ce, m):
+def slip_rates(cfg, fb, ground, ce, m):
     """:class:`SlipRates` at the contact ``ce`` of the state ``m`` (the holding feet's friction
     among the forces, sim.dynamics.held_friction). A foot coming to a stop has its slip falling at
     least half as fast as its own friction would slow it; one whose slip the ship's turning keeps
@@ -818,7 +822,8 @@ def slip_rates(cfg, fb, ce, m):
     friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
     (its direction turns within a fraction of the step)."""
     held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-    d, _ = derivatives_held(fb, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    d, _ = derivatives_held(fb, ground, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
     spin = (0.0, 0.0, fb.body_omega_radps)
@@ -832,7 +837,7 @@ def slip_rates(cfg, fb, ce, m):
         own = 0.0
         if speed > 0.0:
             s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
-            r = sub(ce.foot_pos_w[i], m.p)
+            r = off[i]
             acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
             acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
             rate = dot(acc, s_hat)
@@ -1153,7 +1158,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         # its drag, which turns with its slip at a rate of its friction's deceleration over its
         # slip, stays within what the method's stages follow (STIFF_REACH of the step)
         near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
-        sr = slip_rates(cfg, body, ce_y, m)
+        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
             keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
                     drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
@@ -1186,16 +1191,20 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
                 st = pc.step
+    held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
+            not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
     if (fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION
-            and cfg.friction_static > 0.0):
+            and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)
         body = with_feet(fb, engage, drag)
         held = (not drag[0], not drag[1], not drag[2], not drag[3])
-        ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
-                          engage)
-        if held_friction(body, ce_e, st.p, st.v, st.q, st.w, held, cfg.friction_static).use > 1.0:
-            hf0 = held_friction(body, ce_y, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+        ground_e = ground_at(fb, t_abs + rem)
+        ce_e = contact_at(body, ground_e, st.p, st.v, st.q, st.w, ft.absorbing, engage)
+        if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
+                         cfg.friction_static).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
+                                cfg.friction_static)
             if hf0.use < 1.0:
                 brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
                                  cfg.friction_static, True)
