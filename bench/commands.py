@@ -58,7 +58,8 @@ def stability(quick: bool) -> None:
 @QUICK
 def physics(quick: bool) -> None:
     """Scenes off the well-walked paths (turning bodies, tumbles, falls onto the side, spins,
-    hills, slopes, impossible starts), each figure beside what physics says."""
+    hills, slopes, impossible starts), each figure beside what physics says; and issue 35's
+    scenes at the edges beside the 3-D per-foot reference (bench.edges3d)."""
     from touchdown.bench import physics as bench_physics
     bench_physics.main(quick=quick)
 

@@ -1,4 +1,5 @@
-"""``touchdown bench physics``: the scenes of "physics that holds everywhere", measured.
+"""``touchdown bench physics``: the scenes of "physics that holds everywhere", measured, and those
+of issue 35 ("3-D contact at the edges", bench.edges3d) beside the 3-D reference.
 
 Each scene is one a user might try off the well-walked paths (a slide on a rotating body, a free
 tumble, a fall onto the side, a spin in contact, a hill, a start on a slope, an impossible start, a
@@ -45,11 +46,14 @@ def inertia(scn, st) -> np.ndarray:
 
 def kinetic(scn, st) -> tuple[float, float]:
     """(translational, rotational) kinetic energy relative to the surface, J; a tipped ship's as
-    its turn about the pivot."""
+    its turn about the pivot under the pivot model (0.7's; since 0.8 a tipped ship moves by the
+    full model and its velocities are its motion)."""
     om = scn.params.body.omega_radps
     p, q = st.pos_m[0], st.quat[0]
     i_b = inertia(scn, st)
-    if int(st.surface_state[0]) == int(SurfaceState.TIPPED):
+    model = getattr(scn.params.contact, "tipped_model", None)  # before 0.8: the pivot model
+    pivot_model = model is None or getattr(model, "label", model) == "pivot"
+    if int(st.surface_state[0]) == int(SurfaceState.TIPPED) and pivot_model:
         up = p / np.linalg.norm(p)
         axis = np.cross(up, _rot(q, np.array([0.0, 0.0, 1.0])))
         axis /= np.linalg.norm(axis)
@@ -324,12 +328,28 @@ def _edges():
     return edges.SCENES
 
 
+def _edges3d():
+    """The scenes of issue 35 beside the 3-D reference (bench.edges3d), where this version has
+    them."""
+    try:
+        from touchdown.bench import edges3d
+    except ImportError:  # a version before them
+        return ()
+
+    def edges_in_3d(rows, quick):
+        dts = (0.05,) if quick else (0.1, 0.05, 0.005)
+        for scene, what, ref, *sims in edges3d.table(dts):
+            got = "; ".join(f"dt {dt:g}: {v}" for dt, v in zip(dts, sims))
+            rows.append((f"{scene}: {what}", got, f"3-D reference: {ref}"))
+    return (edges_in_3d,)
+
+
 def main(quick: bool = False) -> None:
     from touchdown.sim import __version__
 
     from touchdown.bench.speed import machine
     print(f"touchdown {__version__}; {machine()}")
-    for fn in SCENES + _edges():
+    for fn in SCENES + _edges() + _edges3d():
         rows: list[tuple[str, str, str]] = []
         t0 = time.perf_counter()
         try:

@@ -2,4 +2,4 @@
 
 No I/O, no wall clock: ``step(params, state, inputs) -> (state, outputs, events)``.
 """
-__version__ = "0.7.0"
+__version__ = "0.8.0"

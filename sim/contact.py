@@ -228,6 +228,9 @@ class FrictionForce(NamedTuple):
     mu_k: float  # 0 under the seed's law, which acts after the step
     kinetic: tuple  # each foot: dragged by its kinetic friction
     hold_w: tuple  # each foot's static friction carried in, inertial, N
+    #: each dragged foot's drag against this direction, where it is not zero (a foot whose stop is
+    #: being located: sim.step.step_piece), else against its slip
+    drag_dir: tuple
 
 
 class FootForce(NamedTuple):
@@ -327,7 +330,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
     feels its friction throughout the step: the impulse after it only corrects it
     (sim.friction.coulomb)."""
     pos_m, vel_mps, quat, w_b = motion
-    mu_k, kinetic, hold_w = friction_force
+    mu_k, kinetic, hold_w, drag_dir = friction_force
     omega_w = quat_rotate(quat, w_b)
     k_leg = 0.25 * legs.k_npm
     c_leg = 0.25 * c_nspm
@@ -366,9 +369,11 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
         load_rate += f.spring_load_rate_nps
         f_vec = scale(ft.push_w[i], f.force_n)
         speed = norm(slips[i])
-        if kinetic[i] and f.force_n > 0.0 and speed > 0.0:
+        fixed = drag_dir[i]
+        along = fixed[0] != 0.0 or fixed[1] != 0.0 or fixed[2] != 0.0
+        if kinetic[i] and f.force_n > 0.0 and (speed > 0.0 or along):
             drag = mu_k * f.force_n * g[i]
-            f_vec = sub(f_vec, scale(slips[i], drag / speed))
+            f_vec = sub(f_vec, scale(fixed, drag) if along else scale(slips[i], drag / speed))
             friction += drag
         elif f.force_n > 0.0 and not kinetic[i]:
             n_f = friction_normal(pos_m, ft.pos_w[i], ft.push_w[i])

@@ -21,10 +21,12 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import FrictionForce, Ground, Legs, evaluate, no_contact
+from touchdown.sim.contact import (FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
+    friction_normal, no_contact, under)
+from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
-from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, quat_axis_z, quat_derivative,
-    quat_rotate_inv, scale, sub)
+from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
+    quat_derivative, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
 
 class Motion(NamedTuple):
@@ -70,6 +72,8 @@ class FreeBody(NamedTuple):
     kinetic: tuple
     #: the holding feet's static friction carried into this step as a force, inertial
     hold_w: tuple
+    #: each dragged foot's fixed drag direction (zero: against its slip; sim.contact.FrictionForce)
+    drag_dir: tuple
 
 
 @constructor
@@ -80,7 +84,8 @@ def with_feet(fb, engage_m, kinetic):
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
                     fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
-                    engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w)
+                    engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w,
+                    fb.drag_dir)
 
 
 @constructor
@@ -90,7 +95,17 @@ def with_hold(fb, hold_w):
                     fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
                     fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
                     fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
-                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w)
+                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w, fb.drag_dir)
+
+
+@constructor
+def with_drag_dir(fb, drag_dir):
+    """``fb`` whose dragged feet are dragged against ``drag_dir`` (where not zero)."""
+    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
+                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
+                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
+                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
+                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, fb.hold_w, drag_dir)
 
 
 @constructor
@@ -123,7 +138,7 @@ def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
         return no_contact(p)
     return evaluate(ground, Motion(p, v, q, w_b), Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
                     fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing, engage_m,
-                    fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w))
+                    fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w, fb.drag_dir))
 
 
 @kernel
@@ -149,3 +164,147 @@ def derivatives(fb, ce, p, v, q, w_b):
     i_w = mul(fb.inertia_kgm2, w_b)
     alpha_b = div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.inertia_kgm2)
     return v, acceleration(fb, ce, p, q), quat_derivative(q, w_b), alpha_b
+
+
+class Held(NamedTuple):
+    """The static friction of the feet that hold, as the force of their constraint at one
+    instant (:func:`held_friction`)."""
+
+    force_w: tuple  # the whole tangential force, inertial, N
+    torque_w: tuple  # its moment about the centre of mass, N m
+    feet_w: tuple  # each foot's share (four vectors, inertial, N)
+    capped: bool  # the feet could not hold: the force is mu_s times their load
+    use: float  # how much of their cones holding would take (> 1: capped)
+
+
+#: no foot holds
+NO_HELD = Held((0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+               ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), False, 0.0)
+
+
+@kernel
+def _inv_inertia_w(fb, q, x):
+    """I^-1 x for an inertial vector x (the principal inertia turned to the inertial frame)."""
+    return quat_rotate(q, div(quat_rotate_inv(q, x), fb.inertia_kgm2))
+
+
+@kernel
+def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
+    """The static friction of the pressing feet of ``held`` (those whose friction is static over
+    the step) as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
+    centre of pressure c (loads N_i = F_i |g_i|) and the moment about their load-weighted normal
+    n that keep the point of the ship at c from slipping over the ground and the ship from turning
+    about n (one held foot: the point alone), i.e. that make those accelerations zero given every
+    other force. With t1, t2 spanning the ground's plane at c, r = c - p, the response of the
+    point's slip to a unit force along t and of the spin about n to a unit moment is the 3 x 3
+    matrix A (A_kl = t_k . (t_l / m + I^-1 (r x t_l) x r), ...), and A x = -b, b the free
+    accelerations, gives the force and moment. Four rigid feet at different heights under a
+    rocking ship cannot all be held by finite forces (MODEL-NOTES 39); the footprint's three
+    in-plane freedoms can, and the feet's own cones are checked after the step by the impulses
+    (sim.friction.coulomb), which correct what the step left. Capped at mu_s times the held
+    feet's load; each foot's share (the force by load, the moment by load times its lever) is
+    what that check starts from."""
+    if not ce.touching:
+        return NO_HELD
+    n_sum = 0.0
+    c = (0.0, 0.0, 0.0)
+    nrm = (0.0, 0.0, 0.0)
+    count = 0
+    off = foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)
+    for i in range(4):
+        load = ce.foot_force_n[i] * ce.push_norm[i]
+        if held[i] and load > 0.0:
+            foot = add(p, off[i])
+            nf = friction_normal(p, foot, under(ground, foot)[1])
+            n_sum = n_sum + load
+            c = add(c, scale(foot, load))
+            nrm = add(nrm, scale(nf, load))
+            count += 1
+    if count == 0:
+        return NO_HELD
+    c = scale(c, 1.0 / n_sum)
+    nrm = unit(nrm)
+    t1, t2 = tangent_basis(nrm)
+    m = fb.mass_kg
+    omega_w = quat_rotate(q, w_b)
+    r = sub(c, p)
+    a0 = acceleration(fb, ce, p, q)
+    i_w = mul(fb.inertia_kgm2, w_b)
+    alpha_w = quat_rotate(q, div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.inertia_kgm2))
+    spin = (0.0, 0.0, fb.body_omega_radps)
+    acc = add(add(a0, cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
+    acc = sub(acc, cross(spin, add(v, cross(omega_w, r))))  # the ground under c accelerates too
+    b1, b2, b3 = dot(t1, acc), dot(t2, acc), dot(alpha_w, nrm)
+    u1 = _inv_inertia_w(fb, q, cross(r, t1))
+    u2 = _inv_inertia_w(fb, q, cross(r, t2))
+    a11 = 1.0 / m + dot(t1, cross(u1, r))
+    a12 = dot(t1, cross(u2, r))
+    a22 = 1.0 / m + dot(t2, cross(u2, r))
+    x3 = 0.0
+    if count == 1:
+        det = a11 * a22 - a12 * a12
+        x1 = -(a22 * b1 - a12 * b2) / det
+        x2 = -(a11 * b2 - a12 * b1) / det
+    else:
+        u3 = _inv_inertia_w(fb, q, nrm)
+        a13 = dot(t1, cross(u3, r))
+        a23 = dot(t2, cross(u3, r))
+        a33 = dot(nrm, u3)
+        # Cramer's rule on the symmetric 3 x 3
+        c11 = a22 * a33 - a23 * a23
+        c12 = a13 * a23 - a12 * a33
+        c13 = a12 * a23 - a13 * a22
+        det = a11 * c11 + a12 * c12 + a13 * c13
+        c22 = a11 * a33 - a13 * a13
+        c23 = a12 * a13 - a11 * a23
+        c33 = a11 * a22 - a12 * a12
+        x1 = -(c11 * b1 + c12 * b2 + c13 * b3) / det
+        x2 = -(c12 * b1 + c22 * b2 + c23 * b3) / det
+        x3 = -(c13 * b1 + c23 * b2 + c33 * b3) / det
+    force = add(scale(t1, x1), scale(t2, x2))
+    # each foot's share: the force by load, the moment by load times lever
+    lever2 = 0.0
+    reach = 0.0  # sum of N_i |d_i|: the most moment the feet could give about c, over mu_s
+    if count > 1:
+        for i in range(4):
+            load = ce.foot_force_n[i] * ce.push_norm[i]
+            if held[i] and load > 0.0:
+                d = sub(add(p, off[i]), c)
+                d = sub(d, scale(nrm, dot(d, nrm)))
+                lever2 = lever2 + load * dot(d, d)
+                reach = reach + load * norm(d)
+    # what the feet's cones allow, in the force and the moment together: |F| / (mu_s N) +
+    # |M| / (mu_s sum N_i |d_i|) <= 1 (each foot's friction spent on one or the other)
+    use = norm(force) / (mu_s * n_sum)
+    if reach > 0.0:
+        use = use + abs(x3) / (mu_s * reach)
+    capped = use > 1.0
+    if capped:  # the footprint cannot hold: the feet's cones will let it slip
+        force = scale(force, 1.0 / use)
+        x3 = x3 / use
+    torque = add(cross(r, force), scale(nrm, x3))
+    z = (0.0, 0.0, 0.0)
+    shares = (z, z, z, z)
+    for i in range(4):
+        load = ce.foot_force_n[i] * ce.push_norm[i]
+        if held[i] and load > 0.0:
+            f_i = scale(force, load / n_sum)
+            if lever2 > 0.0:
+                d = sub(add(p, off[i]), c)
+                d = sub(d, scale(nrm, dot(d, nrm)))
+                f_i = add(f_i, scale(cross(nrm, d), x3 * load / lever2))
+            shares = (f_i if i == 0 else shares[0], f_i if i == 1 else shares[1],
+                      f_i if i == 2 else shares[2], f_i if i == 3 else shares[3])
+    return Held(force, torque, shares, capped, use)
+
+
+@kernel
+def derivatives_held(fb, ground, ce, p, v, q, w_b, held, mu_s):
+    """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
+    the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
+    hf = held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s)
+    i_w = mul(fb.inertia_kgm2, w_b)
+    tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
+    alpha_b = div(sub(tau, cross(w_b, i_w)), fb.inertia_kgm2)
+    acc = add(acceleration(fb, ce, p, q), scale(hf.force_w, 1.0 / fb.mass_kg))
+    return (v, acc, quat_derivative(q, w_b), alpha_b), hf

@@ -65,6 +65,9 @@ TRANSITION_EVENTS: dict[tuple[SurfaceState, SurfaceState], EventKind] = {
     (S.FLYING, S.CONTACT): EventKind.CONTACT,
     (S.FLYING, S.CRASHED): EventKind.CRASHED,
     (S.CONTACT, S.LANDED): EventKind.LANDED,
+    # a landed ship whose balance the player's thrust or RCS changes is in contact again
+    # (MODEL-NOTES 45): its event is ship.contact, from landed
+    (S.LANDED, S.CONTACT): EventKind.CONTACT,
     (S.CONTACT, S.TIPPED): EventKind.TIPPED,
     (S.CONTACT, S.FLYING): EventKind.LIFTOFF,
     (S.CONTACT, S.CRASHED): EventKind.CRASHED,

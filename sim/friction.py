@@ -52,6 +52,7 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import kernel, separate, zeros
+from touchdown.sim.constants import SEED_STICK_SPEED_MPS
 from touchdown.sim.contact import foot_velocity, surface_velocity
 from touchdown.sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
     quat_rotate_inv, scale, sub, unit
@@ -531,7 +532,8 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
 @kernel
 def seed(law, mass_kg, pos_m, vel_mps, omega_b, normal_impulse_ns, ground):
     """The seed's law at the centre of mass (module docstring)."""
-    mu_s, mu_k, stick_speed_mps = law
+    mu_s, mu_k = law.mu_s, law.mu_k
+    stick_speed_mps = SEED_STICK_SPEED_MPS  # the seed's own 0.01 m/s, whatever contact.stick_speed
     n_hat = unit(pos_m)
     v_rel = sub(vel_mps, surface_velocity(ground, pos_m))
     v_t = sub(v_rel, scale(n_hat, dot(v_rel, n_hat)))

@@ -17,8 +17,8 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, ground_at, \
-    torque_body
+from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, \
+    derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -164,6 +164,66 @@ def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
                    quat_normalize(quat_add_scaled(q, q_sum, h6)),
                    _rk4_combine(w, k1[3], k2[3], k3[3], k4[3], h6),
                    foot_impulses_4(h, ce, c2, c3, c4), -math.inf, False)
+
+
+@kernel
+def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
+    """A stage of :func:`rk4_held`: the derivatives with the held feet's friction, that friction,
+    and the contact, at y + frac h k."""
+    p, v, q, w = y
+    hf = frac * h
+    ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
+        quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
+    ground = ground_at(fb, t0 + hf)
+    ce_s = contact_at(fb, ground, ps, vs, qs, ws, absorbing, fb.engage_m)
+    d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
+    return d, hd, ce_s
+
+
+@kernel
+def _held_impulse(h, a, b, c, d):
+    """A foot's static friction impulse over the step by RK4's weights on its four stages."""
+    w1, w2 = h / 6.0, h / 3.0
+    return (w1 * a[0] + w2 * b[0] + w2 * c[0] + w1 * d[0],
+            w1 * a[1] + w2 * b[1] + w2 * c[1] + w1 * d[1],
+            w1 * a[2] + w2 * b[2] + w2 * c[2] + w1 * d[2])
+
+
+class SteppedHeld(NamedTuple):
+    """A step of :func:`rk4_held`, and the held feet's static friction impulse over it (each
+    foot's, inertial, N s)."""
+
+    stepped: Stepped
+    held_impulse_w: tuple
+
+
+@separate
+def rk4_held(fb, h, motion, ce, absorbing, t0, held, mu_s):
+    """:func:`rk4` with the static friction of the feet of ``held`` inside the step as the force of
+    their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
+    friction then follows the ship's motion at the method's order, where a force carried from the
+    last step and corrected by an impulse after this one was first order in the step."""
+    y = motion
+    p, v, q, w = motion
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, p, v, q, w, held, mu_s)
+    k2, f2, c2 = _rk4_stage_held(fb, h, 0.5, y, k1, absorbing, t0, held, mu_s)
+    k3, f3, c3 = _rk4_stage_held(fb, h, 0.5, y, k2, absorbing, t0, held, mu_s)
+    k4, f4, c4 = _rk4_stage_held(fb, h, 1.0, y, k3, absorbing, t0, held, mu_s)
+    h6 = h / 6.0
+    q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
+             k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
+             k1[2][2] + 2.0 * k2[2][2] + 2.0 * k3[2][2] + k4[2][2],
+             k1[2][3] + 2.0 * k2[2][3] + 2.0 * k3[2][3] + k4[2][3])
+    st = Stepped(_rk4_combine(p, k1[0], k2[0], k3[0], k4[0], h6),
+                 _rk4_combine(v, k1[1], k2[1], k3[1], k4[1], h6),
+                 quat_normalize(quat_add_scaled(q, q_sum, h6)),
+                 _rk4_combine(w, k1[3], k2[3], k3[3], k4[3], h6),
+                 foot_impulses_4(h, ce, c2, c3, c4), -math.inf, False)
+    a, b, c, d = f1.feet_w, f2.feet_w, f3.feet_w, f4.feet_w
+    return SteppedHeld(st, (_held_impulse(h, a[0], b[0], c[0], d[0]),
+                            _held_impulse(h, a[1], b[1], c[1], d[1]),
+                            _held_impulse(h, a[2], b[2], c[2], d[2]),
+                            _held_impulse(h, a[3], b[3], c[3], d[3])))
 
 
 @kernel

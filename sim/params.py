@@ -165,7 +165,7 @@ ControllerParams = _section("ControllerParams", "controller", """Attitude hold: 
 _SCENE_DERIVED = [
     ("method", "i8"), ("impact_substeps", "i8"), ("linear_model", "?"), ("crash_speed2", "f8"),
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
-    ("tipped_rest_rad", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
+    ("tipped_rest_rad", "f8"), ("cos_tipped_rest", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("terrain_max_m", "f8"), ("slope_tan", "f8"),
 ]
 SCENE_DTYPE = np.dtype([record_type(s) for s in in_scene()] + _SCENE_DERIVED, align=True)
@@ -225,6 +225,7 @@ class Params:
         r["cos_settle_tilt"] = cp.cos_settle_tilt
         r["cos_tipped"] = cp.cos_tipped
         r["tipped_rest_rad"] = math.radians(cp.tipped_rest_deg)
+        r["cos_tipped_rest"] = cp.cos_tipped_rest
         r["omega_radps"] = body.omega_radps
         r["omega2"] = body.omega_radps ** 2
         r["surface_gravity_mps2"] = body.surface_gravity_mps2

@@ -55,6 +55,28 @@ class SurfaceNormal(_Labelled):
     RADIAL = 1
 
 
+class LandedModel(_Labelled):
+    """``contact.landed``: what landed means. ``rest`` (MODEL-NOTES 45): a ship lands only at rest
+    in a stable equilibrium (the settle thresholds, the centre of mass over the footprint, and too
+    little energy to pass the lowest edge of its footprint), with neither engine nor RCS firing;
+    it is pinned while it stays so, and is back in contact (the physics decides) as soon as the
+    player's thrust or RCS acts. ``attached``: the seed's "stable on surface, attached" as 0.7 had
+    it: the settle thresholds and the footprint alone, pinned until the engine lifts it off."""
+
+    REST = 0
+    ATTACHED = 1
+
+
+class TippedModel(_Labelled):
+    """``contact.tipped_model``: how a tipped ship moves. ``full``: the full model on its feet, as
+    any ship in contact (MODEL-NOTES 48), until its hull meets the ground at ``tipped_rest_deg``,
+    where it rests, pinned, until the RCS fires; ``pivot``: 0.7's pivot model, a rotation about
+    the pivot foot that keeps only the torque's part along its axis (sim.pivot)."""
+
+    FULL = 0
+    PIVOT = 1
+
+
 class Integrator(_Labelled):
     """``sim.integrator``: the method, by its code inside the kernels (sim.integrators)."""
 
@@ -214,10 +236,16 @@ SETTINGS: tuple[Setting, ...] = (
       doc="SEED-NOTES 1: the leg absorbers' damping ratio"),
     S("contact.friction_model", "str", "coulomb", choices=FrictionModel,
       dest="contact.friction_model", scene="friction_model", doc="SEED-NOTES 4"),
+    S("contact.tipped_model", "str", "full", choices=TippedModel, dest="contact.tipped_model",
+      scene="tipped_model",
+      doc="a tipped ship on its feet by the full model (MODEL-NOTES 48), or 0.7's pivot model"),
     S("contact.tipped_rest_deg", "float", 90.0, "deg", 0.0, 180.0, lo_open=True,
       dest="contact.tipped_rest_deg", doc="tilt at which a tipped ship lies on its hull"),
     S("contact.stiffness_per_kg", "float", C.CONTACT_STIFFNESS_PER_KG, "1/s^2", 1e-2, 1e6,
       dest="contact.stiffness_per_kg", doc="the seed's k / m (each ship's default)"),
+    S("contact.landed", "str", "rest", choices=LandedModel, dest="contact.landed",
+      scene="landed_model",
+      doc="landed is a state of rest (MODEL-NOTES 45), or the seed's attached state (0.7's)"),
     S("contact.surface_normal", "str", "terrain", choices=SurfaceNormal,
       dest="contact.surface_normal", scene="surface_normal",
       doc="each foot pushed along the terrain's normal, or radially (the seed's)"),

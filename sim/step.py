@@ -32,20 +32,20 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from touchdown.sim.compiled import constructor, entry, kernel, separate
-from touchdown.sim.constants import G0_MPS2
+from touchdown.sim.constants import G0_MPS2, SETTLE_SLIP_MPS
 from touchdown.sim.contact import (ContactEval, FrictionForce, Ground, Legs, feet,
-    foot_offsets_w, lowest_foot_penetration, under)
+    foot_offsets_w, foot_slip, foot_velocity, lowest_foot_penetration, under)
 from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
-    with_feet, with_hold)
+    derivatives_held, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.enums import TRANSITION_EVENTS, HoldMode, SurfaceState
 from touchdown.sim.frames import (Body, body_rotation, body_spin_in_body_frame,
     effective_gravity, inertia, pin_pose, quat_z, rotate_z, surface_velocity, turned)
 from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, spread_over_step
-from touchdown.sim.integrators import EXPONENTIAL, HYBRID, advance, sub_method
+from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, advance, rk4_held, sub_method
 from touchdown.sim.params import Params, Records
 from touchdown.sim.pivot import pinned_motion, pivot_step, rate_from_momentum
-from touchdown.sim.settings import FrictionModel, SurfaceNormal
+from touchdown.sim.settings import FrictionModel, LandedModel, SurfaceNormal, TippedModel
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
@@ -56,6 +56,8 @@ from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, mul, norm, quat
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
+REST_LANDED = int(LandedModel.REST)
+FULL_TIPPED = int(TippedModel.FULL)
 
 #: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
 #: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
@@ -212,6 +214,7 @@ class Commands(NamedTuple):
     throttle: float
     thrust_n: float
     rcs_torque_body_nm: tuple
+    driven: bool  # the player's engine or RCS acts (not the hold's torque alone)
 
 
 @kernel
@@ -221,7 +224,7 @@ def commands(cfg, sp, s, inp):
     command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
     live = s.fuel_kg > 0.0 and s.surface_state != CRASHED
     if not live:
-        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0))
+        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0), False)
     throttle = fmin(fmax(inp.throttle, 0.0), 1.0)
     max_tau = sp.max_rcs_torque_nm
     auto = (0.0, 0.0, 0.0)
@@ -244,7 +247,8 @@ def commands(cfg, sp, s, inp):
     m2 = fmin(fmax(inp.rcs[2], -1.0), 1.0) * max_tau
     rcs = (m0 if m0 != 0.0 else auto[0], m1 if m1 != 0.0 else auto[1],
            m2 if m2 != 0.0 else auto[2])
-    return Commands(throttle, throttle * sp.max_thrust_n, rcs)
+    thrust = throttle * sp.max_thrust_n
+    return Commands(throttle, thrust, rcs, thrust > 0.0 or m0 != 0.0 or m1 != 0.0 or m2 != 0.0)
 
 
 # -- 2. free flight ------------------------------------------------------------------------------
@@ -328,7 +332,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
                     cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
                     0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
-                    s.footing.sliding, s.footing.hold_w)
+                    s.footing.sliding, s.footing.hold_w, NO_HOLD)
 
 
 @kernel
@@ -512,7 +516,23 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
+    carried = fb.hold_w
+    f0 = ce_start.foot_force_n
+    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
+               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
+    if fb.method == RK4 and holding and cfg.friction_model != SEED_FRICTION:
+        # the holding feet's static friction inside the step, as their constraint's force
+        # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, held,
+                      cfg.friction_static)
+        res = rh.stepped
+        hi = rh.held_impulse_w
+        carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
+                   scale(hi[3], 1.0 / h))
+    else:
+        res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
     if not fb.touching:
@@ -530,7 +550,7 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
     ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
     fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
-                 FrictionForce(fb.mu_k, dragged, fb.hold_w), ground_end, h)
+                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), ground_end, h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
@@ -559,20 +579,22 @@ EVENT_TOL_M = 1e-9
 EVENT_TOL_S = 1e-12
 #: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
 NEVER = -math.inf
-#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs,
-#: while its own friction could not stop it within DRAG_REACH times the step; nearer its stop, its
-#: friction is an impulse of mu_k J_i after the step, which stops it without overshoot (a force of
-#: fixed size against a slip that reaches zero inside the step would turn round there).
-DRAG_REACH = 1.0
-
-
 class FootEvents(NamedTuple):
     """Which feet change over a step: those that start to press (``onset``: not pressing at its
-    start, in the ground at its end) and those that stop (``release``: pressing at its start, their
-    spring-damper no longer pushing at its end, or, absorbed, out of the ground)."""
+    start, in the ground at its end), those that stop (``release``: pressing at its start, their
+    spring-damper no longer pushing at its end, or, absorbed, out of the ground), and the sliding
+    feet whose slip turned round (``stop``: dragged by kinetic friction, their slip at the end
+    against their slip at the start, ``stop_dir``: they stop where their slip along it is zero,
+    and stick there: MODEL-NOTES 46)."""
 
     onset: tuple
     release: tuple
+    stop: tuple
+    stop_dir: tuple
+    stop_speed: tuple  # each stopping foot's slip at the step's start, m/s
+    #: the holding feet (their regime static) break away where holding them would take more
+    #: than their cones give (sim.dynamics.held_friction's use past 1); mu_s (0: not asked)
+    break_mu: float
     any: bool
 
 
@@ -601,6 +623,12 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
                 out = fmax(out, -ce.pen_m[i])
             else:
                 out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+        if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
+            out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
+    if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
+        held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+        hf = held_friction(fb, ground_at(fb, t_s), ce, p, v, q, w, held, ev.break_mu)
+        out = fmax(out, hf.use - 1.0)
     return out
 
 
@@ -618,10 +646,80 @@ def foot_events(fb, t_end, st, ce_start, absorbing, engage):
              (not before[3]) and pen[3] > 0.0 and not ce_start.pen_m[3] > -engage[3])
     release = (before[0] and not after[0], before[1] and not after[1],
                before[2] and not after[2], before[3] and not after[3])
+    z = (0.0, 0.0, 0.0)
     found = False
     for i in range(4):
         found = found or onset[i] or release[i]
-    return FootEvents(onset, release, found)
+    return FootEvents(onset, release, NO_SLIP, (z, z, z, z), (0.0, 0.0, 0.0, 0.0), 0.0, found)
+
+
+#: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
+STOPPED_MPS = 1e-6
+
+
+@kernel
+def stop_speeds(ce, stop):
+    """|s_i| at ``ce`` for the feet of ``stop`` (0 for the others)."""
+    z = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        v = norm(ce.slip_w[i]) if stop[i] else 0.0
+        z = (v if i == 0 else z[0], v if i == 1 else z[1], v if i == 2 else z[2],
+             v if i == 3 else z[3])
+    return z
+
+
+#: a located stop is one where what is left of a foot's slip across where it ran is under this
+#: fraction of what it was: a slip that only turned (its size kept up by the ship's turning) has
+#: not stopped
+STOP_LEFT = 0.1
+
+
+@kernel
+def turned_round(fb, t_s, st, absorbing, ev):
+    """The feet of ``ev.stop`` whose slip has turned round by the end of ``st`` (the located event
+    is the earliest of the feet's: the others stop later) and come to rest there (what is left of
+    it across where it ran under STOP_LEFT of what it was)."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, absorbing, ENGAGE_AT_GROUND)
+    out = (False, False, False, False)
+    for i in range(4):
+        s_i = ce.slip_w[i]
+        along = dot(s_i, ev.stop_dir[i])
+        left = norm(sub(s_i, scale(ev.stop_dir[i], along)))
+        done = (ev.stop[i] and along <= STOPPED_MPS
+                and left <= fmax(STOP_LEFT * ev.stop_speed[i], cfg_stick(fb)))
+        out = (out[0] or (done and i == 0), out[1] or (done and i == 1),
+               out[2] or (done and i == 2), out[3] or (done and i == 3))
+    return out
+
+
+@kernel
+def cfg_stick(fb):
+    """A slip left at a located stop that counts as none, m/s (the default stick speed's
+    order: the rigid feet's kinematic micro-slips)."""
+    return 1e-4
+
+
+@kernel
+def holds(cfg, fb, t_s, st, ft, ev):
+    """(stuck, slid on): the feet of ``ev.stop`` that stick at the end of ``st`` (the located
+    instant the first of them stopped): their slip has turned round there
+    (:func:`turned_round`), and static friction can hold them, with the feet that already hold
+    (sim.dynamics.held_friction, within mu_s of their load); and those that cannot: a foot whose
+    slip the ship's own turning keeps up (a foot under an impact's load on a ship turning over
+    it) slides on, and for the rest of the sub-step its stops are not located (its friction is
+    an impulse after each piece: Coulomb's law is stiff there)."""
+    done = turned_round(fb, t_s, st, ft.absorbing, ev)
+    if not (done[0] or done[1] or done[2] or done[3]):
+        return done, NO_SLIP
+    sl = st.sliding
+    held = (not (sl[0] and not done[0]), not (sl[1] and not done[1]),
+            not (sl[2] and not done[2]), not (sl[3] and not done[3]))
+    ground = ground_at(fb, t_s)
+    ce = contact_at(fb, ground, st.p, st.v, st.q, st.w, ft.absorbing, ENGAGE_AT_GROUND)
+    hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    if hf.capped:
+        return NO_SLIP, done
+    return done, NO_SLIP
 
 
 class Piece(NamedTuple):
@@ -676,6 +774,18 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
     return Piece(t_hi, st_hi, True)
 
 
+#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs, and
+#: the instant its slip turns round is located (FootEvents.stop); one whose own friction could stop
+#: it within DRAG_REACH times the step takes its friction as an impulse of mu_k J_i after the step
+#: instead (sim.friction.coulomb): so near its stop a force of fixed size turning round with the
+#: slip inside the method's stages would leave the slip where it was.
+DRAG_REACH = 1.0
+#: a sliding foot that its friction could stop within STIFF_REACH of the step and that is not
+#: slowing takes its friction as an impulse (step_piece): the drag's direction would turn faster
+#: than rk4's stages follow (its rate over the step past ~2.8)
+STIFF_REACH = 0.4
+
+
 @kernel
 def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
@@ -692,6 +802,85 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
     inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
+
+
+class SlipRates(NamedTuple):
+    """Each foot's slip, how fast it changes along itself, and how fast its own kinetic friction
+    alone would slow it (sim.step.slip_rates)."""
+
+    speed: tuple  # |s_i|, m/s
+    rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
+    own: tuple  # mu_k N_i / m_eff,i, m/s^2
+
+
+@kernel
+def slip_rates(cfg, fb, ground, ce, m):
+    """:class:`SlipRates` at the contact ``ce`` of the state ``m`` (the holding feet's friction
+    among the forces, sim.dynamics.held_friction). A foot coming to a stop has its slip falling at
+    least half as fast as its own friction would slow it; one whose slip the ship's turning keeps
+    up (under an impact's load, the other feet sliding and one holding) has not, though its
+    friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
+    (its direction turns within a fraction of the step)."""
+    held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+    d, _ = derivatives_held(fb, ground, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
+    omega_w = quat_rotate(m.q, m.w)
+    alpha_w = quat_rotate(m.q, d[3])
+    spin = (0.0, 0.0, fb.body_omega_radps)
+    speeds = (0.0, 0.0, 0.0, 0.0)
+    rates = (0.0, 0.0, 0.0, 0.0)
+    owns = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        s0 = ce.slip_w[i]
+        speed = norm(s0)
+        rate = 0.0
+        own = 0.0
+        if speed > 0.0:
+            s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+            r = off[i]
+            acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
+            acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
+            rate = dot(acc, s_hat)
+            arm = quat_rotate_inv(m.q, cross(r, s_hat))
+            inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+            own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
+        speeds = (speed if i == 0 else speeds[0], speed if i == 1 else speeds[1],
+                  speed if i == 2 else speeds[2], speed if i == 3 else speeds[3])
+        rates = (rate if i == 0 else rates[0], rate if i == 1 else rates[1],
+                 rate if i == 2 else rates[2], rate if i == 3 else rates[3])
+        owns = (own if i == 0 else owns[0], own if i == 1 else owns[1],
+                own if i == 2 else owns[2], own if i == 3 else owns[3])
+    return SlipRates(speeds, rates, owns)
+
+
+@kernel
+def slowing(sr, i):
+    """Foot i's slip falls at least half as fast as its own friction would slow it."""
+    return sr.speed[i] > 0.0 and sr.own[i] > 0.0 and sr.rate[i] < -0.5 * sr.own[i]
+
+
+@kernel
+def stopping(cfg, dragged, sr, ce0, ce1, h):
+    """The dragged feet that stop inside a step of h: slowing (:func:`slowing`) at a rate that
+    brings them to the stick speed within 1.5 h, or whose slip turned round in a trial step
+    (``ce1``, its end; ``ce0``, its start); as a FootEvents of stops, each along the foot's slip
+    at the start."""
+    z = (0.0, 0.0, 0.0)
+    stop = (False, False, False, False)
+    stop_dir = (z, z, z, z)
+    found = False
+    for i in range(4):
+        s0 = ce0.slip_w[i]
+        soon = sr.speed[i] - cfg.stick_speed_mps < -1.5 * h * sr.rate[i]
+        now = (dragged[i] and dot(s0, s0) > 0.0 and slowing(sr, i)
+               and (soon or dot(ce1.slip_w[i], s0) < 0.0))
+        d = unit(s0) if now else z
+        found = found or now
+        stop = (now if i == 0 else stop[0], now if i == 1 else stop[1], now if i == 2 else stop[2],
+                now if i == 3 else stop[3])
+        stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
+                    d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
+    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, stop_speeds(ce0, stop), 0.0, found)
 
 
 @kernel
@@ -825,6 +1014,7 @@ class Flight(NamedTuple):
 
     ship: Ship
     report: Report
+    run: "SettleRun"  # the settle thresholds at its sub-steps' ends (NO_RUN: not sampled)
 
 
 class SubStepStart(NamedTuple):
@@ -934,16 +1124,20 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
 
 # -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
 class PieceStep(NamedTuple):
-    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing."""
+    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing,
+    or a sliding foot stops."""
 
     step: SubStep
     tau_s: float  # how far it went
     split: bool  # it ended at a foot's event before the sub-step's end
     onset: tuple  # the feet that event touched
+    stopped: tuple  # the sliding feet that stopped there (they stick from there)
+    slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
+    broke: tuple  # the holding feet that broke away there (kinetic from there)
 
 
 @constructor
-def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
+def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
@@ -951,25 +1145,112 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split):
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
-    if fb.touching and (drag[0] or drag[1] or drag[2] or drag[3]):
-        # a sliding foot that could stop within the step takes its friction as an impulse
-        ce_e = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs + rem), st.p, st.v,
-                          st.q, st.w, ft.absorbing, engage)
-        near = dragged_feet(cfg, with_feet(fb, engage, drag), drag, ce_y, ce_e, m.q, rem)
+    if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+        body = with_feet(fb, engage, drag)
+        ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
+                          engage)
+        # a sliding foot whose friction could stop it within a fraction of the step (a foot
+        # under an impact's load, where Coulomb's law is stiff) takes its friction as an impulse
+        # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
+        # it without turning it round; so does every foot that could stop within the step once
+        # the pieces' bound is reached
+        # a foot whose slip the ship's turning keeps up is dragged too while the direction of
+        # its drag, which turns with its slip at a rate of its friction's deceleration over its
+        # slip, stays within what the method's stages follow (STIFF_REACH of the step)
+        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
+        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+        if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
+            keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
+                    drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
+                    drag[2] and not near[2] and not stiff[2] and slowing(sr, 2),
+                    drag[3] and not near[3] and not stiff[3] and slowing(sr, 3))
+            near = (near[0] or keep[0], near[1] or keep[1], near[2] or keep[2],
+                    near[3] or keep[3])
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
             drag = near
-            ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m.p, m.v, m.q,
-                              m.w, ft.absorbing, engage)
+            body = with_feet(fb, engage, drag)
+            ce_y = contact_at(body, ground_at(fb, t_abs), m.p, m.v, m.q, m.w, ft.absorbing, engage)
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                          t_abs)
+            ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w,
+                              ft.absorbing, engage)
+        if may_split:
+            # one that stops later in the step (its friction could stop it, or its slip turned
+            # round): dragged along where it slid until the instant its slip along there is
+            # zero, located, and holding from there (MODEL-NOTES 46)
+            stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
+            if stop.any:
+                pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
+                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                              t_abs, stop)
+                if pc.found and pc.tau_s < rem:
+                    stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
+                                     NO_SLIP)
+                # it does not stop within the step after all: the step dragged along where it slid
+                # (the trial's drag, turning round with a slip near zero inside the method's
+                # stages, may have left the slip where it was)
+                st = pc.step
+    held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
+            not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
+    if (fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION
+            and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
+        # the holding feet break away where holding them would take more than their cones give:
+        # located, and kinetic from there (MODEL-NOTES 46)
+        body = with_feet(fb, engage, drag)
+        held = (not drag[0], not drag[1], not drag[2], not drag[3])
+        ground_e = ground_at(fb, t_abs + rem)
+        ce_e = contact_at(body, ground_e, st.p, st.v, st.q, st.w, ft.absorbing, engage)
+        if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
+                         cfg.friction_static).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
+                                cfg.friction_static)
+            if hf0.use < 1.0:
+                brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
+                                 cfg.friction_static, True)
+                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
+                              ce_y, t_abs, brk)
+                if pc.found and pc.tau_s < rem:
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
+                                     pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held))
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                           t_abs, ev)
             if pc.found and pc.tau_s < rem:
-                return PieceStep(pc.step, pc.tau_s, True, ev.onset)
-    return PieceStep(st, rem, False, NO_SLIP)
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP)
+    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP)
+
+
+@kernel
+def pressing_held(fb, t_s, st, ft, held):
+    """The feet of ``held`` that press at the end of ``st``."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
+                    ENGAGE_AT_GROUND)
+    f = ce.foot_force_n
+    return (held[0] and f[0] > 0.0, held[1] and f[1] > 0.0, held[2] and f[2] > 0.0,
+            held[3] and f[3] > 0.0)
+
+
+@kernel
+def broken(st, broke):
+    """``st`` with the feet of ``broke`` kinetic from its end (a located breakaway)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] or broke[0], sl[1] or broke[1], sl[2] or broke[2], sl[3] or broke[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
+
+
+@kernel
+def stuck(st, stopped):
+    """``st`` with the sliding feet of ``stopped`` holding from its end: their slip turned round
+    there (a located stop), and static friction holds them while it can (MODEL-NOTES 46)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] and not stopped[0], sl[1] and not stopped[1], sl[2] and not stopped[2],
+                    sl[3] and not stopped[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
 
 
 @kernel
@@ -1039,7 +1320,7 @@ class Transitioned(NamedTuple):
     ce: ContactEval
     e_ref: EnergyRef
     v_rad_mps: float  # velocity along local up before any touchdown's alignment
-    stop: bool  # tipped or crashed: pinned for the rest of the tick
+    stop: bool  # pinned for the rest of the tick (crashed, on the hull, the pivot model's)
 
 
 @kernel
@@ -1071,7 +1352,9 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
     # in contact: descending faster than crash_speed at either end of the sub-step (the
     # damper may already have slowed it by the end)
-    crash_in_contact = was == CONTACT and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps
+    tipped = was == TIPPED  # the full model's tipped ship (MODEL-NOTES 48)
+    crash_in_contact = ((was == CONTACT or tipped)
+                        and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
     crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
     touch_ok = touch and not crash
     if touch_ok:
@@ -1097,17 +1380,31 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
     crash = crash or tip_crash
     tip = tip and not tip_crash
+    # a tipped ship turning back under tipped_angle is righted; one whose tilt reaches
+    # tipped_rest lies on its hull: at rest there (an inelastic stop), or crashed if it hit it
+    # faster than crash_speed
+    righted = tipped and not crash and cos_tilt > cfg.cos_tipped and cos_tilt > start.cos_tilt
+    hull = tipped and not crash and not righted and cos_tilt <= cfg.cos_tipped_rest
+    hull_crash = hull and dot(v_rel, v_rel) > cfg.crash_speed2
+    crash = crash or hull_crash
     if touch_ok:
         surf = CONTACT
     if lift:
         surf = FLYING
     if tip:
         surf = TIPPED
+    if righted:
+        surf = CONTACT
     if crash:
         surf = CRASHED
+    # pinned for the rest of the tick: crashed, at rest on the hull, or handed to the pivot model
+    stop = crash or (hull and not hull_crash) or (tip and cfg.tipped_model != FULL_TIPPED)
     s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
-    if tip or crash:
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce, t_end))
+    if stop:
+        pin = pinned_at(fb, s, ce, t_end)
+        if hull:  # at rest on the hull
+            pin = Pin(pin.pos_bf_m, pin.quat_bf, pin.pivot_bf_m, 0.0)
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pin)
     # when each happened inside the sub-step
     if touch:
         t_ev = t_end
@@ -1115,6 +1412,10 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         t_ev = t_end - clear_instant(fb, ce, p, v, q, w, h)
     elif crash_in_contact:
         t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, start.t_s, t_end)
+    elif righted:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
+    elif hull_crash:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped_rest, start.t_s, t_end)
     else:  # tipped (or its crash): the tilt passing tipped_angle
         t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
     if touch_ok and tip:  # two transitions in one sub-step
@@ -1128,12 +1429,40 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         else:
             speed = v_rad
         emit(log, was, surf, speed, t_ev)
-    return Transitioned(s, ce, e_ref, v_rad, tip or crash)
+    return Transitioned(s, ce, e_ref, v_rad, stop)
+
+
+class SettleRun(NamedTuple):
+    """The settle thresholds sampled at a tick's sub-step ends (MODEL-NOTES 47)."""
+
+    sampled: bool  # sampled at every sub-step's end of the tick
+    margin: float  # at the last sample
+    began_s: float  # where the run of samples that hold, ending at the last, began (from the
+    # tick's start; negative: before it, as far back as the run goes)
+
+
+#: a tick whose thresholds were not sampled at its sub-steps
+NO_RUN = SettleRun(False, -1.0, 0.0)
+
+
+@kernel
+def settle_sample(cfg, sp, s, ground, run, t_prev, t_now):
+    """``run`` with a sample at ``t_now`` (the last was at ``t_prev``): where the thresholds'
+    smallest margin crosses zero between them, linearly."""
+    if s.surface_state != CONTACT:
+        return SettleRun(True, -1.0, t_now)
+    m = margin_on(cfg, sp, s, ground)
+    if not m > 0.0:
+        return SettleRun(True, m, t_now)
+    if run.margin > 0.0:
+        return SettleRun(True, m, run.began_s)
+    f = run.margin / (run.margin - m)
+    return SettleRun(True, m, t_prev + fmin(fmax(f, 0.0), 1.0) * (t_now - t_prev))
 
 
 # -- 2. free flight: the stages in order ----------------------------------------------------------
 @separate
-def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
+def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
 
     a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
@@ -1162,6 +1491,13 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
     carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
+    ft0 = s.footing
+    # the settle thresholds at the tick's start: held for settle_for_s already, or not
+    run = SettleRun(True, ft0.settle_margin,
+                    -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
+    sample = fb.touching and s.surface_state == CONTACT
+    t_seen = 0.0  # the instant of the last sample
+    pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     for j in range(n_sub):
         m = s.motion
         start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
@@ -1169,6 +1505,7 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         t_in = 0.0  # how far into the sub-step the ship has been stepped
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
         stop = False
+        stiff = NO_SLIP  # the feet whose stops are not located for the rest of the sub-step
         for k in range(MAX_PIECES + 1):
             t_abs = start.t_s + t_in
             carried = s.footing.hold_w if carry else NO_HOLD
@@ -1182,17 +1519,24 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
                                 pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
                 if ps.stop:
                     stop = True
+                    pinned_now = True
                     break
                 fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES)
+            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
             st = pc.step
-            s = stepped(s, st)
+            stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
+                     stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
+            s = stepped(s, broken(stuck(st, pc.stopped), pc.broke))
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
                             pieces.aligned, pc.onset)
             if not pc.split:
                 break
             t_in = t_in + pc.tau_s  # from the event, with the feet that press there
+            if sample:  # the thresholds at the event too (a stop changes them at once)
+                run = settle_sample(cfg, sp, s, ground_at(fb_k, start.t_s + t_in), run, t_seen,
+                                    start.t_s + t_in)
+                t_seen = start.t_s + t_in
         friction_n = pieces.friction_n
         if stop:
             break
@@ -1206,12 +1550,16 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
                                        dot(m.v, unit(m.p)), h))
         tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
+        if sample:
+            run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
+            t_seen = t_end
         if tr.stop:
+            pinned_now = True
             break
     fb_k = with_hold(fb, carried)
     surf = s.surface_state
     ft = s.footing
-    if surf == CRASHED or surf == TIPPED:
+    if pinned_now:
         # pinned during the tick: carried with the body to the tick's end, moving as pinned
         pin = s.pin
         p = rotate_z(pin.pos_bf_m, cos1, sin1)
@@ -1221,11 +1569,12 @@ def free_flight(cfg, fb, s, n_sub, carry, cos1, sin1, log):
         s = with_motion(s, surf, Motion(p, v, q, w))
         ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt), p, v,
                         q, w, ft.absorbing, ENGAGE_AT_GROUND)
-    if surf != CONTACT:  # flying, tipped or crashed: no foot holds
+    if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
         s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
                  Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
                          ft.settle_margin, NO_HOLD), s.pin)
-    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j))
+    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
+                  run if sample and s.surface_state == CONTACT else NO_RUN)
 
 
 # -- 3. settle -----------------------------------------------------------------------------------
@@ -1246,7 +1595,90 @@ def over_footprint(cfg, sp, p, q):
 
 
 @kernel
+def stable_at_rest(cfg, sp, s, ground):
+    """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
+    kinetic energy relative to the surface is below the barrier over every edge of its footprint.
+    The barrier over the edge of feet i, j is the potential at the saddle the ship passes to topple
+    over it, less the potential now:
+
+        B = m g (z_s - z) + k_i (x_s,i^2 + x_s,j^2) / 2 - sum_feet k_i x_k^2 / 2,
+
+    at the saddle the two feet carry the whole weight along their pushes (x_s = m g (up . g_i) /
+    (2 k_i |g_i|^2)), the others are clear, and the centre of mass stands straight above the line
+    through the two, at its distance L from it: z_s is the line's midpoint, sunk from the feet's
+    depth now to x_s, raised by L sqrt(1 - (l . up)^2) (l the line's direction, up against the
+    effective gravity). A ship whose springs store more than that saddle asks (a soft-legged ship
+    standing on a slope near its edge limit loads its downhill feet as it turns) has no barrier
+    left. The seed's "stable" (an energy test, SEED-NOTES 3)."""
+    m = s.mass_kg
+    p, q = s.motion.p, s.motion.q
+    a, h = sp.leg_radius_m, sp.com_height_m
+    if not a > 0.0:  # four feet at one point: no edge holds anything
+        return False
+    k_leg = 0.25 * sp.stiffness_per_kg * m
+    ft = feet(ground, p, q, a, h)
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    g_mag = norm(g)
+    up = (-g[0] / g_mag, -g[1] / g_mag, -g[2] / g_mag)
+    om = cfg.omega_radps
+    v_rel = sub(s.motion.v, surface_velocity(om, p))
+    w_rel = sub(s.motion.w, body_spin_in_body_frame(om, q))
+    i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]), sp.mass0_kg, m)
+    kinetic = 0.5 * m * dot(v_rel, v_rel) + 0.5 * dot(w_rel, mul(i_b, w_rel))
+    stored = 0.0
+    for i in range(4):
+        x = fmax(ft.pen_m[i], 0.0)
+        stored = stored + 0.5 * k_leg * x * x
+    least = math.inf
+    for i in range(4):
+        j = (i + 1) % 4  # feet 0, 1, 2, 3 go round the footprint: i, i + 1 span an edge
+        p_i, p_j = ft.pos_w[i], ft.pos_w[j]
+        line = unit(sub(p_j, p_i))
+        r = sub(p, p_i)
+        arm = norm(sub(r, scale(line, dot(r, line))))
+        g_i, g_j = ft.push_w[i], ft.push_w[j]
+        x_i = m * g_mag * dot(up, g_i) / (2.0 * k_leg * dot(g_i, g_i))
+        x_j = m * g_mag * dot(up, g_j) / (2.0 * k_leg * dot(g_j, g_j))
+        sink = 0.5 * ((x_i - ft.pen_m[i]) + (x_j - ft.pen_m[j]))
+        mid = scale(add(p_i, p_j), 0.5)
+        lu = dot(line, up)
+        rise = arm * math.sqrt(fmax(1.0 - lu * lu, 0.0)) - dot(sub(p, mid), up) - sink
+        least = fmin(least, m * g_mag * rise + 0.5 * k_leg * (x_i * x_i + x_j * x_j) - stored)
+    return kinetic < least
+
+
+@kernel
+def feet_still(cfg, sp, s, ground, up_ground):
+    """The margin of a ship's feet being at rest (> 0: they are): every pressing foot slipping
+    slower than SETTLE_SLIP_MPS (as a fraction of it), and the footprint able to hold
+    the weight by static friction, the effective gravity's part along the ground under the centre
+    of mass within mu_s of its part into it (-1 where it is not: a ship on a slope steeper than
+    atan(mu_s) is never at rest, however slowly it starts to slide)."""
+    m = s.motion
+    ft = feet(ground, m.p, m.q, sp.leg_radius_m, sp.com_height_m)
+    omega_w = quat_rotate(m.q, m.w)
+    worst = 0.0
+    for i in range(4):
+        if ft.pen_m[i] > 0.0:
+            u = foot_velocity(ground, m.v, omega_w, ft.offset_w[i], ft.pos_w[i])
+            slip = foot_slip(m.p, u, ft.pos_w[i], ft.push_w[i])
+            worst = fmax(worst, dot(slip, slip))
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, m.p)
+    g_n = dot(g, up_ground)
+    g_t = sub(g, scale(up_ground, g_n))
+    if dot(g_t, g_t) > cfg.friction_static * cfg.friction_static * g_n * g_n:
+        return -1.0
+    return (SETTLE_SLIP_MPS - math.sqrt(worst)) / SETTLE_SLIP_MPS
+
+
+@kernel
 def settle_margin(cfg, terrain, sp, s, cos1, sin1):
+    """:func:`margin_on` the ground at the body's angle (cos1, sin1)."""
+    return margin_on(cfg, sp, s, scene_ground(cfg, terrain, cos1, sin1))
+
+
+@kernel
+def margin_on(cfg, sp, s, ground):
     """The settle thresholds' smallest margin, each as a fraction of its threshold (> 0: all
     hold): radial and tangential speed and angular speed against theirs (on their squares), the
     tilt's cosine against cos(settle_tilt), the centre of mass over the footprint and every foot
@@ -1258,38 +1690,56 @@ def settle_margin(cfg, terrain, sp, s, cos1, sin1):
     (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
     om = cfg.omega_radps
     r_hat = unit(s.motion.p)
-    ground = scene_ground(cfg, terrain, cos1, sin1)
     up_ground = unit(under(ground, s.motion.p)[1])
     v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
     v_tan = sub(v_rel, scale(r_hat, v_rad))
     omega_rel = sub(s.motion.w, body_spin_in_body_frame(om, s.motion.q))
-    lin2, ang2 = cfg.settle_lin2, cfg.settle_ang2
-    m = fmin((lin2 - v_rad * v_rad) / lin2, (lin2 - dot(v_tan, v_tan)) / lin2)
-    m = fmin(m, (ang2 - dot(omega_rel, omega_rel)) / ang2)
+    # each as a fraction of its threshold, linear in the speed (a speed falling at a steady rate,
+    # as friction slows it, crosses its threshold where its margin does: the instant the
+    # thresholds begin to hold is interpolated on it, MODEL-NOTES 47)
+    lin, ang = math.sqrt(cfg.settle_lin2), math.sqrt(cfg.settle_ang2)
+    m = fmin((lin - abs(v_rad)) / lin, (lin - norm(v_tan)) / lin)
+    m = fmin(m, (ang - norm(omega_rel)) / ang)
     m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
-    slides = cfg.friction_model != SEED_FRICTION and (s.footing.sliding[0] or s.footing.sliding[1]
-                                                      or s.footing.sliding[2] or s.footing.sliding[3])
+    coulomb = cfg.friction_model != SEED_FRICTION
+    rest = cfg.landed_model == REST_LANDED
     # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
-    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44)
-    return m if over_footprint(cfg, sp, s.motion.p, s.motion.q) and not slides else fmin(m, -1.0)
+    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44). 0.7 (``attached``) asked
+    # every foot's friction to be static; at rest (MODEL-NOTES 45) the feet must be still and the
+    # footprint able to hold the weight by static friction
+    slides = coulomb and not rest and (s.footing.sliding[0] or s.footing.sliding[1]
+                                       or s.footing.sliding[2] or s.footing.sliding[3])
+    if not over_footprint(cfg, sp, s.motion.p, s.motion.q) or slides:
+        return fmin(m, -1.0)
+    if coulomb and rest:
+        m = fmin(m, feet_still(cfg, sp, s, ground, up_ground))
+    # at rest, but with the energy to pass an edge of its footprint: not stable (MODEL-NOTES 45)
+    if rest and m > 0.0 and not stable_at_rest(cfg, sp, s, ground):
+        return fmin(m, -1.0)
+    return m
 
 
 @kernel
-def settle(cfg, terrain, sp, s, cos1, sin1, log):
+def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
-    instant the thresholds began to hold is interpolated inside the tick of their first sample
-    (linearly in their smallest margin, :func:`settle_margin`), so the ship lands, at a tick's
-    end, once they have held for settle_time in continuous time, and the event carries the instant
-    they had (MODEL-NOTES 20)."""
+    instant the thresholds began to hold is interpolated between the samples around it (linearly
+    in their smallest margin, :func:`margin_on`), so the ship lands, at a tick's end, once they
+    have held for settle_time in continuous time, and the event carries the instant they had
+    (MODEL-NOTES 20). ``run`` (a :class:`SettleRun`): the samples at every sub-step's end of the
+    tick (MODEL-NOTES 47), where there were; otherwise the tick's ends alone."""
     margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
-    ok = s.surface_state == CONTACT and margin > 0.0
+    # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
+    driven = cfg.landed_model == REST_LANDED and cmd.driven
+    ok = s.surface_state == CONTACT and margin > 0.0 and not driven
     dt = cfg.dt_s
     if not ok:
         held = 0.0
+    elif run.sampled:  # sampled at every sub-step's end (MODEL-NOTES 47)
+        held = dt - run.began_s
     elif s.footing.settle_ticks > 0:
         held = s.footing.settle_for_s + dt
     else:  # they began to hold inside this tick: where the margin crossed zero
@@ -1372,6 +1822,17 @@ def lift_off(cfg, s, cmd, log):
                 Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
 
 
+@kernel
+def unsettle(s, log):
+    """Landed -> contact at the tick's start: the player's engine (below liftoff) or RCS changes
+    the balance a landed ship rested in, and the physics decides again from its pinned pose at rest
+    (MODEL-NOTES 45). The contact goes on on the springs it had."""
+    emit(log, LANDED, CONTACT, 0.0, 0.0)
+    ft = s.footing
+    return Ship(CONTACT, s.motion, s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, NO_SLIP, 0, 0.0, -1.0, NO_HOLD), s.pin)
+
+
 # -- 5. burn -------------------------------------------------------------------------------------
 @kernel
 def burn(cfg, sp, s, cmd):
@@ -1394,7 +1855,8 @@ def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
     r_hat = unit(s.motion.p)
     v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
-    held = s.surface_state == LANDED or s.surface_state == TIPPED
+    held = s.surface_state == LANDED or (s.surface_state == TIPPED and report.normal_n == 0.0
+                                         and report.friction_n == 0.0)
     if held:
         normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), r_hat)
     elif s.surface_state == CRASHED:
@@ -1435,8 +1897,15 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
     report = NO_REPORT
     if s.surface_state == LANDED or s.surface_state == TIPPED:
         s = lift_off(cfg, s, cmd, log)
-    if s.surface_state == FLYING or s.surface_state == CONTACT:
-        fine = s.surface_state == CONTACT or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0)
+    if s.surface_state == LANDED and cfg.landed_model == REST_LANDED and cmd.driven:
+        s = unsettle(s, log)
+    # a tipped ship moves by the full model, unless it rests on its hull and no RCS fires
+    # (MODEL-NOTES 48); under the pivot model (0.7's) it is pinned and turns about its foot
+    moving_tipped = (s.surface_state == TIPPED and cfg.tipped_model == FULL_TIPPED
+                     and not (on_hull(cfg, s) and not rcs_fires(cmd)))
+    if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
+        fine = (s.surface_state != FLYING
+                or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0))
         exact_one = (fine and cfg.vertical_one_step
                      and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
                      and purely_vertical(cfg, terrain, sp, s, cmd))
@@ -1446,16 +1915,38 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
             n_sub = cfg.impact_substeps
         method = sub_method(cfg.method, fine and not exact_one)
         fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
-        # an impact's static friction changes too fast to be carried over: impulses alone
-        fl = free_flight(cfg, fb, s, n_sub, not strikes, cos1, sin1, log)
+        # an impact's static friction changes too fast to be carried over: impulses alone; with
+        # rk4 the holding feet's friction is inside the step (substep), nothing is carried
+        held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
+        fl = free_flight(cfg, sp, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
         s, report = fl.ship, fl.report
         if fine:
-            s = settle(cfg, terrain, sp, s, cos1, sin1, log)
+            s = settle(cfg, terrain, sp, s, cmd, fl.run, cos1, sin1, log)
     else:
         s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
     s = burn(cfg, sp, s, cmd)
     store(s, rec)
     observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
+
+
+@kernel
+def rcs_fires(cmd):
+    rcs = cmd.rcs_torque_body_nm
+    return rcs[0] != 0.0 or rcs[1] != 0.0 or rcs[2] != 0.0
+
+
+@kernel
+def on_hull(cfg, s):
+    """A tipped ship at rest on its hull: tilted to tipped_rest or past it and not moving
+    relative to the surface (the pose the full model leaves it in when its hull meets the ground,
+    or a tipped start lying there)."""
+    m = s.motion
+    om = cfg.omega_radps
+    if dot(quat_axis_z(m.q), unit(m.p)) > cfg.cos_tipped_rest + 1e-12:
+        return False
+    v_rel = sub(m.v, surface_velocity(om, m.p))
+    w_rel = sub(m.w, body_spin_in_body_frame(om, m.q))
+    return dot(v_rel, v_rel) == 0.0 and dot(w_rel, w_rel) == 0.0
 
 
 class Written(NamedTuple):
@@ -1589,7 +2080,7 @@ def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     """The telemetry of a batch at rest in its state (no commands, no forces of a step): what a
     log records for the tick a run starts from."""
     cfg, ter = scene[0], terrain[0]
-    idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0))
+    idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0), False)
     for i in range(state.shape[0]):
         observe(cfg, ter, ships[i], load(state[i]), idle, NO_REPORT, cos_t, sin_t, outputs[i])
 

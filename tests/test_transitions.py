@@ -9,7 +9,10 @@ from scenes import events, final_state, one_ship, records, scene, tilt_deg, topi
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.state import TRANSITION_DTYPE
-from touchdown.sim.step import EventLog, settle
+from touchdown.sim.step import NO_RUN, Commands, EventLog, settle
+
+#: no engine, no RCS (sim.step.Commands)
+IDLE = Commands(0.0, 0.0, (0.0, 0.0, 0.0), False)
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 M = 10000.0
@@ -88,8 +91,9 @@ def test_tipped_angle(tilt, tips):
 
 
 # -- landed: thresholds held for settle_time (SEED-NOTES 3) ---------------------------------------
-def _contact_state():
-    scn = scene({"state": "contact", "altitude": -G / 100.0}, duration=1.0)
+def _contact_state(landed: str = "rest"):
+    scn = scene({"state": "contact", "altitude": -G / 100.0}, contact={"landed": landed},
+                duration=1.0)
     return scn.params, scn.initial
 
 
@@ -97,7 +101,7 @@ def _settles(params, st, ticks=1):
     cfg, terrain, sp, ship, _ = one_ship(params, st)
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship = settle(cfg, terrain, sp, ship, 1.0, 0.0, EventLog(events, count, 0))
+        ship = settle(cfg, terrain, sp, ship, IDLE, NO_RUN, 1.0, 0.0, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
@@ -118,14 +122,28 @@ def _with_velocity(st, radial=0.0, tangential=0.0):
 @pytest.mark.parametrize("value,lands", [(0.49, True), (0.51, False)])
 @pytest.mark.parametrize("axis", ["radial", "tangential"])
 def test_settle_linear_speed(axis, value, lands):
-    params, st = _contact_state()
+    """The seed's thresholds alone (``landed = "attached"``: the feet's slip is not asked)."""
+    params, st = _contact_state("attached")
     assert _settles(params, _with_velocity(st, **{axis: value}), _spanning_samples(params)) == lands
 
 
 @pytest.mark.parametrize("value,lands", [(0.0099, True), (0.0101, False)])
 def test_settle_angular_speed(value, lands):
-    params, st = _contact_state()
+    params, st = _contact_state("attached")
     st = st.with_fields(omega_body_radps=np.array([[value, 0.0, 0.0]]))
+    assert _settles(params, st, _spanning_samples(params)) == lands
+
+
+@pytest.mark.parametrize("value,lands", [(0.0099, True), (0.0101, False)])
+def test_a_ship_whose_feet_slip_is_not_at_rest(value, lands):
+    """At rest (MODEL-NOTES 45) the pressing feet must be still: slipping slower than 0.01 m/s (the
+    seed's line between moving and still). A ship moving sideways at 0.0099 m/s lands, at
+    0.0101 m/s it does not, though both are far under the seed's 0.5 m/s; so does a yaw spin
+    whose feet slip at those speeds, though it is far under the seed's 0.01 rad/s."""
+    params, st = _contact_state()
+    assert _settles(params, _with_velocity(st, tangential=value), _spanning_samples(params)) == lands
+    spin = value / params.ships.leg_radius_m[0]
+    st = st.with_fields(omega_body_radps=np.array([[0.0, 0.0, spin]]))
     assert _settles(params, st, _spanning_samples(params)) == lands
 
 
@@ -149,8 +167,9 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     """The thresholds begin to hold inside a tick (interpolated on their smallest margin between
     its two ends); the landing is decided at the tick end by which they have held settle_time,
     and happens, as its event says, settle_time after they began. Here the radial speed falls
-    from 0.55 to 0.45 m/s across the third tick: its margin on the squares, (0.25 - v^2) / 0.25,
-    goes from -0.21 to +0.19, so they began 0.525 of the way through it."""
+    from 0.55 to 0.45 m/s across the third tick: its margin, (0.5 - |v|) / 0.5, goes from -0.1
+    to +0.1, so they began half way through it. (A step samples them at every sub-step's end
+    too: MODEL-NOTES 47; here only the tick's ends.)"""
     params, st = _contact_state()
     cfg, terrain, sp, ship, _ = one_ship(params, st)
     r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
@@ -160,10 +179,11 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     for k in range(40):
         v = -speeds[min(k, 2)] * r_hat
         moved = ship._replace(motion=ship.motion._replace(v=(v[0], v[1], v[2])))
-        ship = settle(cfg, terrain, sp, moved, 1.0, 0.0, EventLog(events, count, 0))
+        ship = settle(cfg, terrain, sp, moved, IDLE, NO_RUN, 1.0, 0.0,
+                       EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             break
-    began = 2 * dt + 0.525 * dt
+    began = 2 * dt + 0.5 * dt
     landed_tick = k + 1
     t_event = landed_tick * dt - (dt - float(events[0]["t_offset_s"]))
     assert (landed_tick - 1) * dt < began + 0.5 <= landed_tick * dt

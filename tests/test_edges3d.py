@@ -1,0 +1,193 @@
+"""Touchdown against the 3-D four-foot reference (bench.reference3d, checked in
+tests/test_reference3d.py): issue 35's scenes, and hypothesis over 3-D starts (tilt and its azimuth
+against the legs, sideways speed and its direction, yaw spin, slope and its azimuth, mass, legs,
+tick). Each scene is described once (bench.edges3d.Scene) and run by both; the measures read both
+runs the same way."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, assume, given, settings, strategies as st
+
+from touchdown.bench import edges3d as E
+
+
+def _ref(sc):
+    return E.run_reference(sc)
+
+
+@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+def test_a_ship_turning_over_an_edge_is_not_pinned(dt):
+    """Item 1: the default lander standing square on a 27 degree slope, an edge downhill (1.04
+    degrees under the static edge limit): its soft legs load the downhill feet as it turns, it
+    has no barrier left over that edge, and it tips where the reference does (11.83 s), to 1% at
+    dt 0.1 and 0.05 (0.7 landed it at 1.0 s, pinned, at every tick)."""
+    ref = _ref(E.EDGE_ON_SLOPE)
+    sim = E.run_sim(E.EDGE_ON_SLOPE, dt)
+    assert E.outcome(ref) == E.outcome(sim) == "tipped"
+    assert sim.landed_t_s is None
+    assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.01)
+
+
+@pytest.mark.parametrize("dt", [0.1, 0.05])
+def test_a_slide_just_steeper_than_atan_mu_s_slides_as_kinetic_friction_says(dt):
+    """Item 2: a squat ship on a 39.3 degree slope (atan(mu_s) = 38.66) slides the reference's
+    5.536 m in 6 s, to 1% (0.7: 4.99 m, its feet keeping mu_s below 1 cm/s for 0.43 s)."""
+    ref, sim = _ref(E.SLIDE_39), E.run_sim(E.SLIDE_39, dt)
+    assert E.distance_m(sim) == pytest.approx(E.distance_m(ref), rel=0.01)
+
+
+@pytest.mark.parametrize("scene", [E.EDGE_24, E.EDGE_27, E.SPIN_TOUCHDOWN],
+                         ids=lambda sc: sc.name)
+@pytest.mark.parametrize("dt", [0.1, 0.05])
+def test_the_landing_instant_is_the_references_to_0_3_percent(scene, dt):
+    """Item 3: 2 m/s touchdowns tilted 24 and 27 degrees toward an edge, and one spinning at
+    1 rad/s: landed where the reference's thresholds have held settle_time in continuous time, to
+    0.3% (0.7 at dt 0.1: +0.3%, +0.2% and +12.6%)."""
+    ref, sim = _ref(scene), E.run_sim(scene, dt)
+    assert sim.landed_t_s == pytest.approx(E.landing(ref), rel=0.003)
+
+
+@pytest.mark.parametrize("dt", [0.1, 0.05])
+def test_landed_is_a_state_of_rest_not_glue(dt):
+    """Item 4: a ship landed on a 35 degree slope given 30% of its weight in thrust is in contact
+    again and slides the reference's 7.42 m in 6 s (to 1%); one landed on level ground given 40 kN m
+    about an edge tips at the reference's instant (to 1%). 0.7 kept both pinned; contact.landed =
+    "attached" still does."""
+    ref, sim = _ref(E.LANDED_THRUST), E.run_sim(E.LANDED_THRUST, dt)
+    assert E.outcome(sim) == "contact" and sim.first("contact") == 0.0
+    assert E.distance_m(sim) == pytest.approx(E.distance_m(ref), rel=0.01)
+    ref, sim = _ref(E.LANDED_TORQUE), E.run_sim(E.LANDED_TORQUE, dt)
+    assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.01)
+    glued = E.run_sim(E.LANDED_TORQUE, dt, contact={"landed": "attached"})
+    assert E.outcome(glued) == "landed" and E.distance_m(glued) == 0.0
+
+
+@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+def test_a_tipped_ship_answers_every_torque(dt):
+    """Item 5: tipped at 85 degrees toward a foot, 80 kN m at (cos 30, sin 30, 0) of body (x, y)
+    until 1.5 s: back under 80 degrees at the reference's instant and rate, to 1%, spinning about
+    the vertical as it does, and turning as low after (to a degree); with the torque in the foot's
+    plane too. (0.7's pivot model: 1.142 s against 0.9265, no spin, 68 degrees against 46.)"""
+    ref, sim = _ref(E.TIPPED_RCS), E.run_sim(E.TIPPED_RCS, dt)
+    (t_ref, rate_ref), (t_sim, rate_sim) = E.righting(ref), E.righting(sim)
+    assert t_sim == pytest.approx(t_ref, rel=0.01)
+    if dt <= 0.05:  # the rate at the instant, from the tick's state: a tick of 0.1 s is coarse
+        assert rate_sim == pytest.approx(rate_ref, rel=0.01)
+    spin = lambda tr: E.at(tr, E.yaw_rate_up(tr), 1.0)  # noqa: E731
+    assert spin(sim) == pytest.approx(spin(ref), rel=0.01)
+    assert E.lowest_after_righting(sim) == pytest.approx(E.lowest_after_righting(ref), abs=1.0)
+    ref, sim = _ref(E.TIPPED_RCS_PLANE), E.run_sim(E.TIPPED_RCS_PLANE, dt)
+    assert E.righting(sim)[0] == pytest.approx(E.righting(ref)[0], rel=0.01)
+
+
+@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+def test_sticking_transitions_are_the_references(dt):
+    """Items 6 and 7: a spinning, tilted, sliding touchdown keeps the reference's spin once its
+    feet stop slipping (0.2 and 1 s, to 1%; 0.7: +30%); a slow skid toward an edge rocks to the
+    reference's peak tilt (to 1%; 0.7: +2.8% at dt 0.1, +5.4% at 0.05)."""
+    ref, sim = _ref(E.SPIN_SLIDE), E.run_sim(E.SPIN_SLIDE, dt)
+    for t in (0.2, 1.0):
+        assert E.at(sim, E.yaw_rate_up(sim), t) == pytest.approx(E.at(ref, E.yaw_rate_up(ref), t),
+                                                                 rel=0.01)
+    ref, sim = _ref(E.SKID_EDGE), E.run_sim(E.SKID_EDGE, dt)
+    assert E.peak_tilt(sim) == pytest.approx(E.peak_tilt(ref), rel=0.01)
+
+
+@pytest.mark.parametrize("scene", [E.EDGE_20_24, E.EDGE_20_285, E.COMBINED],
+                         ids=lambda sc: sc.name)
+def test_fast_touchdowns_around_the_edge_limit(scene):
+    """Item 8: 20 m/s touchdowns tilted 24 and 28.5 degrees toward an edge, and the 10 degree one
+    with 2 m/s sideways out of the tilt plane: each bounces, tumbles in its flight and comes down
+    lying on its side (tipped at its second touchdown) as the reference does; its tilt 1 s after
+    the impact within 1% of the reference's, at the default tick."""
+    ref, sim = _ref(scene), E.run_sim(scene, 0.05)
+    assert E.outcome(sim) == E.outcome(ref) == "tipped"
+    assert E.at(sim, E.tilt_deg(sim), 1.0) == pytest.approx(E.at(ref, E.tilt_deg(ref), 1.0),
+                                                            rel=0.01)
+    assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.01)
+
+
+# -- hypothesis over 3-D starts ----------------------------------------------------------------
+def _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
+           azimuth) -> E.Scene:
+    return E.Scene("h", 3.0, altitude_m=0.0, tilt_deg=tilt, heading_deg=heading, yaw_deg=yaw,
+                   vertical_speed_mps=-v_down, side_speed_mps=side,
+                   side_heading_deg=side_heading, angular_velocity=(0.0, 0.0, spin),
+                   mass_kg=mass, com_height_m=com, leg_radius_m=leg, slope_deg=slope,
+                   slope_azimuth_deg=azimuth)
+
+
+def _edge_limit_deg(com, leg) -> float:
+    return math.degrees(math.atan2(leg / math.sqrt(2.0), com))
+
+
+STARTS = dict(tilt=st.one_of(st.just(0.0), st.floats(0.5, 14.0)), heading=st.floats(0.0, 360.0),
+              yaw=st.floats(0.0, 90.0), v_down=st.floats(1.0, 8.0), side=st.floats(0.0, 3.0),
+              side_heading=st.floats(0.0, 360.0), spin=st.floats(-0.5, 0.5),
+              mass=st.floats(5e3, 2e4), com=st.floats(1.5, 3.5), leg=st.floats(1.8, 3.0),
+              slope=st.one_of(st.just(0.0), st.floats(0.0, 20.0)),
+              azimuth=st.floats(0.0, 360.0))
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, database=None,
+          phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
+@given(dt=st.sampled_from([0.1, 0.05, 0.02]), **STARTS)
+def test_3d_touchdowns_end_as_the_reference_says_at_every_tick(dt, tilt, heading, yaw, v_down,
+                                                               side, side_heading, spin, mass,
+                                                               com, leg, slope, azimuth):
+    """Over 3-D starts and ticks, the first 3 s end as the reference's do: tipped over or not,
+    lifted off or not. (Starts whose tilt in the reference comes within 3 degrees of the edge
+    limit, atan(a / (sqrt(2) h)), or that are still turning toward it at the end, are left out:
+    there the outcome depends on where the ship is at 3 s, not on what it does.)"""
+    sc = _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
+                azimuth)
+    ref = _ref(sc)
+    til = E.tilt_deg(ref)
+    limit = _edge_limit_deg(com, leg)
+    assume(ref.first("tipped") is not None or abs(float(til.max()) - limit) > 3.0)
+    assume(ref.first("tipped") is not None or til[-1] < til.max() - 0.5 or til.max() < 5.0)
+    sim = E.run_sim(sc, dt)
+    assert (sim.first("tipped") is not None) == (ref.first("tipped") is not None)
+    assert (sim.first("liftoff") is not None) == (ref.first("liftoff") is not None)
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, database=None,
+          phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
+@given(**STARTS)
+def test_3d_touchdowns_follow_the_reference_at_the_default_tick(tilt, heading, yaw, v_down, side,
+                                                                side_heading, spin, mass, com,
+                                                                leg, slope, azimuth):
+    """Over 3-D starts, at the default tick (0.05 s, its 25 ms sub-steps), with the impact's
+    sub-steps at 1 ms: a ship that stands rocks to the reference's largest tilt and ends where
+    it went, to 1% (0.1 degree, 1 cm). At the default 5 ms impact sub-step the same holds for most
+    starts, but not all: feet that touch down sliding under an impact's load while the ship turns
+    over one that holds take their friction as an impulse after each sub-step (MODEL-NOTES 46),
+    first order in it; such starts have been seen 3% off in the largest tilt and 15% in the way
+    they slid (test_an_impact_converges_with_its_sub_step)."""
+    sc = _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
+                azimuth)
+    ref = _ref(sc)
+    til = E.tilt_deg(ref)
+    assume(ref.first("tipped") is None and ref.first("liftoff") is None)
+    assume(abs(float(til.max()) - _edge_limit_deg(com, leg)) > 3.0)
+    assume(til[-1] < til.max() - 0.5 or til.max() < 5.0)  # not still turning toward the edge
+    sim = E.run_sim(sc, 0.05, sim={"impact_substep": 0.001})
+    assert E.peak_tilt(sim) == pytest.approx(E.peak_tilt(ref), rel=0.01, abs=0.1)
+    way = np.linalg.norm(E.horizontal_m(ref)[-1])
+    assert np.linalg.norm(E.horizontal_m(sim)[-1] - E.horizontal_m(ref)[-1]) <= 0.01 * way + 0.01
+
+
+def test_an_impact_converges_with_its_sub_step():
+    """Tilted 12.8 degrees, 6.8 m/s down, 2.5 m/s sideways against its tilt: the feet touch down
+    sliding under the impact's load while the ship turns over one that holds. At the default 5 ms
+    impact sub-step it slides 1.42 m in 3 s where the reference slides 1.22 (their friction an
+    impulse after each sub-step: first order in it; sim.impact_substep); at 1 ms 1.216, to 1%.
+    (A 1 ms default would double the cost of a touchdown sweep: 9 to 18 us a ship-tick.)"""
+    sc = _start(12.82672, 206.26773, 62.72895, 6.80023, 2.49824, 0.25, 0.033447, 1e4, 2.00001,
+                2.61494, 0.0, 0.0)
+    ref = _ref(sc)
+    fine = E.run_sim(sc, 0.05, sim={"impact_substep": 0.001})
+    assert E.distance_m(fine) == pytest.approx(E.distance_m(ref), rel=0.01)
