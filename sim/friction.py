@@ -212,13 +212,17 @@ def _residual(a_mat, slip, lam, radius, active):
     """How far the impulses ``lam`` are from the solution, m/s: a foot inside its disk must not
     slip; one on its edge must slip straight against its impulse (maximum dissipation). The
     largest of the feet's violations."""
-    u = zeros((4, 2), np.float64)
-    _post_slips(a_mat, slip, lam, active, u)
     worst = 0.0
     for i in range(4):
         if not active[i]:
             continue
-        u1, u2 = u[i, 0], u[i, 1]
+        # foot i's slip after the impulses, as _post_slips sums it (no scratch array: this runs
+        # at every sweep)
+        u1, u2 = slip[i, 0], slip[i, 1]
+        for j in range(4):
+            if active[j]:
+                u1 += a_mat[i, 0, j, 0] * lam[j, 0] + a_mat[i, 0, j, 1] * lam[j, 1]
+                u2 += a_mat[i, 1, j, 0] * lam[j, 0] + a_mat[i, 1, j, 1] * lam[j, 1]
         l1, l2 = lam[i, 0], lam[i, 1]
         r = radius[i]
         l_norm2 = l1 * l1 + l2 * l2
@@ -257,10 +261,10 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
 
 
 @kernel
-def _cholesky_solve(h_mat, rhs, n, out):
+def _cholesky_solve(h_mat, rhs, n, out, l_mat, y):
     """out = H^-1 rhs for the symmetric positive definite leading n x n block of ``h_mat``
-    (Cholesky, in place on a copy). Returns False if a pivot is not positive."""
-    l_mat = zeros((8, 8), np.float64)
+    (Cholesky into the scratch ``l_mat``, 8 x 8, and ``y``, 8: every entry read is written
+    first). Returns False if a pivot is not positive."""
     for i in range(n):
         for j in range(i + 1):
             acc = h_mat[i, j]
@@ -272,7 +276,6 @@ def _cholesky_solve(h_mat, rhs, n, out):
                 l_mat[i, i] = math.sqrt(acc)
             else:
                 l_mat[i, j] = acc / l_mat[j, j]
-    y = zeros(8, np.float64)
     for i in range(n):
         acc = rhs[i]
         for k in range(i):
@@ -309,10 +312,12 @@ def _interior_point(a_mat, slip, radius, lam, active):
     n = 2 * n_feet
     if n == 0 or not scale_s > 0.0:
         return
-    x = zeros(8, np.float64)
-    grad = zeros(8, np.float64)
-    hess = zeros((8, 8), np.float64)
-    dx = zeros(8, np.float64)
+    # one scratch allocation for the method's arrays (each a malloc of its own cost as much as
+    # a Newton step's arithmetic)
+    vecs = zeros((4, 8), np.float64)
+    x, grad, dx, y = vecs[0], vecs[1], vecs[2], vecs[3]
+    mats = zeros((2, 8, 8), np.float64)
+    hess, l_mat = mats[0], mats[1]
     mu = scale_s * scale_r
     for _ in range(IPM_OUTER):
         for _ in range(IPM_INNER):
@@ -337,7 +342,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
                 hess[2 * k + 1, 2 * k] += c1 * l1 * l2
             for a in range(n):
                 grad[a] = -grad[a]
-            if not _cholesky_solve(hess, grad, n, dx):
+            if not _cholesky_solve(hess, grad, n, dx, l_mat, y):
                 break  # numerically singular: keep the last point (inside every disk)
             t = 1.0
             for k in range(n_feet):  # the largest step that stays inside each disk
@@ -415,15 +420,24 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
     normals = patch(pos_m, ft, j_n).normals
     omega_w = quat_rotate(quat, omega_b)
     inv_m = 1.0 / mass_kg
-    tang = zeros((4, 2, 3), np.float64)  # each foot's tangent basis
-    turn = zeros((4, 2, 3), np.float64)  # I^-1 R^T (r_i x t): the body-frame turn per unit impulse
-    lever = zeros((4, 2, 3), np.float64)  # R^T (r_i x t)
-    slip = zeros((4, 2), np.float64)
+    # the solve's arrays as views of five scratch allocations (thirteen mallocs were a fifth of
+    # the solve's cost where no foot's impulse is solved for; a view by its first index is
+    # pointer arithmetic, a reshape a call)
+    bases = zeros((3, 4, 2, 3), np.float64)
+    tang = bases[0]  # each foot's tangent basis
+    turn = bases[1]  # I^-1 R^T (r_i x t): the body-frame turn per unit impulse
+    lever = bases[2]  # R^T (r_i x t)
+    per_foot = zeros((4, 4, 2), np.float64)
+    slip = per_foot[0]
+    lam = per_foot[1]
+    carried = per_foot[2]  # h F_i on each holding foot's basis
+    after = per_foot[3]
     radius = zeros(4, np.float64)
-    lam = zeros((4, 2), np.float64)
-    pressing = zeros(4, np.bool_)
-    active = zeros(4, np.bool_)  # the feet whose impulses are solved for
-    kinetic = zeros(4, np.bool_)  # their disks: mu_k (sliding, or broke away) or mu_s
+    a_mat = zeros((4, 2, 4, 2), np.float64)
+    flags = zeros((3, 4), np.bool_)
+    pressing = flags[0]
+    active = flags[1]  # the feet whose impulses are solved for
+    kinetic = flags[2]  # their disks: mu_k (sliding, or broke away) or mu_s
     drag = 0.0  # what the dragged feet's force took over the step, ~ mu_k J_i
     for i in range(4):
         pressing[i] = j_n[i] > 0.0
@@ -441,17 +455,19 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
             tang[i, 0, k], tang[i, 1, k] = t1[k], t2[k]
             lever[i, 0, k], lever[i, 1, k] = g1[k], g2[k]
             turn[i, 0, k], turn[i, 1, k] = w1[k], w2[k]
-    carried = zeros((4, 2), np.float64)  # h F_i on each holding foot's basis
     for i in range(4):
         if active[i]:
             for a in range(2):
                 carried[i, a] = h * (hold_w[i][0] * tang[i, a, 0] + hold_w[i][1] * tang[i, a, 1]
                                      + hold_w[i][2] * tang[i, a, 2])
-    # the Delassus matrix: the change of foot i's slip along t_ia per unit impulse along t_jb
-    a_mat = zeros((4, 2, 4, 2), np.float64)
+    # the Delassus matrix: the change of foot i's slip along t_ia per unit impulse along t_jb;
+    # only its columns of active feet are ever read with an impulse that is not zero (where no
+    # foot is active, the slips after are the slips before: the zeros leave them as they are)
     for i in range(4):
         for a in range(2):
             for j in range(4):
+                if not active[j]:
+                    continue
                 for b in range(2):
                     a_mat[i, a, j, b] = (inv_m * (tang[i, a, 0] * tang[j, b, 0]
                                                   + tang[i, a, 1] * tang[j, b, 1]
@@ -487,7 +503,6 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
     # held: no foot slides, and the footprint as a whole (its load-weighted mean slip) is at rest.
     # Feet of one footprint may still slip against each other by a hair: the rigid model's
     # redundancy (see AT_REST_MPS), which only the footprint's centre would carry it away with.
-    after = zeros((4, 2), np.float64)
     _post_slips(a_mat, slip, lam, pressing, after)
     mean = (0.0, 0.0, 0.0)
     j_sum = 0.0

@@ -34,7 +34,7 @@ import numpy as np
 from touchdown.sim.compiled import constructor, entry, kernel, separate
 from touchdown.sim.constants import G0_MPS2, SETTLE_SLIP_MPS
 from touchdown.sim.contact import (ContactEval, FrictionForce, Ground, Legs, feet,
-    foot_offsets_w, foot_slip, foot_velocity, lowest_foot_penetration, under)
+    foot_offsets_w, foot_slip, foot_velocity, lowest_foot_penetration, no_contact, under)
 from touchdown.sim.dynamics import (FreeBody, Motion, contact_at, ground_at, ground_turn,
     derivatives_held, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
@@ -579,6 +579,68 @@ EVENT_TOL_M = 1e-9
 EVENT_TOL_S = 1e-12
 #: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
 NEVER = -math.inf
+class Memo(NamedTuple):
+    """A contact evaluation and what it was evaluated at: the free-flight loop asks for the
+    contact at one state several times (a piece's end for its drag, its breakaway and its events,
+    the sub-step's end for the guard, the next sub-step's start), and an evaluation is a pure
+    function of these, so one asked again with all of them equal is the same bits."""
+
+    valid: bool
+    ce: ContactEval
+    t_s: float  # from the tick's start (the ground there: ground_at)
+    motion: Motion
+    absorbing: bool
+    engage: tuple
+    kinetic: tuple  # the FreeBody's (sim.dynamics.with_feet)
+    hold_w: tuple  # the FreeBody's (with_hold)
+    drag_dir: tuple  # the FreeBody's (with_drag_dir)
+
+
+@kernel
+def _same4(a, b):
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2] and a[3] == b[3]
+
+
+@kernel
+def _same3(a, b):
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+
+
+@kernel
+def _same_vecs(a, b):
+    return _same3(a[0], b[0]) and _same3(a[1], b[1]) and _same3(a[2], b[2]) and _same3(a[3], b[3])
+
+
+@kernel
+def _same_motion(a, b):
+    return _same3(a.p, b.p) and _same3(a.v, b.v) and _same4(a.q, b.q) and _same3(a.w, b.w)
+
+
+@kernel
+def memo_of(fb, ce, t_s, m, absorbing, engage):
+    """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
+    return Memo(True, ce, t_s, m, absorbing, engage, fb.kinetic, fb.hold_w, fb.drag_dir)
+
+
+@kernel
+def no_memo(m):
+    """A :class:`Memo` that matches nothing."""
+    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD,
+                NO_HOLD)
+
+
+@kernel
+def contact_memo(memo, fb, t_s, m, absorbing, engage):
+    """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
+    evaluated at exactly these."""
+    if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.kinetic)
+            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.hold_w)
+            and _same_vecs(memo.drag_dir, fb.drag_dir)):
+        return memo.ce
+    return contact_at(fb, ground_at(fb, t_s), m.p, m.v, m.q, m.w, absorbing, engage)
+
+
 class FootEvents(NamedTuple):
     """Which feet change over a step: those that start to press (``onset``: not pressing at its
     start, in the ground at its end), those that stop (``release``: pressing at its start, their
@@ -633,11 +695,11 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
 
 
 @kernel
-def foot_events(fb, t_end, st, ce_start, absorbing, engage):
+def foot_events(fb, t_end, st, ce_start, absorbing, engage, memo):
     """The feet that start or stop pressing between a step's start (``ce_start``) and its end
-    (``st``)."""
+    (``st``; its contact ``memo``'s if it was evaluated there)."""
     before = _pressing(ce_start, absorbing, engage)
-    ce = contact_at(fb, ground_at(fb, t_end), st.p, st.v, st.q, st.w, absorbing, engage)
+    ce = contact_memo(memo, fb, t_end, Motion(st.p, st.v, st.q, st.w), absorbing, engage)
     after = _pressing(ce, absorbing, engage)
     pen = ce.pen_m
     onset = ((not before[0]) and pen[0] > 0.0 and not ce_start.pen_m[0] > -engage[0],
@@ -1040,6 +1102,7 @@ class PieceStart(NamedTuple):
     aligned: bool  # a touchdown here stood the ship up (align_on_touchdown)
     e_ref: EnergyRef  # the passivity guard's reference (measured anew after an alignment)
     stop: bool  # tipped or crashed at the touchdown: pinned for the rest of the tick
+    memo: Memo  # the last contact evaluated (``ce``'s, where it was evaluated here)
 
 
 @kernel
@@ -1076,18 +1139,20 @@ def pinned_at(fb, s, ce, t_s):
 
 
 @kernel
-def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
+def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
     """A piece's start ``t_abs`` into the tick (``fb`` carrying the held feet's friction): where
     the first foot is at the ground while the ship flies, the seed's touchdown (its alignment,
     the absorbers, its transitions: MODEL-NOTES 18); then the feet that meet the ground sliding
-    or holding (``onset_now``: those the last located event touched)."""
+    or holding (``onset_now``: those the last located event touched). ``memo``: the last contact
+    evaluated (:class:`Memo`)."""
     ground_y = ground_at(fb, t_abs)
     m, ft = s.motion, s.footing
     drag = ft.sliding
     carried = fb.hold_w
     aligned = False
-    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, m.p, m.v, m.q, m.w, ft.absorbing,
-                      engage)
+    fb_y = with_feet(fb, engage, drag)
+    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    memo = memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage)
     was = engage
     engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
     if reach and s.surface_state == FLYING:
@@ -1107,7 +1172,8 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
         s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
         if s.surface_state != CONTACT:
             s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
-            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True)
+            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True,
+                              no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
             e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
     if cfg.friction_model != SEED_FRICTION:  # a foot meets the ground sliding or holding
@@ -1117,9 +1183,10 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log):
         s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
                  Footing(ft.absorbing, drag, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
                          ft.hold_w), s.pin)
-    ce_y = contact_at(with_feet(fb, engage, drag), ground_y, m.p, m.v, m.q, m.w, ft.absorbing,
-                      engage)
-    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False)
+    fb_y = with_feet(fb, engage, drag)
+    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False,
+                      memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
 
 # -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
@@ -1134,6 +1201,7 @@ class PieceStep(NamedTuple):
     stopped: tuple  # the sliding feet that stopped there (they stick from there)
     slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
     broke: tuple  # the holding feet that broke away there (kinetic from there)
+    memo: Memo  # the last contact evaluated at the piece's end
 
 
 @constructor
@@ -1145,10 +1213,13 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
+    t_e = t_abs + rem
+    memo = start.memo
     if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
-        ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w, ft.absorbing,
-                          engage)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
         # a sliding foot whose friction could stop it within a fraction of the step (a foot
         # under an impact's load, where Coulomb's law is stiff) takes its friction as an impulse
         # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
@@ -1172,8 +1243,9 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             ce_y = contact_at(body, ground_at(fb, t_abs), m.p, m.v, m.q, m.w, ft.absorbing, engage)
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                          t_abs)
-            ce_e = contact_at(body, ground_at(fb, t_abs + rem), st.p, st.v, st.q, st.w,
-                              ft.absorbing, engage)
+            m_e = Motion(st.p, st.v, st.q, st.w)
+            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
         if may_split:
             # one that stops later in the step (its friction could stop it, or its slip turned
             # round): dragged along where it slid until the instant its slip along there is
@@ -1186,7 +1258,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
-                                     NO_SLIP)
+                                     NO_SLIP, memo)
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
@@ -1199,8 +1271,10 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         # located, and kinetic from there (MODEL-NOTES 46)
         body = with_feet(fb, engage, drag)
         held = (not drag[0], not drag[1], not drag[2], not drag[3])
-        ground_e = ground_at(fb, t_abs + rem)
-        ce_e = contact_at(body, ground_e, st.p, st.v, st.q, st.w, ft.absorbing, engage)
+        ground_e = ground_at(fb, t_e)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
         if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
                          cfg.friction_static).use > 1.0:
             hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
@@ -1212,15 +1286,17 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                               ce_y, t_abs, brk)
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
-                                     pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held))
+                                     pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
+                                     memo)
     if fb.touching and may_split:
-        ev = foot_events(with_feet(fb, engage, drag), t_abs + rem, st, ce_y, ft.absorbing, engage)
+        ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                           t_abs, ev)
             if pc.found and pc.tau_s < rem:
-                return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP)
-    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP)
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
+                                 memo)
+    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo)
 
 
 @kernel
@@ -1281,16 +1357,19 @@ class SubStepEnd(NamedTuple):
     ce: ContactEval  # the contact there (the dampers following any velocity the guard scaled)
     e_ref: EnergyRef
     removed_j: float  # what the guard took
+    memo: Memo  # ce's
 
 
 @kernel
-def guard_substep(cfg, fb, ground, s, e_ref, passive, pieces, start):
-    """The contact at a sub-step's end, and the passivity guard there (``sim.energy_guard``)."""
+def guard_substep(cfg, fb, ground, s, e_ref, passive, pieces, start, t_end, memo):
+    """The contact at a sub-step's end (``ground``, ``t_end`` into the tick; ``memo``'s if it was
+    evaluated there), and the passivity guard there (``sim.energy_guard``)."""
     m, ft = s.motion, s.footing
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
-    ce = contact_at(fb_now, ground, m.p, m.v, m.q, m.w, ft.absorbing, ENGAGE_AT_GROUND)
+    ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
-        return SubStepEnd(s, ce, e_ref, 0.0)
+        return SubStepEnd(s, ce, e_ref, 0.0,
+                          memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
@@ -1298,7 +1377,8 @@ def guard_substep(cfg, fb, ground, s, e_ref, passive, pieces, start):
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, m.p, gd.v, m.q, gd.w, ft.absorbing, ENGAGE_AT_GROUND)
-    return SubStepEnd(s, ce, gd.ref, gd.removed_j)
+    return SubStepEnd(s, ce, gd.ref, gd.removed_j,
+                      memo_of(fb_now, ce, t_end, s.motion, ft.absorbing, ENGAGE_AT_GROUND))
 
 
 @kernel
@@ -1485,6 +1565,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
     ce = contact_at(fb, ground0, m.p, m.v, m.q, m.w, s.footing.absorbing, ENGAGE_AT_GROUND)
+    memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
     passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
                and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
@@ -1511,9 +1592,9 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
             carried = s.footing.hold_w if carry else NO_HOLD
             fb_k = with_hold(fb, carried)
             ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
-                            False)
+                            False, memo)
             if fb.touching:
-                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log)
+                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log, memo)
                 s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
                 pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
                                 pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
@@ -1523,6 +1604,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
                     break
                 fb_k = with_hold(fb, carried)
             pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
+            memo = pc.memo
             st = pc.step
             stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
                      stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
@@ -1543,13 +1625,15 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
         fb_k = with_hold(fb, carried)
         t_end = (j + 1) * h
         ground = ground_at(fb_k, t_end)
-        end = guard_substep(cfg, fb_k, ground, s, e_ref, passive, pieces, start)
+        end = guard_substep(cfg, fb_k, ground, s, e_ref, passive, pieces, start, t_end, memo)
         guard_j = guard_j + end.removed_j
         m = end.ship.motion
         peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
                                        dot(m.v, unit(m.p)), h))
         tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
+        # the end's contact serves the next sub-step's start where it asks for the same
+        memo = end.memo
         if sample:
             run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
             t_seen = t_end
