@@ -17,6 +17,8 @@ from touchdown.service.commands import Request
 from touchdown.service.store import Fence, ShardStore
 from test_serve_ops import _ready, _server, _stop
 
+pytestmark = pytest.mark.redis
+
 
 @pytest.fixture
 def store(tmp_path):
