@@ -1392,14 +1392,11 @@ def shard_world(scn: Scenario, k: int, shards: int) -> World:
     world = World.of(scn)
     mine = {sid for sid in world.known if shard_of(sid, shards) == k}
     keep = np.array([sid in mine for sid in world.ship_ids], dtype=bool)
-    world.params = world.params.take(keep)
-    world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
     t = world.timeline
-    world.timeline = Timeline.of([s for s in t.spawns if s.ship_id in mine],
-                                 [r for r in t.retires if r.ship_id in mine],
-                                 [c for c in t.commands if c.ship_id in mine])
-    world.known = {sid: spec for sid, spec in world.known.items() if sid in mine}
-    return world
+    return world.select(keep, Timeline.of([s for s in t.spawns if s.ship_id in mine],
+                                          [r for r in t.retires if r.ship_id in mine],
+                                          [c for c in t.commands if c.ship_id in mine]),
+                        {sid: spec for sid, spec in world.known.items() if sid in mine})
 
 
 def install_stop(worker: Worker) -> None:
