@@ -112,3 +112,15 @@ def test_world_command_takes_the_inputs_by_name_or_in_order():
         with pytest.raises(TypeError):
             bad()
 
+
+def test_the_docstring_list_of_commands_is_the_table():
+    """service/commands.py's docstring lists each command and its fields by hand (what a gateway
+    author reads first): held to KINDS here, so a new command cannot miss it."""
+    import re
+    listed = {}
+    for line in commands.__doc__.splitlines():
+        m = re.match(r"^    (\w+) +(\(nothing\)|\w+(?:, \w+)*)(?: {2,}\S|\s*$)", line)
+        if m:
+            listed[m.group(1)] = () if m.group(2) == "(nothing)" else tuple(
+                x.strip() for x in m.group(2).split(","))
+    assert listed == {name: tuple(f.name for f in kind.fields) for name, kind in KINDS.items()}
