@@ -14,7 +14,8 @@ import redis
 from redis_server import remove_prefix
 from touchdown.service import redis_io as rio
 from touchdown.service.commands import Rejected, Request
-from touchdown.service.store import CheckpointWrite, Fence, ShardStore, refusal_kind
+from touchdown.service.store import (CheckpointWrite, Fence, JournalWrite, ShardStore,
+                                     refusal_kind)
 
 pytestmark = pytest.mark.redis
 
@@ -67,19 +68,20 @@ def test_the_holders_journal_reads_back_as_written_and_a_lost_holders_is_refused
     a, b = stores
     a.ensure_group(0)
     fence_a = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
-    got = a.journal([(0, fence_a, 7, _requests(7), None, -1),
-                     (0, fence_a, 8, _requests(8), None, 7)])
+    got = a.journal([JournalWrite(0, fence_a, 7, _requests(7), None, -1),
+                     JournalWrite(0, fence_a, 8, _requests(8), None, 7)])
     assert [(j.k, j.code, j.refused) for j in got] == [(0, 1, None), (0, 1, None)]
     tail = a.journal_since(0, 8)
     assert list(tail.requests) == [8]  # from tick 8 on
     assert tail.requests[8] == _requests(8)
     assert tail.ids == {"8-5", "8-6"}
     # a journal of an earlier tick than the journal holds is refused (-4), nothing written
-    assert [j.code for j in a.journal([(0, fence_a, 6, _requests(6), None, 8)])] == [-4]
+    earlier = JournalWrite(0, fence_a, 6, _requests(6), None, 8)
+    assert [j.code for j in a.journal([earlier])] == [-4]
     assert set(a.journal_since(0, 0).requests) == {7, 8}
     # another worker, even with the holder's epoch, does not hold the lease: -1, nothing written
-    assert [j.code for j in b.journal([(0, Fence("worker-b", fence_a.epoch, LEASE_MS), 9,
-                                        _requests(9), None, 8)])] == [-1]
+    not_b = Fence("worker-b", fence_a.epoch, LEASE_MS)
+    assert [j.code for j in b.journal([JournalWrite(0, not_b, 9, _requests(9), None, 8)])] == [-1]
     assert set(a.journal_since(0, 0).requests) == {7, 8}
 
 
