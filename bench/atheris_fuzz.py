@@ -79,9 +79,8 @@ def seed_corpus(target: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     if target == "reader":
         from touchdown.bench import fuzz
-        from touchdown.cli import main as command  # this script is run, never imported by cli.py
         with tempfile.TemporaryDirectory() as d:
-            seeds = fuzz.seed_logs(command, Path(d))
+            seeds = fuzz.seed_logs_recorded(Path(d))  # the library's record, not cli.py
         for name, data in seeds.items():
             (out / f"{name}.mcap").write_bytes(data)
         for name, data in fuzz.bombs(seeds["bounce"]):

@@ -172,17 +172,35 @@ def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str) -> bytes
 
 
 # -- the corpus ---------------------------------------------------------------------------------
+#: the seed logs: (name, built-in scenario, its duration in s, keyframe every N ticks)
+SEEDS = (("bounce", "bounce", 0.15, 1), ("fleet", "fleet", 0.1, 1), ("keyframes", "bounce", 0.2, 2))
+
+
 def seed_logs(main, workdir: Path) -> dict[str, bytes]:
     """Tiny logs recorded by this version through ``main`` (the command line's root command): a
     bounce (4 ticks), a fleet (3 ticks), a bounce with keyframes every 2 ticks."""
     out = {}
-    for name, args in (("bounce", ["bounce", "--set", "duration=0.15"]),
-                       ("fleet", ["fleet", "--set", "duration=0.1"]),
-                       ("keyframes", ["bounce", "--set", "duration=0.2", "--keyframe-every", "2"])):
+    for name, scene, duration, every in SEEDS:
         path = workdir / f"{name}.mcap"
-        code, _, err = invoke(main, ["record", *args, "-o", str(path)])
+        code, _, err = invoke(main, ["record", scene, "--set", f"duration={duration}",
+                                     "--keyframe-every", str(every), "-o", str(path)])
         if code != 0:
             raise RuntimeError(f"seed log {name}: {err}")
+        out[name] = path.read_bytes()
+    return out
+
+
+def seed_logs_recorded(workdir: Path) -> dict[str, bytes]:
+    """:func:`seed_logs` through the library (service.driver.record, what ``touchdown record``
+    runs) rather than the command line: for the atheris harness, which must not import cli.py."""
+    from touchdown import scenarios
+    from touchdown.service.driver import record
+    from touchdown.sim.scenario import parse_text
+    out = {}
+    for name, scene, duration, every in SEEDS:
+        path = workdir / f"{name}.mcap"
+        record(parse_text(scenarios.text(scene), scene, {"duration": duration}), path, scene,
+               keyframe_interval=every)
         out[name] = path.read_bytes()
     return out
 

@@ -27,7 +27,7 @@ from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim import fields
 from touchdown.sim.state import Inputs, Outputs, State
-from touchdown.sim.timeline import Command, CommandError, Retire, Spawn, Timeline
+from touchdown.sim.timeline import INPUTS, CommandError, Retire, Spawn, Timeline, command_of
 
 #: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
 MAX_START_TICK = 1 << 53
@@ -468,8 +468,8 @@ class LogReader:
             batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
             for c in batch.commands:
                 try:
-                    commands.append(Command(int(c.tick), c.ship_id, c.throttle, tuple(c.rcs),
-                                            int(c.hold)).check())
+                    commands.append(command_of(int(c.tick), c.ship_id,
+                                               [getattr(c, name) for name in INPUTS]).check())
                 except CommandError as exc:
                     raise LogError(f"{self.path}: {exc}") from None
         return Timeline.of(spawns, retires, commands)

@@ -26,6 +26,7 @@ from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMM
 from touchdown.logs.header import CHUNK_BYTES_MAX, tick_bytes_bound  # noqa: F401 (the writer's)
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
+from touchdown.sim.fields import INPUTS
 from touchdown.sim.state import State
 from touchdown.sim.world import Block
 
@@ -315,8 +316,9 @@ class LogWriter(FinishedOrGone):
                 if batch is not None:
                     out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
                 batch = pb.CommandBatch(tick=c.tick)
-            batch.commands.add(tick=c.tick, ship_id=c.ship_id, throttle=c.throttle,
-                               rcs=list(c.rcs), hold=c.hold)
+            batch.commands.add(tick=c.tick, ship_id=c.ship_id,
+                               **{f.name: list(x) if f.per_ship > 1 else x
+                                  for f, x in zip(INPUTS, c.inputs)})
         if batch is not None:
             out.append((TOPIC_COMMANDS, batch.tick, batch.SerializeToString()))
         return out

@@ -201,9 +201,7 @@ def _cut(readers: list[LogReader], ship_id: str, around: int, before_s: float, a
     key = reader.ship_table().key(ship_id) if ship_id in reader.ship_table() else None
     rows = np.flatnonzero(keyframe.keys == key) if key is not None else np.zeros(0, np.int64)
     keep = _mask(world.state.n, rows)
-    world.params = world.params.take(keep)
-    world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
-    world.timeline = _timeline(chain, ship_id, first.lo)
+    world = world.select(keep, _timeline(chain, ship_id, first.lo))
     ends = [r.tick for r in world.timeline.retires]
     last_wanted = chain[-1].hi
     if ends and ends[0] - 1 < last_wanted:

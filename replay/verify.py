@@ -327,9 +327,7 @@ def _world(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: str | No
         keyframe_world(reader, scn, keyframe)
     if ship_id is not None:
         keep = np.array([sid == ship_id for sid in world.ship_ids], dtype=bool)
-        world.params = world.params.take(keep)
-        world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
-        world.timeline = world.timeline.for_ship(ship_id)
+        world = world.select(keep, world.timeline.for_ship(ship_id))
     return world
 
 

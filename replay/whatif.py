@@ -81,8 +81,7 @@ def what_if(path: str, overrides: dict, out_path: str | None = None,
                 raise LogError(f"{reader.path}: no ship {ship_id!r} in this log")
             if ship_id is not None:
                 keep = np.array([sid == ship_id for sid in world.ship_ids], dtype=bool)
-                world.params = world.params.take(keep)
-                world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
+                world = world.select(keep)
         else:
             world = recorded_world(reader, scn)
         table = reader.ship_table()

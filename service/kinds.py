@@ -4,8 +4,9 @@ check), what the entry as a whole must hold, and what the command does to the sh
 :meth:`service.shard.Shard._apply` (a request to the world, or a rejection) are both read off
 it; a new command is a row here.
 
-A command that sets an input (throttle, rcs, hold) checks its numbers against the same ranges as
-a recorded command (sim.timeline: ``THROTTLE``, ``RCS``, ``HOLD_MODES``), and becomes one: the
+A command that sets an input (throttle, rcs, hold) is derived from that input's row of
+``sim.fields.INPUTS`` (its range or choices, and the names it carries them under): it checks its
+numbers against the same ranges as a recorded command, and becomes one: the
 ship's inputs of this tick (``pending``, one list ``[throttle, rcs, hold]`` a ship, in
 ``sim.timeline.INPUTS`` order) go to ``World.commands`` once every request of the tick is
 applied (service.shard), and so into the log's CommandBatch. A spawn and a retire are the
@@ -19,9 +20,10 @@ import math
 from dataclasses import dataclass
 from typing import Callable
 
-from touchdown.sim.enums import HoldMode, SurfaceState
+from touchdown.sim.enums import SurfaceState
 from touchdown.sim.scenario import ScenarioError
-from touchdown.sim.timeline import HOLD_MODES, INPUTS, RCS, THROTTLE, CommandError
+from touchdown.sim.fields import INPUTS as INPUT_FIELDS
+from touchdown.sim.timeline import INPUTS, CommandError
 from touchdown.sim.world import World
 
 
@@ -90,9 +92,9 @@ def _one_of(labels: tuple[str, ...], name: str) -> Field:
 def in_force(world: World, i: int) -> list:
     """The inputs ship row ``i`` flies with now, as ``pending`` holds them."""
     rows = world.inputs.rows
-    rcs = rows["rcs"][i]
-    return [float(rows["throttle"][i]), (float(rcs[0]), float(rcs[1]), float(rcs[2])),
-            int(rows["hold"][i])]
+    return [int(rows[f.name][i]) if f.choices is not None else
+            float(rows[f.name][i]) if f.per_ship == 1 else
+            tuple(float(x) for x in rows[f.name][i]) for f in INPUT_FIELDS]
 
 
 def _sets(name: str, value_of: Callable[[dict], object]) -> Apply:
@@ -108,6 +110,23 @@ def _sets(name: str, value_of: Callable[[dict], object]) -> Apply:
         pending[req.ship_id] = cur
         return None
     return apply
+
+
+def _input_kind(f) -> "Kind":
+    """The command that sets input ``f`` (a row of sim.fields.INPUTS): its numbers in range, or
+    its choice by label, under the names ``f.wire``."""
+    if f.choices is not None:
+        (name,) = f.wire
+        return Kind(f.name, (_one_of(f.labels, name),),
+                    _sets(f.name, lambda v: int(f.choices.from_label(v[name]))),
+                    parts=frozenset((f.name,)))
+    fields = tuple(_number_in(*f.limits, name) for name in f.wire)
+    if f.per_ship == 1:
+        (name,) = f.wire
+        value = lambda v: v[name]  # noqa: E731
+    else:
+        value = lambda v: tuple(v[name] for name in f.wire)  # noqa: E731
+    return Kind(f.name, fields, _sets(f.name, value), parts=frozenset((f.name,)))
 
 
 def _spawn_table(values: dict, ship_id: str, player: str) -> dict | str:
@@ -153,16 +172,11 @@ def _autoland(world, req, pending, autoland, i):
 
 
 #: every command, by name (SPEC.md section 5; docs/SERVICE.md)
-WHOLE = frozenset(("throttle", "rcs", "hold", "ship"))  # every part of a ship
+WHOLE = frozenset((*INPUTS, "ship"))  # every part of a ship
 
 KINDS: dict[str, Kind] = {k.name: k for k in (
-    Kind("throttle", (_number_in(*THROTTLE, "value"),), _sets("throttle", lambda v: v["value"]),
-         parts=frozenset(("throttle",))),
-    Kind("rcs", tuple(_number_in(*RCS, axis) for axis in ("x", "y", "z")),
-         _sets("rcs", lambda v: (v["x"], v["y"], v["z"])), parts=frozenset(("rcs",))),
-    Kind("hold", (_one_of(HOLD_MODES, "mode"),),
-         _sets("hold", lambda v: int(HoldMode.from_label(v["mode"]))),
-         parts=frozenset(("hold",))),
+    # a command per input (throttle, rcs, hold), each as sim.fields.INPUTS declares it
+    *(_input_kind(f) for f in INPUT_FIELDS),
     Kind("spawn", (Field("ship", str, printable=False),), _spawn, check=_spawn_table,
          present=False, of_ship=False, ships=1, parts=WHOLE),
     Kind("retire", (), _retire, present=False, ships=-1, parts=WHOLE),

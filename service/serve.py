@@ -32,14 +32,19 @@ writes again. Telemetry is a sample: the samples of an outage are dropped. A sha
 (its epoch passed to another worker) has its flight log closed with the last tick Redis holds of
 it (``superseded_after_tick``).
 
-Every Redis call is service.store's (``ShardStore``); this module is the policy.
+A worker is three parts, each with one job: its leases (service.leases: the heartbeat and the
+leases renewed on a thread of their own, the fair-share round), its shards' policy (this module's
+``Worker``: everything above between the leases and Redis) and its reporter (service.report: the
+stats line, the stats hash, Prometheus). Every Redis call is service.store's (``ShardStore``,
+typed results); what travels between the parts is typed too (``JournalWrite``,
+``JournalRecord``, ``ShardHeld``, ``PendingCheckpoint``, ``ShardStart``, service.shard's
+``Entry``).
 """
 from __future__ import annotations
 
 import dataclasses
 import gc
 import json
-import math
 import os
 import signal
 import socket
@@ -47,7 +52,7 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -58,12 +63,14 @@ from touchdown.service import redis_io as rio
 from touchdown.service.commands import Rejected, Request, decode_entry, parse, shard_of
 from touchdown.service.kinds import parts_of
 from touchdown.service.flightlog import ServiceLog, lower_priority
+from touchdown.service.leases import Leases
 from touchdown.service.phases import GcTimer, Phases, SlowTicks
+from touchdown.service.report import Reporter
 from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.service.shard import Limits, Shard, TickOut
 from touchdown.service.store import (ERRORS, REFUSALS, UNREACHABLE, CheckpointWrite, Fence,
-                                     ShardStore, ShardWrites, refusal_kind)
-from touchdown.sim import __version__ as PROJECT_VERSION
+                                     JournalRecord, JournalWrite, ShardStore, ShardWrites,
+                                     refusal_kind)
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.scenario import Scenario, parse as parse_doc
 from touchdown.sim.timeline import Timeline
@@ -158,11 +165,47 @@ class Stats:
     late_starts: deque = field(default_factory=lambda: deque(maxlen=100))
 
 
+@dataclass(frozen=True)
+class PendingCheckpoint:
+    """A shard's checkpoint taken at a flush (its records copied), packed on a thread and sent
+    once packed and once the flight log has its tick on disk (no waiting on the log's thread in
+    a tick: that was the slowest tick's time)."""
+
+    packed: Future  # the blob (service.redis_io.checkpoint_later, on the packer thread)
+    tick: int
+    published: int  # entries the shard had emitted (the script refuses it until all are out)
+    logged: threading.Event  # set once the flight log has written up to ``tick``
+    gone: tuple  # ships that left before it: their specs and parameters are dropped
+
+    def ready(self) -> bool:
+        return self.logged.is_set() and self.packed.done()
+
+    def write(self) -> CheckpointWrite:
+        return CheckpointWrite(self.packed.result(), self.tick, self.published, self.gone)
+
+
+@dataclass(frozen=True)
+class ShardStart:
+    """What a shard taken over starts from (Worker._shard_start): its world at the tick it
+    starts at, the ships the autopilot flies, the entries emitted so far, every ship's spec as
+    Redis holds them (ship id -> [join tick, table]), how (said in the log line), whether from a
+    checkpoint (a take-over) or new; a new shard's specs and parameter records to write."""
+
+    world: World
+    autoland: list
+    published: int
+    specs: dict
+    how: str
+    from_checkpoint: bool
+    fresh_specs: dict = field(default_factory=dict)
+    fresh_params: dict = field(default_factory=dict)
+
+
 @dataclass
 class _Owned:
     shard: Shard
     fence: Fence  # this worker's epoch of the shard (every owner-only script checks it)
-    unsent: deque = field(default_factory=deque)  # (number, fields) to publish
+    unsent: deque = field(default_factory=deque)  # entries to publish (service.shard.Entry)
     specs: dict = field(default_factory=dict)  # ship id -> [join tick, table] JSON, to write
     params: dict = field(default_factory=dict)  # ship id -> its parameter record, to write
     hashes: dict = field(default_factory=dict)  # ship id -> fields or None, to write
@@ -180,9 +223,8 @@ class _Owned:
     unsure: list = field(default_factory=list)
     retired: list = field(default_factory=list)  # (tick, ship id) of ships that left
     read_count: int = 100  # entries asked for a tick: follows the byte budget (_adapt)
-    #: a checkpoint taken, waiting for the flight log to reach its tick: (blob, tick, published,
-    #: the log's flush Event, the ships whose specs it drops)
-    checkpoint: tuple | None = None
+    #: a checkpoint taken, waiting to be packed and for the flight log to reach its tick
+    checkpoint: PendingCheckpoint | None = None
     force_checkpoint: bool = False  # Redis lost the shard's writes: one as soon as it can
     #: the last tick of this shard Redis holds (its journal and its events): a shard lost to
     #: another worker goes on from there, and its flight log says so (superseded_after_tick)
@@ -195,7 +237,7 @@ class _Owned:
     journal_mark: int = -1  # the last tick this worker saw journaled (JOURNAL checks it)
     stale: set = field(default_factory=set)  # applied entries found pending again (acks lost)
     sent: deque = field(default_factory=lambda: deque(maxlen=RETAIN_ENTRIES))
-    journaled: deque = field(default_factory=deque)  # (tick, [requests])
+    journaled: deque = field(default_factory=deque)  # JournalRecord(tick, requests)
     applied: dict = field(default_factory=dict)  # entry id -> the tick it was applied at
     step_s: float = 0.0  # the last step's wall time (seconds)
     joined: dict = field(default_factory=dict)  # ship id -> its join tick (its spec's)
@@ -203,6 +245,9 @@ class _Owned:
 
 
 class Worker:
+    """One worker of the live service: its shards' policy (module docstring), with its
+    ``leases`` (service.leases.Leases) and its ``reporter`` (service.report.Reporter)."""
+
     def __init__(self, cfg: ServeConfig, say: Callable[[str], None] | None = None):
         self.cfg = cfg
         self.id = cfg.worker_id or f"{socket.gethostname()}-{os.getpid()}"
@@ -218,26 +263,13 @@ class Worker:
         self.redis_up = True
         self._down_since = 0.0
         self._next_try = 0.0
-        self._next_lease = 0.0
         self._said: dict[str, float] = {}
         self._refused: str | None = None  # the kind of refusal going on, if any
         self._loop_refused = False
-        self._started = time.monotonic()
-        self._lease_lost: set[int] = set()
         self._gone: set[int] = set()  # shards whose state Redis lost (their epoch gone)
         self._suspect: set[int] = set()  # shards whose last writes Redis may have lost
-        self._epochs: dict[int, Fence] = {}  # the fence of each shard owned or being taken
-        self._take_after = 0.0  # no shard of another worker is taken before (after an outage)
         self._said_gone: set[int] = set()
-        self._taking: set[int] = set()  # shards being taken over (their leases renewed too)
         self._collected = 0  # the loop of the last full collection (_collect)
-        self._lease_stop = threading.Event()
-        self._lease_thread: threading.Thread | None = None
-        self._live = 1
-        self._next_stats = time.monotonic() + cfg.stats_every_s
-        self._last_counts = (time.monotonic(), 0, 0)
-        self._metrics = None
-        self._metrics_server = None
         self.last_figures: dict = {}
         flag = "--redis-cluster" if cfg.cluster else "--redis"
         try:
@@ -263,8 +295,11 @@ class Worker:
         period = 1.0 / (cfg.telemetry_hz * self.dt_s) if cfg.telemetry_hz > 0 else 0
         self.telemetry_every = max(1, int(round(period))) if period else 0
         self.telemetry_maxlen = telemetry_maxlen(cfg, self.dt_s)
-        if cfg.metrics_port is not None:
-            self._start_metrics(cfg.metrics_port)
+        # the worker's three parts: its leases, its shards' policy (this class: reading,
+        # admitting, journaling, stepping, flushing, taking over, writing back what Redis lost)
+        # and its reporter
+        self.leases = Leases(self, ServeError)
+        self.reporter = Reporter(self, cfg.metrics_port, ServeError)
 
     # -- saying things -----------------------------------------------------------------------
     def log(self, msg: str, level: str = "info", **figures) -> None:
@@ -306,64 +341,6 @@ class Worker:
             return default_scenario(), ""
         return parse_doc(json.loads(doc_json), "service"), doc_json
 
-    def _start_metrics(self, port: int) -> None:
-        from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
-        from prometheus_client import start_http_server
-        reg = CollectorRegistry()
-        m = {
-            "tick": Histogram("touchdown_tick_seconds", "working time of a tick",
-                              buckets=(.001, .0025, .005, .01, .025, .05, .075, .1, .25, .5, 1,
-                                       2.5, 5, 10), registry=reg),
-            "ships": Gauge("touchdown_ships", "ships this worker steps", registry=reg),
-            "shards": Gauge("touchdown_shards", "shards this worker owns", registry=reg),
-            "late": Counter("touchdown_late_ticks", "ticks begun a period or more late",
-                            registry=reg),
-            "lag": Gauge("touchdown_lag_seconds", "how far behind schedule the last tick began",
-                         registry=reg),
-            "applied": Counter("touchdown_commands_applied", "commands applied", registry=reg),
-            "rejected": Counter("touchdown_commands_rejected", "commands rejected (published "
-                                "or only counted)", registry=reg),
-            "events": Counter("touchdown_events_published", "entries put on the event stream",
-                              registry=reg),
-            "dropped": Counter("touchdown_dropped", "events lost: dropped from a full buffer "
-                               "while Redis was away (the flight logs have them)", registry=reg),
-            "unpublished": Counter("touchdown_rejections_unpublished", "rejections counted, "
-                                   "not published (past a sender's cap in a tick)",
-                                   registry=reg),
-            "redis_up": Gauge("touchdown_redis_up", "1 while Redis answers, 0 while it is "
-                              "unreachable (or its replies time out)", registry=reg),
-            "redis_state": Gauge("touchdown_redis_state", "1 for the state Redis is in, as "
-                                 "this worker sees it: up, refusing (OOM, NOPERM, READONLY, "
-                                 "...) or down", ["state"], registry=reg),
-            "logs_paused": Gauge("touchdown_logs_paused", "shards whose flight log is paused "
-                                 "(disk full, unwritable)", registry=reg),
-            "shard_tick": Gauge("touchdown_shard_tick", "the tick of each shard this worker "
-                                "owns", ["shard", "worker"], registry=reg),
-            "shard_step": Gauge("touchdown_shard_step_seconds", "the wall time of each owned "
-                                "shard's last step", ["shard", "worker"], registry=reg),
-            "held": Gauge("touchdown_held_entries", "entries and requests waiting for Redis",
-                          registry=reg),
-            "tick_no": Gauge("touchdown_tick", "the latest tick of this worker's shards",
-                             registry=reg),
-        }
-        from prometheus_client import Info
-        import platform
-        import redis as redis_py
-        from touchdown.sim.fields import LOG_FORMAT
-        Info("touchdown_build", "the build this worker runs", registry=reg).info({
-            "version": PROJECT_VERSION, "log_format": str(LOG_FORMAT),
-            "checkpoint_format": str(rio.CHECKPOINT_FORMAT), "python": platform.python_version(),
-            "redis_py": redis_py.__version__, "worker": self.id})
-        try:
-            out = start_http_server(port, addr="127.0.0.1", registry=reg)
-        except OSError as exc:
-            raise ServeError(f"--metrics-port {port}: {exc.strerror or exc}") from None
-        self._metrics_server = out[0] if isinstance(out, tuple) else None
-        self._metrics = m
-        self._metric_seen = {"applied": 0, "rejected": 0, "dropped": 0, "events": 0, "late": 0,
-                             "unpublished": 0}
-        self._metric_shards: set = set()
-
     # -- the loop ------------------------------------------------------------------------------
     def warm(self) -> None:
         """Compile (or load from the cache) every kernel a tick runs, before taking any lease:
@@ -380,9 +357,7 @@ class Worker:
         period = 1.0 / rate if rate > 0 else 0.0
         due = time.monotonic()
         loops = 0
-        self._lease_thread = threading.Thread(target=self._lease_loop, daemon=True,
-                                              name=f"touchdown-leases-{self.id}")
-        self._lease_thread.start()
+        self.leases.start()
         gc_timer = self._gc_timer = GcTimer(self.phase)
         gc_timer.install()
         thresholds = gc.get_threshold()
@@ -424,12 +399,11 @@ class Worker:
                 self.stats.tick_s.append(dt)
                 self.stats.cpu_s.append(time.process_time())
                 self.stats.recent.append((time.monotonic(), dt))
-                if self._metrics:
-                    self._metrics["tick"].observe(dt)
+                self.reporter.tick_took(dt)
                 loops += 1
                 self.stats.ticks = loops
-                if time.monotonic() >= self._next_stats:
-                    self._report()
+                if self.reporter.due():
+                    self.reporter.report()
                 if loops % GC_EVERY == 0 or loops - self._collected >= 4 * GC_EVERY:
                     self._collect(loops, due - time.monotonic() if period else 0.0, period)
                 between = time.perf_counter() - t0 - dt
@@ -460,10 +434,10 @@ class Worker:
         self._loop_refused = False
         if not self.redis_up and now >= self._next_try:
             self._reconnect()
-        if self._lease_lost:
-            lost, self._lease_lost = self._lease_lost, set()
-            for k in sorted(lost & set(self.owned)):
-                self._lose(k, "its lease passed to another worker")
+        lost = self.leases.take_lost()
+        for k in sorted(lost & set(self.owned)):
+            self._lose(k, "its lease passed to another worker")
+        self._gone |= self.leases.take_gone()
         if self._gone and self.redis_up:
             gone, self._gone = self._gone, set()
             for k in sorted(gone & set(self.owned)):
@@ -472,10 +446,10 @@ class Worker:
             suspect, self._suspect = self._suspect, set()
             self._redis(self._reconcile, suspect)
         ph = self.phase
-        if self.redis_up and now >= self._next_lease:
+        if self.redis_up and now >= self.leases.next_round:
             with ph("leases"):
-                self._redis(self._leases)
-            self._next_lease = now + self.cfg.lease_s / 4
+                self._redis(self.leases.round)
+            self.leases.next_round = now + self.cfg.lease_s / 4
         if self.redis_up:
             with ph("read"):
                 self._redis(self._read_commands)
@@ -551,8 +525,8 @@ class Worker:
         for k in sorted(plans):
             if plans[k] and k in self.owned:
                 o = self.owned[k]
-                writes.append((k, o.fence, o.shard.tick, plans[k], list(o.unsure),
-                               o.journal_mark))
+                writes.append(JournalWrite(k, o.fence, o.shard.tick, plans[k], list(o.unsure),
+                                           o.journal_mark))
                 before[k] = list(o.unsure)
                 o.unsure.append(o.shard.tick)  # until Redis says what it did
         for j in self.store.journal(writes):
@@ -686,10 +660,10 @@ class Worker:
         held = sum(len(o.unsent) for o in self.owned.values())
         self.log(f"redis back after {time.monotonic() - self._down_since:.1f} s: delivering "
                  f"{held:,} held entries")
-        self._next_lease = 0.0
+        self.leases.next_round = 0.0
         # the other workers' leases lapsed too: each takes its own shards back first (RENEW,
         # or its next script) before any worker takes another's
-        self._take_after = time.monotonic() + self.cfg.lease_s
+        self.leases.take_after = time.monotonic() + self.cfg.lease_s
         self._redis(self._reconcile)
 
     def _read_commands(self) -> None:
@@ -815,14 +789,14 @@ class Worker:
             for _ in range(f.out):
                 o.sent.append(o.unsent.popleft())
             if f.out:
-                o.confirmed_mark = o.sent[-1][0]
+                o.confirmed_mark = o.sent[-1].number
             for _ in range(min(f.results, len(o.results))):
                 o.results.popleft()
             self.stats.entries_sent += f.added
             if f.tick is not None:
                 o.delivered = max(o.delivered, f.tick)
             if f.checkpointed:
-                self._checkpointed(o, o.checkpoint[1], set(o.checkpoint[4]))
+                self._checkpointed(o, o.checkpoint.tick, set(o.checkpoint.gone))
                 o.checkpoint = None
             if f.lost:
                 lost.add(k)
@@ -852,7 +826,7 @@ class Worker:
         """A tick's requests Redis holds in the journal: kept (the latest RETAIN_REQUESTS) to
         write again if Redis loses them; their ids (and a routed one's id on the shared stream)
         known as applied."""
-        o.journaled.append((tick, requests))
+        o.journaled.append(JournalRecord(tick, requests))
         for r in requests:
             o.applied[r.entry_id] = tick
             if r.origin:  # (ids repeat across streams: a routed one's is kept apart)
@@ -875,12 +849,10 @@ class Worker:
             with self.phase("checkpoint"):  # the records copied; packed on a thread
                 pack = rio.checkpoint_later(k, self.cfg.shards, sh.world, sh.autoland,
                                             sh.published)
-                o.checkpoint = (self._packer().submit(pack), sh.tick, sh.published,
-                                sh.log.flush(wait=False), gone)
-        cp = None
-        if o.checkpoint is not None and o.checkpoint[3].is_set() and o.checkpoint[0].done():
-            packed, tick, published, _, gone = o.checkpoint
-            cp = CheckpointWrite(packed.result(), tick, published, tuple(gone))
+                o.checkpoint = PendingCheckpoint(self._packer().submit(pack), sh.tick,
+                                                 sh.published, sh.log.flush(wait=False),
+                                                 tuple(gone))
+        cp = o.checkpoint.write() if o.checkpoint is not None and o.checkpoint.ready() else None
         return ShardWrites(k, sh.tick, list(o.unsent), o.hashes, o.specs, o.params,
                            o.telemetry, cp, o.fence, list(o.results), o.confirmed_mark)
 
@@ -916,110 +888,12 @@ class Worker:
             return World.empty(self.scene)
         return shard_world(self.scenario, k, self.cfg.shards)
 
-    def _lease_loop(self) -> None:
-        """Renew this worker's heartbeat and leases every lease / 4 on a connection of its own,
-        whatever the tick is doing: a long tick never loses a lease it holds. A lease found
-        lost is handed to the loop (``_lease_lost``)."""
-        cfg = self.cfg
-        lease_ms = int(cfg.lease_s * 1000)
-        keeper = None
-        try:
-            while not self._lease_stop.is_set():
-                try:
-                    if keeper is None:
-                        keeper = self.store.lease_keeper(timeout=max(0.2, cfg.lease_s / 4))
-                    self._live = keeper.heartbeat(cfg.lease_s)
-                    # (and a shard being taken: restoring a large one outlasts a lease)
-                    fences = dict(self._epochs)
-                    order = sorted(k for k in set(self.owned) | self._taking if k in fences)
-                    kept = keeper.renew([(k, fences[k].epoch) for k in order], lease_ms)
-                    self._lease_lost.update(k for k, ok in zip(order, kept) if ok == 0)
-                    self._gone.update(k for k, ok in zip(order, kept) if ok == -3)
-                except UNREACHABLE:
-                    pass  # the loop says Redis is away
-                except (*ERRORS, RuntimeError) as exc:
-                    self.log_every("leases", f"redis {self.where}: leases not renewed "
-                                   f"({self._text(exc)}): shards will pass to other workers",
-                                   "error")
-                self._lease_stop.wait(cfg.lease_s / 4)
-        finally:
-            if keeper is not None:
-                keeper.close()
-
-    def _leases(self) -> None:
-        cfg = self.cfg
-        lease_ms = int(cfg.lease_s * 1000)
-        live = self.store.live_workers()
-        share = math.ceil(cfg.shards / max(1, live))
-        if cfg.max_shards is not None:
-            share = min(share, cfg.max_shards)
-        if len(self.owned) > share and time.monotonic() - self._started > cfg.lease_s:
-            self._hand_over(max(self.owned))
-        if time.monotonic() < self._take_after:
-            return  # after an outage: the owners take their own shards back first
-        for k in range(cfg.shards):
-            if len(self.owned) >= share:
-                break
-            if k in self.owned:
-                continue
-            taken_at = time.monotonic()
-            epoch = self.store.take_lease(k, lease_ms)
-            if epoch:
-                fence = Fence(self.id, epoch, lease_ms)
-                self._epochs[k] = fence
-                self._taking.add(k)  # the lease thread renews it meanwhile
-                try:
-                    self._take_over(k, fence)
-                except ServeError as exc:  # (a checkpoint this worker cannot read)
-                    self._epochs.pop(k, None)
-                    self.store.release(k, fence)
-                    self.log_every(f"take:{k}", f"shard {k}: not taken: {exc}", "error")
-                    continue
-                except BaseException:
-                    self._epochs.pop(k, None)
-                    self.store.release(k, fence)
-                    raise
-                finally:
-                    self._taking.discard(k)
-                self.owned[k].taken_at = taken_at
-                # what a take-over built (the ships' tables, ids, the log's header cache: a
-                # million objects at 50,000 ships) lives as long as the shard: out of the
-                # collector's sight, a full collection no longer walks it (a pause of tens of
-                # milliseconds in whichever tick it struck); reference counting still frees it
-                gc.freeze()
-
     def _take_over(self, k: int, fence: Fence) -> None:
         """Own shard k: from its checkpoint and journal if it has them, else new (the
         scenario's ships of this shard)."""
         store = self.store
-        store.ensure_group(k)
-        stored = store.load(k)
-        blob, specs_json = stored.blob, stored.specs
-        if blob is None:
-            world, autoland, published = self._new_world(k), [], 0
-            fresh_specs = {sid: json.dumps([-1, spec], sort_keys=True)
-                           for sid, spec in world.known.items()}
-            fresh_params = {sid: world.params.ships.rows[i].tobytes()
-                            for i, sid in enumerate(world.ship_ids)}
-            how = "new"
-        else:
-            try:
-                cp, state, inputs = rio.read_checkpoint(blob)
-                ships = rio.ship_params(cp, store.params(k, list(cp.ship_ids)))
-            except ValueError as exc:
-                raise ServeError(f"{self.keys.shard(k, 'checkpoint')}: {exc}") from None
-            # the ships known at the checkpoint's tick: those that joined after it are the
-            # journal's spawns, re-applied below (not "taken")
-            known = {sid: spec for sid, (tick, spec) in specs_json.items()
-                     if tick <= state.tick}
-            for sid in cp.ship_ids:
-                if sid not in known and sid in specs_json:
-                    known[sid] = specs_json[sid][1]
-            world = World.restore(self.scene, ships, state, inputs, known)
-            world.timeline = self._new_world(k).timeline.from_tick(state.tick)
-            autoland, published = list(cp.autoland), int(cp.published)
-            fresh_specs, fresh_params = {}, {}
-            how = f"from its checkpoint at tick {state.tick}"
+        start = self._shard_start(k)
+        world = start.world
         # everything read from Redis first: a failure here leaves nothing half made
         tail = store.journal_since(k, world.tick)
         journal = tail.requests
@@ -1034,25 +908,13 @@ class Worker:
             claimed.append((eid, raw))
         if acks:
             store.ack(k, acks)
-        store.write_tables(k, fresh_specs, fresh_params)
+        store.write_tables(k, start.fresh_specs, start.fresh_params)
         if k == 0 and not self.cfg.cluster:
             self._route_from = "0"
             store.claim_router()
-        shard = Shard(k, world, None, self.body, dict.fromkeys(autoland), published,
-                      limits=self.cfg.limits,
-                      streams=(self.keys.shard_commands(k), self.keys.commands))
-        shard.log = ServiceLog(
-            self.cfg.log_dir / f"shard-{k:03d}", lambda: shard.world, self.log,
-            prefix=self.id, keyframe_interval=self.cfg.keyframe_every,
-            keyframe_phase=shard_phase(k, self.cfg.keyframe_every, self.cfg.shards),
-            max_bytes=self.cfg.log_max_bytes, name=self.scenario.name,
-            source=self.cfg.source or "serve", max_total_bytes=self.cfg.log_max_total_bytes,
-            max_age_s=self.cfg.log_max_age_s, min_free_bytes=self.cfg.log_min_free_bytes,
-            zstd_level=self.cfg.log_zstd_level,
-            first_bytes=self.cfg.log_max_bytes * (k + 1) // self.cfg.shards)
-        shard.log.start()  # the file's first record: the state it starts at
+        shard = self._open_shard(k, start)
         o = _Owned(shard, fence)
-        o.joined = {sid: int(v[0]) for sid, v in specs_json.items()}
+        o.joined = {sid: int(v[0]) for sid, v in start.specs.items()}
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
         # the journal's requests, at their ticks, up to the last tick whose entries are out:
         # the same entries, with the same numbers, as the last owner's (dropped by the mark)
@@ -1073,10 +935,59 @@ class Worker:
         o.journal_mark = max(journal, default=-1)
         store.began(k, fence, shard.tick)
         self.owned[k] = o
-        if blob is not None:
+        if start.from_checkpoint:
             self.stats.takeovers += 1
-        self.log(f"shard {k}: taken ({how}; {world.state.n} ships; re-stepped {caught} "
+        self.log(f"shard {k}: taken ({start.how}; {world.state.n} ships; re-stepped {caught} "
                  f"ticks to tick {shard.tick}; {len(claimed)} unjournaled commands claimed)")
+
+    def _shard_start(self, k: int) -> ShardStart:
+        """What shard k starts from: its checkpoint (ServeError if this worker cannot read it),
+        or, without one, the scenario's ships of the shard (their specs and parameter records
+        to write)."""
+        store = self.store
+        store.ensure_group(k)
+        stored = store.load(k)
+        specs_json = stored.specs
+        if stored.blob is None:
+            world = self._new_world(k)
+            return ShardStart(
+                world, [], 0, specs_json, "new", False,
+                {sid: json.dumps([-1, spec], sort_keys=True) for sid, spec in world.known.items()},
+                {sid: world.params.ships.rows[i].tobytes() for i, sid in enumerate(world.ship_ids)})
+        try:
+            cp, state, inputs = rio.read_checkpoint(stored.blob)
+            ships = rio.ship_params(cp, store.params(k, list(cp.ship_ids)))
+        except ValueError as exc:
+            raise ServeError(f"{self.keys.shard(k, 'checkpoint')}: {exc}") from None
+        # the ships known at the checkpoint's tick: those that joined after it are the
+        # journal's spawns, re-applied by the take-over (not "taken")
+        known = {sid: spec for sid, (tick, spec) in specs_json.items() if tick <= state.tick}
+        for sid in cp.ship_ids:
+            if sid not in known and sid in specs_json:
+                known[sid] = specs_json[sid][1]
+        world = World.restore(self.scene, ships, state, inputs, known)
+        world.timeline = self._new_world(k).timeline.from_tick(state.tick)
+        return ShardStart(world, list(cp.autoland), int(cp.published), specs_json,
+                          f"from its checkpoint at tick {state.tick}", True)
+
+    def _open_shard(self, k: int, start: ShardStart) -> Shard:
+        """Shard k's Shard from ``start``, with its flight log started (the file's first record:
+        the state it starts at)."""
+        cfg = self.cfg
+        shard = Shard(k, start.world, None, self.body, dict.fromkeys(start.autoland),
+                      start.published, limits=cfg.limits,
+                      streams=(self.keys.shard_commands(k), self.keys.commands))
+        shard.log = ServiceLog(
+            cfg.log_dir / f"shard-{k:03d}", lambda: shard.world, self.log,
+            prefix=self.id, keyframe_interval=cfg.keyframe_every,
+            keyframe_phase=shard_phase(k, cfg.keyframe_every, cfg.shards),
+            max_bytes=cfg.log_max_bytes, name=self.scenario.name,
+            source=cfg.source or "serve", max_total_bytes=cfg.log_max_total_bytes,
+            max_age_s=cfg.log_max_age_s, min_free_bytes=cfg.log_min_free_bytes,
+            zstd_level=cfg.log_zstd_level,
+            first_bytes=cfg.log_max_bytes * (k + 1) // cfg.shards)
+        shard.log.start()
+        return shard
 
     def _hand_over(self, k: int) -> None:
         """Give shard k up cleanly: flushed, checkpointed, its log closed, its lease freed.
@@ -1085,18 +996,18 @@ class Worker:
         if o.unsent or o.results or o.unsure or self._checkpoint(k) != 1:
             return  # try again at the next lease round
         self.store.release(k, o.fence)
-        self._epochs.pop(k, None)
+        self.leases.forget(k)
         o.shard.log.close(complete=True, reason="handed over")
-        self._keep_counts(o)
+        self.reporter.keep_counts(o)
         del self.owned[k]
         self.log(f"shard {k}: handed over at tick {o.shard.tick}")
 
     def _lose(self, k: int, why: str) -> None:
         o = self.owned.pop(k, None)
-        self._epochs.pop(k, None)
+        self.leases.forget(k)
         if o is None:
             return
-        self._keep_counts(o)
+        self.reporter.keep_counts(o)
         # where the new owner went on from: what Redis held when it took the shard, which is
         # less than what this worker delivered if Redis lost writes (a failover, an old
         # snapshot) before the new owner took it
@@ -1125,16 +1036,16 @@ class Worker:
         acknowledged."""
         ks = sorted(set(self.owned) if shards is None else set(shards) & set(self.owned))
         held = self.store.state(ks)
-        for k, (epoch, mark, _tick, journal_tick) in held.items():
+        for k, h in held.items():
             o = self.owned.get(k)
             if o is None:
                 continue
-            if epoch is None:
+            if h.epoch is None:
                 self._restore(k)
-            elif epoch != o.fence.epoch:
+            elif h.epoch != o.fence.epoch:
                 self._lose(k, "another worker took it while Redis was away")
-            elif mark < o.confirmed_mark or journal_tick < o.journal_mark:
-                self._rewrite(k, mark, journal_tick)
+            elif h.mark < o.confirmed_mark or h.journal_tick < o.journal_mark:
+                self._rewrite(k, h.mark, h.journal_tick)
         for k in ks:
             o = self.owned.get(k)
             if o is not None and o.stale:
@@ -1146,7 +1057,7 @@ class Worker:
         entries after ``mark`` written again (each at its own id or number: nothing twice), every
         ship's hash, and a checkpoint as soon as it can."""
         o = self.owned[k]
-        records = [(t, reqs) for t, reqs in o.journaled if t > journal_tick]
+        records = [r for r in o.journaled if r.tick > journal_tick]
         code = self.store.rejournal(k, o.fence, records)
         if code == -1:
             self._lose(k, "another worker took it while Redis was away")
@@ -1154,10 +1065,10 @@ class Worker:
         if code == -3:
             self._restore(k)
             return
-        again = [e for e in o.sent if e[0] > mark]
-        gap = bool(again) and again[0][0] > mark + 1 or (not again and o.confirmed_mark > mark)
+        again = [e for e in o.sent if e.number > mark]
+        gap = bool(again) and again[0].number > mark + 1 or (not again and o.confirmed_mark > mark)
         o.unsent.extendleft(reversed(again))
-        o.sent = deque((e for e in o.sent if e[0] <= mark), maxlen=RETAIN_ENTRIES)
+        o.sent = deque((e for e in o.sent if e.number <= mark), maxlen=RETAIN_ENTRIES)
         o.confirmed_mark = mark
         specs, params = self._tables(o)
         o.specs.update(specs)
@@ -1196,7 +1107,7 @@ class Worker:
         store.agree_on_config(self.cfg.shards, self.scenario_json)
         store.ensure_group(k)
         again = list(o.sent)
-        first = again[0][0] if again else (o.unsent[0][0] if o.unsent else sh.published)
+        first = again[0].number if again else (o.unsent[0].number if o.unsent else sh.published)
         world = sh.world
         specs, params = self._tables(o)
         hashes = sh.hashes_of(np.arange(world.state.n), sh.tick)
@@ -1226,90 +1137,10 @@ class Worker:
                      f"parameters and hashes, then a checkpoint; the events from number "
                      f"{first} sent again, those before it are gone with Redis)", "error")
 
-    # -- figures -------------------------------------------------------------------------------
+    # -- figures (the reporter's) --------------------------------------------------------------
     def figures(self) -> dict:
-        """What the stats line, the stats hash and the metrics say."""
-        now = time.monotonic()
-        recent = sorted(d for t, d in self.stats.recent if t >= now - 60.0)
-        pct = (lambda q: recent[min(len(recent) - 1, int(q * len(recent)))] * 1e3
-               ) if recent else (lambda q: 0.0)
-        counts = [o.shard.counts for o in self.owned.values()]
-        applied = sum(c.applied for c in counts) + self._gone_counts[0]
-        rejected = sum(c.rejected for c in counts) + self._gone_counts[1]
-        unpublished = sum(c.unpublished for c in counts) + self._gone_counts[2]
-        t0, c0, e0 = self._last_counts
-        span = max(1e-9, now - t0)
-        cmds = self.stats.commands_read
-        fig = {
-            "tick": max((o.shard.tick for o in self.owned.values()), default=0),
-            "ticks": self.stats.ticks, "lag_s": round(self.stats.lag_s, 4),
-            "tick_p50_ms": round(pct(0.5), 3), "tick_p99_ms": round(pct(0.99), 3),
-            "late": self.stats.late,
-            "late_share": round(min(1.0, self.stats.late / max(1, self.stats.ticks)), 4),
-            "ships": sum(o.shard.world.state.n for o in self.owned.values()),
-            "shards": len(self.owned),
-            "held": sum(len(o.unsent) + len(o.backlog) + len(o.results)
-                        for o in self.owned.values()),
-            "commands_per_s": round((cmds - c0) / span, 1),
-            "events_per_s": round((self.stats.entries_sent - e0) / span, 1),
-            "applied": applied, "rejected": rejected, "rejections_unpublished": unpublished,
-            # events lost: dropped from a full buffer while Redis was away (the logs have them)
-            "dropped": self.stats.entries_dropped,
-            "redis": "up" if self.redis_up and self._refused is None else
-                     ("refusing" if self.redis_up else "down"),
-            "redis_down_s": round(now - self._down_since, 1) if not self.redis_up else 0.0,
-            "logs_paused": sum(o.shard.log.paused for o in self.owned.values()),
-            # each shard this worker owns: its tick and the wall time of its last step
-            "shard_ticks": json.dumps({str(k): o.shard.tick for k, o in
-                                       sorted(self.owned.items())}),
-            "shard_step_ms": json.dumps({str(k): round(o.step_s * 1e3, 3) for k, o in
-                                         sorted(self.owned.items())}),
-            "version": PROJECT_VERSION,
-        }
-        return fig
-
-    _gone_counts = (0, 0, 0)
-
-    def _keep_counts(self, o: _Owned) -> None:
-        c = o.shard.counts
-        a, r, u = self._gone_counts
-        self._gone_counts = (a + c.applied, r + c.rejected, u + c.unpublished)
-
-    def _report(self) -> None:
-        self._next_stats = time.monotonic() + self.cfg.stats_every_s
-        fig = self.figures()
-        self._last_counts = (time.monotonic(), self.stats.commands_read, self.stats.entries_sent)
-        self.log("stats", "info", **fig)
-        if self._metrics:
-            m, seen = self._metrics, self._metric_seen
-            m["ships"].set(fig["ships"])
-            m["shards"].set(fig["shards"])
-            m["lag"].set(fig["lag_s"])
-            m["held"].set(fig["held"])
-            m["tick_no"].set(fig["tick"])
-            m["redis_up"].set(0 if fig["redis"] == "down" else 1)
-            for state in ("up", "refusing", "down"):
-                m["redis_state"].labels(state).set(1 if fig["redis"] == state else 0)
-            m["logs_paused"].set(fig["logs_paused"])
-            now_shards = set()
-            for k, o in self.owned.items():
-                now_shards.add(str(k))
-                m["shard_tick"].labels(str(k), self.id).set(o.shard.tick)
-                m["shard_step"].labels(str(k), self.id).set(o.step_s)
-            for k in self._metric_shards - now_shards:  # a shard gone: its series too
-                m["shard_tick"].remove(k, self.id)
-                m["shard_step"].remove(k, self.id)
-            self._metric_shards = now_shards
-            for name, value in (("applied", fig["applied"]), ("rejected", fig["rejected"]),
-                                ("dropped", fig["dropped"]),
-                                ("unpublished", fig["rejections_unpublished"]),
-                                ("events", self.stats.entries_sent), ("late", fig["late"])):
-                if value > seen[name]:
-                    m[name].inc(value - seen[name])
-                    seen[name] = value
-        if self.redis_up:
-            self._redis(self.store.write_stats, fig,
-                        max(1, int(math.ceil(3 * self.cfg.stats_every_s))))
+        """What the stats line, the stats hash and the metrics say (service.report)."""
+        return self.reporter.figures()
 
     # -- stop ----------------------------------------------------------------------------------
     def shutdown(self, flush_s: float = 5.0) -> None:
@@ -1326,9 +1157,7 @@ class Worker:
             if done:
                 break
             time.sleep(0.05)
-        self._lease_stop.set()
-        if self._lease_thread is not None:
-            self._lease_thread.join(timeout=5)
+        self.leases.stop()
         for k in sorted(self.owned):
             o = self.owned[k]
             o.shard.log.close(complete=True, reason="stopped")
@@ -1340,8 +1169,7 @@ class Worker:
         self.owned.clear()
         self.store.leave()
         self.store.close()
-        if self._metrics_server is not None:
-            self._metrics_server.shutdown()
+        self.reporter.close()
         if self._pack_pool is not None:
             self._pack_pool.shutdown(wait=False)
 
@@ -1392,14 +1220,11 @@ def shard_world(scn: Scenario, k: int, shards: int) -> World:
     world = World.of(scn)
     mine = {sid for sid in world.known if shard_of(sid, shards) == k}
     keep = np.array([sid in mine for sid in world.ship_ids], dtype=bool)
-    world.params = world.params.take(keep)
-    world.state, world.inputs = world.state.select(keep), world.inputs.select(keep)
     t = world.timeline
-    world.timeline = Timeline.of([s for s in t.spawns if s.ship_id in mine],
-                                 [r for r in t.retires if r.ship_id in mine],
-                                 [c for c in t.commands if c.ship_id in mine])
-    world.known = {sid: spec for sid, spec in world.known.items() if sid in mine}
-    return world
+    return world.select(keep, Timeline.of([s for s in t.spawns if s.ship_id in mine],
+                                          [r for r in t.retires if r.ship_id in mine],
+                                          [c for c in t.commands if c.ship_id in mine]),
+                        {sid: spec for sid, spec in world.known.items() if sid in mine})
 
 
 def install_stop(worker: Worker) -> None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -34,13 +35,22 @@ AUTOLAND_DONE = "ship.autoland_complete"
 AUTOLAND_FAILED = "ship.autoland_failed"
 
 
+class Entry(NamedTuple):
+    """One entry for the event stream: its number in the shard's sequence (a successor re-emits
+    the same entries with the same numbers; Redis's mark drops those already out) and its
+    fields."""
+
+    number: int
+    fields: dict
+
+
 @dataclass
 class TickOut:
-    """What one tick of a shard gives the outside: ``entries`` for the event stream (each
-    ``(number, fields)``), ``hashes`` (ship id -> its hash's fields, None: the ship left), and
-    the block that was stepped (for telemetry)."""
+    """What one tick of a shard gives the outside: ``entries`` for the event stream (each an
+    :class:`Entry`), ``hashes`` (ship id -> its hash's fields, None: the ship left), and the
+    block that was stepped (for telemetry)."""
 
-    entries: list[tuple[int, dict]] = field(default_factory=list)
+    entries: list[Entry] = field(default_factory=list)
     hashes: dict[str, dict | None] = field(default_factory=dict)
     blocks: list[Block] = field(default_factory=list)
     #: what each request came to, for the shard's results stream: JSON of {stream: {"applied":
@@ -220,7 +230,7 @@ class Shard:
 
     def _emit(self, out: TickOut, fields: dict) -> None:
         fields["seq"] = f"{self.index}:{self.published}"
-        out.entries.append((self.published, fields))
+        out.entries.append(Entry(self.published, fields))
         self.published += 1
 
     @staticmethod

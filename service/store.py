@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import redis
 
@@ -65,6 +66,36 @@ class Read:
     error: Exception | None = None
     mine: int = 0
     others: int = 0
+
+
+@dataclass(frozen=True)
+class JournalWrite:
+    """One shard's JOURNAL of a tick, before the tick applies its requests: by the holder of
+    ``fence``; ``retract``: the ticks of earlier writes whose reply never came (their requests
+    are among these, now at this tick: removed in the same step); ``seen``: the last tick the
+    worker saw journaled (-1 none: the script refuses if Redis holds less, having lost writes)."""
+    k: int
+    fence: "Fence"
+    tick: int
+    requests: list
+    retract: list | None
+    seen: int
+
+
+class JournalRecord(NamedTuple):
+    """A tick's requests as the journal holds them (kept by the worker to write again if Redis
+    loses them)."""
+    tick: int
+    requests: list
+
+
+class ShardHeld(NamedTuple):
+    """What Redis holds of a shard (``ShardStore.state``): its epoch (None: gone), its mark (the
+    last entry number out), the tick it records, its journal's last tick (-1: none)."""
+    epoch: str | None
+    mark: int
+    tick: int
+    journal_tick: int
 
 
 @dataclass
@@ -338,18 +369,17 @@ class ShardStore:
         self.r.xack(self.keys.shard_commands(k), rio.Keys.group(k), *ids)
 
     # -- the journal ------------------------------------------------------------------------------
-    def journal(self, writes: list) -> list[Journaled]:
-        """JOURNAL, before a tick applies its requests: each (shard, fence, tick, requests,
-        retract, the last tick the worker saw journaled) written with its entries' acknowledgements, one script a shard, in one round
-        trip. ``retract``: the ticks of earlier writes whose reply never came (their requests are
-        among these, now at this tick): removed in the same step. Redis unreachable raises (the
-        outcome of each is then unknown)."""
+    def journal(self, writes: list[JournalWrite]) -> list[Journaled]:
+        """JOURNAL, before a tick applies its requests: each write (:class:`JournalWrite`) with
+        its entries' acknowledgements, one script a shard, in one round trip. Redis unreachable
+        raises (the outcome of each is then unknown)."""
         pipe = self.r.pipeline(transaction=False)
-        for k, fence, tick, requests, retract, seen in writes:
-            self._journal(pipe, k, fence, tick, requests, retract, seen)
+        for w in writes:
+            self._journal(pipe, w.k, w.fence, w.tick, w.requests, w.retract, w.seen)
         replies = pipe.execute(raise_on_error=False)
         out = []
-        for (k, *_rest), reply in zip(writes, replies):
+        for w, reply in zip(writes, replies):
+            k = w.k
             if isinstance(reply, UNREACHABLE):
                 raise reply
             if isinstance(reply, Exception):
@@ -367,8 +397,8 @@ class ShardStore:
                       ",".join(f"{t}-1" for t in retract or ()), seen, tick,
                       *[r.entry_id for r in requests]], client=pipe)
 
-    def rejournal(self, k: int, fence: Fence, records: list) -> int:
-        """The journal's records (tick, requests) written again after Redis lost them (a
+    def rejournal(self, k: int, fence: Fence, records: list[JournalRecord]) -> int:
+        """The journal's records (:class:`JournalRecord`) written again after Redis lost them (a
         failover's last writes): each at its own id, with its acknowledgements. 1, or the
         first script's code that was not (-1, -3, -4)."""
         if not records:
@@ -474,9 +504,8 @@ class ShardStore:
                                                 "published", "specs", "params")]
 
     # -- after an outage: what Redis still holds, and writing back what it lost ---------------
-    def state(self, shards: list[int]) -> dict:
-        """Each shard's (epoch or None: gone, mark, recorded tick, last journal tick or -1), in
-        one round trip."""
+    def state(self, shards: list[int]) -> dict[int, ShardHeld]:
+        """What Redis holds of each shard (:class:`ShardHeld`), in one round trip."""
         if not shards:
             return {}
         pipe = self.r.pipeline(transaction=False)
@@ -486,8 +515,8 @@ class ShardStore:
                          client=pipe)
         out = {}
         for k, (epoch, mark, tick, last) in zip(shards, pipe.execute()):
-            out[k] = (epoch.decode() if isinstance(epoch, bytes) else epoch, int(mark),
-                      int(tick), int(last))
+            out[k] = ShardHeld(epoch.decode() if isinstance(epoch, bytes) else epoch, int(mark),
+                               int(tick), int(last))
         return out
 
     def restore(self, k: int, fence: Fence, mark: int, tick: int, specs: dict, params: dict,

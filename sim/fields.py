@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from touchdown.sim.enums import HoldMode
+
 
 @dataclass(frozen=True)
 class Field:
@@ -24,10 +26,34 @@ class Field:
     keyframe_only: bool = False  # the log writes it only on keyframe ticks
     log_name: str = ""  # its TickBatch field ("" = the same as name)
     export: str = ""  # its key in ``export``'s rows ("" = not exported as it is)
+    # -- the inputs (record "inputs"): what a command gives a ship (:data:`INPUTS`)
+    limits: tuple[float, float] | None = None  # each number's range (lo, hi), bounds included
+    choices: type | None = None  # an enum with ``label``/``from_label``: the record holds its value
+    #: the names a Redis command carries its value under (service.kinds; SPEC.md section 5)
+    wire: tuple[str, ...] = ()
 
     @property
     def in_log(self) -> str:
         return self.log_name or self.name
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """An input's choices, by label, in the order of their values."""
+        return tuple(m.label for m in self.choices) if self.choices is not None else ()
+
+    @property
+    def default(self):
+        """An input's value when a command leaves it out: zero (the first choice: hold off)."""
+        if self.choices is not None:
+            return int(next(iter(self.choices)))
+        return 0.0 if self.per_ship == 1 else (0.0,) * self.per_ship
+
+    def value(self, x):
+        """An input's value as a Command holds it (a tuple for a vector, an int for a choice)
+        from a record's, a proto's or a caller's."""
+        if self.choices is not None:
+            return int(x)
+        return x if self.per_ship == 1 else tuple(x)
 
 
 FIELDS: tuple[Field, ...] = (
@@ -63,12 +89,19 @@ FIELDS: tuple[Field, ...] = (
           "pinned ships: attitude relative to the body-fixed frame", keyframe_only=True),
     Field("pin_pivot_bf_m", "state", "f8", 3, "m",
           "tipped only: the pivot (lowest foot), body-fixed frame", keyframe_only=True),
-    # the commands in force (applied in the step into the tick)
-    Field("throttle", "inputs", "f8", 1, "", "0..1 of max_thrust", log_name="input_throttle"),
+    # the commands in force (applied in the step into the tick): the inputs, declared here once
+    # (:data:`INPUTS`); a recorded command (sim.timeline.Command: its fields and checks), the
+    # scenario's ``ships.inputs.*`` settings, the step's command records (sim.state.COMMAND_DTYPE,
+    # sim.step.apply_commands), World.commands, the log's Command (proto/touchdown.proto: held to
+    # this table by tests/test_command_table.py) and the service's commands (service.kinds) are
+    # derived from these rows
+    Field("throttle", "inputs", "f8", 1, "", "0..1 of max_thrust", log_name="input_throttle",
+          limits=(0.0, 1.0), wire=("value",)),
     Field("rcs", "inputs", "f8", 3, "",
           "-1..1 of max_rcs_torque per body axis; 0 leaves the axis to the hold",
-          log_name="input_rcs"),
-    Field("hold", "inputs", "i1", 1, "", "HoldMode value", log_name="input_hold"),
+          log_name="input_rcs", limits=(-1.0, 1.0), wire=("x", "y", "z")),
+    Field("hold", "inputs", "i1", 1, "", "HoldMode value", log_name="input_hold",
+          choices=HoldMode, wire=("mode",)),
     # what a tick reports
     Field("altitude_m", "outputs", "f8", 1, "m",
           "lowest foot above the terrain under it (negative = penetrating)", export="altitude"),
@@ -90,6 +123,10 @@ FIELDS: tuple[Field, ...] = (
     Field("energy_guard_j", "outputs", "f8", 1, "J",
           "energy the passivity guard removed this tick (sim.step)", export="energy_guard_j"),
 )
+
+#: the inputs a command gives a ship, in the order a command (sim.timeline.Command) and
+#: World.commands take them
+INPUTS: tuple[Field, ...] = tuple(f for f in FIELDS if f.record == "inputs")
 
 #: the quantities of the log's TickBatch by their field name there
 BY_LOG_NAME: dict[str, Field] = {f.in_log: f for f in FIELDS}

@@ -17,13 +17,13 @@ from typing import Any, Callable
 
 from touchdown.sim import constants as C
 from touchdown.sim.constants import MAX_BUMPS
-from touchdown.sim.enums import HoldMode
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams,
     SimParams, Terrain)
 from touchdown.sim.settings import REQUIRED, in_table, landing_in
 from touchdown.sim.state import Inputs, State
-from touchdown.sim.timeline import Command, Retire, Spawn, Timeline
+from touchdown.sim.fields import INPUTS as INPUT_FIELDS
+from touchdown.sim.timeline import Retire, Spawn, Timeline, command_of
 
 
 class ScenarioError(TouchdownError, ValueError):
@@ -562,8 +562,9 @@ def _build(res: dict, n_substeps: list[int]) -> Scenario:
         if s["retire_t"] is not None:
             retires.append(Retire(_tick_of(s["retire_t"], spar.dt_s), s["id"]))
         for x in s["inputs"]:
-            commands.append(Command(_tick_of(x["t"], spar.dt_s), s["id"], x["throttle"],
-                                    tuple(x["rcs"]), int(HoldMode.from_label(x["hold"]))))
+            commands.append(command_of(_tick_of(x["t"], spar.dt_s), s["id"],
+                                    [f.choices.from_label(x[f.name]) if f.choices else x[f.name]
+                                     for f in INPUT_FIELDS]))
     # commands in order of tick, then of the ships' order in the scenario (a stable sort)
     timeline = Timeline.of(spawns, retires, commands)
     if len(at_start) < len(ships):

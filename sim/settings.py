@@ -19,7 +19,7 @@ from enum import IntEnum
 from typing import Any
 
 from touchdown.sim import constants as C
-from touchdown.sim.enums import HoldMode
+from touchdown.sim.fields import INPUTS as _INPUTS
 
 
 class _Labelled(IntEnum):
@@ -178,6 +178,20 @@ class Setting:
 
 
 S = Setting
+
+
+def _input_setting(f) -> Setting:
+    """``ships.inputs.NAME``: an input of sim.fields.INPUTS as a scenario gives it (a number, a
+    vector or a choice's label), with its range or choices; zero (the first choice) when left
+    out."""
+    key = f"ships.inputs.{f.name}"
+    if f.choices is not None:
+        return Setting(key, "str", f.labels[0], choices=f.labels)
+    kind = {1: "float", 3: "vec3"}[f.per_ship]
+    default = f.default if f.per_ship == 1 else list(f.default)
+    return Setting(key, kind, default, f.unit, *f.limits)
+
+
 #: Every scenario key. Every number has a physically meaningful range (MODEL-NOTES 27, issue 13):
 #: a value outside it cannot describe a ship, a body or a run, and is refused before anything is
 #: computed with it.
@@ -317,9 +331,8 @@ SETTINGS: tuple[Setting, ...] = (
     S("ships.initial.north", "float", 0.0, "m", -1e6, 1e6),
     # -- ships.inputs: each command of a ship's schedule
     S("ships.inputs.t", "float", REQUIRED, "s", 0.0, 1e7),
-    S("ships.inputs.throttle", "float", 0.0, "", 0.0, 1.0),
-    S("ships.inputs.rcs", "vec3", [0.0, 0.0, 0.0], "", -1.0, 1.0),
-    S("ships.inputs.hold", "str", "off", choices=tuple(m.label for m in HoldMode)),
+    # then the inputs, each as sim.fields.INPUTS declares it (:func:`_input_setting`)
+    *(_input_setting(f) for f in _INPUTS),
 )
 del S
 

@@ -35,13 +35,12 @@ TRANSITION_DTYPE = np.dtype([
     ("t_offset_s", "f8"),  # when it happened, after the start of the tick whose step made it
 ], align=True)
 
-#: A command: from ``tick`` on, ship ``ship`` (its index in the batch) is given these inputs.
+#: A command: from ``tick`` on, ship ``ship`` (its index in the batch) is given these inputs (a
+#: row of INPUTS_DTYPE, which the step copies whole: sim.step.apply_commands).
 COMMAND_DTYPE = np.dtype([
     ("tick", "i8"),
     ("ship", "i8"),
-    ("throttle", "f8"),
-    ("rcs", "f8", (3,)),
-    ("hold", "i1"),
+    ("inputs", INPUTS_DTYPE),
 ], align=True)
 
 #: State fields in a fixed order (for logs and comparisons).

@@ -2061,11 +2061,7 @@ def apply_commands(commands, c, tick, inputs):
     the ships' ``inputs``; returns the index of the next command."""
     while c < commands.shape[0] and commands[c].tick <= tick:
         cmd = commands[c]
-        rec = inputs[cmd.ship]
-        rec.throttle = cmd.throttle
-        for j in range(3):
-            rec.rcs[j] = cmd.rcs[j]
-        rec.hold = cmd.hold
+        inputs[cmd.ship] = cmd.inputs  # every input (sim.fields.INPUTS), whole
         c += 1
     return c
 

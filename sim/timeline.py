@@ -13,18 +13,21 @@ from there; a ship that leaves at tick T is last in the state of tick T - 1.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, make_dataclass
 
-from touchdown.sim.enums import HoldMode
+from touchdown.sim import fields as _fields
 from touchdown.sim.errors import TouchdownError
 
 
-#: the inputs a command gives a ship, in the order World.commands takes them, and their ranges:
-#: a recorded command's (Command.check) and a live one's (service.kinds) checks
-INPUTS = ("throttle", "rcs", "hold")
-THROTTLE = (0.0, 1.0)  # of the ship's max thrust
-RCS = (-1.0, 1.0)  # of its max RCS torque, per body axis
-HOLD_MODES = tuple(m.label for m in HoldMode)
+#: the inputs a command gives a ship, in the order Command and World.commands take them (declared
+#: once, with their ranges, in sim.fields: :data:`sim.fields.INPUTS`)
+INPUTS = tuple(f.name for f in _fields.INPUTS)
+_INPUT = {f.name: f for f in _fields.INPUTS}
+THROTTLE = _INPUT["throttle"].limits  # of the ship's max thrust
+RCS = _INPUT["rcs"].limits  # of its max RCS torque, per body axis
+HOLD_MODES = _INPUT["hold"].labels
+
+_COUNT = {2: "two", 3: "three", 4: "four"}
 
 
 class CommandError(TouchdownError, ValueError):
@@ -32,33 +35,56 @@ class CommandError(TouchdownError, ValueError):
     and the field."""
 
 
-@dataclass(frozen=True)
-class Command:
-    """From tick ``tick`` on, ship ``ship_id`` is given these inputs: ``throttle`` 0..1 of its
-    max_thrust, ``rcs`` -1..1 of max_rcs_torque per body axis, ``hold`` a HoldMode value."""
+def _check(self) -> "Command":
+    """This command if every value is in range, else CommandError naming the field."""
+    where = f"command for ship {self.ship_id!r} at tick {self.tick}"
+    if not isinstance(self.tick, int) or self.tick < 0:
+        raise CommandError(f"{where}: tick must be a whole number >= 0")
+    for f in _fields.INPUTS:
+        x = getattr(self, f.name)
+        if f.choices is not None:
+            if x not in {int(m) for m in f.choices}:
+                raise CommandError(f"{where}: {f.name} must be one of {', '.join(f.labels)}, "
+                                   f"got {x!r}")
+            continue
+        lo, hi = f.limits
+        if f.per_ship == 1:
+            if not (_finite(x) and lo <= x <= hi):
+                raise CommandError(f"{where}: {f.name} must be {lo:g}..{hi:g}, got {x!r}")
+        elif len(x) != f.per_ship or not all(_finite(v) and lo <= v <= hi for v in x):
+            raise CommandError(f"{where}: {f.name} must be {_COUNT[f.per_ship]} numbers in "
+                               f"{lo:g}..{hi:g}, got {x!r}")
+    return self
 
-    tick: int
-    ship_id: str
-    throttle: float = 0.0
-    rcs: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    hold: int = int(HoldMode.OFF)
 
-    def check(self) -> "Command":
-        """This command if every value is in range, else CommandError naming the field."""
-        where = f"command for ship {self.ship_id!r} at tick {self.tick}"
-        if not isinstance(self.tick, int) or self.tick < 0:
-            raise CommandError(f"{where}: tick must be a whole number >= 0")
-        lo, hi = THROTTLE
-        if not (_finite(self.throttle) and lo <= self.throttle <= hi):
-            raise CommandError(f"{where}: throttle must be {lo:g}..{hi:g}, got {self.throttle!r}")
-        lo, hi = RCS
-        if len(self.rcs) != 3 or not all(_finite(x) and lo <= x <= hi for x in self.rcs):
-            raise CommandError(f"{where}: rcs must be three numbers in {lo:g}..{hi:g}, got "
-                               f"{self.rcs!r}")
-        if self.hold not in {int(m) for m in HoldMode}:
-            raise CommandError(f"{where}: hold must be one of {', '.join(HOLD_MODES)}, got "
-                               f"{self.hold!r}")
-        return self
+def _inputs(self) -> tuple:
+    """The inputs' values, in :data:`INPUTS` order (a row of sim.state.INPUTS_DTYPE)."""
+    return tuple(getattr(self, name) for name in INPUTS)
+
+
+#: From tick ``tick`` on, ship ``ship_id`` is given these inputs (sim.fields.INPUTS: ``throttle``
+#: 0..1 of its max_thrust, ``rcs`` -1..1 of max_rcs_torque per body axis, ``hold`` a HoldMode
+#: value); a field each, derived from the table, each defaulting to zero (hold off).
+Command = make_dataclass(
+    "Command",
+    [("tick", int), ("ship_id", str),
+     *[(f.name, float if f.per_ship == 1 and f.choices is None else
+        int if f.choices is not None else tuple, field(default=f.default))
+       for f in _fields.INPUTS]],
+    frozen=True,
+    namespace={"check": _check, "inputs": property(_inputs),
+               "__doc__": "From tick ``tick`` on, ship ``ship_id`` is given these inputs "
+                          "(sim.fields.INPUTS: throttle 0..1 of its max_thrust, rcs -1..1 of "
+                          "max_rcs_torque per body axis, hold a HoldMode value)."})
+
+
+Command.__module__ = __name__  # (make_dataclass's ``module`` is Python 3.12's): pickled by name
+
+
+def command_of(tick: int, ship_id: str, values) -> "Command":
+    """A Command from its inputs' values in :data:`INPUTS` order, as a record, a proto or a caller
+    gives them (a vector as any sequence, a choice as any integer)."""
+    return Command(tick, ship_id, *(f.value(x) for f, x in zip(_fields.INPUTS, values, strict=True)))
 
 
 def _finite(x) -> bool:

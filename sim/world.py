@@ -27,7 +27,8 @@ from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STA
     TRANSITION_DTYPE, Event, Inputs, Outputs, State, concatenate)
 from touchdown.sim.step import (Written, outputs_at, rotations, step_ticks, tick_capacity,
     transitions)
-from touchdown.sim.timeline import Command, CommandError, Retire, Spawn, Timeline
+from touchdown.sim.fields import INPUTS as INPUT_FIELDS
+from touchdown.sim.timeline import INPUTS, Command, CommandError, Retire, Spawn, Timeline, command_of
 
 #: A block holds about this many bytes of records: long enough that the interpreter's share of a
 #: lone ship's tick is small, short enough to stay in cache.
@@ -133,6 +134,16 @@ class World:
         base = cls.empty(scene, state.tick)
         return cls(scene, base.params.with_ships(ships), state, inputs, Timeline(), dict(known))
 
+    def select(self, keep: np.ndarray, timeline: Timeline | None = None,
+               known: dict[str, dict] | None = None) -> "World":
+        """The world of the ships ``keep`` (a mask over the rows) alone, at this tick: their
+        parameters, state and inputs in force; what is to come is ``timeline`` (by default this
+        world's) and the ships that have been in it ``known`` (by default this world's). A new
+        world: this one is left as it is."""
+        return World(self.scene, self.params.take(keep), self.state.select(keep),
+                     self.inputs.select(keep), self.timeline if timeline is None else timeline,
+                     dict(self.known if known is None else known))
+
     @property
     def tick(self) -> int:
         return self.state.tick
@@ -161,19 +172,26 @@ class World:
             raise CommandError(f"retire: no ship {ship_id!r} in the fleet")
         self._add(retires=[Retire(self.tick + 1, ship_id)])
 
-    def command(self, ship_id: str, throttle: float = 0.0,
-                rcs: tuple[float, float, float] = (0.0, 0.0, 0.0), hold: int = 0) -> Command:
-        """Inputs for ship ``ship_id`` from the step that begins at this tick."""
-        return self.commands([(ship_id, throttle, rcs, hold)])[0]
+    def command(self, ship_id: str, *values, **named) -> Command:
+        """Inputs for ship ``ship_id`` from the step that begins at this tick: each of
+        sim.fields.INPUTS (throttle, rcs, hold) in that order or by name, zero (hold off) if
+        left out."""
+        given = dict(zip(INPUTS, values, strict=False))
+        unknown = set(named) - set(INPUTS)
+        if unknown or len(values) > len(INPUTS) or set(given) & set(named):
+            raise TypeError(f"command takes the inputs {', '.join(INPUTS)}, got "
+                            f"{len(values)} positional and {sorted(named)}")
+        given.update(named)
+        return self.commands([(ship_id, *(given.get(f.name, f.default) for f in INPUT_FIELDS))])[0]
 
     def commands(self, given) -> list[Command]:
-        """Many ships' inputs at once, each ``(ship_id, throttle, rcs, hold)``: as many calls of
-        :meth:`command`, in one pass (a live service gives thousands a tick). All are checked
-        before any is taken."""
+        """Many ships' inputs at once, each ``(ship_id, *inputs)`` (sim.fields.INPUTS' order:
+        throttle, rcs, hold): as many calls of :meth:`command`, in one pass (a live service gives
+        thousands a tick). All are checked before any is taken."""
         index = self._fleet_index()
         cmds = []
-        for ship_id, throttle, rcs, hold in given:
-            cmd = Command(self.tick, ship_id, throttle, tuple(rcs), int(hold)).check()
+        for ship_id, *values in given:
+            cmd = command_of(self.tick, ship_id, values).check()
             if ship_id not in index:
                 raise CommandError(f"command: no ship {ship_id!r} in the fleet at tick "
                                    f"{self.tick}")
@@ -286,7 +304,7 @@ class World:
             if c.ship_id not in index:  # accepted only for present ships: a bad timeline
                 raise CommandError(f"command for ship {c.ship_id!r} at tick {c.tick}: the ship "
                                    f"is not in the fleet then")
-            table[k] = (c.tick, index[c.ship_id], c.throttle, c.rcs, c.hold)
+            table[k] = (c.tick, index[c.ship_id], c.inputs)
         return table
 
     def _change_tick(self) -> Block:

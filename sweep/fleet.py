@@ -211,7 +211,7 @@ class Fleet:
             group.extend([g] * len(members))
             index = {sid: row + i for i, sid in enumerate(p.ships.ship_id)}
             for cmd in scn.timeline.commands:
-                cmds.append((cmd.tick, index[cmd.ship_id], cmd.throttle, cmd.rcs, cmd.hold))
+                cmds.append((cmd.tick, index[cmd.ship_id], cmd.inputs))
             order.extend(members)
             row += len(members)
         n = row

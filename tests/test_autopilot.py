@@ -94,6 +94,7 @@ STARTS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(STARTS))
 def test_lands_softly_from(name):
     initial, ship, body = STARTS[name]

@@ -113,9 +113,8 @@ EXPORT_FIELDS = {"tick", "t", "ship_id", "state", "altitude", "penetration", "ti
 EVENT_FIELDS = {"event", "tick", "t", "ship_id", "player_id", "body", "from_state", "to_state"}
 
 
-def test_export_gives_spec_fields_per_ship_per_tick_and_per_event(tmp_path):
-    out = tmp_path / "b.mcap"
-    assert invoke("record", "bounce", "-o", out).exit_code == 0
+def test_export_gives_spec_fields_per_ship_per_tick_and_per_event(bounce_log, tmp_path):
+    out = bounce_log
     rows = [json.loads(x) for x in invoke("export", out).output.splitlines()]
     assert len(rows) == 601 and all(EXPORT_FIELDS <= set(r) for r in rows)
     assert {r["state"] for r in rows} <= {"flying", "contact", "landed", "tipped", "crashed"}
@@ -183,6 +182,7 @@ def test_each_benchmark_is_a_subcommand_with_its_own_options(name):
         assert invoke("bench", name, "--files", "3").exit_code == 2  # no such option
 
 
+@pytest.mark.slow
 def test_both_entry_points_work(tmp_path):
     script = Path(sys.executable).with_name("touchdown")
     for argv in ([sys.executable, str(ROOT / "cli.py")], [str(script)]):
@@ -194,6 +194,7 @@ def test_both_entry_points_work(tmp_path):
         assert r.returncode == 2 and "Traceback" not in r.stderr
 
 
+@pytest.mark.slow
 def test_ctrl_c_leaves_a_finished_log_of_what_was_simulated(tmp_path):
     out = tmp_path / "long.mcap"
     proc = subprocess.Popen([sys.executable, str(ROOT / "cli.py"), "record", "bounce", "--set",
@@ -220,6 +221,7 @@ def test_ctrl_c_leaves_a_finished_log_of_what_was_simulated(tmp_path):
     assert r.exit_code == 0, r.output
 
 
+@pytest.mark.slow
 def test_progress_bar_on_a_terminal_and_quiet_otherwise(tmp_path):
     import os
     import pty

@@ -53,3 +53,74 @@ def test_an_input_command_sets_its_input_alone_and_becomes_a_recorded_command():
     assert apply(world, req, pending, {}) == "throttle: no ship 'b' in the fleet at tick 0"
     (cmd,) = world.commands((sid, *given) for sid, given in pending.items())
     assert (cmd.throttle, cmd.rcs, cmd.hold) == (0.5, (0.1, 0.0, -0.1), 2)
+
+
+def test_the_inputs_are_declared_once_and_everything_else_follows_the_table():
+    """sim.fields.INPUTS is the one declaration of the inputs; the recorded command, the step's
+    records, the scenario's settings and the service's commands are derived from it."""
+    import dataclasses
+
+    from touchdown.sim import fields
+    from touchdown.sim.settings import in_table
+    from touchdown.sim.state import COMMAND_DTYPE, INPUTS_DTYPE
+    names = tuple(f.name for f in fields.INPUTS)
+    assert names == INPUTS == ("throttle", "rcs", "hold")
+    assert tuple(f.name for f in dataclasses.fields(Command))[2:] == names
+    assert Command(0, "a").inputs == tuple(f.default for f in fields.INPUTS)
+    assert INPUTS_DTYPE.names == names and COMMAND_DTYPE["inputs"] == INPUTS_DTYPE
+    settings = {s.key.rpartition(".")[2]: s for s in in_table("ships.inputs")}
+    assert tuple(settings) == ("t", *names)
+    for f in fields.INPUTS:
+        s = settings[f.name]
+        if f.choices is not None:
+            assert s.choices == f.labels and s.default == f.labels[0]
+        else:
+            assert (s.lo, s.hi) == f.limits
+        kind = KINDS[f.name]
+        assert tuple(x.name for x in kind.fields) == f.wire and kind.parts == {f.name}
+
+
+def test_the_logs_command_message_has_the_tables_inputs():
+    """The proto cannot be derived (it is the log's schema, written schema-first): each input is
+    a field of its Command message, by name, a double per number (repeated for a vector), a
+    choice as the enum whose values are the choices'."""
+    from google.protobuf.descriptor import FieldDescriptor as FD
+
+    from touchdown.proto import touchdown_pb2 as pb
+    from touchdown.sim import fields
+    msg = pb.Command.DESCRIPTOR
+    assert [f.name for f in msg.fields] == ["tick", "ship_id", *INPUTS]
+    for f in fields.INPUTS:
+        d = msg.fields_by_name[f.name]
+        repeated = d.is_repeated
+        assert repeated is (f.per_ship > 1)
+        if f.choices is not None:
+            assert d.type == FD.TYPE_ENUM
+            assert {v.number for v in d.enum_type.values} == {int(m) for m in f.choices}
+        else:
+            assert d.type == FD.TYPE_DOUBLE
+    assert [f.name for f in pb.CommandBatch.DESCRIPTOR.fields] == ["tick", "commands"]
+
+
+def test_world_command_takes_the_inputs_by_name_or_in_order():
+    world = World.of(parse({"name": "t", "duration": 1.0,
+                            "ships": [{"id": "a", "player_id": "p"}]}, "t"))
+    assert world.command("a", 0.5, (0.0, 0.2, 0.0), 1).inputs == (0.5, (0.0, 0.2, 0.0), 1)
+    assert world.command("a", hold=2).inputs == (0.0, (0.0, 0.0, 0.0), 2)
+    for bad in (lambda: world.command("a", thrust=1.0), lambda: world.command("a", 0.1, throttle=0.2),
+                lambda: world.command("a", 0.1, (0, 0, 0), 0, 9)):
+        with pytest.raises(TypeError):
+            bad()
+
+
+def test_the_docstring_list_of_commands_is_the_table():
+    """service/commands.py's docstring lists each command and its fields by hand (what a gateway
+    author reads first): held to KINDS here, so a new command cannot miss it."""
+    import re
+    listed = {}
+    for line in commands.__doc__.splitlines():
+        m = re.match(r"^    (\w+) +(\(nothing\)|\w+(?:, \w+)*)(?: {2,}\S|\s*$)", line)
+        if m:
+            listed[m.group(1)] = () if m.group(2) == "(nothing)" else tuple(
+                x.strip() for x in m.group(2).split(","))
+    assert listed == {name: tuple(f.name for f in kind.fields) for name, kind in KINDS.items()}

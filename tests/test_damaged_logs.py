@@ -17,11 +17,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def good(tmp_path_factory):
-    path = tmp_path_factory.mktemp("damaged") / "bounce.mcap"
-    r = CliRunner().invoke(main, ["record", "bounce", "--set", "duration=30", "-o", str(path)])
-    assert r.exit_code == 0, r.output
-    return path
+def good(bounce_log):
+    return bounce_log  # the built-in bounce (30 s), tests/conftest.py: once a session, read-only
 
 
 def run_cli(*args):

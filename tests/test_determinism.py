@@ -2,6 +2,7 @@
 from fractions import Fraction
 
 import numpy as np
+import pytest
 
 from scenes import records, scene
 from touchdown.sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS
@@ -133,6 +134,7 @@ def test_the_kernels_never_fuse_a_multiply_and_an_add():
     assert (np.array(fused) != (a * b + c)[:500]).sum() > 100
 
 
+@pytest.mark.slow
 def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
     """A log recorded here verifies with the kernels compiled for a generic x86-64 (no FMA, no
     AVX: NUMBA_CPU_NAME=generic), and a log recorded with those verifies here: varied ship

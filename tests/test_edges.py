@@ -42,6 +42,10 @@ def _exact_fall(z0: float, v0: float, h: float = 3.0) -> tuple[float, float]:
     return float(sol.t_events[0][0]), float(-sol.y_events[0][0][1])
 
 
+def SLOW(dt):  # noqa: N802 - the default tick (0.05 s) is the fast part's; the others the whole suite's
+    return pytest.param(dt, marks=pytest.mark.slow)
+
+
 @settings(max_examples=14, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(z0=st.one_of(st.just(0.0), st.floats(1e-9, 1e-6), st.floats(1e-3, 10.0)),
@@ -94,7 +98,7 @@ def _thrust_climb(throttle: float, t_end: float, m0: float = 1e4, thrust: float 
     return float(sol.y[0, -1])
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_a_liftoff_from_landed_flies_the_tick_of_its_thrust(dt):
     """Throttle 0.6 from landed: the ship lifts off at the tick's start, as its event says, and
     that tick's fuel buys that tick's climb: 2 s later it is where the climb from t = 0 puts it, to
@@ -123,7 +127,7 @@ def _liftoff_state(path):
     return lift
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_an_upright_touchdown_with_sideways_speed_leaves_as_the_reference_does(dt):
     """20 m/s down, 2 m/s sideways along a foot: friction at each foot pitches the lander and
     slows it; it leaves the ground with the reference's pitch rate and horizontal speed to 1%
@@ -137,7 +141,7 @@ def test_an_upright_touchdown_with_sideways_speed_leaves_as_the_reference_does(d
     assert st_.vel_mps[0][2] == pytest.approx(lift[2][3], rel=0.01)
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_a_tilted_touchdown_comes_back_down_where_the_reference_does(dt):
     """20 m/s down, tilted 10 degrees toward a foot, no alignment: the low foot pivots, the side
     feet catch and stop, the fore foot slides; the lander leaves with the reference's pitch rate
@@ -161,7 +165,7 @@ def test_a_tilted_touchdown_comes_back_down_where_the_reference_does(dt):
 
 
 @pytest.mark.parametrize("tilt", [3.0, 7.0])
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_frictionless_tilted_touchdowns_turn_as_the_reference_does(tilt, dt):
     """Frictionless, 20 m/s, tilted: the first foot's impact and each other foot's are located
     inside their sub-steps; 1 s later the tilt and pitch rate are the reference's, to 1% (0.5.0:
@@ -176,6 +180,7 @@ def test_frictionless_tilted_touchdowns_turn_as_the_reference_does(tilt, dt):
     assert recs[-1].state.omega_body_radps[0][1] == pytest.approx(y[5], rel=0.01)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(tilt=st.one_of(st.just(0.0), st.floats(0.1, 12.0)), v_side=st.floats(0.0, 4.0),

@@ -18,7 +18,11 @@ def _ref(sc):
     return E.run_reference(sc)
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+def SLOW(dt):  # noqa: N802 - the default tick (0.05 s) is the fast part's; the others the whole suite's
+    return pytest.param(dt, marks=pytest.mark.slow)
+
+
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05, SLOW(0.005)])
 def test_a_ship_turning_over_an_edge_is_not_pinned(dt):
     """Item 1: the default lander standing square on a 27 degree slope, an edge downhill (1.04
     degrees under the static edge limit): its soft legs load the downhill feet as it turns, it
@@ -31,7 +35,7 @@ def test_a_ship_turning_over_an_edge_is_not_pinned(dt):
     assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.01)
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_a_slide_just_steeper_than_atan_mu_s_slides_as_kinetic_friction_says(dt):
     """Item 2: a squat ship on a 39.3 degree slope (atan(mu_s) = 38.66) slides the reference's
     5.536 m in 6 s, to 1% (0.7: 4.99 m, its feet keeping mu_s below 1 cm/s for 0.43 s)."""
@@ -41,7 +45,7 @@ def test_a_slide_just_steeper_than_atan_mu_s_slides_as_kinetic_friction_says(dt)
 
 @pytest.mark.parametrize("scene", [E.EDGE_24, E.EDGE_27, E.SPIN_TOUCHDOWN],
                          ids=lambda sc: sc.name)
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_the_landing_instant_is_the_references_to_0_3_percent(scene, dt):
     """Item 3: 2 m/s touchdowns tilted 24 and 27 degrees toward an edge, and one spinning at
     1 rad/s: landed where the reference's thresholds have held settle_time in continuous time, to
@@ -50,7 +54,7 @@ def test_the_landing_instant_is_the_references_to_0_3_percent(scene, dt):
     assert sim.landed_t_s == pytest.approx(E.landing(ref), rel=0.003)
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
 def test_landed_is_a_state_of_rest_not_glue(dt):
     """Item 4: a ship landed on a 35 degree slope given 30% of its weight in thrust is in contact
     again and slides the reference's 7.42 m in 6 s (to 1%); one landed on level ground given 40 kN m
@@ -65,7 +69,7 @@ def test_landed_is_a_state_of_rest_not_glue(dt):
     assert E.outcome(glued) == "landed" and E.distance_m(glued) == 0.0
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05, SLOW(0.005)])
 def test_a_tipped_ship_answers_every_torque(dt):
     """Item 5: tipped at 85 degrees toward a foot, 80 kN m at (cos 30, sin 30, 0) of body (x, y)
     until 1.5 s: back under 80 degrees at the reference's instant and rate, to 1%, spinning about
@@ -83,7 +87,7 @@ def test_a_tipped_ship_answers_every_torque(dt):
     assert E.righting(sim)[0] == pytest.approx(E.righting(ref)[0], rel=0.01)
 
 
-@pytest.mark.parametrize("dt", [0.1, 0.05, 0.005])
+@pytest.mark.parametrize("dt", [SLOW(0.1), 0.05, SLOW(0.005)])
 def test_sticking_transitions_are_the_references(dt):
     """Items 6 and 7: a spinning, tilted, sliding touchdown keeps the reference's spin once its
     feet stop slipping (0.2 and 1 s, to 1%; 0.7: +30%); a slow skid toward an edge rocks to the
@@ -132,6 +136,7 @@ STARTS = dict(tilt=st.one_of(st.just(0.0), st.floats(0.5, 14.0)), heading=st.flo
               azimuth=st.floats(0.0, 360.0))
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(dt=st.sampled_from([0.1, 0.05, 0.02]), **STARTS)
@@ -154,6 +159,7 @@ def test_3d_touchdowns_end_as_the_reference_says_at_every_tick(dt, tilt, heading
     assert (sim.first("liftoff") is not None) == (ref.first("liftoff") is not None)
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(**STARTS)

@@ -40,6 +40,8 @@ from touchdown.view import foxglove as fx
 from touchdown.view.foxglove_live import site_of
 from touchdown.view.scene import STATE_COLORS
 
+pytestmark = pytest.mark.redis
+
 ROOT = Path(__file__).resolve().parents[1]
 CLASSES = {fx.TOPIC_TRANSFORMS: FrameTransforms, fx.TOPIC_LANDERS: SceneUpdate,
            fx.TOPIC_GROUND: SceneUpdate, fx.TOPIC_EVENTS: Log,

@@ -67,6 +67,7 @@ def with_record(src: Path, dst: Path, change) -> Path:
 
 
 # -- the campaign -----------------------------------------------------------------------------
+@pytest.mark.slow
 def test_a_fuzz_campaign_of_2000_files_finds_no_hang_traceback_blowup_or_silent_result():
     """2,000+ generated files of every class (bench/fuzz.py's docstring lists them), each run
     through verify, export or record in one process whose address space is capped at 1.5 GiB,
@@ -95,6 +96,7 @@ def test_a_fuzz_campaign_of_2000_files_finds_no_hang_traceback_blowup_or_silent_
 
 
 # -- bounded reading -----------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("framing", ["indexed", "unindexed"])
 def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, framing):
     for name, data in fuzz.bombs(bounce.read_bytes()):
@@ -378,6 +380,7 @@ def _with_file_size_limit(argv, limit_bytes, cwd):
                           preexec_fn=limit, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_a_full_disk_leaves_no_file_and_says_so(tmp_path):
     out = tmp_path / "full.mcap"
     r = _with_file_size_limit(["record", "fleet", "--set", "duration=60", "-o", out], 150_000,
@@ -388,6 +391,7 @@ def test_a_full_disk_leaves_no_file_and_says_so(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_an_export_or_what_if_that_cannot_be_written_leaves_nothing(tmp_path):
     log = tmp_path / "fleet.mcap"
     assert invoke("record", "fleet", "--set", "duration=60", "-o", log).exit_code == 0
@@ -422,6 +426,7 @@ def _record_then_interrupt(tmp_path, n_signals, gap_s):
     return proc.returncode, err, out, partial
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_signals,gap_s", [(2, 0.002), (3, 0.0003)])
 def test_repeated_ctrl_c_gives_exit_130_and_a_finished_log_or_none(tmp_path, n_signals, gap_s):
     """The first Ctrl-C asks the run to finish after the tick in hand; one more before it has

@@ -21,6 +21,8 @@ from touchdown.logs.decode import decode_block
 from touchdown.logs.reader import LogReader
 from touchdown.sim import fields
 
+pytestmark = pytest.mark.slow
+
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
 
@@ -70,10 +72,8 @@ def fleet(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def bounce(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("bounce") / "bounce.mcap"
-    assert invoke("record", "bounce", "-o", out).exit_code == 0
-    return out
+def bounce(bounce_log) -> Path:
+    return bounce_log  # tests/conftest.py: recorded once a session, read-only
 
 
 def reference_rows(log: Path) -> list[dict]:

@@ -32,11 +32,8 @@ FOOTER = 29
 
 
 @pytest.fixture(scope="module")
-def bounce(tmp_path_factory):
-    path = tmp_path_factory.mktemp("doctor") / "bounce.mcap"
-    r = CliRunner().invoke(main, ["record", "bounce", "-o", str(path)])
-    assert r.exit_code == 0, r.output
-    return path
+def bounce(bounce_log):
+    return bounce_log  # tests/conftest.py: recorded once a session, read-only
 
 
 def invoke(*args):
@@ -278,6 +275,7 @@ def test_a_changed_metadata_byte_is_found_by_the_data_crc_and_by_mcaps_reader(bo
         pass  # the sound log's CRCs all match
 
 
+@pytest.mark.slow
 def test_a_killed_writers_log_is_recovered_whole_indexed_and_verified(tmp_path):
     """Item 5: a killed writer's .partial file; Python's make_reader cannot open it;
     ``touchdown recover`` rewrites its whole ticks as a complete, indexed MCAP that

@@ -9,6 +9,9 @@ from touchdown.logs.export import event_rows
 from touchdown.logs.reader import LogReader
 from touchdown.proto import touchdown_pb2 as pb
 from redis_server import redis_url  # noqa: F401  (a pytest fixture)
+import pytest
+
+pytestmark = pytest.mark.redis
 
 
 def test_record_publishes_every_event_in_order(redis_url, tmp_path):  # noqa: F811

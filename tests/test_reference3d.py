@@ -15,6 +15,8 @@ from touchdown.bench.reference import bounce_ode, settle_time
 from touchdown.bench.reference3d import (Ground3, Lander3, Law, MOON_GM, MOON_R, Start3, _ez,
                                          p_of, solve3)
 
+pytestmark = pytest.mark.slow
+
 G3 = Ground3()
 
 

@@ -121,6 +121,7 @@ def test_unknown_ship_is_a_user_error(logs):
     assert "nope" in r.output and "Traceback" not in r.output
 
 
+@pytest.mark.slow
 def test_other_simd_paths_and_another_batch_replay_bit_identically(logs):
     """Re-run in subprocesses with numpy's widest SIMD extensions switched off, whole and one
     ship alone (another batch composition)."""

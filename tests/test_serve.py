@@ -28,6 +28,8 @@ from touchdown.service.redis_io import Keys
 from touchdown.service.serve import ServeConfig, Worker
 from touchdown.sim.scenario import parse_text
 
+pytestmark = pytest.mark.redis
+
 ROOT = Path(__file__).resolve().parents[1]
 FLEET = parse_text(builtin.text("fleet"), "fleet")
 

@@ -15,6 +15,8 @@ import pytest
 
 from touchdown.bench.chaos import run_session
 
+pytestmark = [pytest.mark.redis, pytest.mark.slow]
+
 LEASE_S = 1.0
 
 

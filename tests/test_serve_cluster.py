@@ -20,6 +20,8 @@ from touchdown.service.redis_io import Keys
 from test_serve_ops import ROOT, WORKER_ACL, _acl, _cli, _events, _files, _gapless, _nothing_lost, \
     _prefix, _Proc, _traffic, _wait
 
+pytestmark = [pytest.mark.redis, pytest.mark.slow]
+
 SHARDS = 4
 
 

@@ -14,8 +14,10 @@ import redis
 
 from touchdown.service import redis_io as rio
 from touchdown.service.commands import Request
-from touchdown.service.store import Fence, ShardStore
+from touchdown.service.store import Fence, JournalWrite, ShardStore
 from test_serve_ops import _ready, _server, _stop
+
+pytestmark = pytest.mark.redis
 
 
 @pytest.fixture
@@ -60,17 +62,17 @@ def test_a_lapsed_lease_nobody_took_is_taken_back_and_another_owner_is_refused(s
     assert b.take_lease(0, 300) is None  # held
     time.sleep(0.5)  # lapsed: nobody took it
     assert client.get(keys.shard(0, "owner")) is None
-    got = a.journal([(0, fence, 5, [], [], -1)])
+    got = a.journal([JournalWrite(0, fence, 5, [], [], -1)])
     assert got[0].code == 1 and client.get(keys.shard(0, "owner")) == b"a"  # taken back
     time.sleep(0.5)
     assert b.take_lease(0, 300) == "2:b"  # a real new owner: a new epoch
     time.sleep(0.5)  # b's lease lapsed too: a's epoch is not the shard's any more
-    assert a.journal([(0, fence, 6, [], [], -1)])[0].code == -1
+    assert a.journal([JournalWrite(0, fence, 6, [], [], -1)])[0].code == -1
     keeper = a.lease_keeper(1.0)
     assert keeper.renew([(0, epoch)], 300) == [0]
     keeper.close()
     client.delete(keys.shard(0, "epoch"))  # Redis lost the shard's state
-    assert a.journal([(0, fence, 7, [], [], -1)])[0].code == -3
+    assert a.journal([JournalWrite(0, fence, 7, [], [], -1)])[0].code == -3
 
 
 def test_a_journal_write_whose_reply_was_lost_is_retracted_by_the_next_in_one_step(store):
@@ -82,24 +84,24 @@ def test_a_journal_write_whose_reply_was_lost_is_retracted_by_the_next_in_one_st
     assert len(got[0][1]) == 3
     reqs = [_throttle(i) for i in ids]
     # tick 10: written, and the worker never saw the reply (it did not apply them)
-    assert a.journal([(0, fence, 10, reqs, [], -1)])[0].code == 1
+    assert a.journal([JournalWrite(0, fence, 10, reqs, [], -1)])[0].code == 1
     assert client.xpending(keys.shard_commands(0), rio.Keys.group(0))["pending"] == 0
     # tick 13: the same requests, the unsure write at 10 retracted in the same script
-    assert a.journal([(0, fence, 13, reqs, [10], -1)])[0].code == 1
+    assert a.journal([JournalWrite(0, fence, 13, reqs, [10], -1)])[0].code == 1
     journal = client.xrange(keys.shard(0, "journal"))
     assert [e[0] for e in journal] == [b"13-1"]
     assert [r["id"] for r in json.loads(journal[0][1][b"requests"])] == ids
     # a re-send of the same write (its reply lost again) adds nothing
-    assert a.journal([(0, fence, 13, reqs, [10], -1)])[0].code == 1
+    assert a.journal([JournalWrite(0, fence, 13, reqs, [10], -1)])[0].code == 1
     assert len(client.xrange(keys.shard(0, "journal"))) == 1
     # a worker that saw tick 13 journaled finds a journal behind it (Redis lost writes): -5,
     # nothing written
     client.set(keys.shard(0, "journaled"), 9)
-    assert a.journal([(0, fence, 14, reqs, [], 13)])[0].code == -5
+    assert a.journal([JournalWrite(0, fence, 14, reqs, [], 13)])[0].code == -5
     assert len(client.xrange(keys.shard(0, "journal"))) == 1
     # a tick below the journal's last id that is not there: -4, nothing acknowledged
     client.set(keys.shard(0, "journaled"), 13)
-    assert a.journal([(0, fence, 12, [_throttle("1-1")], [], 13)])[0].code == -4
+    assert a.journal([JournalWrite(0, fence, 12, [_throttle("1-1")], [], 13)])[0].code == -4
 
 
 def test_a_refused_journal_write_changes_nothing(store, tmp_path):
@@ -111,11 +113,11 @@ def test_a_refused_journal_write_changes_nothing(store, tmp_path):
     ids = _send(client, keys, 2)
     client.xreadgroup(rio.Keys.group(0), "a", {keys.shard_commands(0): ">"})
     reqs = [_throttle(i) for i in ids]
-    assert a.journal([(0, fence, 10, reqs[:1], [], -1)])[0].code == 1
+    assert a.journal([JournalWrite(0, fence, 10, reqs[:1], [], -1)])[0].code == 1
     client.config_set("maxmemory-policy", "noeviction")
     client.config_set("maxmemory", "1")
     try:
-        got = a.journal([(0, fence, 11, reqs, [10], -1)])[0]
+        got = a.journal([JournalWrite(0, fence, 11, reqs, [10], -1)])[0]
         assert got.refused is not None
     finally:
         client.config_set("maxmemory", "0")

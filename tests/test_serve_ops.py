@@ -33,6 +33,8 @@ from touchdown.sim.enums import SurfaceState
 from touchdown.sim.scenario import parse_text
 from test_serve import _wait  # noqa: F401  (also the cluster tests')
 
+pytestmark = pytest.mark.redis
+
 ROOT = Path(__file__).resolve().parents[1]
 FLEET = parse_text(builtin.text("fleet"), "fleet")
 

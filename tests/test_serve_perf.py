@@ -35,6 +35,8 @@ from touchdown.service.telemetry import TelemetryEncoder
 from touchdown.sim.scenario import parse, parse_text
 from touchdown.sim.world import World
 
+pytestmark = pytest.mark.redis
+
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
     """Two record arrays hold the same bits in every field (padding aside: a copy need not

@@ -20,6 +20,8 @@ from touchdown.sim.scenario import load_toml
 from touchdown.sweep.cases import Sweep, SweepError, latin_hypercube, parse_vary
 from touchdown.sweep.run import run
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: A short sideways touchdown on a slope: stands, slides and tips across the grid below.

@@ -223,7 +223,7 @@ def test_a_fleet_has_a_tree_per_ship_and_one_can_be_picked(tmp_path):
     assert not (tmp_path / "x.rrd").exists()
 
 
-def test_bad_input_is_one_line_and_a_cut_log_is_announced(tmp_path):
+def test_bad_input_is_one_line_and_a_cut_log_is_announced(tmp_path, bounce_log):
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"not a log at all")
     r = invoke("view", junk, "-o", tmp_path / "j.rrd")
@@ -231,8 +231,7 @@ def test_bad_input_is_one_line_and_a_cut_log_is_announced(tmp_path):
     assert not (tmp_path / "j.rrd").exists() and not (tmp_path / "j.rrd.partial").exists()
     r = invoke("view", junk, "-o", tmp_path / "j.png")
     assert r.exit_code == 2 and ".rrd" in r.output
-    log = record(tmp_path, "bounce", "duration=30")
-    data = log.read_bytes()
+    data = bounce_log.read_bytes()  # the built-in bounce, 30 s (tests/conftest.py)
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: len(data) * 2 // 3])
     r = invoke("view", cut, "-o", tmp_path / "cut.rrd")

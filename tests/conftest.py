@@ -1,0 +1,63 @@
+"""What the test files share: the recorded scenes several files read (recorded once a session,
+read-only), the Redis fixture, and the suite's parts.
+
+The parts (markers registered in pyproject.toml):
+- ``redis``: needs a Redis server (the shared one on 127.0.0.1:6379 or private redis-servers);
+- ``slow``: long runs (chaos, clusters, logs at scale, property runs over many cases, sweeps).
+``pytest -n 2 -m "not redis and not slow"`` is the fast physics-and-logs part (README, "Test it"); plain
+``pytest`` (CI, .ci/run) runs all of it. A test that asks for ``redis_url`` is marked ``redis``
+here, whatever its file says.
+
+A missing Redis fails in CI (CI=true, set by .ci/run; a ``redis`` test that skips there fails,
+:func:`pytest_runtest_makereport`), skips elsewhere (tests/redis_server.py).
+"""
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from redis_server import redis_url  # noqa: F401 - the session's Redis, a fixture for every file
+
+
+def _record(path: Path, scene: str, *sets: str) -> Path:
+    from touchdown.cli import main
+    args = ["record", scene, "-o", str(path)] + [x for s in sets for x in ("--set", s)]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    # read-only: a test that would change the shared log must copy it first (fails loudly if not)
+    path.chmod(stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
+    return path
+
+
+@pytest.fixture(scope="session")
+def bounce_log(tmp_path_factory) -> Path:
+    """The built-in ``bounce`` as ``touchdown record bounce`` writes it (30 s, 601 ticks),
+    recorded once a session; read-only."""
+    return _record(tmp_path_factory.mktemp("scenes") / "bounce.mcap", "bounce")
+
+
+@pytest.fixture(scope="session")
+def fleet_log_20s(tmp_path_factory) -> Path:
+    """The built-in ``fleet`` cut to 20 s, recorded once a session; read-only."""
+    return _record(tmp_path_factory.mktemp("scenes") / "fleet-20s.mcap", "fleet", "duration=20")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if "redis_url" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.redis)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """In CI a test that needs Redis and skipped (whatever skipped it) is a failure: CI must run
+    the service's tests, never pass without them."""
+    outcome = yield
+    report = outcome.get_result()
+    if report.skipped and os.environ.get("CI") == "true" and item.get_closest_marker("redis"):
+        report.outcome = "failed"
+        report.longrepr = f"skipped in CI, where Redis is required: {report.longrepr}"

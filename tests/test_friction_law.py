@@ -1,0 +1,122 @@
+"""sim/friction.py's Coulomb law on its own, against closed forms (tests/test_friction.py holds the
+whole step to the same law: stopping distances, slopes, spins).
+
+- One foot's disk problem, min x.B x / 2 + c.x over |x| <= r: for B = b I the impulse that stops
+  the slip, -c / b, if it lies inside the cone (stick), else the cone's rim against the slip,
+  -r c / |c| (slip); for any B, the rim point is the disk's minimiser (checked against the
+  minimum over 20,000 points of the rim).
+- Four feet of a point mass (the Delassus matrix I/m between every pair of feet): the feet stop
+  the mass exactly when m |u0| <= sum mu J_i (the stick/slip boundary), and otherwise take
+  sum mu J_i of momentum straight against the slip, whatever way the load is shared.
+- The impulse spread over the step: a constant force's drift, h dv / 2, and no turn where
+  friction made none (a held ship keeps its attitude's bits).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from touchdown.sim.friction import _disk_step, _slipping, _solve_feet, spread_over_step
+
+
+def disk(b, c, r):
+    """_disk_step for a 2 x 2 symmetric B (as nested lists) and a 2-vector c."""
+    return np.array(_disk_step(float(b[0][0]), float(b[0][1]), float(b[1][1]), float(c[0]),
+                               float(c[1]), float(r)))
+
+
+@pytest.mark.parametrize("b, c, r, sticks", [
+    (2.0, (0.3, -0.4), 0.26, True),  # |c| / b = 0.25 inside the cone
+    (2.0, (0.3, -0.4), 0.24, False),  # just outside: slips
+    (1e-3, (5e-6, 0.0), 1e-2, True),
+    (50.0, (-7.0, 3.0), 0.05, False),
+])
+def test_one_foot_sticks_inside_its_cone_and_slides_on_its_rim_against_the_slip(b, c, r, sticks):
+    c = np.array(c)
+    x = disk([[b, 0.0], [0.0, b]], c, r)
+    stop = -c / b
+    if sticks:
+        assert x == pytest.approx(stop, rel=1e-14)
+        assert np.linalg.norm(b * x + c) < 1e-15 * max(1.0, np.linalg.norm(c))  # no slip left
+    else:
+        assert x == pytest.approx(-r * c / np.linalg.norm(c), rel=1e-12)
+        assert np.linalg.norm(x) == pytest.approx(r, rel=1e-14)
+
+
+@pytest.mark.parametrize("b, c, r", [
+    ([[3.0, 1.2], [1.2, 0.7]], (0.9, -1.7), 0.4),
+    ([[1.0, -0.95], [-0.95, 1.0]], (0.2, 0.5), 0.1),
+    ([[40.0, 3.0], [3.0, 0.2]], (-2.0, 0.1), 0.03),
+])
+def test_an_anisotropic_foot_on_its_rim_is_the_disks_minimiser(b, c, r):
+    B, c = np.array(b), np.array(c)
+    x = disk(b, c, r)
+    assert np.linalg.norm(np.linalg.solve(B, -c)) > r  # the unconstrained minimum is outside
+    assert np.linalg.norm(x) == pytest.approx(r, rel=1e-12)
+    phi = np.linspace(0.0, 2.0 * math.pi, 20_000, endpoint=False)
+    rim = r * np.stack([np.cos(phi), np.sin(phi)], 1)
+    f = lambda y: 0.5 * np.einsum("...i,ij,...j", y, B, y) + y @ c  # noqa: E731
+    assert f(x) <= f(rim).min() + 1e-12 * abs(f(rim).min())
+    assert f(x) == pytest.approx(f(rim).min(), rel=1e-6)
+
+
+def point_mass(mass_kg: float, slip_mps, radius_ns):
+    """The feet of a point mass: each foot's slip moves by the sum of every impulse / m."""
+    a = np.zeros((4, 2, 4, 2))
+    for i in range(4):
+        for j in range(4):
+            a[i, :, j, :] = np.eye(2) / mass_kg
+    slip = np.tile(np.asarray(slip_mps, float), (4, 1))
+    radius = np.asarray(radius_ns, float)
+    active = np.array([r > 0.0 for r in radius])
+    lam = np.zeros((4, 2))
+    _solve_feet(a, slip, radius, lam, active)
+    return a, slip, radius, lam, active
+
+
+@pytest.mark.parametrize("mass_kg, slip, loads, sticks", [
+    (1000.0, (0.3, 0.4), (150.0, 150.0, 100.0, 100.0), True),  # m|u0| = 500 = sum mu J
+    (1000.0, (0.3, 0.4), (150.0, 150.0, 100.0, 99.0), False),  # 1 N s short of stopping it
+    (1e4, (-2.0, 0.0), (2000.0, 0.0, 3000.0, 0.0), False),  # two feet pressing
+    (1e4, (0.0, 0.001), (10.0, 0.0, 0.0, 0.0), True),  # one foot holds a slow slip
+])
+def test_a_point_mass_stops_exactly_when_its_momentum_fits_in_the_feet_cones(mass_kg, slip, loads,
+                                                                             sticks):
+    a, slip0, radius, lam, active = point_mass(mass_kg, slip, loads)
+    total = lam.sum(axis=0)
+    u0 = np.asarray(slip, float)
+    assert np.all(np.linalg.norm(lam, axis=1) <= radius * (1.0 + 1e-12))  # each in its cone
+    assert np.all(lam[~active] == 0.0)
+    if sticks:
+        assert total == pytest.approx(-mass_kg * u0, rel=1e-9, abs=1e-12 * mass_kg)
+        after = u0 + total / mass_kg
+        assert np.linalg.norm(after) < 1e-9
+        assert not any(_slipping(a, slip0, lam, active, 1e-9))
+    else:
+        capacity = radius.sum()
+        assert mass_kg * np.linalg.norm(u0) > capacity
+        # all the feet's friction, straight against the slip (maximum dissipation)
+        assert total == pytest.approx(-capacity * u0 / np.linalg.norm(u0), rel=1e-9)
+        after = u0 + total / mass_kg
+        assert np.linalg.norm(after) == pytest.approx(np.linalg.norm(u0) - capacity / mass_kg,
+                                                      rel=1e-9)
+        assert all(_slipping(a, slip0, lam, active, 0.0)[i] == active[i] for i in range(4))
+
+
+def test_the_impulse_spread_over_the_step_is_a_constant_forces_drift():
+    pos = (1.0e6, 2.0, -3.0)
+    quat = tuple(np.array([0.9, 0.1, -0.3, 0.2]) / math.sqrt(0.95))
+    v0, v1 = (1.0, 2.0, 0.5), (0.2, 1.5, 0.5)
+    h = 0.05
+    p, q = spread_over_step(pos, quat, v0, v1, (0.0, 0.1, 0.0), (0.0, 0.1, 0.0), h)
+    # x(h) under a constant force is x0 + v0 h + dv h / 2: the step drifted v1 h, so + (v1 - v0) h/2
+    assert p == pytest.approx(tuple(x + (b - a) * h / 2 for x, a, b in zip(pos, v0, v1)),
+                              rel=1e-15)
+    assert q == quat  # friction made no turn: the attitude's bits are kept
+    # a change of spin d_omega spread over the step turns the ship by |d_omega| h / 2 more
+    _, q2 = spread_over_step(pos, quat, v0, v0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.2), h)
+    turn_rad = 2.0 * math.acos(min(1.0, abs(float(np.dot(q2, quat)))))
+    assert turn_rad == pytest.approx(0.2 * h / 2, rel=1e-6)
+    assert math.isclose(float(np.dot(q2, q2)), 1.0, rel_tol=1e-12)
