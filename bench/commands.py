@@ -20,11 +20,14 @@ def bench() -> None:
 
 @bench.command()
 @QUICK
-def speed(quick: bool) -> None:
+@click.option("--against", multiple=True, metavar="PYTHON",
+              help="another install's interpreter (e.g. 0.7.0's checkout's .venv/bin/python): "
+                   "the per-state table beside it, alternating runs, with ratios (repeatable)")
+def speed(quick: bool, against: tuple[str, ...]) -> None:
     """Recording and stepping rates, and the cost per ship-tick by state and model (with the
     `bench` extra, MuJoCo on the same landers)."""
     from touchdown.bench import speed as bench_speed
-    bench_speed.main(quick=quick)
+    bench_speed.main(quick=quick, against=list(against))
 
 
 @bench.command()

@@ -194,7 +194,15 @@ def state_costs(n_ships: int = 1000, n_ticks: int = 40, dt: float = 0.05
     return rows
 
 
-def main(quick: bool = False) -> None:
+def main(quick: bool = False, against: list[str] | None = None) -> None:
+    if against:
+        from touchdown.bench import states
+        print(f"machine: {machine()}")
+        print("cost per ship-tick by state, us (tick 0.05 s, default model; CPU time, least of "
+              "alternating fresh processes; bench/states.py):")
+        states.print_comparison(states.compare(against, rounds=1 if quick else 2,
+                                               ships=200 if quick else 1000,
+                                               cases=50 if quick else 300))
     one_ticks = 5_000 if quick else 100_000
     fleet_ticks = 10 if quick else 100
     cores = len(os.sched_getaffinity(0))

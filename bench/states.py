@@ -1,6 +1,7 @@
 """Per-state cost of a ship-tick, µs, for whichever touchdown is installed (issue 36's table).
 
     python -m touchdown.bench.states [--ships 1000] [--ticks 40] [--repeat 2] [--json OUT]
+    python -m touchdown.bench.states --against /path/to/0.7/.venv/bin/python [--rounds 2]
 
 The same scenes as ``touchdown bench speed``'s (bench.speed.STATE_SCENES, default model, tick
 0.05 s, batches of ships that stay in one state) and 300 touchdowns of 20 s through the sweep's
@@ -78,6 +79,55 @@ def touchdowns_cost(n_cases, repeat, workers=1):
     return best / (n_cases * n_ticks) * 1e6, outcomes
 
 
+def compare(others: list[str], rounds: int = 2, ships: int = 1000, ticks: int = 40,
+            cases: int = 300, repeat: int = 2) -> dict[str, dict[str, float]]:
+    """The table for this install and for each interpreter of ``others`` (another checkout's
+    ``.venv/bin/python``, e.g. 0.7.0's), each a fresh process running this file, alternating
+    ``rounds`` times; the least of each row over the rounds. Returns {label: {row: us}}."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    me = os.path.abspath(__file__)
+    pythons = [("this", sys.executable)] + [(o, o) for o in others]
+    best: dict[str, dict[str, float]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(rounds):
+            for label, py in pythons:
+                out = os.path.join(tmp, f"{r}-{len(best)}.json")
+                subprocess.run([py, me, "--ships", str(ships), "--ticks", str(ticks), "--cases",
+                                str(cases), "--repeat", str(repeat), "--json", out],
+                               check=True, capture_output=True, cwd=tmp)
+                with open(out) as f:
+                    got = json.load(f)
+                row = best.setdefault(label, {})
+                row["version"] = got["version"]
+                for k, v in got["rows"].items():
+                    row[k] = min(row.get(k, float("inf")), v)
+    return best
+
+
+def print_comparison(best: dict[str, dict[str, float]]) -> None:
+    """The table: a column per install (this first), then each other's cost over this one's
+    (how many times cheaper this is)."""
+    labels = list(best)
+    names = [("this " if k == "this" else "") + str(best[k]["version"]) for k in labels]
+    print(f"  {'state':<40}" + "".join(f"{n:>14}" for n in names)
+          + "".join(f"{n + ' / this':>20}" for n in names[1:]))
+    for row in [label for label, _, _ in SCENES] + [TOUCHDOWNS]:
+        vals = [best[k].get(row, float("nan")) for k in labels]
+        print(f"  {row:<40}" + "".join(f"{v:>14.2f}" for v in vals)
+              + "".join(f"{vals[j] / vals[0]:>19.2f}x" for j in range(1, len(vals))))
+
+
+def _version() -> str:
+    from importlib.metadata import version
+    try:
+        return version("touchdown")
+    except Exception:
+        return "?"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--ships", type=int, default=1000)
@@ -86,8 +136,13 @@ def main(argv=None):
     ap.add_argument("--cases", type=int, default=300)
     ap.add_argument("--only", default="", help="comma-separated row numbers (0-8)")
     ap.add_argument("--json", default="")
+    ap.add_argument("--against", action="append", default=[],
+                    help="another install's python (repeatable): the table beside it")
+    ap.add_argument("--rounds", type=int, default=2)
     a = ap.parse_args(argv)
-    import touchdown
+    if a.against:
+        print_comparison(compare(a.against, a.rounds, a.ships, a.ticks, a.cases, a.repeat))
+        return
     rows = {}
     only = {int(x) for x in a.only.split(",") if x}
     for k, (label, ini, inputs) in enumerate(SCENES):
@@ -101,7 +156,7 @@ def main(argv=None):
         print(f"{TOUCHDOWNS:<40}{c:8.2f} us  {outcomes}", flush=True)
     if a.json:
         with open(a.json, "w") as f:
-            json.dump({"version": getattr(touchdown, "__version__", "?"), "rows": rows}, f)
+            json.dump({"version": _version(), "rows": rows}, f)
 
 
 if __name__ == "__main__":

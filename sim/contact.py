@@ -123,6 +123,22 @@ def under(ground, point):
 
 
 @kernel
+def under_up(ground, point):
+    """:func:`under`, and the point's own radial unit vector (its ``unit``: the same bits)."""
+    r = norm(point)
+    r_hat = (point[0] / r, point[1] / r, point[2] / r)
+    if ground.terrain.level:
+        return ground.radius_m + ground.terrain.base_height_m - r, r_hat, r_hat
+    east, north = site_coords(ground, point)
+    h, dh_de, dh_dn = height_and_slope(ground, east, north)
+    pen = ground.radius_m + h - r
+    if ground.radial:
+        return pen, r_hat, r_hat
+    return pen, (r_hat[0] + dh_de * ground.sin_theta, r_hat[1] - dh_de * ground.cos_theta,
+                 r_hat[2] - dh_dn), r_hat
+
+
+@kernel
 def surface_velocity(ground, point):
     """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
     om = ground.spin_radps
@@ -217,6 +233,9 @@ class ContactEval(NamedTuple):
     spring_load_n: float
     spring_load_rate_nps: float
     lowest_gamma: float
+    #: each foot's friction plane normal (:func:`friction_normal`), for the held feet's friction
+    #: (sim.dynamics.held_friction) at the same state
+    normal_w: tuple
 
 
 class FrictionForce(NamedTuple):
@@ -306,8 +325,13 @@ def friction_normal(pos_m, foot_pos_w, push_w):
 def foot_slip(pos_m, v_foot, foot, push):
     """A foot's velocity over the ground under it (``v_foot``, :func:`foot_velocity`), in its
     friction plane."""
-    n = friction_normal(pos_m, foot, push)
-    return sub(v_foot, scale(n, dot(v_foot, n)))
+    return in_plane(v_foot, friction_normal(pos_m, foot, push))
+
+
+@kernel
+def in_plane(v, n):
+    """v less its part along the unit normal n."""
+    return sub(v, scale(n, dot(v, n)))
 
 
 @separate
@@ -334,7 +358,23 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
     omega_w = quat_rotate(quat, w_b)
     k_leg = 0.25 * legs.k_npm
     c_leg = 0.25 * c_nspm
-    ft = feet(ground, pos_m, quat, legs.leg_radius_m, legs.com_height_m)
+    # the feet (:func:`feet`'s numbers), with each foot's radial: its friction plane's normal
+    # (:func:`friction_normal`) from it, without normalising the foot's position again
+    off = foot_offsets_w(quat, legs.leg_radius_m, legs.com_height_m)
+    f0, f1, f2, f3 = (add(pos_m, off[0]), add(pos_m, off[1]), add(pos_m, off[2]),
+                      add(pos_m, off[3]))
+    x0, g0, u0 = under_up(ground, f0)
+    x1, g1, u1 = under_up(ground, f1)
+    x2, g2, u2 = under_up(ground, f2)
+    x3, g3, u3 = under_up(ground, f3)
+    ft = Feet(off, (f0, f1, f2, f3), (x0, x1, x2, x3), (g0, g1, g2, g3))
+    up = unit(pos_m)
+    n0 = unit(add(sub(g0, u0), up))
+    if ground.terrain.level or ground.radial:  # g_i is u_i: every foot's normal is unit(up)'s
+        normals = (n0, n0, n0, n0)
+    else:
+        normals = (n0, unit(add(sub(g1, u1), up)), unit(add(sub(g2, u2), up)),
+                   unit(add(sub(g3, u3), up)))
     n_hat = spring_axis(ground, pos_m, ft, engage_m) if linear_model else unit(pos_m)
     v_feet = (foot_velocity(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0]),
               foot_velocity(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1]),
@@ -356,10 +396,8 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
     lowest = (0.0, 0.0, 0.0)
     lowest_gamma = 1.0
     stiff = damp = load = load_rate = 0.0
-    slips = (foot_slip(pos_m, v_feet[0], ft.pos_w[0], ft.push_w[0]),
-             foot_slip(pos_m, v_feet[1], ft.pos_w[1], ft.push_w[1]),
-             foot_slip(pos_m, v_feet[2], ft.pos_w[2], ft.push_w[2]),
-             foot_slip(pos_m, v_feet[3], ft.pos_w[3], ft.push_w[3]))
+    slips = (in_plane(v_feet[0], normals[0]), in_plane(v_feet[1], normals[1]),
+             in_plane(v_feet[2], normals[2]), in_plane(v_feet[3], normals[3]))
     friction = 0.0
     for i in range(4):  # sums in foot order: the same bits on every machine
         f = ff[i]
@@ -376,7 +414,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
             f_vec = sub(f_vec, scale(fixed, drag) if along else scale(slips[i], drag / speed))
             friction += drag
         elif f.force_n > 0.0 and not kinetic[i]:
-            n_f = friction_normal(pos_m, ft.pos_w[i], ft.push_w[i])
+            n_f = normals[i]
             held = sub(hold_w[i], scale(n_f, dot(hold_w[i], n_f)))
             f_vec = add(f_vec, held)
             friction += norm(held)
@@ -391,7 +429,7 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
                                         ff[2].pen_rate_mps, ff[3].pen_rate_mps),
                        (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
-                       damp, load, load_rate, lowest_gamma)
+                       damp, load, load_rate, lowest_gamma, normals)
 
 
 @kernel
@@ -401,4 +439,4 @@ def no_contact(pos_m):
     far = (-math.inf, -math.inf, -math.inf, -math.inf)
     return ContactEval(False, far, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
                        (0.0, 0.0, 0.0, 0.0), z, z, 0.0, (z, z, z, z), 0.0, -math.inf,
-                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0)
+                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0, (z, z, z, z))

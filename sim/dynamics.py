@@ -22,7 +22,7 @@ import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
-    friction_normal, no_contact, under)
+    no_contact)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
 from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
@@ -190,6 +190,7 @@ def _inv_inertia_w(fb, q, x):
 
 @kernel
 def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
+    # (``ce``: the contact at this state, whose feet's friction normals serve here)
     """The static friction of the pressing feet of ``held`` (those whose friction is static over
     the step) as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
     centre of pressure c (loads N_i = F_i |g_i|) and the moment about their load-weighted normal
@@ -215,7 +216,7 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
         load = ce.foot_force_n[i] * ce.push_norm[i]
         if held[i] and load > 0.0:
             foot = add(p, off[i])
-            nf = friction_normal(p, foot, under(ground, foot)[1])
+            nf = ce.normal_w[i]
             n_sum = n_sum + load
             c = add(c, scale(foot, load))
             nrm = add(nrm, scale(nf, load))

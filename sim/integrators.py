@@ -17,13 +17,14 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.contact import no_contact
 from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, \
     derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
 from touchdown.sim.settings import Integrator
-from touchdown.sim.vec import add, div, dot, fmax, mul, quat_add_scaled, quat_integrate, \
+from touchdown.sim.vec import add, div, dot, fmax, mul, norm, quat_add_scaled, quat_integrate, \
     quat_normalize, scale, sub, unit
 
 #: Every method by name, and its code inside the kernels (sim.settings.Integrator). An unknown name
@@ -129,6 +130,25 @@ def semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
                    foot_impulses_1(h, ce), -math.inf, False)
 
 
+#: m: a ship's centre this much farther from level ground than its feet reach has every foot
+#: clear of it by more than any engage threshold (ONSET_MARGIN_M, 1e-6 m) and rounding
+CLEAR_MARGIN_M = 1e-3
+
+
+@kernel
+def surely_clear(fb, p):
+    """Every foot of a ship at ``p`` is clear of level ground whatever its attitude: the centre is
+    farther above the ground than sqrt(a^2 + h^2), the feet's distance from it, plus
+    CLEAR_MARGIN_M. Its contact evaluation is then no contact's: no foot presses, so the ground's
+    force and moment are exactly +0 either way (sim.contact.evaluate sums +0 and the feet's +-0
+    into +0), as are the feet's forces. Only on level ground (the bound would need the slope's
+    plane and the bumps' heights elsewhere)."""
+    if not (fb.touching and fb.terrain.level):
+        return False
+    reach = math.sqrt(fb.leg_radius_m * fb.leg_radius_m + fb.com_height_m * fb.com_height_m)
+    return norm(p) - fb.body_radius_m - fb.terrain.base_height_m > reach + CLEAR_MARGIN_M
+
+
 @kernel
 def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
     """A stage of rk4: the derivatives and the contact at y + frac h k (``y``: the step's start,
@@ -137,7 +157,12 @@ def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
     hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
-    ce_s = contact_at(fb, ground_at(fb, t0 + hf), ps, vs, qs, ws, absorbing, fb.engage_m)
+    # a stage's contact serves its derivatives and its feet's forces alone: where every foot is
+    # surely clear, no contact's (the same bits: surely_clear)
+    if surely_clear(fb, ps):
+        ce_s = no_contact(ps)
+    else:
+        ce_s = contact_at(fb, ground_at(fb, t0 + hf), ps, vs, qs, ws, absorbing, fb.engage_m)
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
@@ -175,7 +200,10 @@ def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
     ground = ground_at(fb, t0 + hf)
-    ce_s = contact_at(fb, ground, ps, vs, qs, ws, absorbing, fb.engage_m)
+    if surely_clear(fb, ps):  # (as in _rk4_stage; no foot is then held either)
+        ce_s = no_contact(ps)
+    else:
+        ce_s = contact_at(fb, ground, ps, vs, qs, ws, absorbing, fb.engage_m)
     d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
     return d, hd, ce_s
 
