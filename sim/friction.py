@@ -402,12 +402,12 @@ def _slipping(a_mat, slip, lam, active, stick_speed_mps):
 
 
 @kernel
-def _dragged_only(law, mu_k, j_n, normals, ground, vel_mps, omega_b, omega_w, ft, sliding,
-                  inv_m):
+def _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m):
     """:func:`coulomb` where no pressing foot takes an impulse (each is dragged by its friction as
     a force, or none presses): the same numbers, without the solve's arrays. The slips after are
     the slips before (the solve adds no impulse to them), each foot kinetic while it slips faster
     than the stick speed; one sweep, as the solve counts a solve with nothing to do."""
+    mu_k, vel_mps, omega_b = law.mu_k, stepped.v, stepped.w
     tol2 = law.stick_speed_mps * law.stick_speed_mps
     drag = 0.0
     mean = (0.0, 0.0, 0.0)
@@ -455,8 +455,7 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
     inv_m = 1.0 / mass_kg
     if not ((j_n[0] > 0.0 and not dragged[0]) or (j_n[1] > 0.0 and not dragged[1])
             or (j_n[2] > 0.0 and not dragged[2]) or (j_n[3] > 0.0 and not dragged[3])):
-        return _dragged_only(law, mu_k, j_n, normals, ground, vel_mps, omega_b, omega_w, ft,
-                             sliding, inv_m)
+        return _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m)
     # the solve's arrays as views of five scratch allocations (thirteen mallocs were a fifth of
     # the solve's cost where no foot's impulse is solved for; a view by its first index is
     # pointer arithmetic, a reshape a call)
