@@ -401,6 +401,39 @@ def _slipping(a_mat, slip, lam, active, stick_speed_mps):
     return out
 
 
+@kernel
+def _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m):
+    """:func:`coulomb` where no pressing foot takes an impulse (each is dragged by its friction as
+    a force, or none presses): the same numbers, without the solve's arrays. The slips after are
+    the slips before (the solve adds no impulse to them), each foot kinetic while it slips faster
+    than the stick speed; one sweep, as the solve counts a solve with nothing to do."""
+    mu_k, vel_mps, omega_b = law.mu_k, stepped.v, stepped.w
+    tol2 = law.stick_speed_mps * law.stick_speed_mps
+    drag = 0.0
+    mean = (0.0, 0.0, 0.0)
+    j_sum = 0.0
+    kin = (False, False, False, False)
+    for i in range(4):
+        pressing = j_n[i] > 0.0
+        if pressing:
+            drag = drag + mu_k * j_n[i]
+        t1, t2 = tangent_basis(normals[i])
+        u = foot_velocity(ground, vel_mps, omega_w, ft.offset_w[i], ft.pos_w[i])
+        u1, u2 = dot(u, t1), dot(u, t2)
+        moves = pressing and u1 * u1 + u2 * u2 > tol2
+        if pressing:
+            mean = add(mean, scale(add(scale(t1, u1), scale(t2, u2)), j_n[i]))
+            j_sum = j_sum + j_n[i]
+        kin = (kin[0] or (i == 0 and moves), kin[1] or (i == 1 and moves),
+               kin[2] or (i == 2 and moves), kin[3] or (i == 3 and moves))
+    held = j_sum > 0.0 and norm(mean) <= AT_REST_MPS * j_sum
+    for i in range(4):
+        held = held and not (j_n[i] > 0.0 and (sliding[i] or kin[i]))
+    z = (0.0, 0.0, 0.0)
+    return Friction(add(vel_mps, scale(z, inv_m)), add(omega_b, z), kin, drag, 1, held,
+                    (z, z, z, z))
+
+
 @separate
 def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, ground, h):
     """Coulomb friction at each pressing foot (module docstring) of a ship of mass m and principal
@@ -420,6 +453,9 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
     normals = patch(pos_m, ft, j_n).normals
     omega_w = quat_rotate(quat, omega_b)
     inv_m = 1.0 / mass_kg
+    if not ((j_n[0] > 0.0 and not dragged[0]) or (j_n[1] > 0.0 and not dragged[1])
+            or (j_n[2] > 0.0 and not dragged[2]) or (j_n[3] > 0.0 and not dragged[3])):
+        return _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m)
     # the solve's arrays as views of five scratch allocations (thirteen mallocs were a fifth of
     # the solve's cost where no foot's impulse is solved for; a view by its first index is
     # pointer arithmetic, a reshape a call)

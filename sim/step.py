@@ -1361,11 +1361,11 @@ class SubStepEnd(NamedTuple):
 
 
 @kernel
-def guard_substep(cfg, fb, ground, s, e_ref, passive, clear_so_far, t_end, memo):
-    """The contact at a sub-step's end (``ground``, ``t_end`` into the tick; ``memo``'s if it was
-    evaluated there), and the passivity guard there (``sim.energy_guard``). ``clear_so_far``: the
-    sub-step started clear of the ground and touched nothing on the way."""
+def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
+    """The contact at a sub-step's end (``t_end`` into the tick; ``memo``'s if it was evaluated
+    there), and the passivity guard there (``sim.energy_guard``)."""
     m, ft = s.motion, s.footing
+    ground = ground_at(fb, t_end)
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
     ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
@@ -1373,7 +1373,7 @@ def guard_substep(cfg, fb, ground, s, e_ref, passive, clear_so_far, t_end, memo)
                           memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
-    airborne = clear_so_far and ce.max_penetration_m < 0.0
+    airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
     gd = passivity_guard(fb, ground, m.p, m.v, m.q, m.w, e_ref, passive, airborne)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
@@ -1626,8 +1626,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
         fb_k = with_hold(fb, carried)
         t_end = (j + 1) * h
         ground = ground_at(fb_k, t_end)
-        end = guard_substep(cfg, fb_k, ground, s, e_ref, passive,
-                            not pieces.touched and start.pen_m < 0.0, t_end, memo)
+        end = guard_substep(cfg, fb_k, s, e_ref, passive, pieces, start, t_end, memo)
         guard_j = guard_j + end.removed_j
         m = end.ship.motion
         peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
