@@ -274,8 +274,10 @@ class Gateway(threading.Thread):
 class Follower(threading.Thread):
     """What a gateway reads as it goes: every event stream and results stream, followed with XREAD
     from the last id seen (through restarts: a stream begun anew has later ids), each event kept
-    once by its ``seq`` and each results entry once by its shard and tick. Redis may lose what it
-    held (restarted empty, rolled back): what was read before is kept here."""
+    once by its ``seq`` and each results entry once by its shard and tick, the latest version of
+    each: Redis may lose what it held (restarted empty, rolled back), and what was read before is
+    kept here, unless written again; a new owner after a rollback writes its own history under
+    the same numbers and ticks (the old owner's versions are of ticks its log marks superseded)."""
 
     def __init__(self, connect, keys, shards: int):
         super().__init__(daemon=True, name="chaos-follower")
@@ -304,11 +306,15 @@ class Follower(threading.Thread):
                                              self.last[stream] != "0" else "-", count=2000):
                 self.last[stream] = entry_id.decode()
                 d = _decode(f)
+                # the latest version of each seq and each tick's results: a new owner after a
+                # rollback publishes its own history under the numbers and ticks the old one
+                # used (Redis lost them); the first version kept hid its rejections (chaos run
+                # of 2026-11-27: a rejection at seq 0:508 behind the old owner's 0:508)
                 if "seq" in d:
-                    self.events.setdefault(d["seq"], d)
+                    self.events[d["seq"]] = d
                 elif "results" in d:
                     k = int(stream.split("{")[1].split("}")[0])
-                    self.results.setdefault((k, d["tick"]), d)
+                    self.results[(k, d["tick"])] = d
 
     def halt(self, client) -> None:
         self.stop_flag.set()

@@ -569,6 +569,21 @@ class ShardStore:
         what Redis holds)."""
         self.r.set(self.keys.shard(k, "from"), f"{fence.epoch} {tick}")
 
+    def successor_start(self, k: int, mine: str) -> int:
+        """The tick shard k's latest owner goes on from: its ``began`` if the shard's current
+        epoch (not ``mine``, the caller's) wrote one; else (it is re-stepping still, or a rollback lost its ``began``, or
+        kept an older epoch's) as its take-over derives it from what Redis holds: past the last
+        tick whose entries are out and the last journaled one. (Read first: no owner writes
+        the tick or the journal between taking the lease and its ``began``.)"""
+        recorded = self.recorded_tick(k)
+        journaled = self.r.get(self.keys.shard(k, "journaled"))
+        held = max(recorded, int(journaled) + 1 if journaled is not None else -1)
+        epoch = self.r.get(self.keys.shard(k, "epoch"))
+        got = self.successor_from(k)
+        if got is not None and epoch is not None and got[0] == epoch.decode() != mine:
+            return got[1]
+        return held
+
     def successor_from(self, k: int) -> tuple[str, int] | None:
         """(epoch, tick) the shard's latest owner went on from, or None."""
         got = self.r.get(self.keys.shard(k, "from"))

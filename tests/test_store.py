@@ -139,3 +139,32 @@ def test_renewal_keeps_this_workers_leases_and_says_which_are_anothers(stores):
 ])
 def test_a_refusal_is_named_by_redis_error_code(exc, text, kind):
     assert refusal_kind(exc(text), text) == kind
+
+
+def test_a_lost_holder_learns_the_tick_its_successor_goes_on_from(stores):
+    """Where a worker that lost a shard marks its flight log superseded: its successor's
+    ``began`` once the current epoch wrote one, and before that (the successor re-stepping, or a
+    rollback that lost its ``began`` or kept an older epoch's) what Redis holds: past the last
+    journaled tick and the recorded one. (Chaos run of 2026-11-27: Redis back from a snapshot
+    holding tick 419 of a shard whose holder had delivered 439; the holder, finding no
+    ``began``, kept 439, and a command it applied at 419 that its successor applied at 420 was
+    counted twice.)"""
+    a, b = stores
+    a.ensure_group(0)
+    fence_a = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
+    a.began(0, fence_a, 3)  # a's own start: kept by the rollback below
+    got = a.journal([JournalWrite(0, fence_a, 7, _requests(7), None, -1),
+                     JournalWrite(0, fence_a, 8, _requests(8), None, 7)])
+    assert [j.code for j in got] == [1, 1]
+    a.r.set(a.keys.shard(0, "tick"), 6)  # the events out up to tick 6 (a snapshot's)
+    assert a.successor_start(0, fence_a.epoch) == 9  # nobody else: what Redis holds
+    a.release(0, fence_a)
+    fence_b = Fence("worker-b", b.take_lease(0, LEASE_MS), LEASE_MS)
+    assert fence_b.epoch == "2:worker-b"
+    # b re-stepping: no began of its epoch (a's older one is not b's start)
+    assert a.successor_start(0, fence_a.epoch) == 9
+    b.began(0, fence_b, 9)
+    b.r.set(b.keys.shard(0, "tick"), 20)  # b goes on
+    assert a.successor_start(0, fence_a.epoch) == 9
+    a.r.set(a.keys.shard(0, "tick"), 12)
+    assert a.successor_start(0, fence_a.epoch) == 9  # (b's began, not what it has written since)
