@@ -1106,22 +1106,39 @@ class PieceStart(NamedTuple):
 
 
 @kernel
+def touchdown_rules(cfg, om, p, v, q, impact_mps, aligned):
+    """The seed's rules at a touchdown, the one place they are written (both the located
+    touchdown, :func:`touchdown_transitions`, and the last-resort one at a sub-step's end,
+    :func:`in_flight_transitions`, apply them): crashed above crash_speed, else contact; a ship
+    lying down already (tilted past tipped_angle and not stood up by the alignment) goes on at
+    once to tipped, or to crashed if it moves faster than crash_speed relative to the ground: its
+    hull, which the model does not have, is what touches (MODEL-NOTES 12). Returns the state the
+    touchdown enters and the state it goes on to at the same instant (the same state if none)."""
+    if impact_mps > cfg.crash_speed_mps:
+        return CRASHED, CRASHED
+    if not aligned and dot(quat_axis_z(q), unit(p)) < cfg.cos_tipped:
+        v_rel = sub(v, surface_velocity(om, p))
+        return CONTACT, (CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED)
+    return CONTACT, CONTACT
+
+
+@kernel
+def emit_touchdown(log, entered, then, impact_mps, t_s):
+    """A touchdown's transitions, in order, each with the descent speed at the touchdown."""
+    emit(log, FLYING, entered, -impact_mps, t_s)
+    if then != entered:
+        emit(log, entered, then, -impact_mps, t_s)
+
+
+@kernel
 def touchdown_transitions(cfg, fb, s, td, t_abs, log):
-    """The transitions of a touchdown at ``t_abs`` (``s`` already aligned), in order, and the
-    state they lead to: crashed above crash_speed, else contact, and a ship lying down already
-    (not stood up) tips over or crashes at once: its hull, which the model does not have, is
-    what touches (MODEL-NOTES 12)."""
+    """The transitions of a touchdown located at ``t_abs`` (``s`` already aligned), emitted in
+    order; returns the state they lead to (:func:`touchdown_rules`)."""
     m = s.motion
-    if td.impact_mps > cfg.crash_speed_mps:
-        emit(log, FLYING, CRASHED, -td.impact_mps, t_abs)
-        return CRASHED
-    emit(log, FLYING, CONTACT, -td.impact_mps, t_abs)
-    if not td.aligned and dot(quat_axis_z(m.q), unit(m.p)) < cfg.cos_tipped:
-        v_rel = sub(m.v, surface_velocity(fb.body_omega_radps, m.p))
-        surf = CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED
-        emit(log, CONTACT, surf, -td.impact_mps, t_abs)
-        return surf
-    return CONTACT
+    entered, then = touchdown_rules(cfg, fb.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
+                                    td.aligned)
+    emit_touchdown(log, entered, then, td.impact_mps, t_abs)
+    return then
 
 
 @kernel
@@ -1436,8 +1453,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
     tipped = was == TIPPED  # the full model's tipped ship (MODEL-NOTES 48)
     crash_in_contact = ((was == CONTACT or tipped)
                         and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
-    crash = (touch and impact > cfg.crash_speed_mps) or crash_in_contact
-    touch_ok = touch and not crash
+    touch_ok = touch and not impact > cfg.crash_speed_mps
     if touch_ok:
         ft = fresh_footing(impact < cfg.bounce_speed_mps)
         if cfg.align_on_touchdown:
@@ -1449,18 +1465,19 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
             if cfg.energy_guard and al.aligned:  # the snap never adds energy; from after it
                 e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
         cos_tilt = dot(quat_axis_z(q), r_hat)
+    entered, then = CONTACT, CONTACT
+    if touch:
+        entered, then = touchdown_rules(cfg, om, p, v, q, impact, aligned)
+    crash = then == CRASHED or crash_in_contact
     # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
     # lift a foot clear while the ship still descends; that is not a liftoff)
     lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
-    # past tipped_angle in contact; a touchdown already past it that was not stood up by the
-    # alignment lies down at once (its hull, which the model does not have, is what touches)
-    lying_down = touch and not aligned
-    tip = (((was == CONTACT and not lift) or lying_down) and not crash
-           and cos_tilt < cfg.cos_tipped)
+    # past tipped_angle in contact (a touchdown lying down: touchdown_rules)
+    tip = was == CONTACT and not lift and not crash and cos_tilt < cfg.cos_tipped
     v_rel = sub(v, surface_velocity(om, p))
     tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
     crash = crash or tip_crash
-    tip = tip and not tip_crash
+    tip = (tip and not tip_crash) or then == TIPPED
     # a tipped ship turning back under tipped_angle is righted; one whose tilt reaches
     # tipped_rest lies on its hull: at rest there (an inelastic stop), or crashed if it hit it
     # faster than crash_speed
@@ -1499,10 +1516,9 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped_rest, start.t_s, t_end)
     else:  # tipped (or its crash): the tilt passing tipped_angle
         t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
-    if touch_ok and tip:  # two transitions in one sub-step
-        emit(log, FLYING, CONTACT, -impact, t_end)
-        was = CONTACT
-    if surf != was:
+    if touch:
+        emit_touchdown(log, entered, then, impact, t_end)
+    elif surf != was:
         if was == FLYING:
             speed = -impact
         elif surf == FLYING:

@@ -51,6 +51,21 @@ def test_crash_speed_when_tipping_over(speed, crashed):
     assert topics(recs)[0] == ("ship.crashed" if crashed else "ship.tipped")
 
 
+
+@pytest.mark.parametrize("side,crashed", [(49.0, False), (51.0, True)])
+def test_a_touchdown_lying_down_enters_contact_then_tips_or_crashes(side, crashed):
+    """A ship already past tipped_angle when its first foot touches (not stood up: alignment
+    off) enters contact, then at the same instant lies down: tipped, or crashed if it moves
+    faster than crash_speed relative to the ground (sim.step.touchdown_rules, one rule for the
+    located touchdown and the last-resort one). Both events carry the impact's speed."""
+    recs = records(scene({"altitude": 0.001, "vertical_speed": -8.0, "horizontal_speed": side,
+                          "tilt_deg": 85.0}, contact={"align_on_touchdown": False},
+                         duration=0.2))
+    evs = events(recs)
+    assert [t for _, t, _ in evs[:2]] == ["ship.contact",
+                                          "ship.crashed" if crashed else "ship.tipped"]
+    assert evs[0][0] == evs[1][0] and evs[0][2] == evs[1][2] == pytest.approx(-8.0, abs=0.01)
+
 def test_recontact_after_a_bounce_above_crash_speed_crashes():
     """SEED-NOTES 7: only thrust can make a re-contact faster than the impact (the built-in
     'recontact-crash' flips the ship in flight and fires downward)."""
