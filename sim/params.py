@@ -163,7 +163,7 @@ ControllerParams = _section("ControllerParams", "controller", """Attitude hold: 
 #: What Params.scene derives from the parameters (the rest of SCENE_DTYPE is the settings the
 #: step reads as they are: sim.settings.in_scene).
 _SCENE_DERIVED = [
-    ("method", "i8"), ("impact_substeps", "i8"), ("linear_model", "?"), ("crash_speed2", "f8"),
+    ("method", "i8"), ("impact_substeps", "i8"), ("crash_speed2", "f8"),
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
     ("tipped_rest_rad", "f8"), ("cos_tipped_rest", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("terrain_max_m", "f8"), ("slope_tan", "f8"),
@@ -204,7 +204,6 @@ class Params:
         """One record of :data:`SCENE_DTYPE`: every scene-wide number the step reads, the
         angles as the cosines its comparisons use."""
         from touchdown.sim.integrators import METHODS
-        from touchdown.sim.stability import KICKS
 
         sim, cp, body = self.sim, self.contact, self.body
         ter = body.terrain
@@ -218,7 +217,6 @@ class Params:
         # max_substep = 0 is the seed's plain step: no sub-steps at all, striking or not
         r["impact_substeps"] = (0 if sim.impact_substep_s <= 0.0 or sim.max_substep_s <= 0.0
                                 else max(1, int(math.ceil(sim.dt_s / sim.impact_substep_s - 1e-9))))
-        r["linear_model"] = sim.integrator in KICKS
         r["crash_speed2"] = cp.crash_speed_mps ** 2
         r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
         r["settle_ang2"] = cp.settle_angular_vel_radps ** 2

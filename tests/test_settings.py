@@ -112,3 +112,26 @@ def test_readme_defaults_match_the_table():
     for key, value in rows.items():
         s = BY_KEY[key]
         assert s.default is not REQUIRED and s.default == value, key
+
+
+def _source(*dirs: str, skip: tuple[str, ...] = ()) -> str:
+    root = Path(__file__).resolve().parents[1]
+    return "\n".join(p.read_text() for d in dirs for p in sorted((root / d).glob("*.py"))
+                     if p.name not in skip)
+
+
+def test_every_setting_is_read():
+    """A setting nothing reads is a key a user sets to no effect. The step reads the scene's
+    record as ``cfg`` and a ship's as ``sp`` (sim.step, sim.contact, ...); a scene field no kernel
+    reads, a ship field read nowhere in sim/, or a parameter no module names, fails here."""
+    kernels = _source("sim", skip=("settings.py", "params.py"))
+    unread = [f"scene record field {f}" for f in P.SCENE_DTYPE.names
+              if not re.search(rf"\bcfg\.{f}\b", kernels)]
+    sim_side = _source("sim", skip=("settings.py",))
+    unread += [f"ship record field {f}" for f in P.SHIP_DTYPE.names
+               if not re.search(rf"\.{f}\b|\[\"{f}\"\]", sim_side)]
+    every = _source("sim", "sweep", "service", "logs", "replay", "view", ".", skip=("settings.py",))
+    unread += [f"setting {s.key} ({s.dest})" for s in SETTINGS
+               if s.dest and not s.scene and s.section != "ships"
+               and not re.search(rf"\.{s.field}\b", every)]
+    assert not unread, unread
