@@ -309,10 +309,8 @@ def test_a_shortened_run_is_never_reported_as_the_whole(bounce, tmp_path):
     assert r.exit_code == 1 and "field summary.complete" in r.output, r.output
 
 
-def test_a_cut_log_says_what_it_checked_and_what_it_exported(tmp_path):
-    log = tmp_path / "fleet.mcap"
-    assert invoke("record", "fleet", "--set", "duration=20", "-o", log).exit_code == 0
-    data = log.read_bytes()
+def test_a_cut_log_says_what_it_checked_and_what_it_exported(tmp_path, fleet_log_20s):
+    data = fleet_log_20s.read_bytes()
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: len(data) * 2 // 3])
     r = invoke("replay", cut, "--verify")

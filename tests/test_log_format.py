@@ -28,11 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def fleet_log(tmp_path_factory):
-    path = tmp_path_factory.mktemp("log") / "fleet.mcap"
-    r = CliRunner().invoke(main, ["record", "fleet", "--set", "duration=5", "-o", str(path)])
-    assert r.exit_code == 0, r.output
-    return path
+def fleet_log(fleet_log_20s):
+    return fleet_log_20s  # recorded once a session (conftest.py)
 
 
 def test_the_stock_protobuf_decoder_reads_every_message(fleet_log):
@@ -44,7 +41,7 @@ def test_the_stock_protobuf_decoder_reads_every_message(fleet_log):
             if channel.topic == TOPIC_TICKS and message.log_time == 0:
                 first = decoded
     assert counts[TOPIC_SCENARIO] == 1 and counts[TOPIC_SUMMARY] == 1
-    assert counts[TOPIC_TICKS] == 101 and counts[TOPIC_EVENTS] > 0
+    assert counts[TOPIC_TICKS] == 401 and counts[TOPIC_EVENTS] > 0
     with LogReader(fleet_log) as r:
         mine = next(r.ticks())
     assert first.ship_count == 6 and len(first.pos_m) == 18
@@ -127,7 +124,7 @@ def test_generated_protobuf_code_is_up_to_date(tmp_path):
 def test_the_recorded_scenario_reparses_to_the_same_scenario(fleet_log):
     with LogReader(fleet_log) as r:
         rec = r.scenario
-    original = parse_text(scenarios.text("fleet"), "fleet", {"duration": 5})
+    original = parse_text(scenarios.text("fleet"), "fleet", {"duration": 20})
     again = parse(json.loads(rec.resolved_json), "log")
     assert again.resolved == original.resolved
     assert rec.project_version and rec.integrator == "hybrid" and rec.dt_s == 0.05
