@@ -173,14 +173,10 @@ def state_costs(n_ships: int = 1000, n_ticks: int = 40, dt: float = 0.05
                 ) -> list[tuple[str, str, list[float]]]:
     """Microseconds per ship-tick for batches whose ships all stay in one state, one column per
     configuration of :data:`COST_CONFIGS`."""
+    from touchdown.bench.states import ships_in_state
     rows = []
     for label, model, ini, inputs in STATE_SCENES:
-        ships = []
-        for i in range(n_ships):
-            init = {**ini, "east": float(i)}
-            if init.get("vertical_speed") == "bounce":
-                init["vertical_speed"] = -(20.0 + 29.0 * i / max(n_ships - 1, 1))
-            ships.append({"id": f"s{i}", "initial": init, "inputs": inputs})
+        ships = ships_in_state(ini, inputs, n_ships)
         costs = []
         for _, sim in COST_CONFIGS:
             scn = parse({"name": "cost", "duration": n_ticks * dt, "ships": ships,

@@ -35,17 +35,23 @@ SCENES = [
 TOUCHDOWNS = "300 touchdowns of 20 s"
 
 
-def state_cost(ini, inputs, n_ships, n_ticks, dt, repeat):
-    from touchdown.sim.run import run_blocks
-    from touchdown.sim.scenario import parse
+def ships_in_state(ini, inputs, n_ships):
+    """``n_ships`` ships of a state scene, a metre apart; a "bounce" vertical speed spread over
+    20-49 m/s down."""
     ships = []
     for i in range(n_ships):
         init = {**ini, "east": float(i)}
         if init.get("vertical_speed") == "bounce":
             init["vertical_speed"] = -(20.0 + 29.0 * i / max(n_ships - 1, 1))
         ships.append({"id": f"s{i}", "initial": init, "inputs": inputs})
-    scn = parse({"name": "cost", "duration": n_ticks * dt, "ships": ships, "sim": {"dt": dt}},
-                "bench")
+    return ships
+
+
+def state_cost(ini, inputs, n_ships, n_ticks, dt, repeat):
+    from touchdown.sim.run import run_blocks
+    from touchdown.sim.scenario import parse
+    scn = parse({"name": "cost", "duration": n_ticks * dt,
+                 "ships": ships_in_state(ini, inputs, n_ships), "sim": {"dt": dt}}, "bench")
     next(iter(run_blocks(scn, last_tick=1)))
     best = float("inf")
     for _ in range(repeat):
