@@ -122,7 +122,7 @@ def autoland_commands(world: "World", ship_ids: Sequence[str]
     A flying ship gets the law's throttle with hold RADIAL; a ship in contact throttle 0, hold
     RADIAL (the legs settle it; the hold keeps it from rocking). A ship whose autolanding ended
     gets throttle 0, hold OFF: the autopilot hands back a quiet ship. A landed or tipped ship is
-    pinned and no hold acts on it (sim.step.commands), so a RADIAL hold there would only take
+    pinned and no hold acts on it (sim.phases.commands), so a RADIAL hold there would only take
     effect after a later liftoff, which is the player's to command, and would spend RCS fuel on a
     righted ship the player has not asked to hold.
     """

@@ -214,7 +214,7 @@ def entry(fn: Callable) -> Callable:
 def constructor(fn: Callable) -> Callable:
     """:func:`kernel` for a function that builds a tuple holding a record (``Ground``,
     ``FreeBody``), or a phase called once whose own compiled library would only repeat its
-    caller's work (sim.step.step_ship): its code is inlined where it is called, before typing
+    caller's work (sim.phases.step_ship): its code is inlined where it is called, before typing
     (numba's ``inline="always"``; numba cannot return a tuple holding a record from a call)."""
     return _dispatcher(fn, _Inner, **OPTIONS, no_cpython_wrapper=True, inline="always")
 

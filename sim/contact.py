@@ -248,7 +248,7 @@ class FrictionForce(NamedTuple):
     kinetic: tuple  # each foot: dragged by its kinetic friction
     hold_w: tuple  # each foot's static friction carried in, inertial, N
     #: each dragged foot's drag against this direction, where it is not zero (a foot whose stop is
-    #: being located: sim.step.step_piece), else against its slip
+    #: being located: sim.flight.step_piece), else against its slip
     drag_dir: tuple
 
 

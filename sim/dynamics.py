@@ -60,7 +60,7 @@ class FreeBody(NamedTuple):
     #: False: this ship cannot reach the ground this tick; skip the contact work
     touching: bool
     #: foot i presses from penetration > -engage_m[i] (sim.contact.evaluate): -inf while the ship
-    #: is stepped up to the instant that foot reaches the ground (sim.step.free_flight)
+    #: is stepped up to the instant that foot reaches the ground (sim.flight.free_flight)
     engage_m: tuple
     #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums)
     linear_model: bool

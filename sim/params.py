@@ -228,7 +228,7 @@ class Params:
         r["omega2"] = body.omega_radps ** 2
         r["surface_gravity_mps2"] = body.surface_gravity_mps2
         # the highest the bumps raise the ground; a slope adds its plane's height under the ship
-        # (sim.step.near_ground)
+        # (sim.phases.near_ground)
         r["terrain_max_m"] = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
         r["slope_tan"] = math.hypot(*ter.gradient)
         return rec

@@ -1,7 +1,7 @@
 """Tipped ships: the pivot model. A ship past ``tipped_angle`` turns about its pivot foot (the
 lowest, held where it was when the ship was handed over) as one rigid rotation about the
 horizontal axis through it; it rests on its hull at ``tipped_rest_deg`` and is righted when it
-turns back under ``tipped_angle`` (sim.step.pinned). MODEL-NOTES 29. One ship, compiled.
+turns back under ``tipped_angle`` (sim.phases.pinned). MODEL-NOTES 29. One ship, compiled.
 """
 from __future__ import annotations
 
@@ -130,7 +130,7 @@ def pivot_step(cfg, pin, m, inertia_b, rcs_torque_body_nm):
     sin and 1 - cos as +,*,/ series), and the implicit step solved by fixed-point iteration
     (MAX_PIVOT_ITERATIONS). The ship rests on its hull at ``tipped_rest_deg``: a turn that would
     pass it stops there (an inelastic impact; crash above crash_speed at the centre of mass).
-    Poses are body-fixed: ``pin`` (sim.step.Pin) holds the pose, the pivot and the rate of turn;
+    Poses are body-fixed: ``pin`` (sim.ship.Pin) holds the pose, the pivot and the rate of turn;
     ``cfg`` is the scene record (the tick, gravity, the body's spin, tipped_rest, crash_speed,
     tipped_angle)."""
     p0, q0, pivot, rate0 = pin

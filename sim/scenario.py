@@ -496,7 +496,7 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
         if alt != 0.0 and state == "tipped":
             rd.fail(pre + "altitude", "must be 0 for a tipped ship (it is pinned)")
     # the footprint holds the centre of mass while h sin(tilt) (|cos yaw| + |sin yaw|) < a cos(tilt)
-    # (sim.step.over_footprint: toward a foot atan(a / h), toward an edge atan(a / (sqrt 2 h)))
+    # (sim.rest.over_footprint: toward a foot atan(a / h), toward an edge atan(a / (sqrt 2 h)))
     th, yaw = math.radians(ini["tilt_deg"]), math.radians(ini["yaw_deg"])
     reach = abs(math.cos(yaw)) + abs(math.sin(yaw))
     if state == "landed" and not (sh["com_height"] * math.sin(th) * reach

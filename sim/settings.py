@@ -211,14 +211,14 @@ SETTINGS: tuple[Setting, ...] = (
           "never sub-step, the seed's behaviour); ships far from the ground take the whole tick"),
     S("sim.impact_substep", "float", 0.005, "s", 0.0, 1.0, dest="sim.impact_substep_s",
       doc="a ship that is not purely vertical takes sub-steps of at most this while it strikes "
-          "the ground or rebounds (sim.step.striking; 0: max_substep everywhere)"),
+          "the ground or rebounds (sim.phases.striking; 0: max_substep everywhere)"),
     S("sim.on_unstable", "str", "substep", choices=OnUnstable,
       doc="an unstable method and step: sub-step further, refuse, or run as asked"),
     S("sim.vertical_one_step", "bool", True, dest="sim.vertical_one_step",
       scene="vertical_one_step",
       doc="with a method exact on the spring, purely vertical ships take one step per tick"),
     S("sim.energy_guard", "bool", True, dest="sim.energy_guard", scene="energy_guard",
-      doc="a passive ship's energy never rises over a sub-step (sim.step.passivity_guard)"),
+      doc="a passive ship's energy never rises over a sub-step (sim.flight.passivity_guard)"),
     # -- contact: the seed's Configuration table, and what SEED-NOTES adds
     S("contact.crash_speed", "float", 50.0, "m/s", 0.0, 1e4, lo_open=True,
       dest="contact.crash_speed_mps", scene="crash_speed_mps"),

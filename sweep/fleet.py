@@ -1,4 +1,4 @@
-"""The cases as one fleet: every case a ship, stepped by the compiled tick (sim.step.step_ship),
+"""The cases as one fleet: every case a ship, stepped by the compiled tick (sim.phases.step_ship),
 each ship with its own scene record and terrain (a case may change the contact model, the body or
 the slope), and its outcome reduced as it goes: nothing of a tick is kept past it.
 
@@ -25,8 +25,9 @@ from touchdown.sim.frames import Body, body_rotation
 from touchdown.sim.params import SCENE_DTYPE, Records
 from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
     concatenate)
-from touchdown.sim.step import (CONTACT, Turn, apply_commands, observe_ships, scene_ground,
-    step_ships)
+from touchdown.sim.phases import Turn
+from touchdown.sim.ship import CONTACT, scene_ground
+from touchdown.sim.step import apply_commands, observe_ships, step_ships
 from touchdown.sim.vec import quat_axis_z
 from touchdown.sweep.cases import Sweep
 
@@ -106,7 +107,7 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
                 next_command, first_tick, n_ticks, dt_s, outs, events, count, acc, raw, scratch,
                 still, last_command, frozen):
     """Ticks ``first_tick`` .. ``first_tick + n_ticks - 1`` of the fleet, each ship's by
-    sim.step.step_ship with its group's scene and terrain and its rotation group's body angle
+    sim.phases.step_ship with its group's scene and terrain and its rotation group's body angle
     (``rot[r, k]``: (cos, sin) at the start of the k-th tick), reduced into ``acc``. Commands
     (sorted by tick, from ``next_command``) are applied before the tick they are for, as
     sim.step.step_ticks applies them. Returns the index of the next command."""

@@ -55,9 +55,9 @@ def long_axis(quat: np.ndarray) -> np.ndarray:
 
 def one_ship(params, state, inputs=None, i: int = 0):
     """What the compiled phases of sim.step take for ship ``i``: (scene constants, the terrain's
-    record, its parameters, its state as a sim.step.Ship, its commands' record)."""
+    record, its parameters, its state as a sim.ship.Ship, its commands' record)."""
     from touchdown.sim.state import Inputs
-    from touchdown.sim.step import load
+    from touchdown.sim.ship import load
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
     return (params.scene[0], params.terrain[0], params.ships.rows[i], load(state.rows[i]),
             inputs.rows[i])

@@ -97,7 +97,7 @@ PASSIVE = ["bounce", "crash", "double-bounce", "earth", "slide", "soft-touchdown
 
 @pytest.mark.parametrize("name", PASSIVE)
 def test_the_passive_builtins_never_gain_energy_and_the_guard_takes_little(name):
-    """The guard (sim.step.passivity_guard) projects out integration error that would raise a
+    """The guard (sim.flight.passivity_guard) projects out integration error that would raise a
     passive ship's energy; over each built-in it takes less than 1e-3 of what the dampers, friction
     and transitions dissipate (the measured worst, tilt-recover, is 5e-4)."""
     scn = parse_text(scenarios.text(name), name)

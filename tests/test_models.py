@@ -2,10 +2,10 @@
 full model or an independent reference.
 
 * vertical: an upright ship moving only along local up takes one exact step a tick instead of
-  sub-steps (sim.step.purely_vertical); it must match the sub-stepped full model.
+  sub-steps (sim.phases.purely_vertical); it must match the sub-stepped full model.
 * coarse flight: a ship far above the ground takes one step a tick with no contact work; its fall
   must match point-mass gravity, and it must never be caught below the ground.
-* pivot: a tipped ship turns about its low foot (sim.step.pinned); it must match the full model
+* pivot: a tipped ship turns about its low foot (sim.phases.pinned); it must match the full model
   of the same fall, feet, friction and all.
 """
 import math
@@ -18,7 +18,8 @@ from scipy.integrate import solve_ivp
 
 from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
-from touchdown.sim.step import commands, near_ground, purely_vertical, step
+from touchdown.sim.phases import commands, near_ground, purely_vertical
+from touchdown.sim.step import step
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
 

@@ -9,9 +9,11 @@ from scenes import events, final_state, one_ship, records, scene, tilt_deg, topi
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.state import TRANSITION_DTYPE
-from touchdown.sim.step import NO_RUN, Commands, EventLog, settle
+from touchdown.sim.phases import settle
+from touchdown.sim.rest import NO_RUN
+from touchdown.sim.ship import Commands, EventLog
 
-#: no engine, no RCS (sim.step.Commands)
+#: no engine, no RCS (sim.ship.Commands)
 IDLE = Commands(0.0, 0.0, (0.0, 0.0, 0.0), False)
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
@@ -56,7 +58,7 @@ def test_crash_speed_when_tipping_over(speed, crashed):
 def test_a_touchdown_lying_down_enters_contact_then_tips_or_crashes(side, crashed):
     """A ship already past tipped_angle when its first foot touches (not stood up: alignment
     off) enters contact, then at the same instant lies down: tipped, or crashed if it moves
-    faster than crash_speed relative to the ground (sim.step.touchdown_rules, one rule for the
+    faster than crash_speed relative to the ground (sim.flight.touchdown_rules, one rule for the
     located touchdown and the last-resort one). Both events carry the impact's speed."""
     recs = records(scene({"altitude": 0.001, "vertical_speed": -8.0, "horizontal_speed": side,
                           "tilt_deg": 85.0}, contact={"align_on_touchdown": False},

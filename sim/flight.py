@@ -1,0 +1,1356 @@
+"""The free flight (phase 2 of sim.phases): a flying or contact ship advanced through one tick in
+sub-steps (:func:`free_flight`), each in three stages: (a) the touchdown instant
+(:func:`piece_start`: the seed's touchdown rules, :func:`touchdown_rules`, where the first foot
+reaches the ground), (b) integrating, friction at the feet and the passivity guard
+(:func:`step_piece`, which cuts the sub-step into pieces at every foot that starts or stops
+pressing, stops slipping or breaks away, each located by :func:`to_event`; then
+:func:`guard_substep`), (c) the in-flight transitions and their events
+(:func:`in_flight_transitions`).
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from touchdown.sim.compiled import constructor, kernel, separate
+from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
+    lowest_foot_penetration, no_contact)
+from touchdown.sim.dynamics import (Motion, contact_at, derivatives_held, ground_at, ground_turn,
+    held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.energy import mechanical, rotation, total, translation
+from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
+    surface_velocity, turned)
+from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, spread_over_step
+from touchdown.sim.integrators import RK4, advance, rk4_held
+from touchdown.sim.pivot import pinned_motion, rate_from_momentum
+from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
+from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, Footing,
+    NO_HOLD, NO_SLIP, Pin, Report, SEED_FRICTION, Ship, TIPPED, emit, fresh_footing, with_motion)
+from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, norm, quat_axis_z, quat_mul,
+    quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit)
+
+
+#: A step that ends (or starts) exactly where the feet reach the ground leaves them within rounding
+#: of it (ulp(|p|) ~ 2e-10 m on the Moon): the feet count as clear before that instant and as
+#: pressing from it, within this margin, so that all of an upright ship's feet engage together.
+ONSET_MARGIN_M = 1e-6
+
+
+@kernel
+def align_to_surface(q, r_hat):
+    """Attitude turned by the smallest rotation that takes the body's long axis onto r_hat.
+
+    Half-way quaternion: (1 + ez.r, ez x r) normalised (sqrt only)."""
+    ez = quat_axis_z(q)
+    c = cross(ez, r_hat)
+    rot = (1.0 + dot(ez, r_hat), c[0], c[1], c[2])
+    if rot[0] <= 0.0:  # upside down: no unique smallest rotation; leave as is
+        rot = (1.0, 0.0, 0.0, 0.0)
+    return quat_normalize(quat_mul(quat_normalize(rot), q))
+
+
+@kernel
+def ship_energy(fb, ground, p, v, q, w):
+    """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
+    stores nothing in its springs: its feet are not looked for)."""
+    return mechanical(Body(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps), fb.mass_kg,
+                      fb.inertia_kgm2, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
+                      Motion(p, v, q, w), ground, fb.touching)
+
+
+class EnergyRef(NamedTuple):
+    """A passive ship's energy at the end of its last sub-step: the total, and its translational
+    and rotational parts (conserved each on its own while nothing touches the ship)."""
+
+    total_j: float
+    translation_j: float
+    rotation_j: float
+
+
+@kernel
+def energy_ref(e):
+    return EnergyRef(total(e), translation(e), rotation(e))
+
+
+@kernel
+def _guard_factor(excess, kinetic):
+    """sqrt(1 - excess / kinetic): the scale of the kinetic energy that removes ``excess``."""
+    if not excess > 0.0:
+        return 1.0
+    if not kinetic > 0.0:
+        return 0.0
+    return math.sqrt(fmax(1.0 - excess / kinetic, 0.0))
+
+
+class Guarded(NamedTuple):
+    v: tuple
+    w: tuple
+    ref: EnergyRef
+    removed_j: float
+
+
+@kernel
+def passivity_guard(fb, ground, p, v, q, w, ref, passive, airborne):
+    """With no thrust and no RCS nothing can add energy (sim.energy: the dampers, friction and
+    every inelastic transition only take it). A step's integration error can (the explicit
+    kicks on a rocking ship, measured up to 2.5e-4 of its energy in a tick; free flight's
+    Verlet error, 1e-12): where a passive ship's energy rose over the step, its velocities
+    relative to the surface are scaled back by sqrt(1 - excess / kinetic) so that it did not,
+    a projection onto the sublevel set of the energy (Hairer, Lubich & Wanner, Geometric
+    Numerical Integration, IV.4). A ship that touched nothing during the step keeps its
+    translational and rotational energies each on its own, so each is guarded on its own (the
+    rotation's step is exact for an axisymmetric ship and must not pay for the translation's
+    error). The correction is the size of the local error, so the method's order is kept; what
+    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``)."""
+    e = ship_energy(fb, ground, p, v, q, w)
+    ex_all = total(e) - ref.total_j if passive and not airborne else 0.0
+    ex_tr = translation(e) - ref.translation_j if passive and airborne else 0.0
+    ex_rot = rotation(e) - ref.rotation_j if passive and airborne else 0.0
+    if not (ex_all > 0.0 or ex_tr > 0.0 or ex_rot > 0.0):
+        return Guarded(v, w, energy_ref(e), 0.0)
+    f_all = _guard_factor(ex_all, e.translational_j + e.rotational_j)
+    f_v = f_all * _guard_factor(ex_tr, e.translational_j)
+    f_w = f_all * _guard_factor(ex_rot, e.rotational_j)
+    # only where a correction is due: (v - v_surf) + v_surf is not v in floating point
+    if f_v != 1.0:
+        v_surf = surface_velocity(fb.body_omega_radps, p)
+        v = add(v_surf, scale(sub(v, v_surf), f_v))
+    if f_w != 1.0:
+        spin_b = body_spin_in_body_frame(fb.body_omega_radps, q)
+        w = add(spin_b, scale(sub(w, spin_b), f_w))
+    taken_tr = e.translational_j * (1.0 - f_v * f_v)
+    taken_rot = e.rotational_j * (1.0 - f_w * f_w)
+    removed = taken_tr + taken_rot
+    return Guarded(v, w, EnergyRef(total(e) - removed, translation(e) - taken_tr,
+                                   rotation(e) - taken_rot), removed)
+
+
+class Aligned(NamedTuple):
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    aligned: bool
+
+
+@kernel
+def align_at_touchdown(fb, ground, p, v, q, w):
+    """The seed's Flying -> Contact rule: attitude snapped to local up and rotation stopped
+    (relative to the surface); then the ship moves out along local up so that its deepest foot
+    is no deeper than before the snap: turning must not bury the feet (MODEL-NOTES 11). The snap
+    must not make energy either (MODEL-NOTES 24): a ship that it would raise (tilted past
+    2 atan(a / h), 74 degrees for the default lander) pays for the lift out of its descent speed;
+    a ship too slow to pay is not stood up and touches down as it is."""
+    r_hat = unit(p)
+    q1 = align_to_surface(q, r_hat)
+    w1 = body_spin_in_body_frame(fb.body_omega_radps, q1)
+    pen0 = lowest_foot_penetration(ground, p, q, fb.leg_radius_m, fb.com_height_m)
+    pen1 = lowest_foot_penetration(ground, p, q1, fb.leg_radius_m, fb.com_height_m)
+    p1 = add(p, scale(r_hat, fmax(pen1 - pen0, 0.0)))
+    cost = total(ship_energy(fb, ground, p1, v, q1, w1)) - total(ship_energy(fb, ground, p, v, q, w))
+    v_rad = dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
+    pays = cost > 0.0 and v_rad < 0.0 and spare >= 0.0
+    if not (cost <= 0.0 or pays):
+        return Aligned(p, v, q, w, False)
+    dv = -math.sqrt(fmax(spare, 0.0)) - v_rad if pays else 0.0
+    return Aligned(p1, add(v, scale(r_hat, dv)), q1, w1, True)
+
+
+@kernel
+def hermite_peak(x0, xd0, x1, xd1, h):
+    """Largest value over a sub-step of the cubic Hermite interpolant through (x0, x0') and
+    (x1, x1'): the deepest penetration between sub-step ends, to O(h^4). Telemetry only."""
+    a = 6.0 * (x0 - x1) + 3.0 * h * (xd0 + xd1)
+    b = 6.0 * (x1 - x0) - h * (4.0 * xd0 + 2.0 * xd1)
+    c = h * xd0
+    best = fmax(x0, x1)
+    disc = b * b - 4.0 * a * c
+    root = math.sqrt(fmax(disc, 0.0))
+    for sgn in (-1.0, 1.0):
+        if a != 0.0:
+            s = (-b + sgn * root) / (2.0 * a)
+        elif b != 0.0:
+            s = -c / b
+        else:
+            s = 0.0
+        if disc >= 0.0 and s > 0.0 and s < 1.0 and math.isfinite(x0) and math.isfinite(x1):
+            s2 = s * s
+            s3 = s * s * s
+            xs = ((2.0 * s3 - 3.0 * s2 + 1.0) * x0 + (s3 - 2.0 * s2 + s) * h * xd0
+                  + (-2.0 * s3 + 3.0 * s2) * x1 + (s3 - s2) * h * xd1)
+            best = fmax(best, xs)
+    return best
+
+
+class SubStep(NamedTuple):
+    """One integrator (sub-)step followed by friction's impulses."""
+
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    sliding: tuple
+    friction_n: float  # the feet's friction impulse over the step divided by it
+    peak_penetration_m: float  # the method's own deepest penetration inside the step
+    located: bool  # whether the method located it
+    pressed: bool  # whether any foot pressed during the step
+    hold_w: tuple  # each holding foot's static friction over it (sim.friction.Friction)
+
+
+class FootRoles(NamedTuple):
+    """How each foot takes part in a step."""
+
+    engage: tuple  # it presses from penetration > -engage (sim.contact.evaluate)
+    sliding: tuple  # its friction regime
+    dragged: tuple  # it is dragged by its kinetic friction as a force
+    absorbing: bool  # the contact is the absorbers' (SEED-NOTES 1)
+
+
+@separate
+def substep(cfg, fb, roles, h, motion, ce_start, t_start):
+    """One step of the method from ``motion``, the feet pressing from ``roles.engage`` and those
+    of ``roles.dragged`` dragged by kinetic friction as a force (``ce_start`` evaluated so); then
+    Coulomb's impulses at the other pressing feet (or the seed's law), spread over the step, and
+    a held footprint kept where the ground carried it."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
+    z4 = (False, False, False, False)
+    body = with_feet(fb, engage, dragged)
+    carried = fb.hold_w
+    f0 = ce_start.foot_force_n
+    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
+               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
+    if fb.method == RK4 and holding and cfg.friction_model != SEED_FRICTION:
+        # the holding feet's static friction inside the step, as their constraint's force
+        # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, held,
+                      cfg.friction_static)
+        res = rh.stepped
+        hi = rh.held_impulse_w
+        carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
+                   scale(hi[3], 1.0 / h))
+    else:
+        res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
+    j = res.foot_impulse_ns
+    pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
+    if not fb.touching:
+        return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
+                       res.located, pressed, NO_HOLD)
+    if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
+        return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
+                       pressed, NO_HOLD)
+    ground_end = ground_at(fb, t_start + h)
+    law = FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps)
+    if cfg.friction_model == SEED_FRICTION:
+        j_n = j[0] + j[1] + j[2] + j[3]
+        fr = seed(law, fb.mass_kg, res.p, res.v, res.w, j_n, ground_end)
+        return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
+                       res.peak_penetration_m, res.located, pressed, NO_HOLD)
+    ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
+    fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
+                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), ground_end, h)
+    p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
+    if fr.held and fr.impulse_ns > 0.0:
+        c_turn, s_turn = ground_turn(fb, h)
+        ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
+        # the feet where the step began (what ce_start was evaluated on)
+        ft0 = feet(ground_at(fb, t_start), p, q, fb.leg_radius_m, fb.com_height_m)
+        p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
+    return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
+                   res.peak_penetration_m, res.located, pressed, fr.hold_w)
+
+
+@kernel
+def _a_down(fb, p, q, r_hat):
+    """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
+    return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
+
+
+#: Most contact events one sub-step is split at: a foot starting to press (its onset) or ceasing
+#: to (its release), each located and stepped to.
+MAX_PIECES = 8
+
+
+MAX_PIECES = 8
+#: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
+#: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
+#: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
+MAX_EVENT_ITERATIONS = 40
+
+
+MAX_EVENT_ITERATIONS = 40
+EVENT_TOL_M = 1e-9
+
+
+EVENT_TOL_M = 1e-9
+EVENT_TOL_S = 1e-12
+
+
+EVENT_TOL_S = 1e-12
+#: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
+NEVER = -math.inf
+
+
+NEVER = -math.inf
+class Memo(NamedTuple):
+    """A contact evaluation and what it was evaluated at: the free-flight loop asks for the
+    contact at one state several times (a piece's end for its drag, its breakaway and its events,
+    the sub-step's end for the guard, the next sub-step's start), and an evaluation is a pure
+    function of these, so one asked again with all of them equal is the same bits."""
+
+    valid: bool
+    ce: ContactEval
+    t_s: float  # from the tick's start (the ground there: ground_at)
+    motion: Motion
+    absorbing: bool
+    engage: tuple
+    kinetic: tuple  # the FreeBody's (sim.dynamics.with_feet)
+    hold_w: tuple  # the FreeBody's (with_hold)
+    drag_dir: tuple  # the FreeBody's (with_drag_dir)
+
+
+@kernel
+def _same4(a, b):
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2] and a[3] == b[3]
+
+
+@kernel
+def _same3(a, b):
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+
+
+@kernel
+def _same_vecs(a, b):
+    return _same3(a[0], b[0]) and _same3(a[1], b[1]) and _same3(a[2], b[2]) and _same3(a[3], b[3])
+
+
+@kernel
+def _same_motion(a, b):
+    return _same3(a.p, b.p) and _same3(a.v, b.v) and _same4(a.q, b.q) and _same3(a.w, b.w)
+
+
+@kernel
+def memo_of(fb, ce, t_s, m, absorbing, engage):
+    """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
+    return Memo(True, ce, t_s, m, absorbing, engage, fb.kinetic, fb.hold_w, fb.drag_dir)
+
+
+@kernel
+def no_memo(m):
+    """A :class:`Memo` that matches nothing."""
+    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD,
+                NO_HOLD)
+
+
+@kernel
+def contact_memo(memo, fb, t_s, m, absorbing, engage):
+    """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
+    evaluated at exactly these."""
+    if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.kinetic)
+            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.hold_w)
+            and _same_vecs(memo.drag_dir, fb.drag_dir)):
+        return memo.ce
+    return contact_at(fb, ground_at(fb, t_s), m.p, m.v, m.q, m.w, absorbing, engage)
+
+
+class FootEvents(NamedTuple):
+    """Which feet change over a step: those that start to press (``onset``: not pressing at its
+    start, in the ground at its end), those that stop (``release``: pressing at its start, their
+    spring-damper no longer pushing at its end, or, absorbed, out of the ground), and the sliding
+    feet whose slip turned round (``stop``: dragged by kinetic friction, their slip at the end
+    against their slip at the start, ``stop_dir``: they stop where their slip along it is zero,
+    and stick there: MODEL-NOTES 46)."""
+
+    onset: tuple
+    release: tuple
+    stop: tuple
+    stop_dir: tuple
+    stop_speed: tuple  # each stopping foot's slip at the step's start, m/s
+    #: the holding feet (their regime static) break away where holding them would take more
+    #: than their cones give (sim.dynamics.held_friction's use past 1); mu_s (0: not asked)
+    break_mu: float
+    any: bool
+
+
+@kernel
+def _pressing(ce, absorbing, engage):
+    """The feet that press at an evaluation: touching and pushing (or touching, absorbed)."""
+    f, pen = ce.foot_force_n, ce.pen_m
+    return ((pen[0] > -engage[0]) and (absorbing or f[0] > 0.0),
+            (pen[1] > -engage[1]) and (absorbing or f[1] > 0.0),
+            (pen[2] > -engage[2]) and (absorbing or f[2] > 0.0),
+            (pen[3] > -engage[3]) and (absorbing or f[3] > 0.0))
+
+
+@kernel
+def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
+    """How far each foot of ``ev`` is past its event, m: positive once it has happened. Onset:
+    its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the largest."""
+    ce = contact_at(fb, ground_at(fb, t_s), p, v, q, w, absorbing, ENGAGE_AT_GROUND)
+    c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
+    out = -math.inf
+    for i in range(4):
+        if ev.onset[i]:
+            out = fmax(out, ce.pen_m[i])
+        if ev.release[i]:
+            if absorbing:
+                out = fmax(out, -ce.pen_m[i])
+            else:
+                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+        if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
+            out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
+    if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
+        held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+        hf = held_friction(fb, ground_at(fb, t_s), ce, p, v, q, w, held, ev.break_mu)
+        out = fmax(out, hf.use - 1.0)
+    return out
+
+
+@kernel
+def foot_events(fb, t_end, st, ce_start, absorbing, engage, memo):
+    """The feet that start or stop pressing between a step's start (``ce_start``) and its end
+    (``st``; its contact ``memo``'s if it was evaluated there)."""
+    before = _pressing(ce_start, absorbing, engage)
+    ce = contact_memo(memo, fb, t_end, Motion(st.p, st.v, st.q, st.w), absorbing, engage)
+    after = _pressing(ce, absorbing, engage)
+    pen = ce.pen_m
+    onset = ((not before[0]) and pen[0] > 0.0 and not ce_start.pen_m[0] > -engage[0],
+             (not before[1]) and pen[1] > 0.0 and not ce_start.pen_m[1] > -engage[1],
+             (not before[2]) and pen[2] > 0.0 and not ce_start.pen_m[2] > -engage[2],
+             (not before[3]) and pen[3] > 0.0 and not ce_start.pen_m[3] > -engage[3])
+    release = (before[0] and not after[0], before[1] and not after[1],
+               before[2] and not after[2], before[3] and not after[3])
+    z = (0.0, 0.0, 0.0)
+    found = False
+    for i in range(4):
+        found = found or onset[i] or release[i]
+    return FootEvents(onset, release, NO_SLIP, (z, z, z, z), (0.0, 0.0, 0.0, 0.0), 0.0, found)
+
+
+#: m/s: a sliding foot whose slip along where it ran is under this at a located event has stopped
+STOPPED_MPS = 1e-6
+
+
+@kernel
+def stop_speeds(ce, stop):
+    """|s_i| at ``ce`` for the feet of ``stop`` (0 for the others)."""
+    z = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        v = norm(ce.slip_w[i]) if stop[i] else 0.0
+        z = (v if i == 0 else z[0], v if i == 1 else z[1], v if i == 2 else z[2],
+             v if i == 3 else z[3])
+    return z
+
+
+#: a located stop is one where what is left of a foot's slip across where it ran is under this
+#: fraction of what it was: a slip that only turned (its size kept up by the ship's turning) has
+#: not stopped
+STOP_LEFT = 0.1
+
+
+@kernel
+def turned_round(fb, t_s, st, absorbing, ev):
+    """The feet of ``ev.stop`` whose slip has turned round by the end of ``st`` (the located event
+    is the earliest of the feet's: the others stop later) and come to rest there (what is left of
+    it across where it ran under STOP_LEFT of what it was)."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, absorbing, ENGAGE_AT_GROUND)
+    out = (False, False, False, False)
+    for i in range(4):
+        s_i = ce.slip_w[i]
+        along = dot(s_i, ev.stop_dir[i])
+        left = norm(sub(s_i, scale(ev.stop_dir[i], along)))
+        done = (ev.stop[i] and along <= STOPPED_MPS
+                and left <= fmax(STOP_LEFT * ev.stop_speed[i], cfg_stick(fb)))
+        out = (out[0] or (done and i == 0), out[1] or (done and i == 1),
+               out[2] or (done and i == 2), out[3] or (done and i == 3))
+    return out
+
+
+@kernel
+def cfg_stick(fb):
+    """A slip left at a located stop that counts as none, m/s (the default stick speed's
+    order: the rigid feet's kinematic micro-slips)."""
+    return 1e-4
+
+
+@kernel
+def holds(cfg, fb, t_s, st, ft, ev):
+    """(stuck, slid on): the feet of ``ev.stop`` that stick at the end of ``st`` (the located
+    instant the first of them stopped): their slip has turned round there
+    (:func:`turned_round`), and static friction can hold them, with the feet that already hold
+    (sim.dynamics.held_friction, within mu_s of their load); and those that cannot: a foot whose
+    slip the ship's own turning keeps up (a foot under an impact's load on a ship turning over
+    it) slides on, and for the rest of the sub-step its stops are not located (its friction is
+    an impulse after each piece: Coulomb's law is stiff there)."""
+    done = turned_round(fb, t_s, st, ft.absorbing, ev)
+    if not (done[0] or done[1] or done[2] or done[3]):
+        return done, NO_SLIP
+    sl = st.sliding
+    held = (not (sl[0] and not done[0]), not (sl[1] and not done[1]),
+            not (sl[2] and not done[2]), not (sl[3] and not done[3]))
+    ground = ground_at(fb, t_s)
+    ce = contact_at(fb, ground, st.p, st.v, st.q, st.w, ft.absorbing, ENGAGE_AT_GROUND)
+    hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    if hf.capped:
+        return NO_SLIP, done
+    return done, NO_SLIP
+
+
+class Piece(NamedTuple):
+    """A stretch of a sub-step stepped up to the instant a foot starts or stops pressing."""
+
+    tau_s: float  # its length
+    step: SubStep
+    found: bool  # False: none of the feet asked changes within the stretch
+
+
+@separate
+def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
+    """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
+    pressing, and the step to it (the feet about to press kept from pressing): regula falsi
+    (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
+    starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
+    the first), and happens where it does, not at the step's end. The step returned ends just
+    past the event (its gap within EVENT_TOL_M above zero)."""
+    engage, sliding, dragged, absorbing = roles
+    p, v, q, w = motion
+    on = ev.onset
+    held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
+                NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
+    held_roles = FootRoles(held_off, sliding, dragged, absorbing)
+    body = with_feet(fb, held_off, dragged)
+    t_lo = 0.0
+    g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
+    st_hi = substep(cfg, fb, held_roles, h, motion, ce_start, t0)
+    g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
+    if not (g_hi > 0.0 and g_lo < 0.0):
+        return Piece(h, st_hi, False)
+    t_hi = h
+    side = 0
+    for _ in range(MAX_EVENT_ITERATIONS):
+        t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
+        if not (t > t_lo and t < t_hi):
+            t = 0.5 * (t_lo + t_hi)
+        st = substep(cfg, fb, held_roles, t, motion, ce_start, t0)
+        g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
+        if g > 0.0:
+            t_hi, g_hi, st_hi = t, g, st
+            if side == 1:
+                g_lo = 0.5 * g_lo
+            side = 1
+        else:
+            t_lo, g_lo = t, g
+            if side == -1:
+                g_hi = 0.5 * g_hi
+            side = -1
+        if g_hi <= EVENT_TOL_M or t_hi - t_lo <= EVENT_TOL_S:
+            break
+    return Piece(t_hi, st_hi, True)
+
+
+#: A sliding foot is dragged by its kinetic friction as a force, integrated with the springs, and
+#: the instant its slip turns round is located (FootEvents.stop); one whose own friction could stop
+#: it within DRAG_REACH times the step takes its friction as an impulse of mu_k J_i after the step
+#: instead (sim.friction.coulomb): so near its stop a force of fixed size turning round with the
+#: slip inside the method's stages would leave the slip where it was.
+DRAG_REACH = 1.0
+
+
+DRAG_REACH = 1.0
+#: a sliding foot that its friction could stop within STIFF_REACH of the step and that is not
+#: slowing takes its friction as an impulse (step_piece): the drag's direction would turn faster
+#: than rk4's stages follow (its rate over the step past ~2.8)
+STIFF_REACH = 0.4
+
+
+@kernel
+def _could_stop(cfg, fb, ce0, ce1, q, i, h):
+    """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
+    within DRAG_REACH h: (|s| - stick) m_eff / (mu_k N) < DRAG_REACH h, N the larger of the foot's
+    normal forces at the step's ends (``ce0``, ``ce1``: an impact's grows fast), m_eff the ship's
+    mass as the foot feels it along its slip, 1 / m_eff = 1 / m + (r x s_hat) . I^-1 (r x s_hat)."""
+    s0 = ce0.slip_w[i]
+    speed = norm(s0)
+    if not speed > cfg.stick_speed_mps:
+        return True
+    drag = fb.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
+                          ce1.foot_force_n[i] * ce1.push_norm[i])
+    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
+    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+    return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
+
+
+class SlipRates(NamedTuple):
+    """Each foot's slip, how fast it changes along itself, and how fast its own kinetic friction
+    alone would slow it (sim.flight.slip_rates)."""
+
+    speed: tuple  # |s_i|, m/s
+    rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
+    own: tuple  # mu_k N_i / m_eff,i, m/s^2
+
+
+@kernel
+def slip_rates(cfg, fb, ground, ce, m):
+    """:class:`SlipRates` at the contact ``ce`` of the state ``m`` (the holding feet's friction
+    among the forces, sim.dynamics.held_friction). A foot coming to a stop has its slip falling at
+    least half as fast as its own friction would slow it; one whose slip the ship's turning keeps
+    up (under an impact's load, the other feet sliding and one holding) has not, though its
+    friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
+    (its direction turns within a fraction of the step)."""
+    held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+    d, _ = derivatives_held(fb, ground, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
+    omega_w = quat_rotate(m.q, m.w)
+    alpha_w = quat_rotate(m.q, d[3])
+    spin = (0.0, 0.0, fb.body_omega_radps)
+    speeds = (0.0, 0.0, 0.0, 0.0)
+    rates = (0.0, 0.0, 0.0, 0.0)
+    owns = (0.0, 0.0, 0.0, 0.0)
+    for i in range(4):
+        s0 = ce.slip_w[i]
+        speed = norm(s0)
+        rate = 0.0
+        own = 0.0
+        if speed > 0.0:
+            s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+            r = off[i]
+            acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
+            acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
+            rate = dot(acc, s_hat)
+            arm = quat_rotate_inv(m.q, cross(r, s_hat))
+            inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+            own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
+        speeds = (speed if i == 0 else speeds[0], speed if i == 1 else speeds[1],
+                  speed if i == 2 else speeds[2], speed if i == 3 else speeds[3])
+        rates = (rate if i == 0 else rates[0], rate if i == 1 else rates[1],
+                 rate if i == 2 else rates[2], rate if i == 3 else rates[3])
+        owns = (own if i == 0 else owns[0], own if i == 1 else owns[1],
+                own if i == 2 else owns[2], own if i == 3 else owns[3])
+    return SlipRates(speeds, rates, owns)
+
+
+@kernel
+def slowing(sr, i):
+    """Foot i's slip falls at least half as fast as its own friction would slow it."""
+    return sr.speed[i] > 0.0 and sr.own[i] > 0.0 and sr.rate[i] < -0.5 * sr.own[i]
+
+
+@kernel
+def stopping(cfg, dragged, sr, ce0, ce1, h):
+    """The dragged feet that stop inside a step of h: slowing (:func:`slowing`) at a rate that
+    brings them to the stick speed within 1.5 h, or whose slip turned round in a trial step
+    (``ce1``, its end; ``ce0``, its start); as a FootEvents of stops, each along the foot's slip
+    at the start."""
+    z = (0.0, 0.0, 0.0)
+    stop = (False, False, False, False)
+    stop_dir = (z, z, z, z)
+    found = False
+    for i in range(4):
+        s0 = ce0.slip_w[i]
+        soon = sr.speed[i] - cfg.stick_speed_mps < -1.5 * h * sr.rate[i]
+        now = (dragged[i] and dot(s0, s0) > 0.0 and slowing(sr, i)
+               and (soon or dot(ce1.slip_w[i], s0) < 0.0))
+        d = unit(s0) if now else z
+        found = found or now
+        stop = (now if i == 0 else stop[0], now if i == 1 else stop[1], now if i == 2 else stop[2],
+                now if i == 3 else stop[3])
+        stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
+                    d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
+    return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, stop_speeds(ce0, stop), 0.0, found)
+
+
+@kernel
+def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
+    """The sliding feet dragged by their friction as a force over a step of h: those that could
+    not stop within it (:func:`_could_stop`; none under the seed's law)."""
+    out = (False, False, False, False)
+    if fb.mu_k > 0.0:
+        for i in range(4):
+            d = sliding[i] and not _could_stop(cfg, fb, ce0, ce1, q, i, h)
+            out = (out[0] or (d and i == 0), out[1] or (d and i == 1),
+                   out[2] or (d and i == 2), out[3] or (d and i == 3))
+    return out
+
+
+@kernel
+def regimes_on_touch(cfg, ce, sliding, fresh):
+    """Each foot's friction regime as it starts to press (``fresh``): kinetic if it meets the
+    ground slipping faster than the stick speed."""
+    out = sliding
+    for i in range(4):
+        now = sliding[i]
+        if fresh[i]:
+            s = ce.slip_w[i]
+            now = dot(s, s) > cfg.stick_speed_mps * cfg.stick_speed_mps
+        out = (now if i == 0 else out[0], now if i == 1 else out[1],
+               now if i == 2 else out[2], now if i == 3 else out[3])
+    return out
+
+
+@kernel
+def at_ground(ce, engage, a_down):
+    """The feet at the ground now (within ONSET_MARGIN_M of it) and going into it (or at rest on
+    it while the ship accelerates down, ``a_down`` > 0): they press from this instant (their
+    engage threshold becomes the margin). Returns the new thresholds and whether any foot is at
+    the ground."""
+    out = engage
+    reach = False
+    for i in range(4):
+        rate = ce.pen_rate_mps[i]
+        if abs(ce.pen_m[i]) < ONSET_MARGIN_M and (rate > 0.0 or (rate == 0.0 and a_down > 0.0)):
+            reach = True
+            if not ce.pen_m[i] > -engage[i]:
+                out = (ONSET_MARGIN_M if i == 0 else out[0], ONSET_MARGIN_M if i == 1 else out[1],
+                       ONSET_MARGIN_M if i == 2 else out[2], ONSET_MARGIN_M if i == 3 else out[3])
+    return out, reach
+
+
+@kernel
+def engaged_near(ce):
+    """Every foot within ONSET_MARGIN_M of the ground presses (after a touchdown's alignment has
+    moved them all)."""
+    pen = ce.pen_m
+    return (ONSET_MARGIN_M if pen[0] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[1] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[2] > -ONSET_MARGIN_M else 0.0,
+            ONSET_MARGIN_M if pen[3] > -ONSET_MARGIN_M else 0.0)
+
+
+class Touchdown(NamedTuple):
+    """The seed's Flying -> Contact rules applied at the instant the first foot reaches the
+    ground."""
+
+    p: tuple
+    v: tuple
+    q: tuple
+    w: tuple
+    impact_mps: float  # the centre of mass's descent speed there, relative to the surface
+    absorbing: bool
+    aligned: bool
+
+
+@kernel
+def touchdown(cfg, fb, ground, p, v, q, w):
+    """An impact slower than bounce_speed is taken by the absorbers from its first instant
+    (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18)."""
+    r_hat = unit(p)
+    impact = -dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    aligned = False
+    if cfg.align_on_touchdown:
+        al = align_at_touchdown(fb, ground, p, v, q, w)
+        p, v, q, w, aligned = al.p, al.v, al.q, al.w, al.aligned
+    return Touchdown(p, v, q, w, impact, impact < cfg.bounce_speed_mps, aligned)
+
+
+@kernel
+def clear_instant(fb, ce, p, v, q, w, h):
+    """How long before the end of a (sub-)step the last foot left the ground, for a ship whose
+    feet are all clear at its end: the lowest foot's flight back to the ground, at its own speed
+    along local up under g - T cos(tilt) / m (exact for a vertical bounce under uniform gravity;
+    the spring had let go before). Clamped to the step."""
+    r_hat = unit(p)
+    z = -ce.max_penetration_m
+    om = fb.body_omega_radps
+    foot_v = add(sub(v, surface_velocity(om, ce.lowest_foot_w)),
+                 cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p)))
+    u = dot(foot_v, r_hat)
+    a_dn = _a_down(fb, p, q, r_hat)
+    disc = u * u + 2.0 * a_dn * z
+    denom = u + math.sqrt(fmax(disc, 0.0))
+    if not (z > 0.0 and disc >= 0.0 and denom > 0.0):
+        return 0.0
+    return fmin(2.0 * z / denom, h)
+
+
+@kernel
+def crossed_at(a0, a1, level, t0, t1):
+    """The instant a quantity going from a0 (at t0) to a1 (at t1) passed ``level``, linearly."""
+    d = a1 - a0
+    if d == 0.0:
+        return t1
+    f = fmin(fmax((level - a0) / d, 0.0), 1.0)
+    return t0 + f * (t1 - t0)
+
+
+class Flight(NamedTuple):
+    """A free ship after its tick of flight."""
+
+    ship: Ship
+    report: Report
+    run: "SettleRun"  # the settle thresholds at its sub-steps' ends (NO_RUN: not sampled)
+
+
+class SubStepStart(NamedTuple):
+    """A sub-step's start, as its end's transitions compare with it."""
+
+    t_s: float  # from the tick's start
+    pen_m: float  # the deepest foot's penetration
+    v_rad_mps: float  # velocity along local up
+    cos_tilt: float
+
+
+# -- 2a. the touchdown instant: a piece of a sub-step at its start -------------------------------
+class PieceStart(NamedTuple):
+    """A piece of a sub-step at its start: the seed's touchdown rules applied if the first foot is
+    at the ground here, each foot's friction regime as it meets it, and the contact the piece is
+    stepped from."""
+
+    ship: Ship
+    engage: tuple  # each foot's engage threshold from here (sim.contact.evaluate)
+    drag: tuple  # the sliding feet dragged by kinetic friction as a force
+    ce: ContactEval  # the contact at this instant
+    carried: tuple  # the holding feet's friction the piece's FreeBody carries
+    aligned: bool  # a touchdown here stood the ship up (align_on_touchdown)
+    e_ref: EnergyRef  # the passivity guard's reference (measured anew after an alignment)
+    stop: bool  # tipped or crashed at the touchdown: pinned for the rest of the tick
+    memo: Memo  # the last contact evaluated (``ce``'s, where it was evaluated here)
+
+
+@kernel
+def touchdown_rules(cfg, om, p, v, q, impact_mps, aligned):
+    """The seed's rules at a touchdown, the one place they are written (both the located
+    touchdown, :func:`touchdown_transitions`, and the last-resort one at a sub-step's end,
+    :func:`in_flight_transitions`, apply them): crashed above crash_speed, else contact; a ship
+    lying down already (tilted past tipped_angle and not stood up by the alignment) goes on at
+    once to tipped, or to crashed if it moves faster than crash_speed relative to the ground: its
+    hull, which the model does not have, is what touches (MODEL-NOTES 12). Returns the state the
+    touchdown enters and the state it goes on to at the same instant (the same state if none)."""
+    if impact_mps > cfg.crash_speed_mps:
+        return CRASHED, CRASHED
+    if not aligned and dot(quat_axis_z(q), unit(p)) < cfg.cos_tipped:
+        v_rel = sub(v, surface_velocity(om, p))
+        return CONTACT, (CRASHED if dot(v_rel, v_rel) > cfg.crash_speed2 else TIPPED)
+    return CONTACT, CONTACT
+
+
+@kernel
+def emit_touchdown(log, entered, then, impact_mps, t_s):
+    """A touchdown's transitions, in order, each with the descent speed at the touchdown."""
+    emit(log, FLYING, entered, -impact_mps, t_s)
+    if then != entered:
+        emit(log, entered, then, -impact_mps, t_s)
+
+
+@kernel
+def touchdown_transitions(cfg, fb, s, td, t_abs, log):
+    """The transitions of a touchdown located at ``t_abs`` (``s`` already aligned), emitted in
+    order; returns the state they lead to (:func:`touchdown_rules`)."""
+    m = s.motion
+    entered, then = touchdown_rules(cfg, fb.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
+                                    td.aligned)
+    emit_touchdown(log, entered, then, td.impact_mps, t_abs)
+    return then
+
+
+@kernel
+def pinned_at(fb, s, ce, t_s):
+    """The pin of a ship that tips or crashes ``t_s`` into the tick: its pose in the body-fixed
+    frame, and a tipped ship's pivot (its lowest foot) and rate of turn about it."""
+    m = s.motion
+    c, s_ = turned(fb.cos0, fb.sin0, fb.body_omega_radps, t_s)
+    pin_p, pin_q = pin_pose(m.p, m.q, c, s_)
+    if s.surface_state != TIPPED:
+        return Pin(pin_p, pin_q, s.pin.pivot_bf_m, s.pin.rate_radps)
+    return Pin(pin_p, pin_q, rotate_z(ce.lowest_foot_w, c, -s_),
+               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m.p, m.v,
+                                  m.q, m.w, ce.lowest_foot_w))
+
+
+@kernel
+def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
+    """A piece's start ``t_abs`` into the tick (``fb`` carrying the held feet's friction): where
+    the first foot is at the ground while the ship flies, the seed's touchdown (its alignment,
+    the absorbers, its transitions: MODEL-NOTES 18); then the feet that meet the ground sliding
+    or holding (``onset_now``: those the last located event touched). ``memo``: the last contact
+    evaluated (:class:`Memo`)."""
+    ground_y = ground_at(fb, t_abs)
+    m, ft = s.motion, s.footing
+    drag = ft.sliding
+    carried = fb.hold_w
+    aligned = False
+    fb_y = with_feet(fb, engage, drag)
+    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    memo = memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage)
+    was = engage
+    engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
+    if reach and s.surface_state == FLYING:
+        # the first foot is at the ground: the seed's touchdown, here and now
+        td = touchdown(cfg, fb, ground_y, m.p, m.v, m.q, m.w)
+        m = Motion(td.p, td.v, td.q, td.w)
+        aligned = td.aligned
+        carried = NO_HOLD
+        fb = with_hold(fb, NO_HOLD)
+        ft = fresh_footing(td.absorbing)
+        drag = ft.sliding
+        s = Ship(FLYING, m, s.mass_kg, s.fuel_kg, ft, s.pin)
+        ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m.p, m.v, m.q, m.w,
+                          ft.absorbing, ENGAGE_AT_GROUND)
+        engage = engaged_near(ce_y)
+        was = ENGAGE_AT_GROUND
+        s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
+        if s.surface_state != CONTACT:
+            s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
+            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True,
+                              no_memo(m))
+        if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
+            e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
+    if cfg.friction_model != SEED_FRICTION:  # a foot meets the ground sliding or holding
+        fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
+                 engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
+        drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
+        s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
+                 Footing(ft.absorbing, drag, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
+                         ft.hold_w), s.pin)
+    fb_y = with_feet(fb, engage, drag)
+    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False,
+                      memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
+
+
+# -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
+class PieceStep(NamedTuple):
+    """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing,
+    or a sliding foot stops."""
+
+    step: SubStep
+    tau_s: float  # how far it went
+    split: bool  # it ended at a foot's event before the sub-step's end
+    onset: tuple  # the feet that event touched
+    stopped: tuple  # the sliding feet that stopped there (they stick from there)
+    slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
+    broke: tuple  # the holding feet that broke away there (kinetic from there)
+    memo: Memo  # the last contact evaluated at the piece's end
+
+
+@constructor
+def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
+    """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
+    :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
+    impulse instead; cut at the first foot that starts or stops pressing inside it, located
+    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound)."""
+    m, ft = s.motion, s.footing
+    engage, drag, ce_y = start.engage, start.drag, start.ce
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
+    t_e = t_abs + rem
+    memo = start.memo
+    if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+        body = with_feet(fb, engage, drag)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        # a sliding foot whose friction could stop it within a fraction of the step (a foot
+        # under an impact's load, where Coulomb's law is stiff) takes its friction as an impulse
+        # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
+        # it without turning it round; so does every foot that could stop within the step once
+        # the pieces' bound is reached
+        # a foot whose slip the ship's turning keeps up is dragged too while the direction of
+        # its drag, which turns with its slip at a rate of its friction's deceleration over its
+        # slip, stays within what the method's stages follow (STIFF_REACH of the step)
+        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
+        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+        if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
+            keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
+                    drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
+                    drag[2] and not near[2] and not stiff[2] and slowing(sr, 2),
+                    drag[3] and not near[3] and not stiff[3] and slowing(sr, 3))
+            near = (near[0] or keep[0], near[1] or keep[1], near[2] or keep[2],
+                    near[3] or keep[3])
+        if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
+            drag = near
+            body = with_feet(fb, engage, drag)
+            ce_y = contact_at(body, ground_at(fb, t_abs), m.p, m.v, m.q, m.w, ft.absorbing, engage)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                         t_abs)
+            m_e = Motion(st.p, st.v, st.q, st.w)
+            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        if may_split:
+            # one that stops later in the step (its friction could stop it, or its slip turned
+            # round): dragged along where it slid until the instant its slip along there is
+            # zero, located, and holding from there (MODEL-NOTES 46)
+            stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
+            if stop.any:
+                pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
+                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                              t_abs, stop)
+                if pc.found and pc.tau_s < rem:
+                    stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
+                                     NO_SLIP, memo)
+                # it does not stop within the step after all: the step dragged along where it slid
+                # (the trial's drag, turning round with a slip near zero inside the method's
+                # stages, may have left the slip where it was)
+                st = pc.step
+    held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
+            not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
+    if (fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION
+            and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
+        # the holding feet break away where holding them would take more than their cones give:
+        # located, and kinetic from there (MODEL-NOTES 46)
+        body = with_feet(fb, engage, drag)
+        held = (not drag[0], not drag[1], not drag[2], not drag[3])
+        ground_e = ground_at(fb, t_e)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
+                         cfg.friction_static).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
+                                cfg.friction_static)
+            if hf0.use < 1.0:
+                brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
+                                 cfg.friction_static, True)
+                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
+                              ce_y, t_abs, brk)
+                if pc.found and pc.tau_s < rem:
+                    return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
+                                     pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
+                                     memo)
+    if fb.touching and may_split:
+        ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
+        if ev.any:
+            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
+                          t_abs, ev)
+            if pc.found and pc.tau_s < rem:
+                return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
+                                 memo)
+    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo)
+
+
+@kernel
+def pressing_held(fb, t_s, st, ft, held):
+    """The feet of ``held`` that press at the end of ``st``."""
+    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
+                    ENGAGE_AT_GROUND)
+    f = ce.foot_force_n
+    return (held[0] and f[0] > 0.0, held[1] and f[1] > 0.0, held[2] and f[2] > 0.0,
+            held[3] and f[3] > 0.0)
+
+
+@kernel
+def broken(st, broke):
+    """``st`` with the feet of ``broke`` kinetic from its end (a located breakaway)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] or broke[0], sl[1] or broke[1], sl[2] or broke[2], sl[3] or broke[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
+
+
+@kernel
+def stuck(st, stopped):
+    """``st`` with the sliding feet of ``stopped`` holding from its end: their slip turned round
+    there (a located stop), and static friction holds them while it can (MODEL-NOTES 46)."""
+    sl = st.sliding
+    return SubStep(st.p, st.v, st.q, st.w,
+                   (sl[0] and not stopped[0], sl[1] and not stopped[1], sl[2] and not stopped[2],
+                    sl[3] and not stopped[3]),
+                   st.friction_n, st.peak_penetration_m, st.located, st.pressed, st.hold_w)
+
+
+@kernel
+def stepped(s, st):
+    """``s`` moved by a (piece of a) sub-step ``st``: its motion, each foot's regime and the held
+    feet's friction."""
+    ft = s.footing
+    return Ship(s.surface_state, Motion(st.p, st.v, st.q, st.w), s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, st.sliding, ft.settle_ticks, ft.settle_for_s,
+                        ft.settle_margin, st.hold_w), s.pin)
+
+
+class Pieces(NamedTuple):
+    """What the pieces of one sub-step did together."""
+
+    touched: bool  # a foot pressed during any of them
+    located: bool  # the method located every piece's deepest penetration
+    peak_m: float  # the deepest penetration it located inside them
+    friction_n: float  # the last piece's friction
+    aligned: bool  # a touchdown inside the sub-step stood the ship up
+    onset: tuple  # the feet the last located event touched (they meet the ground there)
+
+
+class SubStepEnd(NamedTuple):
+    """A sub-step's end after the passivity guard."""
+
+    ship: Ship
+    ce: ContactEval  # the contact there (the dampers following any velocity the guard scaled)
+    e_ref: EnergyRef
+    removed_j: float  # what the guard took
+    memo: Memo  # ce's
+
+
+@kernel
+def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
+    """The contact at a sub-step's end (``t_end`` into the tick; ``memo``'s if it was evaluated
+    there), and the passivity guard there (``sim.energy_guard``)."""
+    m, ft = s.motion, s.footing
+    ground = ground_at(fb, t_end)
+    fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
+    ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
+    if not cfg.energy_guard:
+        return SubStepEnd(s, ce, e_ref, 0.0,
+                          memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
+    # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
+    # absorber's pull passes no positive impulse, yet trades translation for rotation)
+    airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
+    gd = passivity_guard(fb, ground, m.p, m.v, m.q, m.w, e_ref, passive, airborne)
+    s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
+    if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
+        ce = contact_at(fb_now, ground, m.p, gd.v, m.q, gd.w, ft.absorbing, ENGAGE_AT_GROUND)
+    return SubStepEnd(s, ce, gd.ref, gd.removed_j,
+                      memo_of(fb_now, ce, t_end, s.motion, ft.absorbing, ENGAGE_AT_GROUND))
+
+
+@kernel
+def substep_peak(fb, start, pieces, pen, v_rad, h):
+    """The deepest penetration over a sub-step: located by the method, or interpolated between
+    its ends (telemetry)."""
+    if not fb.touching:
+        return 0.0
+    if pieces.located:
+        return fmax(fmax(start.pen_m, pen), pieces.peak_m)
+    return hermite_peak(start.pen_m, -start.v_rad_mps, pen, -v_rad, h)
+
+
+# -- 2c. transitions and their events at a sub-step's end ----------------------------------------
+class Transitioned(NamedTuple):
+    """A sub-step's end after the in-flight transitions."""
+
+    ship: Ship
+    ce: ContactEval
+    e_ref: EnergyRef
+    v_rad_mps: float  # velocity along local up before any touchdown's alignment
+    stop: bool  # pinned for the rest of the tick (crashed, on the hull, the pivot model's)
+
+
+@kernel
+def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
+    """The in-flight transitions, decided on a sub-step's end state: a touchdown the onsets did
+    not locate (the method's last resort), a crash in contact, a liftoff (all feet clear and
+    moving away), a tip past tipped_angle (or its crash); each emitted with the instant it
+    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd)."""
+    s, ce, e_ref = end.ship, end.ce, end.e_ref
+    om = fb.body_omega_radps
+    m, ft = s.motion, s.footing
+    p, v, q, w = m.p, m.v, m.q, m.w
+    surf = s.surface_state
+    aligned = pieces.aligned
+    r_hat = unit(p)
+    v_rad = dot(v, r_hat)
+    v_rad_before = start.v_rad_mps
+    pen = ce.max_penetration_m
+    was = surf
+    cos_tilt = dot(quat_axis_z(q), r_hat)
+    # a touchdown the onsets did not locate (the method's last resort): at the step's end
+    touch = was == FLYING and pen > 0.0 and v_rad < 0.0
+    a_down = _a_down(fb, p, q, r_hat)
+    impact = -v_rad
+    if touch and v_rad_before < 0.0:
+        # the speed at the crossing, from the ballistic motion on the clear side of it
+        above_before = fmax(-start.pen_m, 0.0)
+        impact = math.sqrt(fmax(v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0))
+    separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
+    # in contact: descending faster than crash_speed at either end of the sub-step (the
+    # damper may already have slowed it by the end)
+    tipped = was == TIPPED  # the full model's tipped ship (MODEL-NOTES 48)
+    crash_in_contact = ((was == CONTACT or tipped)
+                        and fmin(v_rad, v_rad_before) < -cfg.crash_speed_mps)
+    touch_ok = touch and not impact > cfg.crash_speed_mps
+    if touch_ok:
+        ft = fresh_footing(impact < cfg.bounce_speed_mps)
+        if cfg.align_on_touchdown:
+            al = align_at_touchdown(fb, ground, p, v, q, w)
+            p, v, q, w = al.p, al.v, al.q, al.w
+            aligned = al.aligned
+            ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground, p, v, q, w,
+                            ft.absorbing, ENGAGE_AT_GROUND)
+            if cfg.energy_guard and al.aligned:  # the snap never adds energy; from after it
+                e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
+        cos_tilt = dot(quat_axis_z(q), r_hat)
+    entered, then = CONTACT, CONTACT
+    if touch:
+        entered, then = touchdown_rules(cfg, om, p, v, q, impact, aligned)
+    crash = then == CRASHED or crash_in_contact
+    # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
+    # lift a foot clear while the ship still descends; that is not a liftoff)
+    lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
+    # past tipped_angle in contact (a touchdown lying down: touchdown_rules)
+    tip = was == CONTACT and not lift and not crash and cos_tilt < cfg.cos_tipped
+    v_rel = sub(v, surface_velocity(om, p))
+    tip_crash = tip and dot(v_rel, v_rel) > cfg.crash_speed2
+    crash = crash or tip_crash
+    tip = (tip and not tip_crash) or then == TIPPED
+    # a tipped ship turning back under tipped_angle is righted; one whose tilt reaches
+    # tipped_rest lies on its hull: at rest there (an inelastic stop), or crashed if it hit it
+    # faster than crash_speed
+    righted = tipped and not crash and cos_tilt > cfg.cos_tipped and cos_tilt > start.cos_tilt
+    hull = tipped and not crash and not righted and cos_tilt <= cfg.cos_tipped_rest
+    hull_crash = hull and dot(v_rel, v_rel) > cfg.crash_speed2
+    crash = crash or hull_crash
+    if touch_ok:
+        surf = CONTACT
+    if lift:
+        surf = FLYING
+    if tip:
+        surf = TIPPED
+    if righted:
+        surf = CONTACT
+    if crash:
+        surf = CRASHED
+    # pinned for the rest of the tick: crashed, at rest on the hull, or handed to the pivot model
+    stop = crash or (hull and not hull_crash) or (tip and cfg.tipped_model != FULL_TIPPED)
+    s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
+    if stop:
+        pin = pinned_at(fb, s, ce, t_end)
+        if hull:  # at rest on the hull
+            pin = Pin(pin.pos_bf_m, pin.quat_bf, pin.pivot_bf_m, 0.0)
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pin)
+    # when each happened inside the sub-step
+    if touch:
+        t_ev = t_end
+    elif lift:
+        t_ev = t_end - clear_instant(fb, ce, p, v, q, w, h)
+    elif crash_in_contact:
+        t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, start.t_s, t_end)
+    elif righted:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
+    elif hull_crash:
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped_rest, start.t_s, t_end)
+    else:  # tipped (or its crash): the tilt passing tipped_angle
+        t_ev = crossed_at(start.cos_tilt, cos_tilt, cfg.cos_tipped, start.t_s, t_end)
+    if touch:
+        emit_touchdown(log, entered, then, impact, t_end)
+    elif surf != was:
+        if was == FLYING:
+            speed = -impact
+        elif surf == FLYING:
+            speed = separation
+        else:
+            speed = v_rad
+        emit(log, was, surf, speed, t_ev)
+    return Transitioned(s, ce, e_ref, v_rad, stop)
+
+
+# -- 2. free flight: the stages in order ----------------------------------------------------------
+@separate
+def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
+    """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
+
+    a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
+       seed's touchdown rules apply there;
+    b. integrating (:func:`step_piece`, then :func:`guard_substep`): every foot that starts or
+       stops pressing inside the sub-step is located and stepped to, the sub-step going on from
+       there in pieces (a. again at each); the passivity guard at its end;
+    c. the transitions and their events (:func:`in_flight_transitions`), on the sub-step's end
+       state.
+
+    Transitions are emitted in the order they happen, each with the instant it happened. ``carry``:
+    the holding feet's friction is carried from step to step as a force (sim.friction.coulomb);
+    without it, impulses alone."""
+    dt = cfg.dt_s
+    h = dt / n_sub
+    om = fb.body_omega_radps
+    m = s.motion
+    friction_n = 0.0
+    peak = 0.0
+    guard_j = 0.0
+    ground0 = ground_at(fb, 0.0)
+    ce = contact_at(fb, ground0, m.p, m.v, m.q, m.w, s.footing.absorbing, ENGAGE_AT_GROUND)
+    memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    v_rad = dot(m.v, unit(m.p))
+    passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
+               and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
+    e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
+             else EnergyRef(0.0, 0.0, 0.0))
+    carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
+    ft0 = s.footing
+    # the settle thresholds at the tick's start: held for settle_for_s already, or not
+    run = SettleRun(True, ft0.settle_margin,
+                    -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
+    sample = fb.touching and s.surface_state == CONTACT
+    t_seen = 0.0  # the instant of the last sample
+    pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
+    for j in range(n_sub):
+        m = s.motion
+        start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
+        engage = ENGAGE_AT_GROUND
+        t_in = 0.0  # how far into the sub-step the ship has been stepped
+        pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
+        stop = False
+        stiff = NO_SLIP  # the feet whose stops are not located for the rest of the sub-step
+        for k in range(MAX_PIECES + 1):
+            t_abs = start.t_s + t_in
+            carried = s.footing.hold_w if carry else NO_HOLD
+            fb_k = with_hold(fb, carried)
+            ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
+                            False, memo)
+            if fb.touching:
+                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log, memo)
+                s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
+                pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
+                                pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
+                if ps.stop:
+                    stop = True
+                    pinned_now = True
+                    break
+                fb_k = with_hold(fb, carried)
+            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
+            memo = pc.memo
+            st = pc.step
+            stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
+                     stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
+            s = stepped(s, broken(stuck(st, pc.stopped), pc.broke))
+            pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
+                            fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
+                            pieces.aligned, pc.onset)
+            if not pc.split:
+                break
+            t_in = t_in + pc.tau_s  # from the event, with the feet that press there
+            if sample:  # the thresholds at the event too (a stop changes them at once)
+                run = settle_sample(cfg, sp, s, ground_at(fb_k, start.t_s + t_in), run, t_seen,
+                                    start.t_s + t_in)
+                t_seen = start.t_s + t_in
+        friction_n = pieces.friction_n
+        if stop:
+            break
+        fb_k = with_hold(fb, carried)
+        t_end = (j + 1) * h
+        ground = ground_at(fb_k, t_end)
+        end = guard_substep(cfg, fb_k, s, e_ref, passive, pieces, start, t_end, memo)
+        guard_j = guard_j + end.removed_j
+        m = end.ship.motion
+        peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
+                                       dot(m.v, unit(m.p)), h))
+        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
+        s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
+        # the end's contact serves the next sub-step's start where it asks for the same
+        memo = end.memo
+        if sample:
+            run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
+            t_seen = t_end
+        if tr.stop:
+            pinned_now = True
+            break
+    fb_k = with_hold(fb, carried)
+    surf = s.surface_state
+    ft = s.footing
+    if pinned_now:
+        # pinned during the tick: carried with the body to the tick's end, moving as pinned
+        pin = s.pin
+        p = rotate_z(pin.pos_bf_m, cos1, sin1)
+        q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
+        v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
+                             pin.rate_radps if surf == TIPPED else 0.0)
+        s = with_motion(s, surf, Motion(p, v, q, w))
+        ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt), p, v,
+                        q, w, ft.absorbing, ENGAGE_AT_GROUND)
+    if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
+        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
+                 Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
+                         ft.settle_margin, NO_HOLD), s.pin)
+    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
+                  run if sample and s.surface_state == CONTACT else NO_RUN)

@@ -1,0 +1,395 @@
+"""One ship's tick (:func:`step_ship`: its record loaded into a :class:`sim.ship.Ship`, stored
+back in place): a chain of phases, in order, each a function below or a module of its own:
+
+1. ``commands``     throttle and RCS torque actually applied (fuel, hold-mode controller)
+2. ``free_flight``  flying and contact ships, sub-step by sub-step (sim.flight): the touchdown
+                    instant, integrating with friction at the feet and the passivity guard, the
+                    in-flight transitions (contact, crash, liftoff, tipped) and their events; a
+                    ship near the ground takes its own ``n_substeps`` sub-steps, a purely vertical
+                    one a single exact step, and a ship far above one step with no contact work
+3. ``settle``       contact -> landed once the settle thresholds (sim.rest) have held for
+                    ``settle_time`` with the centre of mass over the footprint
+4. ``pinned``       landed, tipped and crashed ships turn with the body; tipped ships' pivot
+                    model (sim.pivot) and righting. (A landed or tipped ship whose engine beats
+                    its weight lifts off at the tick's start, ``lift_off``, and flies the tick.)
+5. ``burn``         fuel and mass
+6. ``observe``      the tick's telemetry
+
+Decisions compare cosines and squared speeds, never angles.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from touchdown.sim.compiled import constructor, kernel
+from touchdown.sim.constants import G0_MPS2
+from touchdown.sim.contact import lowest_foot_penetration
+from touchdown.sim.dynamics import FreeBody, Motion
+from touchdown.sim.flight import crossed_at, free_flight
+from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
+    quat_z, rotate_z, surface_velocity)
+from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, sub_method
+from touchdown.sim.pivot import pinned_motion, pivot_step
+from touchdown.sim.rest import settle_margin
+from touchdown.sim.ship import (CONTACT, CRASHED, Commands, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED,
+    Footing, HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, NO_SLIP, Pin, RADIAL_NORMAL,
+    REST_LANDED, SEED_FRICTION, Ship, TIPPED, emit, fresh_footing, load, scene_ground, store)
+from touchdown.sim.vec import (cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
+    quat_rotate_inv, scale, sub, unit)
+
+
+#: Squared tilt (rad^2), spin ((rad/s)^2) and slip ((m/s)^2) below which a ship counts as purely
+#: vertical. Feet a planet's radius from its centre are placed to ulp(|p|) (2e-10 m on the Moon, 1e-9 m
+#: on Earth), which leaves an upright bounce turning at ~1e-10 rad/s: 1e-8 is rounding's level, and
+#: what a tilt, spin or slip that small would do over a tick is far below the 1e-7 to which one
+#: exact step and sub-steps of the full model agree (tests/test_models.py).
+VERTICAL_TOL2 = 1e-16
+
+
+@kernel
+def commands(cfg, sp, s, inp):
+    """Applied throttle and RCS torque. The hold-mode controller (flying and contact) is a PD law,
+    tau = -I (w_c^2 err + 2 w_c omega_rel), saturated at max_rcs_torque; a non-zero manual RCS
+    command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
+    live = s.fuel_kg > 0.0 and s.surface_state != CRASHED
+    if not live:
+        return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0), False)
+    throttle = fmin(fmax(inp.throttle, 0.0), 1.0)
+    max_tau = sp.max_rcs_torque_nm
+    auto = (0.0, 0.0, 0.0)
+    hold = int(inp.hold)
+    if hold != HOLD_OFF and (s.surface_state == FLYING or s.surface_state == CONTACT):
+        bw = cfg.bandwidth_radps
+        omega_rel = sub(s.motion.w, body_spin_in_body_frame(cfg.omega_radps, s.motion.q))
+        up_b = quat_rotate_inv(s.motion.q, unit(s.motion.p))
+        err = cross((0.0, 0.0, 1.0), up_b) if hold == HOLD_RADIAL else (0.0, 0.0, 0.0)
+        i_ctl = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                        sp.mass0_kg, s.mass_kg)
+        bw2, two_bw = bw * bw, 2.0 * bw
+        tau = mul(i_ctl, (bw2 * err[0] - two_bw * omega_rel[0], bw2 * err[1] - two_bw * omega_rel[1],
+                          bw2 * err[2] - two_bw * omega_rel[2]))
+        auto = (fmin(fmax(tau[0], -max_tau), max_tau), fmin(fmax(tau[1], -max_tau), max_tau),
+                fmin(fmax(tau[2], -max_tau), max_tau))
+    rcs = (0.0, 0.0, 0.0)
+    m0 = fmin(fmax(inp.rcs[0], -1.0), 1.0) * max_tau
+    m1 = fmin(fmax(inp.rcs[1], -1.0), 1.0) * max_tau
+    m2 = fmin(fmax(inp.rcs[2], -1.0), 1.0) * max_tau
+    rcs = (m0 if m0 != 0.0 else auto[0], m1 if m1 != 0.0 else auto[1],
+           m2 if m2 != 0.0 else auto[2])
+    thrust = throttle * sp.max_thrust_n
+    return Commands(throttle, thrust, rcs, thrust > 0.0 or m0 != 0.0 or m1 != 0.0 or m2 != 0.0)
+
+
+# -- 2. free flight ------------------------------------------------------------------------------
+@kernel
+def near_ground(cfg, terrain, sp, s, cmd, cos0, sin0):
+    """True for a ship that might touch the ground within this tick (conservative bound). On a
+    slope the ground's plane is taken under the ship, rising by tan(slope) over every metre the
+    feet and the tick's motion can reach sideways."""
+    dt = cfg.dt_s
+    reach_down = sp.com_height_m + sp.leg_radius_m
+    speed = norm(s.motion.v)
+    accel = cfg.surface_gravity_mps2 + cmd.thrust_n / s.mass_kg
+    reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0
+    plane = 0.0
+    if cfg.slope_tan != 0.0:
+        east = -sin0 * s.motion.p[0] + cos0 * s.motion.p[1]
+        plane = (terrain.slope_east * east + terrain.slope_north * s.motion.p[2]
+                 + cfg.slope_tan * (reach_down + reach))
+    clearance = norm(s.motion.p) - cfg.body_radius_m - cfg.terrain_max_m - plane - reach_down
+    return clearance < reach
+
+
+@kernel
+def purely_vertical(cfg, terrain, sp, s, cmd):
+    """A ship whose motion this tick is along the local vertical only: upright, not turning, not
+    slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
+    For it every kick of the exponential method is zero, so its one step per tick is already
+    exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
+    if cfg.omega_radps != 0.0 or cfg.slope_tan != 0.0:
+        return False
+    r_hat = unit(s.motion.p)
+    tilt = cross(quat_axis_z(s.motion.q), r_hat)
+    v_rad = dot(s.motion.v, r_hat)
+    slip = sub(s.motion.v, scale(r_hat, v_rad))
+    rcs = cmd.rcs_torque_body_nm
+    if not (dot(tilt, tilt) < VERTICAL_TOL2 and dot(s.motion.w, s.motion.w) < VERTICAL_TOL2
+            and dot(slip, slip) < VERTICAL_TOL2 and rcs[0] == 0.0 and rcs[1] == 0.0
+            and rcs[2] == 0.0):
+        return False
+    # the terrain's coordinates of a point are its body-fixed (y, z): (east, north) at the site
+    for j in range(terrain.n_bumps):
+        de = s.motion.p[1] - terrain.bumps[j, 0]
+        dn = s.motion.p[2] - terrain.bumps[j, 1]
+        clear = terrain.bumps[j, 2] + sp.leg_radius_m + 1.0
+        if not de * de + dn * dn > clear * clear:
+            return False
+    return True
+
+
+#: A ship moving along local up faster than this near the ground strikes it, or rebounds from it
+#: (sim.impact_substep), m/s; so does one pressed deeper than IMPACT_SAGS times its static sag.
+IMPACT_SPEED_MPS = 1.0
+
+
+IMPACT_SPEED_MPS = 1.0
+IMPACT_SAGS = 10.0
+
+
+@kernel
+def striking(cfg, terrain, sp, s, cos0, sin0):
+    """A ship near the ground that strikes it, or rebounds, at the tick's start: moving along
+    local up faster than IMPACT_SPEED_MPS, or its deepest foot pressed deeper than IMPACT_SAGS
+    times its static sag g / w^2 (a ship at rest, even on a slope that loads its downhill feet
+    more, is far from either)."""
+    r_hat = unit(s.motion.p)
+    v_rad = dot(sub(s.motion.v, surface_velocity(cfg.omega_radps, s.motion.p)), r_hat)
+    if abs(v_rad) > IMPACT_SPEED_MPS:
+        return True
+    ground = scene_ground(cfg, terrain, cos0, sin0)
+    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+    return pen > IMPACT_SAGS * cfg.surface_gravity_mps2 / sp.stiffness_per_kg
+
+
+@constructor
+def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
+    m = s.mass_kg
+    two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
+    return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                               sp.mass0_kg, m),
+                    cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
+                    sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
+                    cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
+                    cfg.body_radius_m, cfg.omega_radps, terrain,
+                    cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
+                    method == EXPONENTIAL, method,
+                    0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
+                    s.footing.sliding, s.footing.hold_w, NO_HOLD)
+
+
+@kernel
+def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
+    """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
+    for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
+    with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
+    instant the thresholds began to hold is interpolated between the samples around it (linearly
+    in their smallest margin, :func:`margin_on`), so the ship lands, at a tick's end, once they
+    have held for settle_time in continuous time, and the event carries the instant they had
+    (MODEL-NOTES 20). ``run`` (a :class:`SettleRun`): the samples at every sub-step's end of the
+    tick (MODEL-NOTES 47), where there were; otherwise the tick's ends alone."""
+    margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
+    # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
+    driven = cfg.landed_model == REST_LANDED and cmd.driven
+    ok = s.surface_state == CONTACT and margin > 0.0 and not driven
+    dt = cfg.dt_s
+    if not ok:
+        held = 0.0
+    elif run.sampled:  # sampled at every sub-step's end (MODEL-NOTES 47)
+        held = dt - run.began_s
+    elif s.footing.settle_ticks > 0:
+        held = s.footing.settle_for_s + dt
+    else:  # they began to hold inside this tick: where the margin crossed zero
+        prev = s.footing.settle_margin
+        f = prev / (prev - margin) if prev < 0.0 else 0.0
+        held = (1.0 - fmin(fmax(f, 0.0), 1.0)) * dt
+    ticks = s.footing.settle_ticks + 1 if ok else 0
+    ft = s.footing
+    if not (ok and held >= cfg.settle_time_s - 1e-9 * dt):
+        return Ship(s.surface_state, s.motion, s.mass_kg, s.fuel_kg,
+                    Footing(ft.absorbing, ft.sliding, ticks, held, margin, ft.hold_w), s.pin)
+    m = s.motion
+    pp, pq = pin_pose(m.p, m.q, cos1, sin1)
+    om = cfg.omega_radps
+    emit(log, CONTACT, LANDED, 0.0, fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
+    return Ship(LANDED, Motion(m.p, surface_velocity(om, m.p), m.q, body_spin_in_body_frame(om, m.q)),
+                s.mass_kg, s.fuel_kg, Footing(ft.absorbing, ft.sliding, 0, 0.0, margin, NO_HOLD),
+                Pin(pp, pq, s.pin.pivot_bf_m, s.pin.rate_radps))
+
+
+# -- 4. pinned -----------------------------------------------------------------------------------
+@kernel
+def pinned(cfg, sp, s, cmd, cos1, sin1, log):
+    """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
+    tick's end; tipped ships turn about their pivot foot (sim.pivot.pivot_step), righted (back to
+    contact) when tilt < tipped_angle while turning upright. Velocities are those of the pinned
+    motion (a tipped ship's turn included). (Liftoff: :func:`lift_off`, at the tick's start.)"""
+    om = cfg.omega_radps
+    surf = s.surface_state
+    p_bf, q_bf, pivot = s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m
+    rate = s.pin.rate_radps
+    m = s.mass_kg
+    righted = False
+    if surf == TIPPED:  # the pivot model (an upright ship has no axis to turn about)
+        i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                      sp.mass0_kg, m)
+        ps = pivot_step(cfg, s.pin, m, i_b, cmd.rcs_torque_body_nm)
+        p_bf, q_bf, rate = ps.pos_bf_m, ps.quat_bf, ps.rate_radps
+        righted = ps.righted
+        if ps.hull_crash:
+            surf = CRASHED
+        elif ps.righted:
+            surf = CONTACT
+    if om == 0.0:  # the body-fixed frame is the inertial one
+        c, s_ = 1.0, 0.0
+        p, q = p_bf, q_bf
+    else:
+        c, s_ = cos1, sin1
+        p = rotate_z(p_bf, c, s_)
+        q = quat_mul(quat_z(c, s_), q_bf)
+    turning = surf == TIPPED or righted
+    v, w = pinned_motion(om, p, q, rotate_z(pivot, c, s_), rate if turning else 0.0)
+    if surf != s.surface_state:
+        v_rad = dot(sub(v, surface_velocity(om, p)), unit(p))
+        # the tilt passing tipped_angle (righted) inside the tick; a hull crash at its end
+        t_ev = cfg.dt_s
+        if righted:
+            t_ev = crossed_at(dot(quat_axis_z(s.pin.quat_bf), unit(s.pin.pos_bf_m)),
+                              dot(quat_axis_z(q_bf), unit(p_bf)), cfg.cos_tipped, 0.0, cfg.dt_s)
+        emit(log, s.surface_state, surf, v_rad, t_ev)
+    ft = s.footing
+    footing = (fresh_footing(True) if righted else
+               Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
+                       ft.settle_margin, NO_HOLD))
+    return Ship(surf, Motion(p, v, q, w), m, s.fuel_kg, footing,
+                Pin(p_bf, q_bf, pivot, 0.0 if (righted or surf == CRASHED) else rate))
+
+
+@kernel
+def lift_off(cfg, s, cmd, log):
+    """Landed or tipped -> flying at the tick's start, when the engine's push along local up beats
+    the weight in the effective gravity (MODEL-NOTES 25): the tick is then flown with its thrust
+    (its fuel buys its motion), from the pinned pose and motion at that instant."""
+    up = unit(s.motion.p)
+    weight = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), up)
+    if not cmd.thrust_n * dot(quat_axis_z(s.motion.q), up) > weight:
+        return s
+    emit(log, s.surface_state, FLYING, 0.0, 0.0)
+    return Ship(FLYING, s.motion, s.mass_kg, s.fuel_kg, fresh_footing(True),
+                Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
+
+
+@kernel
+def unsettle(s, log):
+    """Landed -> contact at the tick's start: the player's engine (below liftoff) or RCS changes
+    the balance a landed ship rested in, and the physics decides again from its pinned pose at rest
+    (MODEL-NOTES 45). The contact goes on on the springs it had."""
+    emit(log, LANDED, CONTACT, 0.0, 0.0)
+    ft = s.footing
+    return Ship(CONTACT, s.motion, s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, NO_SLIP, 0, 0.0, -1.0, NO_HOLD), s.pin)
+
+
+# -- 5. burn -------------------------------------------------------------------------------------
+@kernel
+def burn(cfg, sp, s, cmd):
+    """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
+    rcs = cmd.rcs_torque_body_nm
+    rcs_thrust = (abs(rcs[0]) + abs(rcs[1]) + abs(rcs[2])) / sp.rcs_arm_m
+    flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
+    used = fmin(flow * cfg.dt_s, s.fuel_kg)
+    return Ship(s.surface_state, s.motion, s.mass_kg - used, s.fuel_kg - used, s.footing, s.pin)
+
+
+# -- 6. observe ----------------------------------------------------------------------------------
+@kernel
+def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
+    """Telemetry at the end of the tick, into the ship's output record, in place. Forces come from
+    the free-flight phase's ``report`` (free ships) or are the weight (landed, tipped)."""
+    om = cfg.omega_radps
+    ground = scene_ground(cfg, terrain, cos1, sin1)
+    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+    r_hat = unit(s.motion.p)
+    v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
+    v_rad = dot(v_rel, r_hat)
+    held = s.surface_state == LANDED or (s.surface_state == TIPPED and report.normal_n == 0.0
+                                         and report.friction_n == 0.0)
+    if held:
+        normal = -s.mass_kg * dot(effective_gravity(cfg.gm_m3ps2, cfg.omega2, s.motion.p), r_hat)
+    elif s.surface_state == CRASHED:
+        normal = 0.0
+    else:
+        normal = report.normal_n
+    out.altitude_m = -pen
+    out.penetration_m = fmax(pen, 0.0)
+    out.peak_penetration_m = fmax(fmax(report.peak_penetration_m, pen), 0.0)
+    out.cos_tilt = dot(quat_axis_z(s.motion.q), r_hat)
+    out.v_radial_mps = v_rad
+    out.v_tangential_mps = norm(sub(v_rel, scale(r_hat, v_rad)))
+    out.normal_force_n = normal
+    out.friction_force_n = 0.0 if held else report.friction_n
+    out.throttle = cmd.throttle
+    for k in range(3):
+        out.rcs_torque_body_nm[k] = cmd.rcs_torque_body_nm[k]
+    out.energy_guard_j = report.guard_j
+
+
+# -- the step ------------------------------------------------------------------------------------
+class Turn(NamedTuple):
+    """The body's angle at the tick's start (cos0, sin0) and end (cos1, sin1)."""
+
+    cos0: float
+    sin0: float
+    cos1: float
+    sin1: float
+
+
+@constructor
+def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
+    """One ship's tick: the phases above, in order. ``rec`` is updated in place, ``out`` written,
+    the transitions appended to ``log`` (an :class:`EventLog`)."""
+    cos0, sin0, cos1, sin1 = turn
+    s = load(rec)
+    cmd = commands(cfg, sp, s, inp)
+    report = NO_REPORT
+    if s.surface_state == LANDED or s.surface_state == TIPPED:
+        s = lift_off(cfg, s, cmd, log)
+    if s.surface_state == LANDED and cfg.landed_model == REST_LANDED and cmd.driven:
+        s = unsettle(s, log)
+    # a tipped ship moves by the full model, unless it rests on its hull and no RCS fires
+    # (MODEL-NOTES 48); under the pivot model (0.7's) it is pinned and turns about its foot
+    moving_tipped = (s.surface_state == TIPPED and cfg.tipped_model == FULL_TIPPED
+                     and not (on_hull(cfg, s) and not rcs_fires(cmd)))
+    if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
+        fine = (s.surface_state != FLYING
+                or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0))
+        exact_one = (fine and cfg.vertical_one_step
+                     and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
+                     and purely_vertical(cfg, terrain, sp, s, cmd))
+        n_sub = sp.n_substeps if fine and not exact_one else 1
+        strikes = fine and not exact_one and striking(cfg, terrain, sp, s, cos0, sin0)
+        if strikes and cfg.impact_substeps > n_sub:
+            n_sub = cfg.impact_substeps
+        method = sub_method(cfg.method, fine and not exact_one)
+        fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
+        # an impact's static friction changes too fast to be carried over: impulses alone; with
+        # rk4 the holding feet's friction is inside the step (substep), nothing is carried
+        held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
+        fl = free_flight(cfg, sp, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
+        s, report = fl.ship, fl.report
+        if fine:
+            s = settle(cfg, terrain, sp, s, cmd, fl.run, cos1, sin1, log)
+    else:
+        s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
+    s = burn(cfg, sp, s, cmd)
+    store(s, rec)
+    observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
+
+
+@kernel
+def rcs_fires(cmd):
+    rcs = cmd.rcs_torque_body_nm
+    return rcs[0] != 0.0 or rcs[1] != 0.0 or rcs[2] != 0.0
+
+
+@kernel
+def on_hull(cfg, s):
+    """A tipped ship at rest on its hull: tilted to tipped_rest or past it and not moving
+    relative to the surface (the pose the full model leaves it in when its hull meets the ground,
+    or a tipped start lying there)."""
+    m = s.motion
+    om = cfg.omega_radps
+    if dot(quat_axis_z(m.q), unit(m.p)) > cfg.cos_tipped_rest + 1e-12:
+        return False
+    v_rel = sub(m.v, surface_velocity(om, m.p))
+    w_rel = sub(m.w, body_spin_in_body_frame(om, m.q))
+    return dot(v_rel, v_rel) == 0.0 and dot(w_rel, w_rel) == 0.0

@@ -1,0 +1,187 @@
+"""At rest or not: the settle thresholds' margin (:func:`margin_on`), the centre of mass over the
+footprint, the feet still, the energy test against the nearest edge (:func:`stable_at_rest`),
+and their samples at a tick's sub-step ends (:class:`SettleRun`, MODEL-NOTES 47)."""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from touchdown.sim.compiled import kernel
+from touchdown.sim.constants import SETTLE_SLIP_MPS
+from touchdown.sim.contact import feet, foot_slip, foot_velocity, under
+from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia,
+    surface_velocity)
+from touchdown.sim.ship import CONTACT, REST_LANDED, SEED_FRICTION, scene_ground
+from touchdown.sim.vec import (add, dot, fmax, fmin, mul, norm, quat_axis_z, quat_rotate,
+    quat_rotate_inv, scale, sub, unit)
+
+
+class SettleRun(NamedTuple):
+    """The settle thresholds sampled at a tick's sub-step ends (MODEL-NOTES 47)."""
+
+    sampled: bool  # sampled at every sub-step's end of the tick
+    margin: float  # at the last sample
+    began_s: float  # where the run of samples that hold, ending at the last, began (from the
+
+
+#: a tick whose thresholds were not sampled at its sub-steps
+NO_RUN = SettleRun(False, -1.0, 0.0)
+
+
+@kernel
+def settle_sample(cfg, sp, s, ground, run, t_prev, t_now):
+    """``run`` with a sample at ``t_now`` (the last was at ``t_prev``): where the thresholds'
+    smallest margin crosses zero between them, linearly."""
+    if s.surface_state != CONTACT:
+        return SettleRun(True, -1.0, t_now)
+    m = margin_on(cfg, sp, s, ground)
+    if not m > 0.0:
+        return SettleRun(True, m, t_now)
+    if run.margin > 0.0:
+        return SettleRun(True, m, run.began_s)
+    f = run.margin / (run.margin - m)
+    return SettleRun(True, m, t_prev + fmin(fmax(f, 0.0), 1.0) * (t_now - t_prev))
+
+
+# -- 3. settle -----------------------------------------------------------------------------------
+@kernel
+def over_footprint(cfg, sp, p, q):
+    """The centre of mass is over the footprint: the line through it along the effective gravity
+    meets the feet's plane inside the square the four feet span. With u the effective "up" in the
+    body frame, the line meets the plane at -h (u_x, u_y) / u_z, inside |x| + |y| < a when
+
+        h (|u_x| + |u_y|) < a u_z,
+
+    an exact comparison (toward a foot: tilt < atan(a / h), 37 degrees for the default lander;
+    toward the edge between two: atan(a / (sqrt(2) h)), 28 degrees). With leg_radius = 0 nothing is
+    over the footprint: the seed's inverted pendulum, which no tilt makes stable."""
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    u = quat_rotate_inv(q, (-g[0], -g[1], -g[2]))
+    return sp.com_height_m * (abs(u[0]) + abs(u[1])) < sp.leg_radius_m * u[2]
+
+
+@kernel
+def stable_at_rest(cfg, sp, s, ground):
+    """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
+    kinetic energy relative to the surface is below the barrier over every edge of its footprint.
+    The barrier over the edge of feet i, j is the potential at the saddle the ship passes to topple
+    over it, less the potential now:
+
+        B = m g (z_s - z) + k_i (x_s,i^2 + x_s,j^2) / 2 - sum_feet k_i x_k^2 / 2,
+
+    at the saddle the two feet carry the whole weight along their pushes (x_s = m g (up . g_i) /
+    (2 k_i |g_i|^2)), the others are clear, and the centre of mass stands straight above the line
+    through the two, at its distance L from it: z_s is the line's midpoint, sunk from the feet's
+    depth now to x_s, raised by L sqrt(1 - (l . up)^2) (l the line's direction, up against the
+    effective gravity). A ship whose springs store more than that saddle asks (a soft-legged ship
+    standing on a slope near its edge limit loads its downhill feet as it turns) has no barrier
+    left. The seed's "stable" (an energy test, SEED-NOTES 3)."""
+    m = s.mass_kg
+    p, q = s.motion.p, s.motion.q
+    a, h = sp.leg_radius_m, sp.com_height_m
+    if not a > 0.0:  # four feet at one point: no edge holds anything
+        return False
+    k_leg = 0.25 * sp.stiffness_per_kg * m
+    ft = feet(ground, p, q, a, h)
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    g_mag = norm(g)
+    up = (-g[0] / g_mag, -g[1] / g_mag, -g[2] / g_mag)
+    om = cfg.omega_radps
+    v_rel = sub(s.motion.v, surface_velocity(om, p))
+    w_rel = sub(s.motion.w, body_spin_in_body_frame(om, q))
+    i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]), sp.mass0_kg, m)
+    kinetic = 0.5 * m * dot(v_rel, v_rel) + 0.5 * dot(w_rel, mul(i_b, w_rel))
+    stored = 0.0
+    for i in range(4):
+        x = fmax(ft.pen_m[i], 0.0)
+        stored = stored + 0.5 * k_leg * x * x
+    least = math.inf
+    for i in range(4):
+        j = (i + 1) % 4  # feet 0, 1, 2, 3 go round the footprint: i, i + 1 span an edge
+        p_i, p_j = ft.pos_w[i], ft.pos_w[j]
+        line = unit(sub(p_j, p_i))
+        r = sub(p, p_i)
+        arm = norm(sub(r, scale(line, dot(r, line))))
+        g_i, g_j = ft.push_w[i], ft.push_w[j]
+        x_i = m * g_mag * dot(up, g_i) / (2.0 * k_leg * dot(g_i, g_i))
+        x_j = m * g_mag * dot(up, g_j) / (2.0 * k_leg * dot(g_j, g_j))
+        sink = 0.5 * ((x_i - ft.pen_m[i]) + (x_j - ft.pen_m[j]))
+        mid = scale(add(p_i, p_j), 0.5)
+        lu = dot(line, up)
+        rise = arm * math.sqrt(fmax(1.0 - lu * lu, 0.0)) - dot(sub(p, mid), up) - sink
+        least = fmin(least, m * g_mag * rise + 0.5 * k_leg * (x_i * x_i + x_j * x_j) - stored)
+    return kinetic < least
+
+
+@kernel
+def feet_still(cfg, sp, s, ground, up_ground):
+    """The margin of a ship's feet being at rest (> 0: they are): every pressing foot slipping
+    slower than SETTLE_SLIP_MPS (as a fraction of it), and the footprint able to hold
+    the weight by static friction, the effective gravity's part along the ground under the centre
+    of mass within mu_s of its part into it (-1 where it is not: a ship on a slope steeper than
+    atan(mu_s) is never at rest, however slowly it starts to slide)."""
+    m = s.motion
+    ft = feet(ground, m.p, m.q, sp.leg_radius_m, sp.com_height_m)
+    omega_w = quat_rotate(m.q, m.w)
+    worst = 0.0
+    for i in range(4):
+        if ft.pen_m[i] > 0.0:
+            u = foot_velocity(ground, m.v, omega_w, ft.offset_w[i], ft.pos_w[i])
+            slip = foot_slip(m.p, u, ft.pos_w[i], ft.push_w[i])
+            worst = fmax(worst, dot(slip, slip))
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, m.p)
+    g_n = dot(g, up_ground)
+    g_t = sub(g, scale(up_ground, g_n))
+    if dot(g_t, g_t) > cfg.friction_static * cfg.friction_static * g_n * g_n:
+        return -1.0
+    return (SETTLE_SLIP_MPS - math.sqrt(worst)) / SETTLE_SLIP_MPS
+
+
+@kernel
+def settle_margin(cfg, terrain, sp, s, cos1, sin1):
+    """:func:`margin_on` the ground at the body's angle (cos1, sin1)."""
+    return margin_on(cfg, sp, s, scene_ground(cfg, terrain, cos1, sin1))
+
+
+@kernel
+def margin_on(cfg, sp, s, ground):
+    """The settle thresholds' smallest margin, each as a fraction of its threshold (> 0: all
+    hold): radial and tangential speed and angular speed against theirs (on their squares), the
+    tilt's cosine against cos(settle_tilt), the centre of mass over the footprint and every foot
+    held by its static friction (each +1 or -1; the seed's friction law lands on the speeds alone).
+
+    The settle tilt is measured from the ground's normal under the centre of mass (the contact
+    model's: the terrain's, or radial with ``contact.surface_normal = "radial"``), so a ship
+    standing square on a slope lands; on level ground it is local vertical, the seed's
+    (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
+    om = cfg.omega_radps
+    r_hat = unit(s.motion.p)
+    up_ground = unit(under(ground, s.motion.p)[1])
+    v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
+    v_rad = dot(v_rel, r_hat)
+    v_tan = sub(v_rel, scale(r_hat, v_rad))
+    omega_rel = sub(s.motion.w, body_spin_in_body_frame(om, s.motion.q))
+    # each as a fraction of its threshold, linear in the speed (a speed falling at a steady rate,
+    # as friction slows it, crosses its threshold where its margin does: the instant the
+    # thresholds begin to hold is interpolated on it, MODEL-NOTES 47)
+    lin, ang = math.sqrt(cfg.settle_lin2), math.sqrt(cfg.settle_ang2)
+    m = fmin((lin - abs(v_rad)) / lin, (lin - norm(v_tan)) / lin)
+    m = fmin(m, (ang - norm(omega_rel)) / ang)
+    m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
+             / (1.0 - cfg.cos_settle_tilt))
+    coulomb = cfg.friction_model != SEED_FRICTION
+    rest = cfg.landed_model == REST_LANDED
+    # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
+    # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44). 0.7 (``attached``) asked
+    # every foot's friction to be static; at rest (MODEL-NOTES 45) the feet must be still and the
+    # footprint able to hold the weight by static friction
+    slides = coulomb and not rest and (s.footing.sliding[0] or s.footing.sliding[1]
+                                       or s.footing.sliding[2] or s.footing.sliding[3])
+    if not over_footprint(cfg, sp, s.motion.p, s.motion.q) or slides:
+        return fmin(m, -1.0)
+    if coulomb and rest:
+        m = fmin(m, feet_still(cfg, sp, s, ground, up_ground))
+    # at rest, but with the energy to pass an edge of its footprint: not stable (MODEL-NOTES 45)
+    if rest and m > 0.0 and not stable_at_rest(cfg, sp, s, ground):
+        return fmin(m, -1.0)
+    return m
