@@ -22,7 +22,7 @@ the step's ~180 kernels that was a third of a first compile (45 s to 31 s for th
 on disk: nothing loads them but a compile of an entry point, which is cached whole.
 
 numba's cache checks only the source file of the function it compiled, not the files of the
-functions it calls (which it inlines); a change to ``sim/vec.py`` would leave ``sim/step.py``'s
+functions it calls (which it inlines); a change to ``sim/vec.py`` would leave ``sim/flight.py``'s
 cached code stale. The cache directory is therefore named after a hash of every source file of
 ``sim/`` (and numba's version): any change to the physics compiles afresh.
 """

@@ -1,5 +1,5 @@
 """Every per-tick output (sim.fields, record "outputs") is written by the step, every tick, and
-means something: a new field added to the table but not computed in ``observe`` (sim/step.py)
+means something: a new field added to the table but not computed in ``observe`` (sim/phases.py)
 fails here, where every other test would pass with a column that is always 0 (README, "Where
 things are": a new per-tick export field).
 
