@@ -274,27 +274,22 @@ def _a_down(fb, p, q, r_hat):
 MAX_PIECES = 8
 
 
-MAX_PIECES = 8
 #: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
 #: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
 #: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
 MAX_EVENT_ITERATIONS = 40
 
 
-MAX_EVENT_ITERATIONS = 40
 EVENT_TOL_M = 1e-9
 
 
-EVENT_TOL_M = 1e-9
 EVENT_TOL_S = 1e-12
 
 
-EVENT_TOL_S = 1e-12
 #: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
 NEVER = -math.inf
 
 
-NEVER = -math.inf
 class Memo(NamedTuple):
     """A contact evaluation and what it was evaluated at: the free-flight loop asks for the
     contact at one state several times (a piece's end for its drag, its breakaway and its events,
@@ -560,7 +555,6 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
 DRAG_REACH = 1.0
 
 
-DRAG_REACH = 1.0
 #: a sliding foot that its friction could stop within STIFF_REACH of the step and that is not
 #: slowing takes its friction as an impulse (step_piece): the drag's direction would turn faster
 #: than rk4's stages follow (its rate over the step past ~2.8)

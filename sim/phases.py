@@ -132,7 +132,6 @@ def purely_vertical(cfg, terrain, sp, s, cmd):
 IMPACT_SPEED_MPS = 1.0
 
 
-IMPACT_SPEED_MPS = 1.0
 IMPACT_SAGS = 10.0
 
 

@@ -21,19 +21,15 @@ from touchdown.sim.state import COMMAND_DTYPE
 FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 
 
-FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 
 
-HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 
 
-SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
 REST_LANDED = int(LandedModel.REST)
 
 
-REST_LANDED = int(LandedModel.REST)
 FULL_TIPPED = int(TippedModel.FULL)
 
 
