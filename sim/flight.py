@@ -1231,7 +1231,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
 
 # -- 2. free flight: the stages in order ----------------------------------------------------------
 @separate
-def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
+def free_flight(here, fb, s, n_sub, carry, log):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
 
     a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
@@ -1245,6 +1245,7 @@ def free_flight(cfg, sp, fb, s, n_sub, carry, cos1, sin1, log):
     Transitions are emitted in the order they happen, each with the instant it happened. ``carry``:
     the holding feet's friction is carried from step to step as a force (sim.friction.coulomb);
     without it, impulses alone."""
+    cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
     h = dt / n_sub
     om = fb.body_omega_radps

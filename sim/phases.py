@@ -19,8 +19,6 @@ Decisions compare cosines and squared speeds, never angles.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import lowest_foot_penetration
@@ -47,10 +45,11 @@ VERTICAL_TOL2 = 1e-16
 
 
 @kernel
-def commands(cfg, sp, s, inp):
+def commands(here, s, inp):
     """Applied throttle and RCS torque. The hold-mode controller (flying and contact) is a PD law,
     tau = -I (w_c^2 err + 2 w_c omega_rel), saturated at max_rcs_torque; a non-zero manual RCS
     command on an axis overrides it there. No fuel, or a crashed ship: nothing fires."""
+    cfg, sp = here.cfg, here.sp
     live = s.fuel_kg > 0.0 and s.surface_state != CRASHED
     if not live:
         return Commands(0.0, 0.0 * sp.max_thrust_n, (0.0, 0.0, 0.0), False)
@@ -82,10 +81,11 @@ def commands(cfg, sp, s, inp):
 
 # -- 2. free flight ------------------------------------------------------------------------------
 @kernel
-def near_ground(cfg, terrain, sp, s, cmd, cos0, sin0):
+def near_ground(here, s, cmd):
     """True for a ship that might touch the ground within this tick (conservative bound). On a
     slope the ground's plane is taken under the ship, rising by tan(slope) over every metre the
     feet and the tick's motion can reach sideways."""
+    cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     dt = cfg.dt_s
     reach_down = sp.com_height_m + sp.leg_radius_m
     speed = norm(s.motion.v)
@@ -101,11 +101,12 @@ def near_ground(cfg, terrain, sp, s, cmd, cos0, sin0):
 
 
 @kernel
-def purely_vertical(cfg, terrain, sp, s, cmd):
+def purely_vertical(here, s, cmd):
     """A ship whose motion this tick is along the local vertical only: upright, not turning, not
     slipping, no RCS torque, level ground under the whole footprint, a body that does not spin.
     For it every kick of the exponential method is zero, so its one step per tick is already
     exact and sub-steps would only repeat it (``sim.vertical_one_step``)."""
+    cfg, terrain, sp = here.cfg, here.terrain, here.sp
     if cfg.omega_radps != 0.0 or cfg.slope_tan != 0.0:
         return False
     r_hat = unit(s.motion.p)
@@ -136,11 +137,12 @@ IMPACT_SAGS = 10.0
 
 
 @kernel
-def striking(cfg, terrain, sp, s, cos0, sin0):
+def striking(here, s):
     """A ship near the ground that strikes it, or rebounds, at the tick's start: moving along
     local up faster than IMPACT_SPEED_MPS, or its deepest foot pressed deeper than IMPACT_SAGS
     times its static sag g / w^2 (a ship at rest, even on a slope that loads its downhill feet
     more, is far from either)."""
+    cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     r_hat = unit(s.motion.p)
     v_rad = dot(sub(s.motion.v, surface_velocity(cfg.omega_radps, s.motion.p)), r_hat)
     if abs(v_rad) > IMPACT_SPEED_MPS:
@@ -151,7 +153,11 @@ def striking(cfg, terrain, sp, s, cos0, sin0):
 
 
 @constructor
-def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
+def free_body(here, s, cmd, touching, method):
+    """The ship as the free flight moves it this tick (sim.dynamics.FreeBody): its mass and
+    inertia, thrust and torque, legs and springs, the body and the ground under it at the tick's
+    start, its friction."""
+    cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     m = s.mass_kg
     two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
     return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
@@ -167,7 +173,7 @@ def free_body(cfg, terrain, sp, s, cmd, touching, cos0, sin0, method):
 
 
 @kernel
-def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
+def settle(here, s, cmd, run, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
     with the centre of mass over the footprint (the seed's "ship stable"; MODEL-NOTES 26). The
@@ -176,7 +182,8 @@ def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
     have held for settle_time in continuous time, and the event carries the instant they had
     (MODEL-NOTES 20). ``run`` (a :class:`SettleRun`): the samples at every sub-step's end of the
     tick (MODEL-NOTES 47), where there were; otherwise the tick's ends alone."""
-    margin = settle_margin(cfg, terrain, sp, s, cos1, sin1)
+    cfg, cos1, sin1 = here.cfg, here.turn.cos1, here.turn.sin1
+    margin = settle_margin(here, s)
     # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
     driven = cfg.landed_model == REST_LANDED and cmd.driven
     ok = s.surface_state == CONTACT and margin > 0.0 and not driven
@@ -207,11 +214,12 @@ def settle(cfg, terrain, sp, s, cmd, run, cos1, sin1, log):
 
 # -- 4. pinned -----------------------------------------------------------------------------------
 @kernel
-def pinned(cfg, sp, s, cmd, cos1, sin1, log):
+def pinned(here, s, cmd, log):
     """Landed, tipped and crashed ships: body-fixed poses mapped to the inertial frame at the
     tick's end; tipped ships turn about their pivot foot (sim.pivot.pivot_step), righted (back to
     contact) when tilt < tipped_angle while turning upright. Velocities are those of the pinned
     motion (a tipped ship's turn included). (Liftoff: :func:`lift_off`, at the tick's start.)"""
+    cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     om = cfg.omega_radps
     surf = s.surface_state
     p_bf, q_bf, pivot = s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m
@@ -280,8 +288,9 @@ def unsettle(s, log):
 
 # -- 5. burn -------------------------------------------------------------------------------------
 @kernel
-def burn(cfg, sp, s, cmd):
+def burn(here, s, cmd):
     """Fuel used this tick: T / (Isp g0) for the engine, sum|tau| / (arm Isp_rcs g0) for the RCS."""
+    cfg, sp = here.cfg, here.sp
     rcs = cmd.rcs_torque_body_nm
     rcs_thrust = (abs(rcs[0]) + abs(rcs[1]) + abs(rcs[2])) / sp.rcs_arm_m
     flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
@@ -291,9 +300,10 @@ def burn(cfg, sp, s, cmd):
 
 # -- 6. observe ----------------------------------------------------------------------------------
 @kernel
-def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
+def observe(here, s, cmd, report, out):
     """Telemetry at the end of the tick, into the ship's output record, in place. Forces come from
     the free-flight phase's ``report`` (free ships) or are the weight (landed, tipped)."""
+    cfg, terrain, sp, cos1, sin1 = here.cfg, here.terrain, here.sp, here.turn.cos1, here.turn.sin1
     om = cfg.omega_radps
     ground = scene_ground(cfg, terrain, cos1, sin1)
     pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
@@ -323,22 +333,14 @@ def observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out):
 
 
 # -- the step ------------------------------------------------------------------------------------
-class Turn(NamedTuple):
-    """The body's angle at the tick's start (cos0, sin0) and end (cos1, sin1)."""
-
-    cos0: float
-    sin0: float
-    cos1: float
-    sin1: float
-
-
 @constructor
-def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
+def step_ship(here, rec, inp, out, log):
     """One ship's tick: the phases above, in order. ``rec`` is updated in place, ``out`` written,
-    the transitions appended to ``log`` (an :class:`EventLog`)."""
-    cos0, sin0, cos1, sin1 = turn
+    the transitions appended to ``log`` (an :class:`EventLog`); ``here``: the scene and this ship
+    this tick (a :class:`sim.ship.Here`)."""
+    cfg, sp = here.cfg, here.sp
     s = load(rec)
-    cmd = commands(cfg, sp, s, inp)
+    cmd = commands(here, s, inp)
     report = NO_REPORT
     if s.surface_state == LANDED or s.surface_state == TIPPED:
         s = lift_off(cfg, s, cmd, log)
@@ -350,28 +352,28 @@ def step_ship(cfg, terrain, sp, rec, inp, out, turn, log):
                      and not (on_hull(cfg, s) and not rcs_fires(cmd)))
     if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
         fine = (s.surface_state != FLYING
-                or near_ground(cfg, terrain, sp, s, cmd, cos0, sin0))
+                or near_ground(here, s, cmd))
         exact_one = (fine and cfg.vertical_one_step
                      and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
-                     and purely_vertical(cfg, terrain, sp, s, cmd))
+                     and purely_vertical(here, s, cmd))
         n_sub = sp.n_substeps if fine and not exact_one else 1
-        strikes = fine and not exact_one and striking(cfg, terrain, sp, s, cos0, sin0)
+        strikes = fine and not exact_one and striking(here, s)
         if strikes and cfg.impact_substeps > n_sub:
             n_sub = cfg.impact_substeps
         method = sub_method(cfg.method, fine and not exact_one)
-        fb = free_body(cfg, terrain, sp, s, cmd, fine, cos0, sin0, method)
+        fb = free_body(here, s, cmd, fine, method)
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
-        fl = free_flight(cfg, sp, fb, s, n_sub, not (strikes or held_inside), cos1, sin1, log)
+        fl = free_flight(here, fb, s, n_sub, not (strikes or held_inside), log)
         s, report = fl.ship, fl.report
         if fine:
-            s = settle(cfg, terrain, sp, s, cmd, fl.run, cos1, sin1, log)
+            s = settle(here, s, cmd, fl.run, log)
     else:
-        s = pinned(cfg, sp, s, cmd, cos1, sin1, log)
-    s = burn(cfg, sp, s, cmd)
+        s = pinned(here, s, cmd, log)
+    s = burn(here, s, cmd)
     store(s, rec)
-    observe(cfg, terrain, sp, s, cmd, report, cos1, sin1, out)
+    observe(here, s, cmd, report, out)
 
 
 @kernel

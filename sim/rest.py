@@ -138,9 +138,11 @@ def feet_still(cfg, sp, s, ground, up_ground):
 
 
 @kernel
-def settle_margin(cfg, terrain, sp, s, cos1, sin1):
-    """:func:`margin_on` the ground at the body's angle (cos1, sin1)."""
-    return margin_on(cfg, sp, s, scene_ground(cfg, terrain, cos1, sin1))
+def settle_margin(here, s):
+    """:func:`margin_on` the ground at the body's angle at the tick's end."""
+    cfg = here.cfg
+    return margin_on(cfg, here.sp, s, scene_ground(cfg, here.terrain, here.turn.cos1,
+                                                   here.turn.sin1))
 
 
 @kernel

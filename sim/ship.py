@@ -192,3 +192,24 @@ class Report(NamedTuple):
 
 #: a tick without flight (pinned ships; a state at rest)
 NO_REPORT = Report(0.0, 0.0, 0.0, 0.0)
+
+
+class Turn(NamedTuple):
+    """The body's angle at the tick's start (cos0, sin0) and end (cos1, sin1)."""
+
+    cos0: float
+    sin0: float
+    cos1: float
+    sin1: float
+
+
+class Here(NamedTuple):
+    """The scene and this ship, this tick: what every phase reads besides the ship's own state.
+    ``cfg``: the scene's constants (a record of sim.params.SCENE_DTYPE), ``terrain``: its
+    terrain's record, ``sp``: the ship's constants (a record of SHIP_DTYPE), ``turn``: the body's
+    angle at the tick's start and end (a :class:`Turn`)."""
+
+    cfg: object
+    terrain: object
+    sp: object
+    turn: Turn

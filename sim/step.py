@@ -19,8 +19,8 @@ from touchdown.sim.compiled import entry, kernel, separate
 from touchdown.sim.enums import SurfaceState, TRANSITION_EVENTS
 from touchdown.sim.frames import body_rotation
 from touchdown.sim.params import Params
-from touchdown.sim.phases import Turn, observe, step_ship
-from touchdown.sim.ship import Commands, EventLog, NO_COMMANDS, NO_REPORT, load
+from touchdown.sim.phases import observe, step_ship
+from touchdown.sim.ship import NO_COMMANDS, NO_REPORT, Commands, EventLog, Here, Turn, load
 from touchdown.sim.state import (Event, INPUTS_DTYPE, Inputs, OUTPUTS_DTYPE, Outputs, STATE_DTYPE,
     State, TRANSITION_DTYPE)
 
@@ -43,7 +43,7 @@ def step_ships(recs, state, inputs, outputs, turn, events, count):
     ``events`` (``count[0]`` of them; sim.ship.emit)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     for i in range(state.shape[0]):
-        step_ship(cfg, ter, ships[i], state[i], inputs[i], outputs[i], turn,
+        step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], outputs[i],
                   EventLog(events, count, i))
 
 
@@ -84,7 +84,7 @@ def step_ticks(recs, state, inputs, commands, next_command, rotations, out, firs
         out_k = outputs_out[k]
         turn = Turn(rotations[k, 0], rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1])
         for i in range(state.shape[0]):
-            step_ship(cfg, ter, ships[i], state[i], inputs[i], out_k[i], turn,
+            step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], out_k[i],
                       EventLog(events, count, i))
         for e in range(n0, min(count[0], events.shape[0])):
             event_ticks[e] = tick + 1
@@ -154,7 +154,8 @@ def observe_ships(scene, terrain, ships, state, outputs, cos_t, sin_t):
     cfg, ter = scene[0], terrain[0]
     idle = Commands(0.0, 0.0, (0.0, 0.0, 0.0), False)
     for i in range(state.shape[0]):
-        observe(cfg, ter, ships[i], load(state[i]), idle, NO_REPORT, cos_t, sin_t, outputs[i])
+        observe(Here(cfg, ter, ships[i], Turn(cos_t, sin_t, cos_t, sin_t)), load(state[i]), idle,
+                NO_REPORT, outputs[i])
 
 
 def outputs_at(params: Params, state: State) -> Outputs:

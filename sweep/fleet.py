@@ -25,8 +25,7 @@ from touchdown.sim.frames import Body, body_rotation
 from touchdown.sim.params import SCENE_DTYPE, Records
 from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
     concatenate)
-from touchdown.sim.phases import Turn
-from touchdown.sim.ship import CONTACT, scene_ground
+from touchdown.sim.ship import CONTACT, Turn, scene_ground
 from touchdown.sim.step import apply_commands, observe_ships, step_ships
 from touchdown.sim.vec import quat_axis_z
 from touchdown.sweep.cases import Sweep

@@ -54,13 +54,15 @@ def long_axis(quat: np.ndarray) -> np.ndarray:
 
 
 def one_ship(params, state, inputs=None, i: int = 0):
-    """What the compiled phases of sim.step take for ship ``i``: (scene constants, the terrain's
-    record, its parameters, its state as a sim.ship.Ship, its commands' record)."""
+    """What the compiled phases (sim.phases) take for ship ``i``: (the scene and this ship, a
+    sim.ship.Here with the body at angle 0 at both ends of the tick; its state as a
+    sim.ship.Ship; its commands' record)."""
     from touchdown.sim.state import Inputs
-    from touchdown.sim.ship import load
+    from touchdown.sim.ship import Here, Turn, load
     inputs = Inputs.zeros(state.n) if inputs is None else inputs
-    return (params.scene[0], params.terrain[0], params.ships.rows[i], load(state.rows[i]),
-            inputs.rows[i])
+    here = Here(params.scene[0], params.terrain[0], params.ships.rows[i],
+                Turn(1.0, 0.0, 1.0, 0.0))
+    return here, load(state.rows[i]), inputs.rows[i]
 
 
 def footprint_centre(scn: Scenario, rec, i: int = 0) -> np.ndarray:

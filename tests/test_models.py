@@ -61,8 +61,8 @@ def test_the_vertical_model_is_used_only_where_nothing_else_moves():
         scn = scene(initial or {"altitude": 0.5, "vertical_speed": -20.0}, body=body,
                     inputs=inputs or [])
         inp = scn.inputs_at(0)
-        cfg, bumps, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
-        return bool(purely_vertical(cfg, bumps, sp, ship, commands(cfg, sp, ship, rec)))
+        here, ship, rec = one_ship(scn.params, scn.initial, inp)
+        return bool(purely_vertical(here, ship, commands(here, ship, rec)))
 
     assert qualifies()
     assert qualifies({"state": "contact", "altitude": -0.016})
@@ -116,8 +116,8 @@ def test_coarse_flight_is_never_caught_below_the_ground(altitude, vertical, hori
                 body={"terrain": {"slope_deg": slope, "slope_azimuth_deg": azimuth}},
                 duration=dt)
     inp = scn.inputs_at(0)
-    cfg, ter, sp, ship, rec = one_ship(scn.params, scn.initial, inp)
-    far = not near_ground(cfg, ter, sp, ship, commands(cfg, sp, ship, rec), 1.0, 0.0)
+    here, ship, rec = one_ship(scn.params, scn.initial, inp)
+    far = not near_ground(here, ship, commands(here, ship, rec))
     _, out, _ = step(scn.params, scn.initial, inp)
     if far:
         assert out.altitude_m[0] > 0.0

@@ -115,10 +115,10 @@ def _contact_state(landed: str = "rest"):
 
 
 def _settles(params, st, ticks=1):
-    cfg, terrain, sp, ship, _ = one_ship(params, st)
+    here, ship, _ = one_ship(params, st)
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship = settle(cfg, terrain, sp, ship, IDLE, NO_RUN, 1.0, 0.0, EventLog(events, count, 0))
+        ship = settle(here, ship, IDLE, NO_RUN, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
@@ -188,7 +188,7 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     to +0.1, so they began half way through it. (A step samples them at every sub-step's end
     too: MODEL-NOTES 47; here only the tick's ends.)"""
     params, st = _contact_state()
-    cfg, terrain, sp, ship, _ = one_ship(params, st)
+    here, ship, _ = one_ship(params, st)
     r_hat = st.pos_m[0] / np.linalg.norm(st.pos_m[0])
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     dt = params.sim.dt_s
@@ -196,8 +196,7 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     for k in range(40):
         v = -speeds[min(k, 2)] * r_hat
         moved = ship._replace(motion=ship.motion._replace(v=(v[0], v[1], v[2])))
-        ship = settle(cfg, terrain, sp, moved, IDLE, NO_RUN, 1.0, 0.0,
-                       EventLog(events, count, 0))
+        ship = settle(here, moved, IDLE, NO_RUN, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             break
     began = 2 * dt + 0.5 * dt
