@@ -851,8 +851,8 @@ def pinned_at(fb, s, ce, t_s):
     if s.surface_state != TIPPED:
         return Pin(pin_p, pin_q, s.pin.pivot_bf_m, s.pin.rate_radps)
     return Pin(pin_p, pin_q, rotate_z(ce.lowest_foot_w, c, -s_),
-               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m.p, m.v,
-                                  m.q, m.w, ce.lowest_foot_w))
+               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m,
+                                  ce.lowest_foot_w))
 
 
 @kernel

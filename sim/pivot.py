@@ -22,7 +22,7 @@ def pivot_axis(p, q):
 
 
 @kernel
-def rate_from_momentum(omega_radps, m, inertia_b, p, v, q, w_b, pivot):
+def rate_from_momentum(omega_radps, m, inertia_b, motion, pivot):
     """The rate about the pivot foot when a ship in contact is handed to the pivot model: the foot
     is held at once (an inelastic impact at the foot), which conserves the angular momentum
     about it, relative to the surface, and keeps of the motion its component about the pivot's
@@ -31,7 +31,9 @@ def rate_from_momentum(omega_radps, m, inertia_b, p, v, q, w_b, pivot):
         theta' = a . (I_w omega_rel + m d x v_rel) / I_p,   I_p = a . I_w a + m |a x d|^2,
 
     d the centre of mass from the pivot. It is the projection of the motion onto rotation about
-    a in the kinetic-energy metric, so the kinetic energy after is never more than before."""
+    a in the kinetic-energy metric, so the kinetic energy after is never more than before.
+    ``motion``: the ship's (sim.dynamics.Motion: its angular velocity in the body frame)."""
+    p, v, q, w_b = motion
     axis = pivot_axis(p, q)
     v_rel = sub(v, surface_velocity(omega_radps, p))
     w_rel_w = sub(quat_rotate(q, w_b), (0.0, 0.0, omega_radps))

@@ -58,21 +58,36 @@ def apply_commands(commands, c, tick, inputs):
     return c
 
 
+class Queue(NamedTuple):
+    """The commands still to apply: ``table`` (sim.state.COMMAND_DTYPE, sorted by tick) from
+    index ``next``."""
+
+    table: np.ndarray
+    next: int
+
+
+class Span(NamedTuple):
+    """The ticks a call steps: from ``first_tick``; ``rotations[k]`` is the body's (cos, sin) at
+    the k-th one's start (:func:`rotations`)."""
+
+    first_tick: int
+    rotations: np.ndarray
+
+
 @entry
-def step_ticks(recs, state, inputs, commands, next_command, rotations, out, first_tick,
-               tick_capacity):
-    """Ticks ``first_tick``, ``first_tick + 1``, ... one after another, up to ``len(out.states)``
-    (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step from each tick the
-    commands for it (``commands``, sorted by tick, from index ``next_command``) are applied to
-    ``inputs``; after it the state, the telemetry and the commands in force are row k of
-    ``out.states``, ``out.outputs`` and ``out.inputs``. Transitions are appended to
-    ``out.events`` (the tick each one led to in ``out.event_ticks``); the loop stops early when
-    fewer than ``tick_capacity`` places are left. ``rotations[k]`` is the body's (cos, sin) at
-    the k-th tick's start. Returns (ticks stepped, index of the next command)."""
+def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
+    """Ticks ``span.first_tick``, ``span.first_tick + 1``, ... one after another, up to
+    ``len(out.states)`` (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step
+    from each tick the commands of ``queue`` for it are applied to ``inputs``; after it the state,
+    the telemetry and the commands in force are row k of ``out.states``, ``out.outputs`` and
+    ``out.inputs``. Transitions are appended to ``out.events`` (the tick each one led to in
+    ``out.event_ticks``); the loop stops early when fewer than ``tick_capacity`` places are left.
+    Returns (ticks stepped, index of the next command)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
+    commands, first_tick, rotations = queue.table, span.first_tick, span.rotations
     states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
     events, event_ticks, count = out.events, out.event_ticks, out.count
-    c = next_command
+    c = queue.next
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
             return k, c
@@ -124,9 +139,9 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     cap = tick_capacity(params)
     events, event_ticks = np.empty(cap, TRANSITION_DTYPE), np.empty(cap, np.int64)
     count = np.zeros(1, np.int64)
-    step_ticks(params.records, state.rows.copy(), inputs.rows.copy(), NO_COMMANDS, 0,
-               rotations(params, state.tick, 1),
-               Written(states, outputs, ins, events, event_ticks, count), state.tick, cap)
+    step_ticks(params.records, state.rows.copy(), inputs.rows.copy(), Queue(NO_COMMANDS, 0),
+               Span(state.tick, rotations(params, state.tick, 1)),
+               Written(states, outputs, ins, events, event_ticks, count), cap)
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
             transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))

@@ -25,8 +25,8 @@ from touchdown.sim.placement import quat_from_axes
 from touchdown.sim.scenario import Scenario, Scene, parse
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State, concatenate)
-from touchdown.sim.step import (Written, outputs_at, rotations, step_ticks, tick_capacity,
-    transitions)
+from touchdown.sim.step import (Queue, Span, Written, outputs_at, rotations, step_ticks,
+    tick_capacity, transitions)
 from touchdown.sim.fields import INPUTS as INPUT_FIELDS
 from touchdown.sim.timeline import INPUTS, Command, CommandError, Retire, Spawn, Timeline, command_of
 
@@ -273,9 +273,9 @@ class World:
         events = np.empty(cap * min(k_max, 8), TRANSITION_DTYPE)
         event_ticks = np.empty(events.shape[0], np.int64)
         count = np.zeros(1, np.int64)
-        done, c = step_ticks(params.records, state, inputs, table, 0,
-                             rotations(params, first, k_max),
-                             Written(states, outputs, ins, events, event_ticks, count), first, cap)
+        done, c = step_ticks(params.records, state, inputs, Queue(table, 0),
+                             Span(first, rotations(params, first, k_max)),
+                             Written(states, outputs, ins, events, event_ticks, count), cap)
         applied = commands[:c]
         self.timeline = Timeline(self.timeline.spawns, self.timeline.retires,
                                  commands[c:] + rest)

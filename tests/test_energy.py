@@ -213,6 +213,7 @@ def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest()
     metric (KE = KE(kept) + KE(lost)), as an inelastic impact at the foot does."""
     from scipy.spatial.transform import Rotation
 
+    from touchdown.sim.dynamics import Motion
     from touchdown.sim.pivot import pivot_axis, rate_from_momentum
     scn = scene({"state": "contact", "altitude": -0.01, "tilt_deg": 60.0, "heading_deg": 20.0})
     st, par = scn.initial, scn.params
@@ -228,8 +229,8 @@ def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest()
         return 0.5 * m[0] * float(v @ v) + 0.5 * float(w_b @ (i_b[0] * w_b))
 
     def rate_of(v, w_w):
-        return rate_from_momentum(par.body.omega_radps, float(m[0]), tuple(i_b[0]), tuple(p[0]),
-                                  tuple(v), tuple(q[0]), tuple(rot.inv().apply(w_w)),
+        motion = Motion(tuple(p[0]), tuple(v), tuple(q[0]), tuple(rot.inv().apply(w_w)))
+        return rate_from_momentum(par.body.omega_radps, float(m[0]), tuple(i_b[0]), motion,
                                   tuple(pivot[0]))
 
     w_turn = 0.37 * a[0]
