@@ -38,6 +38,7 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     (``params``: every ship of the log in key order, logs.rebuild.fleet_params), by the compiled
     functions of sim.measure (the reference logs.derived is held to)."""
     from touchdown.sim import measure
+    from touchdown.sim.dynamics import Motion
     a = td.arrays
     if "vel_mps" not in a or "omega_body_radps" not in a:
         return None
@@ -48,7 +49,7 @@ def _derived(params, td: TickData) -> dict[str, np.ndarray] | None:
     # non-finite, in one line, where numpy's warnings would add lines of their own
     with np.errstate(all="ignore"):
         pos, vel = measure.site_frame(params, p, v, t)
-        e = measure.energy(params, td.keys, t, p, v, q, w, a["mass_kg"])
+        e = measure.energy(params, td.keys, t, Motion(p, v, q, w), a["mass_kg"])
     return {"pos": pos, "vel": vel, "omega": w, "energy": e["total_j"]}
 
 

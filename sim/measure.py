@@ -60,7 +60,9 @@ def terrain_height(terrain: Terrain, east_m: np.ndarray, north_m: np.ndarray) ->
 
 
 @entry
-def _site_frame(radius, om, cos_t, sin_t, p, v, pos_out, vel_out):
+def _site_frame(radius, om, angles, p, v, out):
+    cos_t, sin_t = angles
+    pos_out, vel_out = out
     for i in range(p.shape[0]):
         pi = (p[i, 0], p[i, 1], p[i, 2])
         vi = (v[i, 0], v[i, 1], v[i, 2])
@@ -79,7 +81,7 @@ def site_frame(params: Params, p: np.ndarray, v: np.ndarray, t_s: np.ndarray | f
     p, v = _vec(p), _vec(v)
     c, s = body_angles(params, t_s, p.shape[0])
     pos, vel = np.empty_like(p), np.empty_like(p)
-    _site_frame(params.body.radius_m, params.body.omega_radps, c, s, p, v, pos, vel)
+    _site_frame(params.body.radius_m, params.body.omega_radps, (c, s), p, v, (pos, vel))
     return pos, vel
 
 
@@ -186,12 +188,13 @@ def _energy(grounds, legs, mass, inertia, motion, out):
         out[i, 6] = total(e)
 
 
-def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, p: np.ndarray,
-           v: np.ndarray, q: np.ndarray, w: np.ndarray, mass_kg: np.ndarray
-           ) -> dict[str, np.ndarray]:
+def energy(params: Params, ship: np.ndarray, t_s: np.ndarray | float, motion: Motion,
+           mass_kg: np.ndarray) -> dict[str, np.ndarray]:
     """sim.energy of recorded states: row i is ship ``ship[i]`` of ``params`` at time ``t_s[i]``
-    (or one time for all). Returns each part of :data:`ENERGY_PARTS` and ``total_j``."""
-    p, v, q, w = _vec(p), _vec(v), _vec(q), _vec(w)
+    (or one time for all), moving as row i of ``motion`` (a sim.dynamics.Motion of arrays:
+    positions, velocities, attitudes, body rates). Returns each part of :data:`ENERGY_PARTS` and
+    ``total_j``."""
+    p, v, q, w = (_vec(x) for x in motion)
     n = p.shape[0]
     ship = np.broadcast_to(np.asarray(ship, dtype=np.int64), (n,))
     sh = params.ships

@@ -22,6 +22,7 @@ from touchdown import scenarios
 from touchdown.bench import physics as audit
 from scenes import records, scene, tilt_deg
 from touchdown.sim import measure
+from touchdown.sim.dynamics import Motion
 from touchdown.sim.enums import TRANSITION_EVENTS, SurfaceState
 from touchdown.sim.run import run
 from touchdown.sim.scenario import parse_text
@@ -33,8 +34,9 @@ def energies(scn, recs) -> np.ndarray:
     """energy_j of every ship at every tick (ticks x ships), as export reports it."""
     p = scn.params
     ships = np.arange(scn.initial.n)
-    return np.array([measure.energy(p, ships, r.tick * p.sim.dt_s, r.state.pos_m, r.state.vel_mps,
-                                    r.state.quat, r.state.omega_body_radps,
+    return np.array([measure.energy(p, ships, r.tick * p.sim.dt_s,
+                                    Motion(r.state.pos_m, r.state.vel_mps, r.state.quat,
+                                           r.state.omega_body_radps),
                                     r.state.mass_kg)["total_j"]
                      for r in recs])
 
@@ -213,7 +215,6 @@ def test_the_hand_over_to_the_pivot_keeps_the_turn_about_it_and_loses_the_rest()
     metric (KE = KE(kept) + KE(lost)), as an inelastic impact at the foot does."""
     from scipy.spatial.transform import Rotation
 
-    from touchdown.sim.dynamics import Motion
     from touchdown.sim.pivot import pivot_axis, rate_from_momentum
     scn = scene({"state": "contact", "altitude": -0.01, "tilt_deg": 60.0, "heading_deg": 20.0})
     st, par = scn.initial, scn.params

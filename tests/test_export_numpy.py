@@ -19,6 +19,7 @@ from touchdown.logs import export as ex
 from touchdown.logs.codec import decode_tick_python, encode_tick, varint
 from touchdown.logs.reader import LogReader, TickData
 from touchdown.logs.rebuild import fleet_params, log_params, scenario_of
+from touchdown.sim.dynamics import Motion
 from touchdown.sim import measure
 from touchdown.sim.scenario import parse
 
@@ -113,7 +114,7 @@ def test_the_numpy_site_frame_and_energy_are_the_compiled_ones_bit_for_bit(scene
         mine = derived.site_frame(params, p, v, c, s)
         for k in range(3):
             assert same_bits(mine[k], pos[:, k]) and same_bits(mine[3 + k], vel[:, k])
-        want = measure.energy(params, ship, t, p, v, q, w, mass)["total_j"]
+        want = measure.energy(params, ship, t, Motion(p, v, q, w), mass)["total_j"]
         got = derived.energy(params, ship, p, v, q, w, mass, c, s)
     assert same_bits(got, want)
     # the rows that touch the ground, spring and all, are most of them
@@ -124,7 +125,7 @@ def test_the_numpy_energy_of_a_fleet_of_one_class_takes_its_numbers_once():
     params = scene_params({}, ships=1).take(np.zeros(40, np.int64))  # one class, 40 ships
     ship, t, p, v, q, w, mass = random_states(params, 5_000, 2)
     with np.errstate(all="ignore"):
-        want = measure.energy(params, ship, t, p, v, q, w, mass)["total_j"]
+        want = measure.energy(params, ship, t, Motion(p, v, q, w), mass)["total_j"]
         got = derived.energy(params, ship, p, v, q, w, mass, 1.0, 0.0)
     assert same_bits(got, want)
 

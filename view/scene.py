@@ -19,6 +19,7 @@ from touchdown.logs import LogError
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import fleet_params, scenario_of
 from touchdown.sim import fields, measure
+from touchdown.sim.dynamics import Motion
 from touchdown.sim.enums import SurfaceState
 from touchdown.sim.measure import ENERGY_PARTS
 from touchdown.sim.params import Params
@@ -304,7 +305,7 @@ def _track(params: Params, i: int, col: dict[str, np.ndarray], tick: np.ndarray,
     ez = np.stack([2 * (x_ * z_ + w_ * y_), 2 * (y_ * z_ - w_ * x_), 1 - 2 * (x_ * x_ + y_ * y_)], 1)
     thrust = ez * (col["throttle"] * float(sh.max_thrust_n[i]))[:, None]
     slip = measure.to_site(v - measure.surface_velocity(params, p), c, s)
-    e = measure.energy(params, i, t_s, p, v, q, w, mass)
+    e = measure.energy(params, i, t_s, Motion(p, v, q, w), mass)
     cos_tilt = np.clip(col["cos_tilt"], -1.0, 1.0)
     series = {
         "altitude_m": col["altitude_m"], "penetration_m": col["penetration_m"],
