@@ -701,7 +701,7 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
     """The live service: step the ships of a scenario and those spawned by commands, read
     commands from Redis, publish events, keep each ship's state in Redis, write flight logs
     (SPEC.md section 5; docs/SERVICE.md)."""
-    from touchdown.service.serve import ServeConfig, Worker, install_stop
+    from touchdown.service.serve import STEADY_LOOP, ServeConfig, Worker, install_stop
     from touchdown.service.shard import Limits
 
     if warm_only:
@@ -746,6 +746,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
             "tick_s": list(stats.tick_s), "start_late_s": list(stats.start_late_s),
             "phases": stats.phases, "cpu_s": time.process_time(),
             "cpu_s_at_tick": list(stats.cpu_s),
+            "loop_cpu_s_at_tick": list(stats.loop_cpu_s),
+            "phases_at_steady": [STEADY_LOOP, stats.phases_at_steady],
             "loop_cpu_s": time.thread_time(),
             "late": stats.late,
             "entries_sent": stats.entries_sent, "figures": worker.last_figures,

@@ -175,10 +175,17 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     # CPU of every thread of the workers (older workers do not report it)
     cpu = sum(r.get("cpu_s", float("nan")) for r in results)
     loop_cpu = sum(r.get("loop_cpu_s", float("nan")) for r in results)
+    # the loop's CPU by phase: after the warm-up where the worker says where its steady loops
+    # begin (phases_at_steady), else over the whole run with its start (an older worker)
     phases: dict[str, float] = {}
+    steady_phases = all(r.get("phases_at_steady", [0, {}])[1] for r in results)
+    phase_ticks = 0.0
     for r in results:
+        at = r["phases_at_steady"][1] if steady_phases else {}
         for name, (_w, c) in r.get("phases", {}).items():
-            phases[name] = phases.get(name, 0.0) + c
+            phases[name] = phases.get(name, 0.0) + c - at.get(name, (0.0, 0.0))[1]
+        phase_ticks += len(r["tick_s"]) - (r["phases_at_steady"][0] if steady_phases else 0)
+    phase_ticks /= max(1, len(results))
     ship_ticks = n_ships * n_ticks
     # the CPU after the warm-up, where the worker says it (every thread: the loop, the log's
     # writer, the checkpoint packer, the leases)
@@ -188,6 +195,13 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
     # (every worker's CPU over the ticks they ran side by side: a worker's own count)
     steady_us = (sum(c for c, _ in steady) / (sum(n for _, n in steady) / len(steady))
                  / n_ships * 1e6 if steady else float("nan"))
+    # the loop thread's own CPU after the warm-up (the rest of ``steady``: the other threads')
+    loop_steady = [(r["loop_cpu_s_at_tick"][-1] - r["loop_cpu_s_at_tick"][skip],
+                    len(r["loop_cpu_s_at_tick"]) - 1 - skip) for r in results
+                   if len(r.get("loop_cpu_s_at_tick", ())) > skip + 1]
+    loop_steady_us = (sum(c for c, _ in loop_steady) / (sum(n for _, n in loop_steady)
+                                                        / len(loop_steady))
+                      / n_ships * 1e6 if loop_steady else float("nan"))
     late_ticks = sum(x >= 1.0 / RATE_HZ for x in lates)
 
     def pct(q: float) -> float:
@@ -206,8 +220,10 @@ def trial(url: str, n_ships: int, seconds: float, workers: int = 1, shards: int 
             "steady_cpu_us_per_ship_tick": steady_us,
             "loop_cpu_us_per_ship_tick": loop_cpu / ship_ticks * 1e6 if ship_ticks else
             float("nan"),
-            "phases_ms": {k: v / n_ticks / max(1, len(results)) * 1e3
+            "phases_ms": {k: v / phase_ticks / max(1, len(results)) * 1e3
                           for k, v in sorted(phases.items(), key=lambda kv: -kv[1])},
+            "phases_steady": steady_phases,
+            "steady_loop_cpu_us_per_ship_tick": loop_steady_us,
             "late_ticks": late_ticks, "seconds": seconds,
             # what the slowest ticks spent their time on, and what came before each late start
             "slowest": sorted((x for r in results for x in r.get("slowest", ())
@@ -222,10 +238,15 @@ def _line(r: dict) -> str:
     cpu = ""
     if r["cpu_us_per_ship_tick"] == r["cpu_us_per_ship_tick"]:  # (not NaN: a worker that says)
         top = ", ".join(f"{k} {v:.1f}" for k, v in list(r["phases_ms"].items())[:6])
+        loop = r.get("steady_loop_cpu_us_per_ship_tick", float("nan"))
+        split = (f" = loop thread {loop:.2f} + other threads "
+                 f"{r['steady_cpu_us_per_ship_tick'] - loop:.2f}" if loop == loop else "")
+        when = "after the warm-up" if r.get("phases_steady") else "over the run with its start-up"
         cpu = (f"\n           CPU after the warm-up {r['steady_cpu_us_per_ship_tick']:.2f} us a "
-               f"ship-tick (every thread; the run with its start-up "
+               f"ship-tick (every thread{split}; the run with its start-up "
                f"{r['cpu_us_per_ship_tick']:.2f}, its loop thread "
-               f"{r['loop_cpu_us_per_ship_tick']:.2f}); loop CPU a tick per worker, ms: {top}")
+               f"{r['loop_cpu_us_per_ship_tick']:.2f}); loop CPU a tick per worker {when}, ms: "
+               f"{top}")
     cpu += _stalls(r)
     return (f"  {r['ships']:>7,} ships, {r['workers']} worker(s), {r['seconds']:g} s: tick p50 "
             f"{r['p50_ms']:6.1f} ms, p99 {r['p99_ms']:6.1f} ms, max {r['max_ms']:6.1f} ms; "

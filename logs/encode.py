@@ -1,4 +1,4 @@
-"""The zstd level of a log writer's chunks.
+"""The zstd level of a log writer's chunks (and the CRC-32 of them, from zlib-ng: _Zlib).
 
 The MCAP library compresses each chunk with ``zstandard.compress(data)``: zstd's level 3, about
 600 MB/s here. A live service at tens of thousands of ships writes over 100 MB of tick records a
@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import threading
 import time
+import zlib
 
 import mcap.writer
 import zstandard
@@ -44,6 +45,28 @@ def chunk_level(level: int | None) -> None:
 
 if not isinstance(mcap.writer.zstandard, _Zstandard):
     mcap.writer.zstandard = _Zstandard()
+
+try:
+    from zlib_ng.zlib_ng import crc32 as _crc32
+except ImportError:  # pragma: no cover
+    from zlib import crc32 as _crc32
+
+
+class _Zlib:
+    """Stands in for the ``zlib`` module inside ``mcap.writer``: the same CRC-32 of each chunk
+    (and of the summary), from zlib-ng (SIMD, about three times faster here than the stock
+    zlib's, a live service's flight log's third largest cost after zstd and the encoding: over
+    100 MB of records a second at tens of thousands of ships). The same numbers, so the same
+    bytes."""
+
+    def __getattr__(self, name: str):
+        return getattr(zlib, name)
+
+    crc32 = staticmethod(_crc32)
+
+
+if not isinstance(mcap.writer.zlib, _Zlib):
+    mcap.writer.zlib = _Zlib()
 
 
 class ShipTables(dict):

@@ -131,6 +131,9 @@ class ServeConfig:
 
 
 TELEMETRY_KEEP_S = 10.0  # what the telemetry stream keeps by default: about 1 kB a ship
+#: the loop from which a worker's phases count as steady (Stats.phases_at_steady): 2 s at 10 Hz,
+#: the warm-up ``bench serve`` leaves out
+STEADY_LOOP = 20
 GC_EVERY = 50  # loops between the full collections a worker runs between its ticks
 STATS_KEPT = 100_000  # per-tick figures kept (about 3 hours at 10 Hz)
 #: what a shard keeps after Redis confirmed it, to write it again if Redis loses it (a failover's
@@ -163,6 +166,12 @@ class Stats:
     #: the loops that began a whole period late, the latest 100: what came before each (the
     #: loop before it, the work between loops, how late the wait woke: the CPU was elsewhere)
     late_starts: deque = field(default_factory=lambda: deque(maxlen=100))
+    #: the loop thread's own CPU seconds at the end of each loop, the latest STATS_KEPT (beside
+    #: ``cpu_s``: the other threads' share, the flight log's writers and the packer, is the rest)
+    loop_cpu_s: deque = field(default_factory=lambda: deque(maxlen=STATS_KEPT))
+    #: ``phases`` as they were at the end of loop STEADY_LOOP (a copy): the phases after the
+    #: start (taking the shards, writing every ship's hash) are the sums less these
+    phases_at_steady: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -398,10 +407,14 @@ class Worker:
                 self.slow.end(loops, dt)
                 self.stats.tick_s.append(dt)
                 self.stats.cpu_s.append(time.process_time())
+                self.stats.loop_cpu_s.append(time.thread_time())
                 self.stats.recent.append((time.monotonic(), dt))
                 self.reporter.tick_took(dt)
                 loops += 1
                 self.stats.ticks = loops
+                if loops == STEADY_LOOP:
+                    self.stats.phases_at_steady = {k: list(v) for k, v in
+                                                   self.stats.phases.items()}
                 if self.reporter.due():
                     self.reporter.report()
                 if loops % GC_EVERY == 0 or loops - self._collected >= 4 * GC_EVERY:
