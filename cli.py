@@ -108,6 +108,21 @@ def _notify_compilation() -> None:
 main.add_command(bench)  # one subcommand per benchmark, each with its own options (bench/commands.py)
 
 
+@main.command()
+def warm() -> None:
+    """Compile the physics kernels for this CPU now (or load them from the cache), so that the
+    first record, replay or serve after an install starts at once: the README's install line
+    runs it. It steps a two-ship shard of the built-in bounce scene with its flight log in a
+    temporary folder (service.warm), which calls every kernel `record`, `replay` and `serve`
+    call; says how long it took and where the kernels are kept (sim.compiled.cache_dir)."""
+    from touchdown.service import warm as warming
+    from touchdown.service.serve import default_scenario
+    scn = default_scenario()
+    seconds = warming.warm(scn.scene, scn.params.sim.dt_s, scn.params.body.name)
+    click.echo(f"touchdown warm: compiled code ready in {seconds:.1f} s; kernels in "
+               f"{warming.where()}")
+
+
 @main.command("scenarios")
 def scenarios_cmd() -> None:
     """List the built-in scenarios: name and one-line description."""

@@ -316,7 +316,7 @@ class _CompileNotice(event.Listener):
         if not self.said:
             self.said = True
             self.say("compiling the physics kernels for this CPU (once after an install or a "
-                     "change to sim/; about 15 seconds) ...")
+                     "change to sim/, unless `touchdown warm` did it; half a minute or more) ...")
 
     def on_end(self, ev: event.Event) -> None:
         pass
