@@ -132,11 +132,12 @@ def ground_turn(fb, dt_s):
 
 
 @separate
-def contact_at(fb, ground, p, v, q, w_b, absorbing, engage_m):
-    """The ground's action at one state (``engage_m``: sim.contact.evaluate)."""
+def contact_at(fb, ground, motion, absorbing, engage_m):
+    """The ground's action at one state (``motion``: a :class:`Motion`; ``engage_m``:
+    sim.contact.evaluate)."""
     if not fb.touching:
-        return no_contact(p)
-    return evaluate(ground, Motion(p, v, q, w_b), Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
+        return no_contact(motion.p)
+    return evaluate(ground, motion, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
                     fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing, engage_m,
                     fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w, fb.drag_dir))
 

@@ -349,7 +349,7 @@ def contact_memo(memo, fb, t_s, m, absorbing, engage):
             and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.hold_w)
             and _same_vecs(memo.drag_dir, fb.drag_dir)):
         return memo.ce
-    return contact_at(fb, ground_at(fb, t_s), m.p, m.v, m.q, m.w, absorbing, engage)
+    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
 
 
 class FootEvents(NamedTuple):
@@ -385,7 +385,7 @@ def _pressing(ce, absorbing, engage):
 def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
     """How far each foot of ``ev`` is past its event, m: positive once it has happened. Onset:
     its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the largest."""
-    ce = contact_at(fb, ground_at(fb, t_s), p, v, q, w, absorbing, ENGAGE_AT_GROUND)
+    ce = contact_at(fb, ground_at(fb, t_s), Motion(p, v, q, w), absorbing, ENGAGE_AT_GROUND)
     c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
     out = -math.inf
     for i in range(4):
@@ -452,7 +452,8 @@ def turned_round(fb, t_s, st, absorbing, ev):
     """The feet of ``ev.stop`` whose slip has turned round by the end of ``st`` (the located event
     is the earliest of the feet's: the others stop later) and come to rest there (what is left of
     it across where it ran under STOP_LEFT of what it was)."""
-    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, absorbing, ENGAGE_AT_GROUND)
+    ce = contact_at(fb, ground_at(fb, t_s), Motion(st.p, st.v, st.q, st.w), absorbing,
+                    ENGAGE_AT_GROUND)
     out = (False, False, False, False)
     for i in range(4):
         s_i = ce.slip_w[i]
@@ -488,7 +489,7 @@ def holds(cfg, fb, t_s, st, ft, ev):
     held = (not (sl[0] and not done[0]), not (sl[1] and not done[1]),
             not (sl[2] and not done[2]), not (sl[3] and not done[3]))
     ground = ground_at(fb, t_s)
-    ce = contact_at(fb, ground, st.p, st.v, st.q, st.w, ft.absorbing, ENGAGE_AT_GROUND)
+    ce = contact_at(fb, ground, Motion(st.p, st.v, st.q, st.w), ft.absorbing, ENGAGE_AT_GROUND)
     hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
     if hf.capped:
         return NO_SLIP, done
@@ -882,8 +883,8 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
         ft = fresh_footing(td.absorbing)
         drag = ft.sliding
         s = Ship(FLYING, m, s.mass_kg, s.fuel_kg, ft, s.pin)
-        ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m.p, m.v, m.q, m.w,
-                          ft.absorbing, ENGAGE_AT_GROUND)
+        ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m, ft.absorbing,
+                          ENGAGE_AT_GROUND)
         engage = engaged_near(ce_y)
         was = ENGAGE_AT_GROUND
         s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
@@ -957,7 +958,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
             drag = near
             body = with_feet(fb, engage, drag)
-            ce_y = contact_at(body, ground_at(fb, t_abs), m.p, m.v, m.q, m.w, ft.absorbing, engage)
+            ce_y = contact_at(body, ground_at(fb, t_abs), m, ft.absorbing, engage)
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
                          t_abs)
             m_e = Motion(st.p, st.v, st.q, st.w)
@@ -1019,7 +1020,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
 @kernel
 def pressing_held(fb, t_s, st, ft, held):
     """The feet of ``held`` that press at the end of ``st``."""
-    ce = contact_at(fb, ground_at(fb, t_s), st.p, st.v, st.q, st.w, ft.absorbing,
+    ce = contact_at(fb, ground_at(fb, t_s), Motion(st.p, st.v, st.q, st.w), ft.absorbing,
                     ENGAGE_AT_GROUND)
     f = ce.foot_force_n
     return (held[0] and f[0] > 0.0, held[1] and f[1] > 0.0, held[2] and f[2] > 0.0,
@@ -1094,7 +1095,8 @@ def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
     gd = passivity_guard(fb, ground, m.p, m.v, m.q, m.w, e_ref, passive, airborne)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
-        ce = contact_at(fb_now, ground, m.p, gd.v, m.q, gd.w, ft.absorbing, ENGAGE_AT_GROUND)
+        ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
+                        ENGAGE_AT_GROUND)
     return SubStepEnd(s, ce, gd.ref, gd.removed_j,
                       memo_of(fb_now, ce, t_end, s.motion, ft.absorbing, ENGAGE_AT_GROUND))
 
@@ -1160,8 +1162,8 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
             al = align_at_touchdown(fb, ground, p, v, q, w)
             p, v, q, w = al.p, al.v, al.q, al.w
             aligned = al.aligned
-            ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground, p, v, q, w,
-                            ft.absorbing, ENGAGE_AT_GROUND)
+            ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground, Motion(p, v, q,
+                            w), ft.absorbing, ENGAGE_AT_GROUND)
             if cfg.energy_guard and al.aligned:  # the snap never adds energy; from after it
                 e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
         cos_tilt = dot(quat_axis_z(q), r_hat)
@@ -1254,7 +1256,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
     peak = 0.0
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
-    ce = contact_at(fb, ground0, m.p, m.v, m.q, m.w, s.footing.absorbing, ENGAGE_AT_GROUND)
+    ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
     passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
@@ -1341,8 +1343,8 @@ def free_flight(here, fb, s, n_sub, carry, log):
         v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
                              pin.rate_radps if surf == TIPPED else 0.0)
         s = with_motion(s, surf, Motion(p, v, q, w))
-        ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt), p, v,
-                        q, w, ft.absorbing, ENGAGE_AT_GROUND)
+        ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt),
+                        Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
     if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
         s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
                  Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,

@@ -162,7 +162,8 @@ def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
     if surely_clear(fb, ps):
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground_at(fb, t0 + hf), ps, vs, qs, ws, absorbing, fb.engage_m)
+        ce_s = contact_at(fb, ground_at(fb, t0 + hf), Motion(ps, vs, qs, ws), absorbing,
+                          fb.engage_m)
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
@@ -203,7 +204,7 @@ def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
     if surely_clear(fb, ps):  # (as in _rk4_stage; no foot is then held either)
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground, ps, vs, qs, ws, absorbing, fb.engage_m)
+        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.engage_m)
     d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
     return d, hd, ce_s
 
@@ -284,11 +285,11 @@ def velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0):
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
     w_pre = div(l_pre, fb.inertia_kgm2)
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, p1, v_half, q1, w_pre, absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.engage_m)
     v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     if pressed(ce1):  # the dampers at the end, at the end's velocities (see _damped_end)
-        ce1 = contact_at(fb, ground1, p1, v1, q1, w1, absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
         v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
         w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
@@ -355,13 +356,13 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, p1, v_pre, q1, w_pre, absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
     if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
-        ce1 = contact_at(fb, ground1, p1, v1, q1, w1, absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
         a1 = acceleration(fb, ce1, p1, q1)
         v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
         w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
