@@ -20,12 +20,13 @@ from touchdown.sim.dynamics import (Motion, contact_at, derivatives_held, ground
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
-from touchdown.sim.friction import FrictionLaw, coulomb, hold_footprint, seed, spread_over_step
+from touchdown.sim.friction import (coulomb, hold_footprint, law_of, per_foot, seed,
+    spread_over_step)
 from touchdown.sim.integrators import RK4, advance, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, Footing,
-    NO_HOLD, NO_SLIP, Pin, Report, SEED_FRICTION, Ship, TIPPED, emit, fresh_footing, with_motion)
+    NO_HOLD, NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_motion)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, norm, quat_axis_z, quat_mul,
     quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
@@ -222,7 +223,7 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
     holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
                or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
     # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
-    if fb.method == RK4 and holding and cfg.friction_model != SEED_FRICTION:
+    if fb.method == RK4 and holding and per_foot(cfg):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
@@ -243,8 +244,8 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
                        pressed, NO_HOLD)
     ground_end = ground_at(fb, t_start + h)
-    law = FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps)
-    if cfg.friction_model == SEED_FRICTION:
+    law = law_of(cfg)
+    if not per_foot(cfg):
         j_n = j[0] + j[1] + j[2] + j[3]
         fr = seed(law, fb.mass_kg, res.p, res.v, res.w, j_n, ground_end)
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
@@ -894,7 +895,7 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
                               no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
             e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
-    if cfg.friction_model != SEED_FRICTION:  # a foot meets the ground sliding or holding
+    if per_foot(cfg):  # a foot meets the ground sliding or holding
         fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
                  engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
         drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
@@ -983,7 +984,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
-    if (fb.touching and may_split and fb.method == RK4 and cfg.friction_model != SEED_FRICTION
+    if (fb.touching and may_split and fb.method == RK4 and per_foot(cfg)
             and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)

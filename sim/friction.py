@@ -54,8 +54,28 @@ import numpy as np
 from touchdown.sim.compiled import kernel, separate, zeros
 from touchdown.sim.constants import SEED_STICK_SPEED_MPS
 from touchdown.sim.contact import foot_velocity, surface_velocity
+from touchdown.sim.settings import FrictionModel
 from touchdown.sim.vec import add, cross, div, dot, fmax, fmin, norm, quat_integrate, quat_rotate, \
     quat_rotate_inv, scale, sub, unit
+
+
+#: the seed's law (sim.settings.FrictionModel), as the scene record holds it
+SEED_LAW = int(FrictionModel.SEED)
+
+
+@kernel
+def per_foot(cfg):
+    """Which law runs, the one place the step reads the scene's ``contact.friction_model``:
+    Coulomb's law at each foot (True: :func:`coulomb`, the holding feet's friction inside the
+    step, stops and breakaways located, feet still at rest), or the seed's velocity reset at the
+    centre of mass (False: :func:`seed`)."""
+    return cfg.friction_model != SEED_LAW
+
+
+@kernel
+def law_of(cfg):
+    """The scene's :class:`FrictionLaw`."""
+    return FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps)
 
 
 class FrictionLaw(NamedTuple):

@@ -26,12 +26,13 @@ from touchdown.sim.dynamics import FreeBody, Motion
 from touchdown.sim.flight import crossed_at, free_flight
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
+from touchdown.sim.friction import per_foot
 from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, sub_method
 from touchdown.sim.pivot import pinned_motion, pivot_step
 from touchdown.sim.rest import settle_margin
 from touchdown.sim.ship import (CONTACT, CRASHED, Commands, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED,
     Footing, HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, NO_SLIP, Pin, RADIAL_NORMAL,
-    REST_LANDED, SEED_FRICTION, Ship, TIPPED, emit, fresh_footing, load, scene_ground, store)
+    REST_LANDED, Ship, TIPPED, emit, fresh_footing, load, scene_ground, store)
 from touchdown.sim.vec import (cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
     quat_rotate_inv, scale, sub, unit)
 
@@ -168,7 +169,7 @@ def free_body(here, s, cmd, touching, method):
                     cfg.body_radius_m, cfg.omega_radps, terrain,
                     cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
                     method == EXPONENTIAL, method,
-                    0.0 if cfg.friction_model == SEED_FRICTION else cfg.friction_kinetic,
+                    cfg.friction_kinetic if per_foot(cfg) else 0.0,
                     s.footing.sliding, s.footing.hold_w, NO_HOLD)
 
 
@@ -364,7 +365,7 @@ def step_ship(here, rec, inp, out, log):
         fb = free_body(here, s, cmd, fine, method)
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
-        held_inside = method == RK4 and cfg.friction_model != SEED_FRICTION
+        held_inside = method == RK4 and per_foot(cfg)
         fl = free_flight(here, fb, s, n_sub, not (strikes or held_inside), log)
         s, report = fl.ship, fl.report
         if fine:

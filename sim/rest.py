@@ -11,7 +11,8 @@ from touchdown.sim.constants import SETTLE_SLIP_MPS
 from touchdown.sim.contact import feet, foot_slip, foot_velocity, under
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia,
     surface_velocity)
-from touchdown.sim.ship import CONTACT, REST_LANDED, SEED_FRICTION, scene_ground
+from touchdown.sim.friction import per_foot
+from touchdown.sim.ship import CONTACT, REST_LANDED, scene_ground
 from touchdown.sim.vec import (add, dot, fmax, fmin, mul, norm, quat_axis_z, quat_rotate,
     quat_rotate_inv, scale, sub, unit)
 
@@ -171,7 +172,7 @@ def margin_on(cfg, sp, s, ground):
     m = fmin(m, (ang - norm(omega_rel)) / ang)
     m = fmin(m, (dot(quat_axis_z(s.motion.q), up_ground) - cfg.cos_settle_tilt)
              / (1.0 - cfg.cos_settle_tilt))
-    coulomb = cfg.friction_model != SEED_FRICTION
+    coulomb = per_foot(cfg)
     rest = cfg.landed_model == REST_LANDED
     # a ship sliding slower than settle_linear_vel is not at rest: pinned, it would stop dead, and
     # on a slope steeper than atan(mu_s) never slide (MODEL-NOTES 44). 0.7 (``attached``) asked

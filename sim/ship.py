@@ -12,7 +12,7 @@ from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.contact import Ground
 from touchdown.sim.dynamics import Motion
 from touchdown.sim.enums import HoldMode, SurfaceState
-from touchdown.sim.settings import FrictionModel, LandedModel, SurfaceNormal, TippedModel
+from touchdown.sim.settings import LandedModel, SurfaceNormal, TippedModel
 from touchdown.sim.state import COMMAND_DTYPE
 
 
@@ -24,7 +24,7 @@ FLYING, CONTACT, LANDED, TIPPED, CRASHED = (np.int64(s) for s in SurfaceState)
 HOLD_OFF, HOLD_RADIAL = int(HoldMode.OFF), int(HoldMode.RADIAL)
 
 
-SEED_FRICTION, RADIAL_NORMAL = int(FrictionModel.SEED), int(SurfaceNormal.RADIAL)
+RADIAL_NORMAL = int(SurfaceNormal.RADIAL)
 
 
 REST_LANDED = int(LandedModel.REST)
