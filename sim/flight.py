@@ -91,7 +91,7 @@ class Guarded(NamedTuple):
 
 
 @kernel
-def passivity_guard(fb, ground, p, v, q, w, ref, passive, airborne):
+def passivity_guard(fb, ground, motion, ref, passive, airborne):
     """With no thrust and no RCS nothing can add energy (sim.energy: the dampers, friction and
     every inelastic transition only take it). A step's integration error can (the explicit
     kicks on a rocking ship, measured up to 2.5e-4 of its energy in a tick; free flight's
@@ -103,6 +103,7 @@ def passivity_guard(fb, ground, p, v, q, w, ref, passive, airborne):
     rotation's step is exact for an axisymmetric ship and must not pay for the translation's
     error). The correction is the size of the local error, so the method's order is kept; what
     it removes is reported as ``energy_guard_j`` (``sim.energy_guard``)."""
+    p, v, q, w = motion
     e = ship_energy(fb, ground, p, v, q, w)
     ex_all = total(e) - ref.total_j if passive and not airborne else 0.0
     ex_tr = translation(e) - ref.translation_j if passive and airborne else 0.0
@@ -1093,7 +1094,7 @@ def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
-    gd = passivity_guard(fb, ground, m.p, m.v, m.q, m.w, e_ref, passive, airborne)
+    gd = passivity_guard(fb, ground, m, e_ref, passive, airborne)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,

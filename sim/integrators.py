@@ -112,8 +112,9 @@ def foot_impulses_4(h, c1, c2, c3, c4):
 
 
 @kernel
-def explicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
+def explicit_euler(fb, h, motion, ce, absorbing, t0):
     """y += h f(y): first order, unstable on the undamped spring for any h."""
+    p, v, q, w = motion
     dp, dv, dq, dw = derivatives(fb, ce, p, v, q, w)
     return Stepped(add(p, scale(dp, h)), add(v, scale(dv, h)),
                    quat_normalize(quat_add_scaled(q, dq, h)), add(w, scale(dw, h)),
@@ -121,8 +122,9 @@ def explicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
 
 
 @kernel
-def semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0):
+def semi_implicit_euler(fb, h, motion, ce, absorbing, t0):
     """The seed's method: velocities first, then positions with the new velocities."""
+    p, v, q, w = motion
     _, dv, _, dw = derivatives(fb, ce, p, v, q, w)
     v1 = add(v, scale(dv, h))
     w1 = add(w, scale(dw, h))
@@ -173,8 +175,9 @@ def _rk4_combine(a, b1, b2, b3, b4, h6):
 
 
 @separate
-def rk4(fb, h, p, v, q, w, ce, absorbing, t0):
+def rk4(fb, h, motion, ce, absorbing, t0):
     """Classical fourth-order Runge-Kutta; the quaternion is renormalised at the end."""
+    p, v, q, w = motion
     y = Motion(p, v, q, w)
     k1 = derivatives(fb, ce, p, v, q, w)
     k2, c2 = _rk4_stage(fb, h, 0.5, y, k1, absorbing, t0)
@@ -272,13 +275,14 @@ def pressed(ce):
 
 
 @kernel
-def velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0):
+def velocity_verlet(fb, h, motion, ce, absorbing, t0):
     """Kick-drift-kick (second order, symplectic for position-only forces). The closing kick
     needs the force at the end, whose dampers depend on the end's velocities: it is evaluated with
     the half-step velocities, then once more with the velocities that gives (one fixed-point pass;
     with the half-step ones alone, the usual explicit form, a tilted touchdown's rotation is only
     first order in the step). The rotation's drift is the exact torque-free flow (Dullweber,
     Leimkuhler & McLachlan, J. Chem. Phys. 107, 1997)."""
+    p, v, q, w = motion
     a0 = acceleration(fb, ce, p, q)
     v_half = add(v, scale(a0, 0.5 * h))
     p1 = add(p, scale(v_half, h))
@@ -306,7 +310,7 @@ class Released(NamedTuple):
 
 
 @kernel
-def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
+def exponential(fb, h, motion, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the direction the touching feet push at the step's start (the local vertical on level
@@ -331,6 +335,7 @@ def exponential(fb, h, p, v, q, w, ce, absorbing, t0):
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
     sim.stability)."""
+    p, v, q, w = motion
     n_hat = ce.axis
     m = fb.mass_kg
     a0 = acceleration(fb, ce, p, q)
@@ -446,13 +451,12 @@ def deepest(flow, ce, k_u, v_n0, t_act, v_act):
 def advance(method, fb, h, motion, ce, absorbing, t0):
     """One (sub)step of the method coded ``method`` (:data:`METHODS`) from ``motion`` (p, v, q,
     w: sim.dynamics.Motion)."""
-    p, v, q, w = motion
     if method == EXPONENTIAL:
-        return exponential(fb, h, p, v, q, w, ce, absorbing, t0)
+        return exponential(fb, h, motion, ce, absorbing, t0)
     if method == RK4:
-        return rk4(fb, h, p, v, q, w, ce, absorbing, t0)
+        return rk4(fb, h, motion, ce, absorbing, t0)
     if method == VELOCITY_VERLET:
-        return velocity_verlet(fb, h, p, v, q, w, ce, absorbing, t0)
+        return velocity_verlet(fb, h, motion, ce, absorbing, t0)
     if method == SEMI_IMPLICIT_EULER:
-        return semi_implicit_euler(fb, h, p, v, q, w, ce, absorbing, t0)
-    return explicit_euler(fb, h, p, v, q, w, ce, absorbing, t0)
+        return semi_implicit_euler(fb, h, motion, ce, absorbing, t0)
+    return explicit_euler(fb, h, motion, ce, absorbing, t0)
