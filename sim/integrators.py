@@ -25,7 +25,7 @@ from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossin
 from touchdown.sim.rotation import free_rotation
 from touchdown.sim.settings import Integrator
 from touchdown.sim.vec import add, div, dot, fmax, mul, norm, quat_add_scaled, quat_integrate, \
-    quat_normalize, scale, sub, unit
+    quat_normalize, scale, sub
 
 #: Every method by name, and its code inside the kernels (sim.settings.Integrator). An unknown name
 #: is rejected when a scenario is loaded.

@@ -19,7 +19,7 @@ from typing import Iterator
 import numpy as np
 
 from touchdown.sim import vec
-from touchdown.sim.compiled import entry, kernel, separate
+from touchdown.sim.compiled import entry, kernel
 from touchdown.sim.params import Params, ShipParams
 from touchdown.sim.placement import quat_from_axes
 from touchdown.sim.scenario import Scenario, Scene, parse
