@@ -276,6 +276,11 @@ def _a_down(fb, p, q, r_hat):
 MAX_PIECES = 8
 
 
+#: Most pieces a sub-step is cut into where Coulomb's law is stiff (sim.stiff_substep), beside
+#: those cut at events: a 25 ms sub-step in 1 ms pieces
+MAX_REFINED = 25
+
+
 #: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
 #: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
 #: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
@@ -631,6 +636,10 @@ def slip_rates(cfg, fb, ground, ce, m):
     return SlipRates(speeds, rates, owns)
 
 
+#: no foot slips
+NO_RATES = SlipRates((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
+
+
 @kernel
 def slowing(sr, i):
     """Foot i's slip falls at least half as fast as its own friction would slow it."""
@@ -922,16 +931,32 @@ class PieceStep(NamedTuple):
     slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
     broke: tuple  # the holding feet that broke away there (kinetic from there)
     memo: Memo  # the last contact evaluated at the piece's end
+    refined: bool  # it was cut short where Coulomb's law is stiff, at no event (sim.stiff_substep)
 
 
 @constructor
-def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
+def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
-    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound)."""
+    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound); and, where a sliding
+    foot would take its friction as an impulse (:func:`stiff_feet`), no longer than ``fine_s``
+    (0: as long as the step)."""
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
+    whole = rem
+    sr = NO_RATES
+    rated = False  # sr is the sliding feet's at the piece's start
+    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9)
+            and fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
+        body = with_feet(fb, engage, drag)
+        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+        rated = True
+        if stiff_feet(cfg, body, drag, ce_y, sr, m.q, STIFF_REACH * rem, stiff):
+            # Coulomb's law is stiff at such a foot: its impulse after the step is first order
+            # in the step (MODEL-NOTES 46); the piece is cut to equal parts of at most
+            # stiff_substep, each taken as a piece of its own
+            rem = rem / math.ceil(rem / fine_s - 1e-9)
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
     t_e = t_abs + rem
     memo = start.memo
@@ -949,7 +974,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         # its drag, which turns with its slip at a rate of its friction's deceleration over its
         # slip, stays within what the method's stages follow (STIFF_REACH of the step)
         near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
-        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+        if not rated:
+            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
             keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
                     drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
@@ -978,7 +1004,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
-                                     NO_SLIP, memo)
+                                     NO_SLIP, memo, False)
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
@@ -1007,7 +1033,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
-                                     memo)
+                                     memo, False)
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
@@ -1015,8 +1041,21 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
                           t_abs, ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
-                                 memo)
-    return PieceStep(st, rem, False, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo)
+                                 memo, False)
+    # a refined piece ends before the sub-step does: the next piece starts there
+    return PieceStep(st, rem, rem < whole, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo, rem < whole)
+
+
+@kernel
+def stiff_feet(cfg, fb, drag, ce, sr, q, h, stiff):
+    """Whether a sliding foot that presses at ``ce`` would take its friction as an impulse after
+    a step (:func:`step_piece`): its own friction could stop it within h (:func:`_could_stop`),
+    and it is not coming to a stop (:func:`slowing`; a foot of ``stiff`` whatever it does)."""
+    for i in range(4):
+        if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
+                and (stiff[i] or not slowing(sr, i))):
+            return True
+    return False
 
 
 @kernel
@@ -1273,6 +1312,9 @@ def free_flight(here, fb, s, n_sub, carry, log):
     sample = fb.touching and s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
+    # the stiff feet's pieces (sim.stiff_substep): in the sub-steps of an impact
+    fine_s = cfg.stiff_substep_s if cfg.impact_substeps > 0 and n_sub >= cfg.impact_substeps \
+        else 0.0
     for j in range(n_sub):
         m = s.motion
         start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
@@ -1281,7 +1323,9 @@ def free_flight(here, fb, s, n_sub, carry, log):
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
         stop = False
         stiff = NO_SLIP  # the feet whose stops are not located for the rest of the sub-step
-        for k in range(MAX_PIECES + 1):
+        events = 0  # the pieces cut at an event
+        refined = 0  # the pieces cut short where Coulomb's law is stiff (sim.stiff_substep)
+        for k in range(MAX_PIECES + MAX_REFINED + 1):
             t_abs = start.t_s + t_in
             carried = s.footing.hold_w if carry else NO_HOLD
             fb_k = with_hold(fb, carried)
@@ -1297,7 +1341,8 @@ def free_flight(here, fb, s, n_sub, carry, log):
                     pinned_now = True
                     break
                 fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
+            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, events < MAX_PIECES, stiff,
+                            fine_s if refined < MAX_REFINED else 0.0)
             memo = pc.memo
             st = pc.step
             stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
@@ -1308,6 +1353,10 @@ def free_flight(here, fb, s, n_sub, carry, log):
                             pieces.aligned, pc.onset)
             if not pc.split:
                 break
+            if pc.refined:
+                refined += 1
+            else:
+                events += 1
             t_in = t_in + pc.tau_s  # from the event, with the feet that press there
             if sample:  # the thresholds at the event too (a stop changes them at once)
                 run = settle_sample(cfg, sp, s, ground_at(fb_k, start.t_s + t_in), run, t_seen,
