@@ -25,8 +25,9 @@ from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_
 from touchdown.sim.integrators import RK4, advance, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
-from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, Footing,
-    NO_HOLD, NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_motion)
+from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
+    NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_footing, with_friction,
+    with_motion, with_pin)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, norm, quat_axis_z, quat_mul,
     quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
@@ -902,14 +903,14 @@ def piece_start(cfg, fb, ps, onset_now, log):
         fb = with_hold(fb, NO_HOLD)
         ft = fresh_footing(td.absorbing)
         drag = ft.sliding
-        s = Ship(FLYING, m, s.mass_kg, s.fuel_kg, ft, s.pin)
+        s = with_footing(with_motion(s, FLYING, m), ft)
         ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m, ft.absorbing,
                           ENGAGE_AT_GROUND)
         engage = engaged_near(ce_y)
         was = ENGAGE_AT_GROUND
         s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
         if s.surface_state != CONTACT:
-            s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
+            s = with_pin(s, pinned_at(fb, s, ce_y, t_abs))
             return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, True,
                               no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
@@ -918,9 +919,7 @@ def piece_start(cfg, fb, ps, onset_now, log):
         fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
                  engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
         drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
-        s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
-                 Footing(ft.absorbing, drag, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
-                         ft.hold_w), s.pin)
+        s = with_footing(s, with_friction(ft, drag, ft.hold_w))
     fb_y = with_feet(fb, engage, drag)
     ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
     return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
@@ -1073,10 +1072,8 @@ def stuck(st, stopped):
 def stepped(s, st):
     """``s`` moved by a (piece of a) sub-step ``st``: its motion, each foot's regime and the held
     feet's friction."""
-    ft = s.footing
-    return Ship(s.surface_state, Motion(st.p, st.v, st.q, st.w), s.mass_kg, s.fuel_kg,
-                Footing(ft.absorbing, st.sliding, ft.settle_ticks, ft.settle_for_s,
-                        ft.settle_margin, st.hold_w), s.pin)
+    return with_footing(with_motion(s, s.surface_state, Motion(st.p, st.v, st.q, st.w)),
+                        with_friction(s.footing, st.sliding, st.hold_w))
 
 
 class Pieces(NamedTuple):
@@ -1231,12 +1228,12 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
         surf = CRASHED
     # pinned for the rest of the tick: crashed, at rest on the hull, or handed to the pivot model
     stop = crash or (hull and not hull_crash) or (tip and cfg.tipped_model != FULL_TIPPED)
-    s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
+    s = with_footing(with_motion(s, surf, Motion(p, v, q, w)), ft)
     if stop:
         pin = pinned_at(fb, s, ce, t_end)
         if hull:  # at rest on the hull
             pin = Pin(pin.pos_bf_m, pin.quat_bf, pin.pivot_bf_m, 0.0)
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pin)
+        s = with_pin(s, pin)
     # when each happened inside the sub-step
     if touch:
         t_ev = t_end
@@ -1377,8 +1374,6 @@ def free_flight(here, fb, s, n_sub, carry, log):
         ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt),
                         Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
     if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
-                 Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
-                         ft.settle_margin, NO_HOLD), s.pin)
+        s = with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
     return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
                   run if sample and s.surface_state == CONTACT else NO_RUN)
