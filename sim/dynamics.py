@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import (FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
+from touchdown.sim.contact import (Dampers, FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
     no_contact)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
@@ -138,7 +138,7 @@ def contact_at(fb, ground, motion, absorbing, engage_m):
     if not fb.touching:
         return no_contact(motion.p)
     return evaluate(ground, motion, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
-                    fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing, engage_m,
+                    Dampers(fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing), engage_m,
                     fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w, fb.drag_dir))
 
 
@@ -183,6 +183,14 @@ NO_HELD = Held((0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
                ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), False, 0.0)
 
 
+class Holding(NamedTuple):
+    """The feet whose static friction holds inside a step (as their constraint's force,
+    :func:`held_friction`), and the coefficient that bounds it."""
+
+    feet: tuple  # each foot: held (its regime static)
+    mu_s: float
+
+
 @kernel
 def _inv_inertia_w(fb, q, x):
     """I^-1 x for an inertial vector x (the principal inertia turned to the inertial frame)."""
@@ -190,10 +198,10 @@ def _inv_inertia_w(fb, q, x):
 
 
 @kernel
-def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
+def held_friction(fb, ground, ce, motion, holding):
     # (``ce``: the contact at this state, whose feet's friction normals serve here)
-    """The static friction of the pressing feet of ``held`` (those whose friction is static over
-    the step) as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
+    """The static friction of the pressing feet of ``holding`` (a :class:`Holding`: those whose
+    friction is static over the step, and mu_s) at the state ``motion`` as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
     centre of pressure c (loads N_i = F_i |g_i|) and the moment about their load-weighted normal
     n that keep the point of the ship at c from slipping over the ground and the ship from turning
     about n (one held foot: the point alone), i.e. that make those accelerations zero given every
@@ -206,6 +214,8 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
     (sim.friction.coulomb), which correct what the step left. Capped at mu_s times the held
     feet's load; each foot's share (the force by load, the moment by load times its lever) is
     what that check starts from."""
+    p, v, q, w_b = motion
+    held, mu_s = holding
     if not ce.touching:
         return NO_HELD
     n_sum = 0.0
@@ -301,10 +311,11 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
 
 
 @kernel
-def derivatives_held(fb, ground, ce, p, v, q, w_b, held, mu_s):
+def derivatives_held(fb, ground, ce, motion, holding):
     """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
     the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
-    hf = held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s)
+    hf = held_friction(fb, ground, ce, motion, holding)
+    p, v, q, w_b = motion
     i_w = mul(fb.inertia_kgm2, w_b)
     tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
     alpha_b = div(sub(tau, cross(w_b, i_w)), fb.inertia_kgm2)

@@ -15,13 +15,13 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     lowest_foot_penetration, no_contact)
-from touchdown.sim.dynamics import (Motion, contact_at, derivatives_held, ground_at, ground_turn,
+from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at, ground_turn,
     held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
-from touchdown.sim.friction import (coulomb, hold_footprint, law_of, per_foot, seed,
-    spread_over_step)
+from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
+    seed, spread_over_step)
 from touchdown.sim.integrators import RK4, advance, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
@@ -209,13 +209,23 @@ class FootRoles(NamedTuple):
     absorbing: bool  # the contact is the absorbers' (SEED-NOTES 1)
 
 
+class StepFrom(NamedTuple):
+    """Where a step of the method starts: its instant, the ship's motion there, and the contact
+    evaluated there (with the feet's roles the step is taken with)."""
+
+    t_s: float  # from the tick's start
+    motion: Motion
+    ce: ContactEval
+
+
 @separate
-def substep(cfg, fb, roles, h, motion, ce_start, t_start):
-    """One step of the method from ``motion``, the feet pressing from ``roles.engage`` and those
-    of ``roles.dragged`` dragged by kinetic friction as a force (``ce_start`` evaluated so); then
-    Coulomb's impulses at the other pressing feet (or the seed's law), spread over the step, and
-    a held footprint kept where the ground carried it."""
+def substep(cfg, fb, roles, h, start):
+    """One step of the method from ``start`` (a :class:`StepFrom`), the feet pressing from
+    ``roles.engage`` and those of ``roles.dragged`` dragged by kinetic friction as a force
+    (``start.ce`` evaluated so); then Coulomb's impulses at the other pressing feet (or the seed's
+    law), spread over the step, and a held footprint kept where the ground carried it."""
     engage, sliding, dragged, absorbing = roles
+    t_start, motion, ce_start = start
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
@@ -228,8 +238,8 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, held,
-                      cfg.friction_static)
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
+                      Holding(held, cfg.friction_static))
         res = rh.stepped
         hi = rh.held_impulse_w
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
@@ -252,8 +262,8 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
     ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
-    fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
-                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), ground_end, h)
+    fr = coulomb(law, Rigid(fb.mass_kg, fb.inertia_kgm2), res, FeetOn(ground_end, ft), sliding,
+                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
@@ -384,10 +394,11 @@ def _pressing(ce, absorbing, engage):
 
 
 @kernel
-def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
-    """How far each foot of ``ev`` is past its event, m: positive once it has happened. Onset:
-    its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the largest."""
-    ce = contact_at(fb, ground_at(fb, t_s), Motion(p, v, q, w), absorbing, ENGAGE_AT_GROUND)
+def _gaps(fb, t_s, motion, absorbing, ev):
+    """How far each foot of ``ev`` is past its event at the state ``motion``, m: positive once it
+    has happened. Onset: its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the
+    largest."""
+    ce = contact_at(fb, ground_at(fb, t_s), motion, absorbing, ENGAGE_AT_GROUND)
     c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
     out = -math.inf
     for i in range(4):
@@ -402,7 +413,7 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
             out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
     if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
         held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-        hf = held_friction(fb, ground_at(fb, t_s), ce, p, v, q, w, held, ev.break_mu)
+        hf = held_friction(fb, ground_at(fb, t_s), ce, motion, Holding(held, ev.break_mu))
         out = fmax(out, hf.use - 1.0)
     return out
 
@@ -492,7 +503,8 @@ def holds(cfg, fb, t_s, st, ft, ev):
             not (sl[2] and not done[2]), not (sl[3] and not done[3]))
     ground = ground_at(fb, t_s)
     ce = contact_at(fb, ground, Motion(st.p, st.v, st.q, st.w), ft.absorbing, ENGAGE_AT_GROUND)
-    hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    hf = held_friction(fb, ground, ce, Motion(st.p, st.v, st.q, st.w),
+                       Holding(held, cfg.friction_static))
     if hf.capped:
         return NO_SLIP, done
     return done, NO_SLIP
@@ -507,24 +519,24 @@ class Piece(NamedTuple):
 
 
 @separate
-def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
-    """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
-    pressing, and the step to it (the feet about to press kept from pressing): regula falsi
+def to_event(cfg, fb, roles, h, start, ev):
+    """The earliest instant inside (0, h) of a step from ``start`` (a :class:`StepFrom`) at which
+    one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press kept from pressing): regula falsi
     (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
     starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
     the first), and happens where it does, not at the step's end. The step returned ends just
     past the event (its gap within EVENT_TOL_M above zero)."""
     engage, sliding, dragged, absorbing = roles
-    p, v, q, w = motion
+    t0 = start.t_s
     on = ev.onset
     held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
                 NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
     held_roles = FootRoles(held_off, sliding, dragged, absorbing)
     body = with_feet(fb, held_off, dragged)
     t_lo = 0.0
-    g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
-    st_hi = substep(cfg, fb, held_roles, h, motion, ce_start, t0)
-    g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
+    g_lo = _gaps(body, t0, start.motion, absorbing, ev)
+    st_hi = substep(cfg, fb, held_roles, h, start)
+    g_hi = _gaps(body, t0 + h, Motion(st_hi.p, st_hi.v, st_hi.q, st_hi.w), absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
         return Piece(h, st_hi, False)
     t_hi = h
@@ -533,8 +545,8 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
         t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
         if not (t > t_lo and t < t_hi):
             t = 0.5 * (t_lo + t_hi)
-        st = substep(cfg, fb, held_roles, t, motion, ce_start, t0)
-        g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
+        st = substep(cfg, fb, held_roles, t, start)
+        g = _gaps(body, t0 + t, Motion(st.p, st.v, st.q, st.w), absorbing, ev)
         if g > 0.0:
             t_hi, g_hi, st_hi = t, g, st
             if side == 1:
@@ -600,7 +612,7 @@ def slip_rates(cfg, fb, ground, ce, m):
     friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
     (its direction turns within a fraction of the step)."""
     held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-    d, _ = derivatives_held(fb, ground, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
+    d, _ = derivatives_held(fb, ground, ce, m, Holding(held, cfg.friction_static))
     off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
@@ -783,9 +795,12 @@ class Flight(NamedTuple):
 
 
 class SubStepStart(NamedTuple):
-    """A sub-step's start, as its end's transitions compare with it."""
+    """A sub-step: where it starts and ends, and its start's state, as its end's transitions
+    compare with it."""
 
     t_s: float  # from the tick's start
+    t_end_s: float  # where it ends, from the tick's start
+    h_s: float  # its length
     pen_m: float  # the deepest foot's penetration
     v_rad_mps: float  # velocity along local up
     cos_tilt: float
@@ -798,6 +813,7 @@ class PieceStart(NamedTuple):
     stepped from."""
 
     ship: Ship
+    t_s: float  # from the tick's start
     engage: tuple  # each foot's engage threshold from here (sim.contact.evaluate)
     drag: tuple  # the sliding feet dragged by kinetic friction as a force
     ce: ContactEval  # the contact at this instant
@@ -859,12 +875,14 @@ def pinned_at(fb, s, ce, t_s):
 
 
 @kernel
-def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
-    """A piece's start ``t_abs`` into the tick (``fb`` carrying the held feet's friction): where
-    the first foot is at the ground while the ship flies, the seed's touchdown (its alignment,
-    the absorbers, its transitions: MODEL-NOTES 18); then the feet that meet the ground sliding
-    or holding (``onset_now``: those the last located event touched). ``memo``: the last contact
-    evaluated (:class:`Memo`)."""
+def piece_start(cfg, fb, ps, onset_now, log):
+    """A piece's start ``ps`` (:class:`PieceStart`: the ship, its instant ``t_s`` into the tick,
+    the feet's engage thresholds, the guard's reference and the last contact evaluated, as the
+    last piece left them; ``fb`` carrying the held feet's friction) with its touchdown instant's
+    rules applied: where the first foot is at the ground while the ship flies, the seed's
+    touchdown (its alignment, the absorbers, its transitions: MODEL-NOTES 18); then the feet that
+    meet the ground sliding or holding (``onset_now``: those the last located event touched)."""
+    s, t_abs, engage, e_ref, memo = ps.ship, ps.t_s, ps.engage, ps.e_ref, ps.memo
     ground_y = ground_at(fb, t_abs)
     m, ft = s.motion, s.footing
     drag = ft.sliding
@@ -892,7 +910,7 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
         s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
         if s.surface_state != CONTACT:
             s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
-            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True,
+            return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, True,
                               no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
             e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
@@ -905,7 +923,7 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
                          ft.hold_w), s.pin)
     fb_y = with_feet(fb, engage, drag)
     ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
-    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False,
+    return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
                       memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
 
@@ -925,14 +943,17 @@ class PieceStep(NamedTuple):
 
 
 @constructor
-def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
+def step_piece(cfg, fb, start, rem, may_split, stiff):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
-    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound)."""
+    (:func:`to_event`), unless ``may_split`` is False (the pieces' bound). ``stiff``: the feet
+    whose stops are not located for the rest of the sub-step."""
+    s, t_abs = start.ship, start.t_s
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
-    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                 StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
     if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
@@ -961,8 +982,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             drag = near
             body = with_feet(fb, engage, drag)
             ce_y = contact_at(body, ground_at(fb, t_abs), m, ft.absorbing, engage)
-            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                         t_abs)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                         StepFrom(t_abs, m, ce_y))
             m_e = Motion(st.p, st.v, st.q, st.w)
             ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
             memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
@@ -973,8 +994,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
             stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
-                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                              t_abs, stop)
+                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                              StepFrom(t_abs, m, ce_y), stop)
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
@@ -995,15 +1016,14 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
         memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
-        if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
-                         cfg.friction_static).use > 1.0:
-            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
-                                cfg.friction_static)
+        holding = Holding(held, cfg.friction_static)
+        if held_friction(body, ground_e, ce_e, m_e, holding).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
             if hf0.use < 1.0:
                 brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
                                  cfg.friction_static, True)
-                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
-                              ce_y, t_abs, brk)
+                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                              StepFrom(t_abs, m, ce_y), brk)
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
@@ -1011,8 +1031,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff):
     if fb.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
-            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                          t_abs, ev)
+            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                          StepFrom(t_abs, m, ce_y), ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
                                  memo)
@@ -1081,9 +1101,17 @@ class SubStepEnd(NamedTuple):
 
 
 @kernel
-def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
-    """The contact at a sub-step's end (``t_end`` into the tick; ``memo``'s if it was evaluated
-    there), and the passivity guard there (``sim.energy_guard``)."""
+def is_passive(fb):
+    """No thrust and no RCS torque: nothing can add energy (:func:`passivity_guard`)."""
+    return (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
+            and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
+
+
+@kernel
+def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
+    """The contact at a sub-step's end (``start.t_end_s`` into the tick; ``memo``'s if it was
+    evaluated there), and the passivity guard there (``sim.energy_guard``)."""
+    t_end = start.t_end_s
     m, ft = s.motion, s.footing
     ground = ground_at(fb, t_end)
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
@@ -1094,7 +1122,7 @@ def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
-    gd = passivity_guard(fb, ground, m, e_ref, passive, airborne)
+    gd = passivity_guard(fb, ground, m, e_ref, is_passive(fb), airborne)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
@@ -1126,12 +1154,14 @@ class Transitioned(NamedTuple):
 
 
 @kernel
-def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
+def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     """The in-flight transitions, decided on a sub-step's end state: a touchdown the onsets did
     not locate (the method's last resort), a crash in contact, a liftoff (all feet clear and
     moving away), a tip past tipped_angle (or its crash); each emitted with the instant it
-    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd)."""
+    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd);
+    ``start``: the sub-step (a SubStepStart); ``ground``: the ground at its end."""
     s, ce, e_ref = end.ship, end.ce, end.e_ref
+    t_end, h = start.t_end_s, start.h_s
     om = fb.body_omega_radps
     m, ft = s.motion, s.footing
     p, v, q, w = m.p, m.v, m.q, m.w
@@ -1285,8 +1315,6 @@ def free_flight(here, fb, s, n_sub, carry, log):
     ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
-    passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
-               and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
     carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
@@ -1299,7 +1327,8 @@ def free_flight(here, fb, s, n_sub, carry, log):
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     for j in range(n_sub):
         m = s.motion
-        start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
+        start = SubStepStart(j * h, (j + 1) * h, h, ce.max_penetration_m, v_rad,
+                             dot(quat_axis_z(m.q), unit(m.p)))
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
@@ -1309,10 +1338,10 @@ def free_flight(here, fb, s, n_sub, carry, log):
             t_abs = start.t_s + t_in
             carried = s.footing.hold_w if carry else NO_HOLD
             fb_k = with_hold(fb, carried)
-            ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
+            ps = PieceStart(s, t_abs, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False, memo)
             if fb.touching:
-                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log, memo)
+                ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
                 s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
                 pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
                                 pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
@@ -1321,7 +1350,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
                     pinned_now = True
                     break
                 fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, k < MAX_PIECES, stiff)
+            pc = step_piece(cfg, fb_k, ps, h - t_in, k < MAX_PIECES, stiff)
             memo = pc.memo
             st = pc.step
             stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
@@ -1341,14 +1370,14 @@ def free_flight(here, fb, s, n_sub, carry, log):
         if stop:
             break
         fb_k = with_hold(fb, carried)
-        t_end = (j + 1) * h
+        t_end = start.t_end_s
         ground = ground_at(fb_k, t_end)
-        end = guard_substep(cfg, fb_k, s, e_ref, passive, pieces, start, t_end, memo)
+        end = guard_substep(cfg, fb_k, s, e_ref, pieces, start, memo)
         guard_j = guard_j + end.removed_j
         m = end.ship.motion
         peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
                                        dot(m.v, unit(m.p)), h))
-        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
+        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
         # the end's contact serves the next sub-step's start where it asks for the same
         memo = end.memo

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, \
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, derivatives, \
     derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
@@ -152,11 +152,11 @@ def surely_clear(fb, p):
 
 
 @kernel
-def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
-    """A stage of rk4: the derivatives and the contact at y + frac h k (``y``: the step's start,
-    sim.dynamics.Motion; ``k``: the last stage's derivatives), frac h after t0."""
+def _rk4_stage(fb, hf, y, k, absorbing, t0):
+    """A stage of rk4: the derivatives and the contact at y + hf k (``y``: the step's start,
+    sim.dynamics.Motion; ``k``: the last stage's derivatives; ``hf``: the stage's offset, frac h),
+    hf after t0."""
     p, v, q, w = y
-    hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
     # a stage's contact serves its derivatives and its feet's forces alone: where every foot is
@@ -180,9 +180,9 @@ def rk4(fb, h, motion, ce, absorbing, t0):
     p, v, q, w = motion
     y = Motion(p, v, q, w)
     k1 = derivatives(fb, ce, p, v, q, w)
-    k2, c2 = _rk4_stage(fb, h, 0.5, y, k1, absorbing, t0)
-    k3, c3 = _rk4_stage(fb, h, 0.5, y, k2, absorbing, t0)
-    k4, c4 = _rk4_stage(fb, h, 1.0, y, k3, absorbing, t0)
+    k2, c2 = _rk4_stage(fb, 0.5 * h, y, k1, absorbing, t0)
+    k3, c3 = _rk4_stage(fb, 0.5 * h, y, k2, absorbing, t0)
+    k4, c4 = _rk4_stage(fb, h, y, k3, absorbing, t0)
     h6 = h / 6.0
     q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
              k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
@@ -196,11 +196,10 @@ def rk4(fb, h, motion, ce, absorbing, t0):
 
 
 @kernel
-def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
+def _rk4_stage_held(fb, hf, y, k, absorbing, t0, holding):
     """A stage of :func:`rk4_held`: the derivatives with the held feet's friction, that friction,
-    and the contact, at y + frac h k."""
+    and the contact, at y + hf k (``hf``: frac h)."""
     p, v, q, w = y
-    hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
     ground = ground_at(fb, t0 + hf)
@@ -208,7 +207,7 @@ def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
         ce_s = no_contact(ps)
     else:
         ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.engage_m)
-    d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
+    d, hd = derivatives_held(fb, ground, ce_s, Motion(ps, vs, qs, ws), holding)
     return d, hd, ce_s
 
 
@@ -230,17 +229,18 @@ class SteppedHeld(NamedTuple):
 
 
 @separate
-def rk4_held(fb, h, motion, ce, absorbing, t0, held, mu_s):
-    """:func:`rk4` with the static friction of the feet of ``held`` inside the step as the force of
+def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
+    """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
+    inside the step as the force of
     their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
     friction then follows the ship's motion at the method's order, where a force carried from the
     last step and corrected by an impulse after this one was first order in the step."""
     y = motion
     p, v, q, w = motion
-    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, p, v, q, w, held, mu_s)
-    k2, f2, c2 = _rk4_stage_held(fb, h, 0.5, y, k1, absorbing, t0, held, mu_s)
-    k3, f3, c3 = _rk4_stage_held(fb, h, 0.5, y, k2, absorbing, t0, held, mu_s)
-    k4, f4, c4 = _rk4_stage_held(fb, h, 1.0, y, k3, absorbing, t0, held, mu_s)
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
+    k2, f2, c2 = _rk4_stage_held(fb, 0.5 * h, y, k1, absorbing, t0, holding)
+    k3, f3, c3 = _rk4_stage_held(fb, 0.5 * h, y, k2, absorbing, t0, holding)
+    k4, f4, c4 = _rk4_stage_held(fb, h, y, k3, absorbing, t0, holding)
     h6 = h / 6.0
     q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
              k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
