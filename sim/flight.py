@@ -1261,6 +1261,30 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
 
 
 # -- 2. free flight: the stages in order ----------------------------------------------------------
+@kernel
+def fly_clear(cfg, fb, s):
+    """A ship clear of the ground for the whole tick (``fb.touching`` False: sim.phases.near_ground
+    found it out of the feet's reach): one step of the method over the tick under gravity, thrust
+    and RCS torque, then the passivity guard; no foot can press, so no event, friction or
+    transition can happen. The same operations, in the same order, as :func:`free_flight` does for
+    such a ship (the same bits), without its pieces, contact evaluations and transitions."""
+    m, ft = s.motion, s.footing
+    dt = cfg.dt_s
+    res = advance(fb.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
+    v, w, removed = res.v, res.w, 0.0
+    if cfg.energy_guard:
+        passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
+                   and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
+        e_ref = energy_ref(ship_energy(fb, ground_at(fb, 0.0), m.p, m.v, m.q, m.w))
+        gd = passivity_guard(fb, ground_at(fb, dt), Motion(res.p, res.v, res.q, res.w), e_ref,
+                             passive, True)
+        v, w, removed = gd.v, gd.w, gd.removed_j
+    return Flight(Ship(s.surface_state, Motion(res.p, v, res.q, w), s.mass_kg, s.fuel_kg,
+                       Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
+                               ft.settle_margin, NO_HOLD), s.pin),
+                  Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
+
+
 @separate
 def free_flight(here, fb, s, n_sub, carry, log):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:

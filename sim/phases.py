@@ -23,7 +23,7 @@ from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import lowest_foot_penetration
 from touchdown.sim.dynamics import FreeBody, Motion
-from touchdown.sim.flight import crossed_at, free_flight
+from touchdown.sim.flight import crossed_at, fly_clear, free_flight
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
 from touchdown.sim.friction import per_foot
@@ -364,7 +364,8 @@ def step_ship(here, rec, inp, out, log):
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and per_foot(cfg)
-        fl = free_flight(here, fb, s, n_sub, not (strikes or held_inside), log)
+        fl = (free_flight(here, fb, s, n_sub, not (strikes or held_inside), log) if fine
+              else fly_clear(cfg, fb, s))
         s, report = fl.ship, fl.report
         if fine:
             s = settle(here, s, cmd, fl.run, log)
