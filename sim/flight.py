@@ -1273,16 +1273,13 @@ def fly_clear(cfg, fb, s):
     res = advance(fb.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
     v, w, removed = res.v, res.w, 0.0
     if cfg.energy_guard:
-        passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
-                   and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
         e_ref = energy_ref(ship_energy(fb, ground_at(fb, 0.0), m.p, m.v, m.q, m.w))
         gd = passivity_guard(fb, ground_at(fb, dt), Motion(res.p, res.v, res.q, res.w), e_ref,
-                             passive, True)
+                             is_passive(fb), True)
         v, w, removed = gd.v, gd.w, gd.removed_j
-    return Flight(Ship(s.surface_state, Motion(res.p, v, res.q, w), s.mass_kg, s.fuel_kg,
-                       Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
-                               ft.settle_margin, NO_HOLD), s.pin),
-                  Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
+    s = with_footing(with_motion(s, s.surface_state, Motion(res.p, v, res.q, w)),
+                     with_friction(ft, ft.sliding, NO_HOLD))
+    return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
 
 
 @separate
