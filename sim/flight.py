@@ -15,8 +15,8 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     lowest_foot_penetration, no_contact)
-from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at, ground_turn,
-    held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at,
+    ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
@@ -55,9 +55,10 @@ def align_to_surface(q, r_hat):
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
     stores nothing in its springs: its feet are not looked for)."""
-    return mechanical(Body(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps), fb.mass_kg,
-                      fb.inertia_kgm2, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
-                      Motion(p, v, q, w), ground, fb.touching)
+    cr = fb.craft
+    return mechanical(Body(cr.gm_m3ps2, cr.body_radius_m, cr.body_omega_radps), cr.mass_kg,
+                      cr.inertia_kgm2, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm),
+                      Motion(p, v, q, w), ground, cr.touching)
 
 
 class EnergyRef(NamedTuple):
@@ -116,10 +117,10 @@ def passivity_guard(fb, ground, motion, ref, passive, airborne):
     f_w = f_all * _guard_factor(ex_rot, e.rotational_j)
     # only where a correction is due: (v - v_surf) + v_surf is not v in floating point
     if f_v != 1.0:
-        v_surf = surface_velocity(fb.body_omega_radps, p)
+        v_surf = surface_velocity(fb.craft.body_omega_radps, p)
         v = add(v_surf, scale(sub(v, v_surf), f_v))
     if f_w != 1.0:
-        spin_b = body_spin_in_body_frame(fb.body_omega_radps, q)
+        spin_b = body_spin_in_body_frame(fb.craft.body_omega_radps, q)
         w = add(spin_b, scale(sub(w, spin_b), f_w))
     taken_tr = e.translational_j * (1.0 - f_v * f_v)
     taken_rot = e.rotational_j * (1.0 - f_w * f_w)
@@ -146,13 +147,14 @@ def align_at_touchdown(fb, ground, p, v, q, w):
     a ship too slow to pay is not stood up and touches down as it is."""
     r_hat = unit(p)
     q1 = align_to_surface(q, r_hat)
-    w1 = body_spin_in_body_frame(fb.body_omega_radps, q1)
-    pen0 = lowest_foot_penetration(ground, p, q, fb.leg_radius_m, fb.com_height_m)
-    pen1 = lowest_foot_penetration(ground, p, q1, fb.leg_radius_m, fb.com_height_m)
+    w1 = body_spin_in_body_frame(fb.craft.body_omega_radps, q1)
+    pen0 = lowest_foot_penetration(ground, p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
+    pen1 = lowest_foot_penetration(ground, p, q1, fb.craft.leg_radius_m, fb.craft.com_height_m)
     p1 = add(p, scale(r_hat, fmax(pen1 - pen0, 0.0)))
-    cost = total(ship_energy(fb, ground, p1, v, q1, w1)) - total(ship_energy(fb, ground, p, v, q, w))
-    v_rad = dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
-    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
+    cost = (total(ship_energy(fb, ground, p1, v, q1, w1))
+            - total(ship_energy(fb, ground, p, v, q, w)))
+    v_rad = dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
+    spare = v_rad * v_rad - 2.0 * cost / fb.craft.mass_kg
     pays = cost > 0.0 and v_rad < 0.0 and spare >= 0.0
     if not (cost <= 0.0 or pays):
         return Aligned(p, v, q, w, False)
@@ -230,12 +232,12 @@ def substep(cfg, fb, roles, h, start):
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    carried = fb.hold_w
+    carried = fb.grip.hold_w
     f0 = ce_start.foot_force_n
     holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
                or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
     # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
-    if fb.method == RK4 and holding and per_foot(cfg):
+    if fb.craft.method == RK4 and holding and per_foot(cfg):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
@@ -246,10 +248,10 @@ def substep(cfg, fb, roles, h, start):
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
                    scale(hi[3], 1.0 / h))
     else:
-        res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
+        res = advance(fb.craft.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
-    if not fb.touching:
+    if not fb.craft.touching:
         return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
                        res.located, pressed, NO_HOLD)
     if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
@@ -259,18 +261,18 @@ def substep(cfg, fb, roles, h, start):
     law = law_of(cfg)
     if not per_foot(cfg):
         j_n = j[0] + j[1] + j[2] + j[3]
-        fr = seed(law, fb.mass_kg, res.p, res.v, res.w, j_n, ground_end)
+        fr = seed(law, fb.craft.mass_kg, res.p, res.v, res.w, j_n, ground_end)
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
-    ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
-    fr = coulomb(law, Rigid(fb.mass_kg, fb.inertia_kgm2), res, FeetOn(ground_end, ft), sliding,
-                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), h)
+    ft = feet(ground_end, res.p, res.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
+    fr = coulomb(law, Rigid(fb.craft.mass_kg, fb.craft.inertia_kgm2), res, FeetOn(ground_end, ft),
+                 sliding, FrictionForce(fb.craft.mu_k, dragged, carried, NO_HOLD), h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
-        ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
+        ft2 = feet(ground_end, p2, q2, fb.craft.leg_radius_m, fb.craft.com_height_m)
         # the feet where the step began (what ce_start was evaluated on)
-        ft0 = feet(ground_at(fb, t_start), p, q, fb.leg_radius_m, fb.com_height_m)
+        ft0 = feet(ground_at(fb, t_start), p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
         p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
     return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
                    res.peak_penetration_m, res.located, pressed, fr.hold_w)
@@ -279,7 +281,8 @@ def substep(cfg, fb, roles, h, start):
 @kernel
 def _a_down(fb, p, q, r_hat):
     """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
-    return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
+    cr = fb.craft
+    return cr.gm_m3ps2 / dot(p, p) - cr.thrust_n * dot(quat_axis_z(q), r_hat) / cr.mass_kg
 
 
 #: Most contact events one sub-step is split at: a foot starting to press (its onset) or ceasing
@@ -315,7 +318,7 @@ class Memo(NamedTuple):
     motion: Motion
     absorbing: bool
     engage: tuple
-    kinetic: tuple  # the FreeBody's (sim.dynamics.with_feet)
+    kinetic: tuple  # the FreeBody's grip (sim.dynamics.with_feet)
     hold_w: tuple  # the FreeBody's (with_hold)
     drag_dir: tuple  # the FreeBody's (with_drag_dir)
 
@@ -343,7 +346,8 @@ def _same_motion(a, b):
 @kernel
 def memo_of(fb, ce, t_s, m, absorbing, engage):
     """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
-    return Memo(True, ce, t_s, m, absorbing, engage, fb.kinetic, fb.hold_w, fb.drag_dir)
+    g = fb.grip
+    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w, g.drag_dir)
 
 
 @kernel
@@ -358,9 +362,9 @@ def contact_memo(memo, fb, t_s, m, absorbing, engage):
     """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
     evaluated at exactly these."""
     if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
-            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.kinetic)
-            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.hold_w)
-            and _same_vecs(memo.drag_dir, fb.drag_dir)):
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
+            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.grip.hold_w)
+            and _same_vecs(memo.drag_dir, fb.grip.drag_dir)):
         return memo.ce
     return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
 
@@ -400,7 +404,7 @@ def _gaps(fb, t_s, motion, absorbing, ev):
     has happened. Onset: its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the
     largest."""
     ce = contact_at(fb, ground_at(fb, t_s), motion, absorbing, ENGAGE_AT_GROUND)
-    c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
+    c_leg = fb.craft.c_absorb_nspm if absorbing else fb.craft.c_nspm
     out = -math.inf
     for i in range(4):
         if ev.onset[i]:
@@ -409,11 +413,12 @@ def _gaps(fb, t_s, motion, absorbing, ev):
             if absorbing:
                 out = fmax(out, -ce.pen_m[i])
             else:
-                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.craft.k_npm) * ce.pen_rate_mps[i]))
         if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
             out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
     if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
-        held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+        kin = fb.grip.kinetic
+        held = (not kin[0], not kin[1], not kin[2], not kin[3])
         hf = held_friction(fb, ground_at(fb, t_s), ce, motion, Holding(held, ev.break_mu))
         out = fmax(out, hf.use - 1.0)
     return out
@@ -522,11 +527,11 @@ class Piece(NamedTuple):
 @separate
 def to_event(cfg, fb, roles, h, start, ev):
     """The earliest instant inside (0, h) of a step from ``start`` (a :class:`StepFrom`) at which
-    one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press kept from pressing): regula falsi
-    (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
-    starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
-    the first), and happens where it does, not at the step's end. The step returned ends just
-    past the event (its gap within EVENT_TOL_M above zero)."""
+    one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press
+    kept from pressing): regula falsi (Illinois) on :func:`_gaps`, each trial a step of the method
+    from the start. A contact that starts or ends inside a step is thus integrated like a crossing,
+    for any foot (the fourth as the first), and happens where it does, not at the step's end. The
+    step returned ends just past the event (its gap within EVENT_TOL_M above zero)."""
     engage, sliding, dragged, absorbing = roles
     t0 = start.t_s
     on = ev.onset
@@ -587,11 +592,12 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     speed = norm(s0)
     if not speed > cfg.stick_speed_mps:
         return True
-    drag = fb.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
+    drag = fb.craft.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
                           ce1.foot_force_n[i] * ce1.push_norm[i])
     s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
-    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
-    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
+                                                  fb.craft.com_height_m)[i], s_hat))
+    inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
 
@@ -612,12 +618,13 @@ def slip_rates(cfg, fb, ground, ce, m):
     up (under an impact's load, the other feet sliding and one holding) has not, though its
     friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
     (its direction turns within a fraction of the step)."""
-    held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
+    kin = fb.grip.kinetic
+    held = (not kin[0], not kin[1], not kin[2], not kin[3])
     d, _ = derivatives_held(fb, ground, ce, m, Holding(held, cfg.friction_static))
-    off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
+    off = foot_offsets_w(m.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
-    spin = (0.0, 0.0, fb.body_omega_radps)
+    spin = (0.0, 0.0, fb.craft.body_omega_radps)
     speeds = (0.0, 0.0, 0.0, 0.0)
     rates = (0.0, 0.0, 0.0, 0.0)
     owns = (0.0, 0.0, 0.0, 0.0)
@@ -633,8 +640,8 @@ def slip_rates(cfg, fb, ground, ce, m):
             acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
             rate = dot(acc, s_hat)
             arm = quat_rotate_inv(m.q, cross(r, s_hat))
-            inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
-            own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
+            inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+            own = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
         speeds = (speed if i == 0 else speeds[0], speed if i == 1 else speeds[1],
                   speed if i == 2 else speeds[2], speed if i == 3 else speeds[3])
         rates = (rate if i == 0 else rates[0], rate if i == 1 else rates[1],
@@ -679,7 +686,7 @@ def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
     """The sliding feet dragged by their friction as a force over a step of h: those that could
     not stop within it (:func:`_could_stop`; none under the seed's law)."""
     out = (False, False, False, False)
-    if fb.mu_k > 0.0:
+    if fb.craft.mu_k > 0.0:
         for i in range(4):
             d = sliding[i] and not _could_stop(cfg, fb, ce0, ce1, q, i, h)
             out = (out[0] or (d and i == 0), out[1] or (d and i == 1),
@@ -749,7 +756,7 @@ def touchdown(cfg, fb, ground, p, v, q, w):
     """An impact slower than bounce_speed is taken by the absorbers from its first instant
     (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18)."""
     r_hat = unit(p)
-    impact = -dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    impact = -dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
     aligned = False
     if cfg.align_on_touchdown:
         al = align_at_touchdown(fb, ground, p, v, q, w)
@@ -765,7 +772,7 @@ def clear_instant(fb, ce, p, v, q, w, h):
     the spring had let go before). Clamped to the step."""
     r_hat = unit(p)
     z = -ce.max_penetration_m
-    om = fb.body_omega_radps
+    om = fb.craft.body_omega_radps
     foot_v = add(sub(v, surface_velocity(om, ce.lowest_foot_w)),
                  cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p)))
     u = dot(foot_v, r_hat)
@@ -855,7 +862,7 @@ def touchdown_transitions(cfg, fb, s, td, t_abs, log):
     """The transitions of a touchdown located at ``t_abs`` (``s`` already aligned), emitted in
     order; returns the state they lead to (:func:`touchdown_rules`)."""
     m = s.motion
-    entered, then = touchdown_rules(cfg, fb.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
+    entered, then = touchdown_rules(cfg, fb.craft.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
                                     td.aligned)
     emit_touchdown(log, entered, then, td.impact_mps, t_abs)
     return then
@@ -866,13 +873,13 @@ def pinned_at(fb, s, ce, t_s):
     """The pin of a ship that tips or crashes ``t_s`` into the tick: its pose in the body-fixed
     frame, and a tipped ship's pivot (its lowest foot) and rate of turn about it."""
     m = s.motion
-    c, s_ = turned(fb.cos0, fb.sin0, fb.body_omega_radps, t_s)
+    c, s_ = turned(fb.craft.cos0, fb.craft.sin0, fb.craft.body_omega_radps, t_s)
     pin_p, pin_q = pin_pose(m.p, m.q, c, s_)
     if s.surface_state != TIPPED:
         return Pin(pin_p, pin_q, s.pin.pivot_bf_m, s.pin.rate_radps)
     return Pin(pin_p, pin_q, rotate_z(ce.lowest_foot_w, c, -s_),
-               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m,
-                                  ce.lowest_foot_w))
+               rate_from_momentum(fb.craft.body_omega_radps, fb.craft.mass_kg,
+                                  fb.craft.inertia_kgm2, m, ce.lowest_foot_w))
 
 
 @kernel
@@ -887,7 +894,7 @@ def piece_start(cfg, fb, ps, onset_now, log):
     ground_y = ground_at(fb, t_abs)
     m, ft = s.motion, s.footing
     drag = ft.sliding
-    carried = fb.hold_w
+    carried = fb.grip.hold_w
     aligned = False
     fb_y = with_feet(fb, engage, drag)
     ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
@@ -955,7 +962,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff):
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
-    if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+    if fb.craft.touching and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
@@ -1005,7 +1012,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff):
                 st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
-    if (fb.touching and may_split and fb.method == RK4 and per_foot(cfg)
+    if (fb.craft.touching and may_split and fb.craft.method == RK4 and per_foot(cfg)
             and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)
@@ -1027,7 +1034,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff):
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
                                      memo)
-    if fb.touching and may_split:
+    if fb.craft.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1100,8 +1107,8 @@ class SubStepEnd(NamedTuple):
 @kernel
 def is_passive(fb):
     """No thrust and no RCS torque: nothing can add energy (:func:`passivity_guard`)."""
-    return (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
-            and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
+    return (fb.craft.thrust_n == 0.0 and fb.craft.rcs_torque_body_nm[0] == 0.0
+            and fb.craft.rcs_torque_body_nm[1] == 0.0 and fb.craft.rcs_torque_body_nm[2] == 0.0)
 
 
 @kernel
@@ -1132,7 +1139,7 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
 def substep_peak(fb, start, pieces, pen, v_rad, h):
     """The deepest penetration over a sub-step: located by the method, or interpolated between
     its ends (telemetry)."""
-    if not fb.touching:
+    if not fb.craft.touching:
         return 0.0
     if pieces.located:
         return fmax(fmax(start.pen_m, pen), pieces.peak_m)
@@ -1159,7 +1166,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     ``start``: the sub-step (a SubStepStart); ``ground``: the ground at its end."""
     s, ce, e_ref = end.ship, end.ce, end.e_ref
     t_end, h = start.t_end_s, start.h_s
-    om = fb.body_omega_radps
+    om = fb.craft.body_omega_radps
     m, ft = s.motion, s.footing
     p, v, q, w = m.p, m.v, m.q, m.w
     surf = s.surface_state
@@ -1263,14 +1270,15 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
 # -- 2. free flight: the stages in order ----------------------------------------------------------
 @kernel
 def fly_clear(cfg, fb, s):
-    """A ship clear of the ground for the whole tick (``fb.touching`` False: sim.phases.near_ground
-    found it out of the feet's reach): one step of the method over the tick under gravity, thrust
-    and RCS torque, then the passivity guard; no foot can press, so no event, friction or
-    transition can happen. The same operations, in the same order, as :func:`free_flight` does for
-    such a ship (the same bits), without its pieces, contact evaluations and transitions."""
+    """A ship clear of the ground for the whole tick (``fb.craft.touching`` False:
+    sim.phases.near_ground found it out of the feet's reach): one step of the method over the tick
+    under gravity, thrust and RCS torque, then the passivity guard; no foot can press, so no event,
+    friction or transition can happen. The same operations, in the same order, as
+    :func:`free_flight` does for such a ship (the same bits), without its pieces, contact
+    evaluations and transitions."""
     m, ft = s.motion, s.footing
     dt = cfg.dt_s
-    res = advance(fb.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
+    res = advance(fb.craft.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
     v, w, removed = res.v, res.w, 0.0
     if cfg.energy_guard:
         e_ref = energy_ref(ship_energy(fb, ground_at(fb, 0.0), m.p, m.v, m.q, m.w))
@@ -1300,7 +1308,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
     h = dt / n_sub
-    om = fb.body_omega_radps
+    om = fb.craft.body_omega_radps
     m = s.motion
     friction_n = 0.0
     peak = 0.0
@@ -1311,12 +1319,12 @@ def free_flight(here, fb, s, n_sub, carry, log):
     v_rad = dot(m.v, unit(m.p))
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
-    carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
+    carried = fb.grip.hold_w  # the friction the FreeBody carries (with_hold)
     ft0 = s.footing
     # the settle thresholds at the tick's start: held for settle_for_s already, or not
     run = SettleRun(True, ft0.settle_margin,
                     -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
-    sample = fb.touching and s.surface_state == CONTACT
+    sample = fb.craft.touching and s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     for j in range(n_sub):
@@ -1334,7 +1342,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
             fb_k = with_hold(fb, carried)
             ps = PieceStart(s, t_abs, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False, memo)
-            if fb.touching:
+            if fb.craft.touching:
                 ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
                 s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
                 pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,

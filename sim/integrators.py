@@ -145,10 +145,11 @@ def surely_clear(fb, p):
     force and moment are exactly +0 either way (sim.contact.evaluate sums +0 and the feet's +-0
     into +0), as are the feet's forces. Only on level ground (the bound would need the slope's
     plane and the bumps' heights elsewhere)."""
-    if not (fb.touching and fb.terrain.level):
+    cr = fb.craft
+    if not (cr.touching and cr.terrain.level):
         return False
-    reach = math.sqrt(fb.leg_radius_m * fb.leg_radius_m + fb.com_height_m * fb.com_height_m)
-    return norm(p) - fb.body_radius_m - fb.terrain.base_height_m > reach + CLEAR_MARGIN_M
+    reach = math.sqrt(cr.leg_radius_m * cr.leg_radius_m + cr.com_height_m * cr.com_height_m)
+    return norm(p) - cr.body_radius_m - cr.terrain.base_height_m > reach + CLEAR_MARGIN_M
 
 
 @kernel
@@ -165,7 +166,7 @@ def _rk4_stage(fb, hf, y, k, absorbing, t0):
         ce_s = no_contact(ps)
     else:
         ce_s = contact_at(fb, ground_at(fb, t0 + hf), Motion(ps, vs, qs, ws), absorbing,
-                          fb.engage_m)
+                          fb.grip.engage_m)
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
@@ -206,7 +207,7 @@ def _rk4_stage_held(fb, hf, y, k, absorbing, t0, holding):
     if surely_clear(fb, ps):  # (as in _rk4_stage; no foot is then held either)
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.engage_m)
+        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.grip.engage_m)
     d, hd = derivatives_held(fb, ground, ce_s, Motion(ps, vs, qs, ws), holding)
     return d, hd, ce_s
 
@@ -263,8 +264,8 @@ def _turn(fb, q, w, tau_b, h):
     """The rotation's kick and drift: a half kick of the external torque, then the exact
     torque-free flow (sim.rotation). Returns the new attitude and the body-frame angular momentum
     before the closing half kick."""
-    l_half = add(mul(fb.inertia_kgm2, w), scale(tau_b, 0.5 * h))
-    return free_rotation(q, l_half, fb.inertia_kgm2, h)
+    l_half = add(mul(fb.craft.inertia_kgm2, w), scale(tau_b, 0.5 * h))
+    return free_rotation(q, l_half, fb.craft.inertia_kgm2, h)
 
 
 @kernel
@@ -287,15 +288,15 @@ def velocity_verlet(fb, h, motion, ce, absorbing, t0):
     v_half = add(v, scale(a0, 0.5 * h))
     p1 = add(p, scale(v_half, h))
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = div(l_pre, fb.inertia_kgm2)
+    w_pre = div(l_pre, fb.craft.inertia_kgm2)
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.grip.engage_m)
     v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
-    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     if pressed(ce1):  # the dampers at the end, at the end's velocities (see _damped_end)
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
         v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
-        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
 
 
@@ -337,13 +338,13 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     sim.stability)."""
     p, v, q, w = motion
     n_hat = ce.axis
-    m = fb.mass_kg
+    m = fb.craft.mass_kg
     a0 = acceleration(fb, ce, p, q)
     a0_n = dot(a0, n_hat)
     v_n0 = dot(v, n_hat)
     v_half = add(v, scale(sub(a0, scale(n_hat, a0_n)), 0.5 * h))  # across n only
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = div(l_pre, fb.inertia_kgm2)
+    w_pre = div(l_pre, fb.craft.inertia_kgm2)
 
     force0_n = dot(ce.force_w, n_hat)
     a_free = a0_n - force0_n / m  # gravity and thrust along n
@@ -361,16 +362,16 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.grip.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
         a1 = acceleration(fb, ce1, p1, q1)
         v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     return Stepped(p1, v1, q1, w1,
                    exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg, model_end_n),
                    peak, True)

@@ -22,7 +22,7 @@ from __future__ import annotations
 from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import lowest_foot_penetration
-from touchdown.sim.dynamics import FreeBody, Motion
+from touchdown.sim.dynamics import Craft, FreeBody, Grip, Motion
 from touchdown.sim.flight import crossed_at, fly_clear, free_flight
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
@@ -162,16 +162,16 @@ def free_body(here, s, cmd, touching, method):
     cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     m = s.mass_kg
     two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
-    return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
-                               sp.mass0_kg, m),
-                    cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
-                    sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
-                    cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
-                    cfg.body_radius_m, cfg.omega_radps, terrain,
-                    cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
-                    method == EXPONENTIAL, method,
-                    cfg.friction_kinetic if per_foot(cfg) else 0.0,
-                    s.footing.sliding, s.footing.hold_w, NO_HOLD)
+    craft = Craft(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                             sp.mass0_kg, m),
+                  cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
+                  sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
+                  cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
+                  cfg.body_radius_m, cfg.omega_radps, terrain,
+                  cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching,
+                  method == EXPONENTIAL, method,
+                  cfg.friction_kinetic if per_foot(cfg) else 0.0)
+    return FreeBody(craft, Grip(ENGAGE_AT_GROUND, s.footing.sliding, s.footing.hold_w, NO_HOLD))
 
 
 @kernel
