@@ -130,7 +130,7 @@ def touchdown_one_lander(n_ticks: int = 100_000, repeats: int = 3) -> float:
     return n_ticks / _best(go, repeats)
 
 
-def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 1) -> float:
+def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 3) -> float:
     """Ship-ticks per CPU second, ``n_ships`` landers arriving at 2-49 m/s from 0.5-30 m."""
     from touchdown.sim.run import run_blocks
     from touchdown.sim.scenario import parse
@@ -218,7 +218,7 @@ def main(quick: bool = False) -> None:
     fleet, fleet_steps = (1_000, 20) if quick else (10_000, 100)
     # the same simulated time on both: five MuJoCo steps of 0.01 s per Touchdown tick of 0.05 s
     mj_one = mujoco_one_lander(one)
-    td_one = touchdown_one_lander(one // 5, repeats=1)
+    td_one = touchdown_one_lander(one // 5)
     mj_fleet = mujoco_fleet(fleet, fleet_steps)
     td_fleet = touchdown_fleet(fleet, fleet_steps // 5)
     print(f"MuJoCo {mujoco.__version__} beside Touchdown (CPU time, one thread; MuJoCo dt 0.01 s "

@@ -252,6 +252,23 @@ class FrictionForce(NamedTuple):
     drag_dir: tuple
 
 
+class Spring(NamedTuple):
+    """One foot's spring-damper: F = k x + c x' (k / 4 and c / 4 of the ship's), clamped at zero
+    unless ``bilateral`` (an absorbed contact, SEED-NOTES 1, pulls as well as pushes)."""
+
+    k_npm: float
+    c_nspm: float
+    bilateral: bool
+
+
+class Dampers(NamedTuple):
+    """The legs' dampers over a step: the whole ship's c = 2 zeta sqrt(k m), the absorbers' while
+    ``absorbing`` (SEED-NOTES 1: then bilateral, no clamp at zero)."""
+
+    c_nspm: float
+    absorbing: bool
+
+
 class FootForce(NamedTuple):
     """One foot's share of a contact evaluation."""
 
@@ -272,11 +289,12 @@ def foot_velocity(ground, vel_mps, omega_w, offset, foot):
 
 
 @kernel
-def foot_force(v_foot, pen, push, k_leg, c_leg, absorbing, engage_m, n_hat, linear_model):
+def foot_force(spring, v_foot, pen, push, engage_m, n_hat, linear_model):
     # engage_m: this foot presses from penetration > -engage_m
-    """One foot's spring-damper force k x + c x', its rate x' = -g . v_foot (``v_foot``: its
-    velocity over the ground, :func:`foot_velocity`), and (``linear_model``) its terms of the
-    pressing feet's linear model along n_hat."""
+    """One foot's ``spring`` (a :class:`Spring`) force k x + c x', its rate x' = -g . v_foot
+    (``v_foot``: its velocity over the ground, :func:`foot_velocity`), and (``linear_model``) its
+    terms of the pressing feet's linear model along n_hat."""
+    k_leg, c_leg, absorbing = spring
     pen_rate = -dot(push, v_foot)
     f = k_leg * pen + c_leg * pen_rate
     stiff = damp = load = load_rate = 0.0
@@ -335,10 +353,10 @@ def in_plane(v, n):
 
 
 @separate
-def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, friction_force):
+def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_force):
     """Normal force, its moment, and penetration (see the module docstring) of a ship in
-    ``motion`` (p, v, q, w_b: sim.dynamics.Motion) on its ``legs``, their dampers ``c_nspm`` (the
-    absorbers' while ``absorbing``).
+    ``motion`` (p, v, q, w_b: sim.dynamics.Motion) on its ``legs``, their ``dampers`` (a
+    :class:`Dampers`: the absorbers' while absorbing).
 
     ``engage_m``: foot i counts as touching from ``x_i > -engage_m[i]`` (0 as a rule; a foot that
     has just reached the ground gets a micrometre, so that rounding cannot leave out the damper's
@@ -355,9 +373,9 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
     (sim.friction.coulomb)."""
     pos_m, vel_mps, quat, w_b = motion
     mu_k, kinetic, hold_w, drag_dir = friction_force
+    c_nspm, absorbing = dampers
     omega_w = quat_rotate(quat, w_b)
-    k_leg = 0.25 * legs.k_npm
-    c_leg = 0.25 * c_nspm
+    spring = Spring(0.25 * legs.k_npm, 0.25 * c_nspm, absorbing)
     # the feet (:func:`feet`'s numbers), with each foot's radial: its friction plane's normal
     # (:func:`friction_normal`) from it, without normalising the foot's position again
     off = foot_offsets_w(quat, legs.leg_radius_m, legs.com_height_m)
@@ -380,14 +398,14 @@ def evaluate(ground, motion, legs, c_nspm, absorbing, engage_m, linear_model, fr
               foot_velocity(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1]),
               foot_velocity(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2]),
               foot_velocity(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3]))
-    ff = (foot_force(v_feet[0], ft.pen_m[0], ft.push_w[0], k_leg, c_leg, absorbing, engage_m[0],
-                     n_hat, linear_model),
-          foot_force(v_feet[1], ft.pen_m[1], ft.push_w[1], k_leg, c_leg, absorbing, engage_m[1],
-                     n_hat, linear_model),
-          foot_force(v_feet[2], ft.pen_m[2], ft.push_w[2], k_leg, c_leg, absorbing, engage_m[2],
-                     n_hat, linear_model),
-          foot_force(v_feet[3], ft.pen_m[3], ft.push_w[3], k_leg, c_leg, absorbing, engage_m[3],
-                     n_hat, linear_model))
+    ff = (foot_force(spring, v_feet[0], ft.pen_m[0], ft.push_w[0], engage_m[0], n_hat,
+                     linear_model),
+          foot_force(spring, v_feet[1], ft.pen_m[1], ft.push_w[1], engage_m[1], n_hat,
+                     linear_model),
+          foot_force(spring, v_feet[2], ft.pen_m[2], ft.push_w[2], engage_m[2], n_hat,
+                     linear_model),
+          foot_force(spring, v_feet[3], ft.pen_m[3], ft.push_w[3], engage_m[3], n_hat,
+                     linear_model))
     force = (0.0, 0.0, 0.0)
     torque = (0.0, 0.0, 0.0)
     g = (norm(ft.push_w[0]), norm(ft.push_w[1]), norm(ft.push_w[2]), norm(ft.push_w[3]))

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import (FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
+from touchdown.sim.contact import (Dampers, FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
     no_contact)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
@@ -38,7 +38,7 @@ class Motion(NamedTuple):
     w: tuple  # body-frame angular velocity, rad/s
 
 
-class FreeBody(NamedTuple):
+class Craft(NamedTuple):
     """Everything about one free ship that is constant over a tick, and the ground it may meet."""
 
     mass_kg: float
@@ -59,15 +59,20 @@ class FreeBody(NamedTuple):
     sin0: float
     #: False: this ship cannot reach the ground this tick; skip the contact work
     touching: bool
-    #: foot i presses from penetration > -engage_m[i] (sim.contact.evaluate): -inf while the ship
-    #: is stepped up to the instant that foot reaches the ground (sim.flight.free_flight)
-    engage_m: tuple
     #: the method fits a linear spring-damper to the pressing feet (ContactEval's sums)
     linear_model: bool
     #: the method this ship is stepped with this tick (sim.integrators.sub_method)
     method: int
     #: kinetic friction (0 under the seed's law, which acts after the step)
     mu_k: float
+
+
+class Grip(NamedTuple):
+    """How the feet meet the ground over a piece of a sub-step: what the pieces change."""
+
+    #: foot i presses from penetration > -engage_m[i] (sim.contact.evaluate): -inf while the ship
+    #: is stepped up to the instant that foot reaches the ground (sim.flight.free_flight)
+    engage_m: tuple
     #: the feet whose friction is kinetic over this step: a force (sim.contact.evaluate)
     kinetic: tuple
     #: the holding feet's static friction carried into this step as a force, inertial
@@ -76,57 +81,57 @@ class FreeBody(NamedTuple):
     drag_dir: tuple
 
 
+class FreeBody(NamedTuple):
+    """One free ship over a tick: its :class:`Craft`, constant through the tick, and its feet's
+    :class:`Grip`, which a piece of a sub-step changes (:func:`with_feet`, :func:`with_hold`,
+    :func:`with_drag_dir` rebuild that alone)."""
+
+    craft: Craft
+    grip: Grip
+
+
 @constructor
 def with_feet(fb, engage_m, kinetic):
     """``fb`` whose foot i presses from penetration > -engage_m[i], its friction kinetic where
     ``kinetic`` says."""
-    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
-                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
-                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching,
-                    engage_m, fb.linear_model, fb.method, fb.mu_k, kinetic, fb.hold_w,
-                    fb.drag_dir)
+    g = fb.grip
+    return FreeBody(fb.craft, Grip(engage_m, kinetic, g.hold_w, g.drag_dir))
 
 
 @constructor
 def with_hold(fb, hold_w):
     """``fb`` with the holding feet's friction ``hold_w`` carried in."""
-    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
-                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
-                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
-                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, hold_w, fb.drag_dir)
+    g = fb.grip
+    return FreeBody(fb.craft, Grip(g.engage_m, g.kinetic, hold_w, g.drag_dir))
 
 
 @constructor
 def with_drag_dir(fb, drag_dir):
     """``fb`` whose dragged feet are dragged against ``drag_dir`` (where not zero)."""
-    return FreeBody(fb.mass_kg, fb.inertia_kgm2, fb.thrust_n, fb.rcs_torque_body_nm,
-                    fb.leg_radius_m, fb.com_height_m, fb.k_npm, fb.c_nspm, fb.c_absorb_nspm,
-                    fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps,
-                    fb.terrain, fb.radial, fb.cos0, fb.sin0, fb.touching, fb.engage_m,
-                    fb.linear_model, fb.method, fb.mu_k, fb.kinetic, fb.hold_w, drag_dir)
+    g = fb.grip
+    return FreeBody(fb.craft, Grip(g.engage_m, g.kinetic, g.hold_w, drag_dir))
 
 
 @constructor
 def ground_at(fb, offset_s):
     """The ground ``offset_s`` after the tick's start. On a flat body it looks the same at every
     angle, so the tick's angle serves."""
-    om = fb.body_omega_radps
+    cr = fb.craft
+    om = cr.body_omega_radps
     if om == 0.0:
-        return Ground(fb.body_radius_m, fb.terrain, 1.0, 0.0, 0.0, fb.radial)
-    if fb.terrain.level:
-        return Ground(fb.body_radius_m, fb.terrain, fb.cos0, fb.sin0, om, fb.radial)
-    c, s = turned(fb.cos0, fb.sin0, om, offset_s)
-    return Ground(fb.body_radius_m, fb.terrain, c, s, om, fb.radial)
+        return Ground(cr.body_radius_m, cr.terrain, 1.0, 0.0, 0.0, cr.radial)
+    if cr.terrain.level:
+        return Ground(cr.body_radius_m, cr.terrain, cr.cos0, cr.sin0, om, cr.radial)
+    c, s = turned(cr.cos0, cr.sin0, om, offset_s)
+    return Ground(cr.body_radius_m, cr.terrain, c, s, om, cr.radial)
 
 
 @kernel
 def ground_turn(fb, dt_s):
     """(cos, sin) of the angle the body turns through in dt_s (sim.vec.cos_sinc's series)."""
-    if fb.body_omega_radps == 0.0:
+    if fb.craft.body_omega_radps == 0.0:
         return 1.0, 0.0
-    d = fb.body_omega_radps * dt_s
+    d = fb.craft.body_omega_radps * dt_s
     c, sinc = cos_sinc(d)
     return c, d * sinc
 
@@ -135,11 +140,12 @@ def ground_turn(fb, dt_s):
 def contact_at(fb, ground, motion, absorbing, engage_m):
     """The ground's action at one state (``motion``: a :class:`Motion`; ``engage_m``:
     sim.contact.evaluate)."""
-    if not fb.touching:
+    if not fb.craft.touching:
         return no_contact(motion.p)
-    return evaluate(ground, motion, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
-                    fb.c_absorb_nspm if absorbing else fb.c_nspm, absorbing, engage_m,
-                    fb.linear_model, FrictionForce(fb.mu_k, fb.kinetic, fb.hold_w, fb.drag_dir))
+    cr, g = fb.craft, fb.grip
+    return evaluate(ground, motion, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm),
+                    Dampers(cr.c_absorb_nspm if absorbing else cr.c_nspm, absorbing), engage_m,
+                    cr.linear_model, FrictionForce(cr.mu_k, g.kinetic, g.hold_w, g.drag_dir))
 
 
 @kernel
@@ -147,23 +153,23 @@ def acceleration(fb, ce, p, q):
     """v': point-mass gravity, thrust along the long axis, and the ground's force."""
     r2 = dot(p, p)
     r = math.sqrt(r2)
-    a = scale(p, -fb.gm_m3ps2 / (r2 * r))
-    force = add(ce.force_w, scale(quat_axis_z(q), fb.thrust_n))
-    m = fb.mass_kg
+    a = scale(p, -fb.craft.gm_m3ps2 / (r2 * r))
+    force = add(ce.force_w, scale(quat_axis_z(q), fb.craft.thrust_n))
+    m = fb.craft.mass_kg
     return add(a, (force[0] / m, force[1] / m, force[2] / m))
 
 
 @kernel
 def torque_body(fb, ce, q):
     """External torque in the body frame: the ground's, and the RCS's."""
-    return add(quat_rotate_inv(q, ce.torque_w), fb.rcs_torque_body_nm)
+    return add(quat_rotate_inv(q, ce.torque_w), fb.craft.rcs_torque_body_nm)
 
 
 @kernel
 def derivatives(fb, ce, p, v, q, w_b):
     """(p', v', q', omega_b') given the contact evaluation ``ce`` at the same instant."""
-    i_w = mul(fb.inertia_kgm2, w_b)
-    alpha_b = div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.inertia_kgm2)
+    i_w = mul(fb.craft.inertia_kgm2, w_b)
+    alpha_b = div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.craft.inertia_kgm2)
     return v, acceleration(fb, ce, p, q), quat_derivative(q, w_b), alpha_b
 
 
@@ -183,17 +189,26 @@ NO_HELD = Held((0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
                ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), False, 0.0)
 
 
+class Holding(NamedTuple):
+    """The feet whose static friction holds inside a step (as their constraint's force,
+    :func:`held_friction`), and the coefficient that bounds it."""
+
+    feet: tuple  # each foot: held (its regime static)
+    mu_s: float
+
+
 @kernel
 def _inv_inertia_w(fb, q, x):
     """I^-1 x for an inertial vector x (the principal inertia turned to the inertial frame)."""
-    return quat_rotate(q, div(quat_rotate_inv(q, x), fb.inertia_kgm2))
+    return quat_rotate(q, div(quat_rotate_inv(q, x), fb.craft.inertia_kgm2))
 
 
 @kernel
-def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
+def held_friction(fb, ground, ce, motion, holding):
     # (``ce``: the contact at this state, whose feet's friction normals serve here)
-    """The static friction of the pressing feet of ``held`` (those whose friction is static over
-    the step) as a constraint force inside the integrator (MODEL-NOTES 46): the force at their
+    """The static friction of the pressing feet of ``holding`` (a :class:`Holding`: those whose
+    friction is static over the step, and mu_s) at the state ``motion``, as a constraint force
+    inside the integrator (MODEL-NOTES 46): the force at their
     centre of pressure c (loads N_i = F_i |g_i|) and the moment about their load-weighted normal
     n that keep the point of the ship at c from slipping over the ground and the ship from turning
     about n (one held foot: the point alone), i.e. that make those accelerations zero given every
@@ -206,13 +221,15 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
     (sim.friction.coulomb), which correct what the step left. Capped at mu_s times the held
     feet's load; each foot's share (the force by load, the moment by load times its lever) is
     what that check starts from."""
+    p, v, q, w_b = motion
+    held, mu_s = holding
     if not ce.touching:
         return NO_HELD
     n_sum = 0.0
     c = (0.0, 0.0, 0.0)
     nrm = (0.0, 0.0, 0.0)
     count = 0
-    off = foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)
+    off = foot_offsets_w(q, fb.craft.leg_radius_m, fb.craft.com_height_m)
     for i in range(4):
         load = ce.foot_force_n[i] * ce.push_norm[i]
         if held[i] and load > 0.0:
@@ -227,13 +244,14 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
     c = scale(c, 1.0 / n_sum)
     nrm = unit(nrm)
     t1, t2 = tangent_basis(nrm)
-    m = fb.mass_kg
+    m = fb.craft.mass_kg
     omega_w = quat_rotate(q, w_b)
     r = sub(c, p)
     a0 = acceleration(fb, ce, p, q)
-    i_w = mul(fb.inertia_kgm2, w_b)
-    alpha_w = quat_rotate(q, div(sub(torque_body(fb, ce, q), cross(w_b, i_w)), fb.inertia_kgm2))
-    spin = (0.0, 0.0, fb.body_omega_radps)
+    i_w = mul(fb.craft.inertia_kgm2, w_b)
+    alpha_w = quat_rotate(q, div(sub(torque_body(fb, ce, q), cross(w_b, i_w)),
+                                 fb.craft.inertia_kgm2))
+    spin = (0.0, 0.0, fb.craft.body_omega_radps)
     acc = add(add(a0, cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
     acc = sub(acc, cross(spin, add(v, cross(omega_w, r))))  # the ground under c accelerates too
     b1, b2, b3 = dot(t1, acc), dot(t2, acc), dot(alpha_w, nrm)
@@ -301,12 +319,13 @@ def held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s):
 
 
 @kernel
-def derivatives_held(fb, ground, ce, p, v, q, w_b, held, mu_s):
+def derivatives_held(fb, ground, ce, motion, holding):
     """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
     the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
-    hf = held_friction(fb, ground, ce, p, v, q, w_b, held, mu_s)
-    i_w = mul(fb.inertia_kgm2, w_b)
+    hf = held_friction(fb, ground, ce, motion, holding)
+    p, v, q, w_b = motion
+    i_w = mul(fb.craft.inertia_kgm2, w_b)
     tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
-    alpha_b = div(sub(tau, cross(w_b, i_w)), fb.inertia_kgm2)
-    acc = add(acceleration(fb, ce, p, q), scale(hf.force_w, 1.0 / fb.mass_kg))
+    alpha_b = div(sub(tau, cross(w_b, i_w)), fb.craft.inertia_kgm2)
+    acc = add(acceleration(fb, ce, p, q), scale(hf.force_w, 1.0 / fb.craft.mass_kg))
     return (v, acc, quat_derivative(q, w_b), alpha_b), hf

@@ -15,18 +15,19 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     lowest_foot_penetration, no_contact)
-from touchdown.sim.dynamics import (Motion, contact_at, derivatives_held, ground_at, ground_turn,
-    held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at,
+    ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
-from touchdown.sim.friction import (coulomb, hold_footprint, law_of, per_foot, seed,
-    spread_over_step)
+from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
+    seed, spread_over_step)
 from touchdown.sim.integrators import RK4, advance, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
-from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, Footing,
-    NO_HOLD, NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_motion)
+from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
+    NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_footing, with_friction,
+    with_motion, with_pin)
 from touchdown.sim.vec import (add, cross, div, dot, fmax, fmin, norm, quat_axis_z, quat_mul,
     quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
@@ -54,9 +55,10 @@ def align_to_surface(q, r_hat):
 def ship_energy(fb, ground, p, v, q, w):
     """sim.energy of a free ship at one instant (a ship far above the ground for the whole tick
     stores nothing in its springs: its feet are not looked for)."""
-    return mechanical(Body(fb.gm_m3ps2, fb.body_radius_m, fb.body_omega_radps), fb.mass_kg,
-                      fb.inertia_kgm2, Legs(fb.leg_radius_m, fb.com_height_m, fb.k_npm),
-                      Motion(p, v, q, w), ground, fb.touching)
+    cr = fb.craft
+    return mechanical(Body(cr.gm_m3ps2, cr.body_radius_m, cr.body_omega_radps), cr.mass_kg,
+                      cr.inertia_kgm2, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm),
+                      Motion(p, v, q, w), ground, cr.touching)
 
 
 class EnergyRef(NamedTuple):
@@ -115,10 +117,10 @@ def passivity_guard(fb, ground, motion, ref, passive, airborne):
     f_w = f_all * _guard_factor(ex_rot, e.rotational_j)
     # only where a correction is due: (v - v_surf) + v_surf is not v in floating point
     if f_v != 1.0:
-        v_surf = surface_velocity(fb.body_omega_radps, p)
+        v_surf = surface_velocity(fb.craft.body_omega_radps, p)
         v = add(v_surf, scale(sub(v, v_surf), f_v))
     if f_w != 1.0:
-        spin_b = body_spin_in_body_frame(fb.body_omega_radps, q)
+        spin_b = body_spin_in_body_frame(fb.craft.body_omega_radps, q)
         w = add(spin_b, scale(sub(w, spin_b), f_w))
     taken_tr = e.translational_j * (1.0 - f_v * f_v)
     taken_rot = e.rotational_j * (1.0 - f_w * f_w)
@@ -145,13 +147,14 @@ def align_at_touchdown(fb, ground, p, v, q, w):
     a ship too slow to pay is not stood up and touches down as it is."""
     r_hat = unit(p)
     q1 = align_to_surface(q, r_hat)
-    w1 = body_spin_in_body_frame(fb.body_omega_radps, q1)
-    pen0 = lowest_foot_penetration(ground, p, q, fb.leg_radius_m, fb.com_height_m)
-    pen1 = lowest_foot_penetration(ground, p, q1, fb.leg_radius_m, fb.com_height_m)
+    w1 = body_spin_in_body_frame(fb.craft.body_omega_radps, q1)
+    pen0 = lowest_foot_penetration(ground, p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
+    pen1 = lowest_foot_penetration(ground, p, q1, fb.craft.leg_radius_m, fb.craft.com_height_m)
     p1 = add(p, scale(r_hat, fmax(pen1 - pen0, 0.0)))
-    cost = total(ship_energy(fb, ground, p1, v, q1, w1)) - total(ship_energy(fb, ground, p, v, q, w))
-    v_rad = dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
-    spare = v_rad * v_rad - 2.0 * cost / fb.mass_kg
+    cost = (total(ship_energy(fb, ground, p1, v, q1, w1))
+            - total(ship_energy(fb, ground, p, v, q, w)))
+    v_rad = dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
+    spare = v_rad * v_rad - 2.0 * cost / fb.craft.mass_kg
     pays = cost > 0.0 and v_rad < 0.0 and spare >= 0.0
     if not (cost <= 0.0 or pays):
         return Aligned(p, v, q, w, False)
@@ -209,36 +212,46 @@ class FootRoles(NamedTuple):
     absorbing: bool  # the contact is the absorbers' (SEED-NOTES 1)
 
 
+class StepFrom(NamedTuple):
+    """Where a step of the method starts: its instant, the ship's motion there, and the contact
+    evaluated there (with the feet's roles the step is taken with)."""
+
+    t_s: float  # from the tick's start
+    motion: Motion
+    ce: ContactEval
+
+
 @separate
-def substep(cfg, fb, roles, h, motion, ce_start, t_start):
-    """One step of the method from ``motion``, the feet pressing from ``roles.engage`` and those
-    of ``roles.dragged`` dragged by kinetic friction as a force (``ce_start`` evaluated so); then
-    Coulomb's impulses at the other pressing feet (or the seed's law), spread over the step, and
-    a held footprint kept where the ground carried it."""
+def substep(cfg, fb, roles, h, start):
+    """One step of the method from ``start`` (a :class:`StepFrom`), the feet pressing from
+    ``roles.engage`` and those of ``roles.dragged`` dragged by kinetic friction as a force
+    (``start.ce`` evaluated so); then Coulomb's impulses at the other pressing feet (or the seed's
+    law), spread over the step, and a held footprint kept where the ground carried it."""
     engage, sliding, dragged, absorbing = roles
+    t_start, motion, ce_start = start
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
-    carried = fb.hold_w
+    carried = fb.grip.hold_w
     f0 = ce_start.foot_force_n
     holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
                or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
     # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
-    if fb.method == RK4 and holding and per_foot(cfg):
+    if fb.craft.method == RK4 and holding and per_foot(cfg):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, held,
-                      cfg.friction_static)
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
+                      Holding(held, cfg.friction_static))
         res = rh.stepped
         hi = rh.held_impulse_w
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
                    scale(hi[3], 1.0 / h))
     else:
-        res = advance(fb.method, body, h, motion, ce_start, absorbing, t_start)
+        res = advance(fb.craft.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
-    if not fb.touching:
+    if not fb.craft.touching:
         return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
                        res.located, pressed, NO_HOLD)
     if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
@@ -248,18 +261,18 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
     law = law_of(cfg)
     if not per_foot(cfg):
         j_n = j[0] + j[1] + j[2] + j[3]
-        fr = seed(law, fb.mass_kg, res.p, res.v, res.w, j_n, ground_end)
+        fr = seed(law, fb.craft.mass_kg, res.p, res.v, res.w, j_n, ground_end)
         return SubStep(res.p, fr.vel_mps, res.q, res.w, fr.sliding, fr.impulse_ns / h,
                        res.peak_penetration_m, res.located, pressed, NO_HOLD)
-    ft = feet(ground_end, res.p, res.q, fb.leg_radius_m, fb.com_height_m)
-    fr = coulomb(law, fb.mass_kg, fb.inertia_kgm2, res, ft, sliding,
-                 FrictionForce(fb.mu_k, dragged, carried, NO_HOLD), ground_end, h)
+    ft = feet(ground_end, res.p, res.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
+    fr = coulomb(law, Rigid(fb.craft.mass_kg, fb.craft.inertia_kgm2), res, FeetOn(ground_end, ft),
+                 sliding, FrictionForce(fb.craft.mu_k, dragged, carried, NO_HOLD), h)
     p2, q2 = spread_over_step(res.p, res.q, res.v, fr.vel_mps, res.w, fr.omega_body_radps, h)
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
-        ft2 = feet(ground_end, p2, q2, fb.leg_radius_m, fb.com_height_m)
+        ft2 = feet(ground_end, p2, q2, fb.craft.leg_radius_m, fb.craft.com_height_m)
         # the feet where the step began (what ce_start was evaluated on)
-        ft0 = feet(ground_at(fb, t_start), p, q, fb.leg_radius_m, fb.com_height_m)
+        ft0 = feet(ground_at(fb, t_start), p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
         p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
     return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
                    res.peak_penetration_m, res.located, pressed, fr.hold_w)
@@ -268,7 +281,8 @@ def substep(cfg, fb, roles, h, motion, ce_start, t_start):
 @kernel
 def _a_down(fb, p, q, r_hat):
     """Acceleration toward the ground along local up in free flight: g - T cos(tilt) / m."""
-    return fb.gm_m3ps2 / dot(p, p) - fb.thrust_n * dot(quat_axis_z(q), r_hat) / fb.mass_kg
+    cr = fb.craft
+    return cr.gm_m3ps2 / dot(p, p) - cr.thrust_n * dot(quat_axis_z(q), r_hat) / cr.mass_kg
 
 
 #: Most contact events one sub-step is split at: a foot starting to press (its onset) or ceasing
@@ -309,7 +323,7 @@ class Memo(NamedTuple):
     motion: Motion
     absorbing: bool
     engage: tuple
-    kinetic: tuple  # the FreeBody's (sim.dynamics.with_feet)
+    kinetic: tuple  # the FreeBody's grip (sim.dynamics.with_feet)
     hold_w: tuple  # the FreeBody's (with_hold)
     drag_dir: tuple  # the FreeBody's (with_drag_dir)
 
@@ -337,7 +351,8 @@ def _same_motion(a, b):
 @kernel
 def memo_of(fb, ce, t_s, m, absorbing, engage):
     """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
-    return Memo(True, ce, t_s, m, absorbing, engage, fb.kinetic, fb.hold_w, fb.drag_dir)
+    g = fb.grip
+    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w, g.drag_dir)
 
 
 @kernel
@@ -352,9 +367,9 @@ def contact_memo(memo, fb, t_s, m, absorbing, engage):
     """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
     evaluated at exactly these."""
     if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
-            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.kinetic)
-            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.hold_w)
-            and _same_vecs(memo.drag_dir, fb.drag_dir)):
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
+            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.grip.hold_w)
+            and _same_vecs(memo.drag_dir, fb.grip.drag_dir)):
         return memo.ce
     return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
 
@@ -389,11 +404,12 @@ def _pressing(ce, absorbing, engage):
 
 
 @kernel
-def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
-    """How far each foot of ``ev`` is past its event, m: positive once it has happened. Onset:
-    its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the largest."""
-    ce = contact_at(fb, ground_at(fb, t_s), Motion(p, v, q, w), absorbing, ENGAGE_AT_GROUND)
-    c_leg = fb.c_absorb_nspm if absorbing else fb.c_nspm
+def _gaps(fb, t_s, motion, absorbing, ev):
+    """How far each foot of ``ev`` is past its event at the state ``motion``, m: positive once it
+    has happened. Onset: its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the
+    largest."""
+    ce = contact_at(fb, ground_at(fb, t_s), motion, absorbing, ENGAGE_AT_GROUND)
+    c_leg = fb.craft.c_absorb_nspm if absorbing else fb.craft.c_nspm
     out = -math.inf
     for i in range(4):
         if ev.onset[i]:
@@ -402,12 +418,13 @@ def _gaps(fb, t_s, p, v, q, w, absorbing, ev):
             if absorbing:
                 out = fmax(out, -ce.pen_m[i])
             else:
-                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.k_npm) * ce.pen_rate_mps[i]))
+                out = fmax(out, -(ce.pen_m[i] + (c_leg / fb.craft.k_npm) * ce.pen_rate_mps[i]))
         if ev.stop[i]:  # a slip's turning (m/s): past it once the slip runs against where it ran
             out = fmax(out, -dot(ce.slip_w[i], ev.stop_dir[i]))
     if ev.break_mu > 0.0:  # the holding feet's breakaway: their cones used past the full
-        held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-        hf = held_friction(fb, ground_at(fb, t_s), ce, p, v, q, w, held, ev.break_mu)
+        kin = fb.grip.kinetic
+        held = (not kin[0], not kin[1], not kin[2], not kin[3])
+        hf = held_friction(fb, ground_at(fb, t_s), ce, motion, Holding(held, ev.break_mu))
         out = fmax(out, hf.use - 1.0)
     return out
 
@@ -497,7 +514,8 @@ def holds(cfg, fb, t_s, st, ft, ev):
             not (sl[2] and not done[2]), not (sl[3] and not done[3]))
     ground = ground_at(fb, t_s)
     ce = contact_at(fb, ground, Motion(st.p, st.v, st.q, st.w), ft.absorbing, ENGAGE_AT_GROUND)
-    hf = held_friction(fb, ground, ce, st.p, st.v, st.q, st.w, held, cfg.friction_static)
+    hf = held_friction(fb, ground, ce, Motion(st.p, st.v, st.q, st.w),
+                       Holding(held, cfg.friction_static))
     if hf.capped:
         return NO_SLIP, done
     return done, NO_SLIP
@@ -512,24 +530,24 @@ class Piece(NamedTuple):
 
 
 @separate
-def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
-    """The earliest instant inside (0, h) at which one of the feet of ``ev`` starts or stops
-    pressing, and the step to it (the feet about to press kept from pressing): regula falsi
-    (Illinois) on :func:`_gaps`, each trial a step of the method from the start. A contact that
-    starts or ends inside a step is thus integrated like a crossing, for any foot (the fourth as
-    the first), and happens where it does, not at the step's end. The step returned ends just
-    past the event (its gap within EVENT_TOL_M above zero)."""
+def to_event(cfg, fb, roles, h, start, ev):
+    """The earliest instant inside (0, h) of a step from ``start`` (a :class:`StepFrom`) at which
+    one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press
+    kept from pressing): regula falsi (Illinois) on :func:`_gaps`, each trial a step of the method
+    from the start. A contact that starts or ends inside a step is thus integrated like a crossing,
+    for any foot (the fourth as the first), and happens where it does, not at the step's end. The
+    step returned ends just past the event (its gap within EVENT_TOL_M above zero)."""
     engage, sliding, dragged, absorbing = roles
-    p, v, q, w = motion
+    t0 = start.t_s
     on = ev.onset
     held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
                 NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
     held_roles = FootRoles(held_off, sliding, dragged, absorbing)
     body = with_feet(fb, held_off, dragged)
     t_lo = 0.0
-    g_lo = _gaps(body, t0, p, v, q, w, absorbing, ev)
-    st_hi = substep(cfg, fb, held_roles, h, motion, ce_start, t0)
-    g_hi = _gaps(body, t0 + h, st_hi.p, st_hi.v, st_hi.q, st_hi.w, absorbing, ev)
+    g_lo = _gaps(body, t0, start.motion, absorbing, ev)
+    st_hi = substep(cfg, fb, held_roles, h, start)
+    g_hi = _gaps(body, t0 + h, Motion(st_hi.p, st_hi.v, st_hi.q, st_hi.w), absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
         return Piece(h, st_hi, False)
     t_hi = h
@@ -538,8 +556,8 @@ def to_event(cfg, fb, roles, h, motion, ce_start, t0, ev):
         t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
         if not (t > t_lo and t < t_hi):
             t = 0.5 * (t_lo + t_hi)
-        st = substep(cfg, fb, held_roles, t, motion, ce_start, t0)
-        g = _gaps(body, t0 + t, st.p, st.v, st.q, st.w, absorbing, ev)
+        st = substep(cfg, fb, held_roles, t, start)
+        g = _gaps(body, t0 + t, Motion(st.p, st.v, st.q, st.w), absorbing, ev)
         if g > 0.0:
             t_hi, g_hi, st_hi = t, g, st
             if side == 1:
@@ -579,11 +597,12 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     speed = norm(s0)
     if not speed > cfg.stick_speed_mps:
         return True
-    drag = fb.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
+    drag = fb.craft.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
                           ce1.foot_force_n[i] * ce1.push_norm[i])
     s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
-    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.leg_radius_m, fb.com_height_m)[i], s_hat))
-    inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
+                                                  fb.craft.com_height_m)[i], s_hat))
+    inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
 
@@ -604,12 +623,13 @@ def slip_rates(cfg, fb, ground, ce, m):
     up (under an impact's load, the other feet sliding and one holding) has not, though its
     friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
     (its direction turns within a fraction of the step)."""
-    held = (not fb.kinetic[0], not fb.kinetic[1], not fb.kinetic[2], not fb.kinetic[3])
-    d, _ = derivatives_held(fb, ground, ce, m.p, m.v, m.q, m.w, held, cfg.friction_static)
-    off = foot_offsets_w(m.q, fb.leg_radius_m, fb.com_height_m)
+    kin = fb.grip.kinetic
+    held = (not kin[0], not kin[1], not kin[2], not kin[3])
+    d, _ = derivatives_held(fb, ground, ce, m, Holding(held, cfg.friction_static))
+    off = foot_offsets_w(m.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
-    spin = (0.0, 0.0, fb.body_omega_radps)
+    spin = (0.0, 0.0, fb.craft.body_omega_radps)
     speeds = (0.0, 0.0, 0.0, 0.0)
     rates = (0.0, 0.0, 0.0, 0.0)
     owns = (0.0, 0.0, 0.0, 0.0)
@@ -625,8 +645,8 @@ def slip_rates(cfg, fb, ground, ce, m):
             acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
             rate = dot(acc, s_hat)
             arm = quat_rotate_inv(m.q, cross(r, s_hat))
-            inv_m = 1.0 / fb.mass_kg + dot(arm, div(arm, fb.inertia_kgm2))
-            own = fb.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
+            inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+            own = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
         speeds = (speed if i == 0 else speeds[0], speed if i == 1 else speeds[1],
                   speed if i == 2 else speeds[2], speed if i == 3 else speeds[3])
         rates = (rate if i == 0 else rates[0], rate if i == 1 else rates[1],
@@ -675,7 +695,7 @@ def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
     """The sliding feet dragged by their friction as a force over a step of h: those that could
     not stop within it (:func:`_could_stop`; none under the seed's law)."""
     out = (False, False, False, False)
-    if fb.mu_k > 0.0:
+    if fb.craft.mu_k > 0.0:
         for i in range(4):
             d = sliding[i] and not _could_stop(cfg, fb, ce0, ce1, q, i, h)
             out = (out[0] or (d and i == 0), out[1] or (d and i == 1),
@@ -745,7 +765,7 @@ def touchdown(cfg, fb, ground, p, v, q, w):
     """An impact slower than bounce_speed is taken by the absorbers from its first instant
     (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18)."""
     r_hat = unit(p)
-    impact = -dot(sub(v, surface_velocity(fb.body_omega_radps, p)), r_hat)
+    impact = -dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
     aligned = False
     if cfg.align_on_touchdown:
         al = align_at_touchdown(fb, ground, p, v, q, w)
@@ -761,7 +781,7 @@ def clear_instant(fb, ce, p, v, q, w, h):
     the spring had let go before). Clamped to the step."""
     r_hat = unit(p)
     z = -ce.max_penetration_m
-    om = fb.body_omega_radps
+    om = fb.craft.body_omega_radps
     foot_v = add(sub(v, surface_velocity(om, ce.lowest_foot_w)),
                  cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p)))
     u = dot(foot_v, r_hat)
@@ -792,9 +812,12 @@ class Flight(NamedTuple):
 
 
 class SubStepStart(NamedTuple):
-    """A sub-step's start, as its end's transitions compare with it."""
+    """A sub-step: where it starts and ends, and its start's state, as its end's transitions
+    compare with it."""
 
     t_s: float  # from the tick's start
+    t_end_s: float  # where it ends, from the tick's start
+    h_s: float  # its length
     pen_m: float  # the deepest foot's penetration
     v_rad_mps: float  # velocity along local up
     cos_tilt: float
@@ -807,6 +830,7 @@ class PieceStart(NamedTuple):
     stepped from."""
 
     ship: Ship
+    t_s: float  # from the tick's start
     engage: tuple  # each foot's engage threshold from here (sim.contact.evaluate)
     drag: tuple  # the sliding feet dragged by kinetic friction as a force
     ce: ContactEval  # the contact at this instant
@@ -847,7 +871,7 @@ def touchdown_transitions(cfg, fb, s, td, t_abs, log):
     """The transitions of a touchdown located at ``t_abs`` (``s`` already aligned), emitted in
     order; returns the state they lead to (:func:`touchdown_rules`)."""
     m = s.motion
-    entered, then = touchdown_rules(cfg, fb.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
+    entered, then = touchdown_rules(cfg, fb.craft.body_omega_radps, m.p, m.v, m.q, td.impact_mps,
                                     td.aligned)
     emit_touchdown(log, entered, then, td.impact_mps, t_abs)
     return then
@@ -858,26 +882,28 @@ def pinned_at(fb, s, ce, t_s):
     """The pin of a ship that tips or crashes ``t_s`` into the tick: its pose in the body-fixed
     frame, and a tipped ship's pivot (its lowest foot) and rate of turn about it."""
     m = s.motion
-    c, s_ = turned(fb.cos0, fb.sin0, fb.body_omega_radps, t_s)
+    c, s_ = turned(fb.craft.cos0, fb.craft.sin0, fb.craft.body_omega_radps, t_s)
     pin_p, pin_q = pin_pose(m.p, m.q, c, s_)
     if s.surface_state != TIPPED:
         return Pin(pin_p, pin_q, s.pin.pivot_bf_m, s.pin.rate_radps)
     return Pin(pin_p, pin_q, rotate_z(ce.lowest_foot_w, c, -s_),
-               rate_from_momentum(fb.body_omega_radps, fb.mass_kg, fb.inertia_kgm2, m,
-                                  ce.lowest_foot_w))
+               rate_from_momentum(fb.craft.body_omega_radps, fb.craft.mass_kg,
+                                  fb.craft.inertia_kgm2, m, ce.lowest_foot_w))
 
 
 @kernel
-def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
-    """A piece's start ``t_abs`` into the tick (``fb`` carrying the held feet's friction): where
-    the first foot is at the ground while the ship flies, the seed's touchdown (its alignment,
-    the absorbers, its transitions: MODEL-NOTES 18); then the feet that meet the ground sliding
-    or holding (``onset_now``: those the last located event touched). ``memo``: the last contact
-    evaluated (:class:`Memo`)."""
+def piece_start(cfg, fb, ps, onset_now, log):
+    """A piece's start ``ps`` (:class:`PieceStart`: the ship, its instant ``t_s`` into the tick,
+    the feet's engage thresholds, the guard's reference and the last contact evaluated, as the
+    last piece left them; ``fb`` carrying the held feet's friction) with its touchdown instant's
+    rules applied: where the first foot is at the ground while the ship flies, the seed's
+    touchdown (its alignment, the absorbers, its transitions: MODEL-NOTES 18); then the feet that
+    meet the ground sliding or holding (``onset_now``: those the last located event touched)."""
+    s, t_abs, engage, e_ref, memo = ps.ship, ps.t_s, ps.engage, ps.e_ref, ps.memo
     ground_y = ground_at(fb, t_abs)
     m, ft = s.motion, s.footing
     drag = ft.sliding
-    carried = fb.hold_w
+    carried = fb.grip.hold_w
     aligned = False
     fb_y = with_feet(fb, engage, drag)
     ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
@@ -893,15 +919,15 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
         fb = with_hold(fb, NO_HOLD)
         ft = fresh_footing(td.absorbing)
         drag = ft.sliding
-        s = Ship(FLYING, m, s.mass_kg, s.fuel_kg, ft, s.pin)
+        s = with_footing(with_motion(s, FLYING, m), ft)
         ce_y = contact_at(with_feet(fb, ENGAGE_AT_GROUND, drag), ground_y, m, ft.absorbing,
                           ENGAGE_AT_GROUND)
         engage = engaged_near(ce_y)
         was = ENGAGE_AT_GROUND
         s = with_motion(s, touchdown_transitions(cfg, fb, s, td, t_abs, log), m)
         if s.surface_state != CONTACT:
-            s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg, ft, pinned_at(fb, s, ce_y, t_abs))
-            return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, True,
+            s = with_pin(s, pinned_at(fb, s, ce_y, t_abs))
+            return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, True,
                               no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
             e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
@@ -909,12 +935,10 @@ def piece_start(cfg, fb, s, engage, onset_now, t_abs, e_ref, log, memo):
         fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
                  engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
         drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
-        s = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
-                 Footing(ft.absorbing, drag, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
-                         ft.hold_w), s.pin)
+        s = with_footing(s, with_friction(ft, drag, ft.hold_w))
     fb_y = with_feet(fb, engage, drag)
     ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
-    return PieceStart(s, engage, drag, ce_y, carried, aligned, e_ref, False,
+    return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
                       memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
 
@@ -935,20 +959,22 @@ class PieceStep(NamedTuple):
 
 
 @constructor
-def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
+def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
     (:func:`to_event`), unless ``may_split`` is False (the pieces' bound); and, where a sliding
     foot would take its friction as an impulse (:func:`stiff_feet`), no longer than ``fine_s``
-    (0: as long as the step)."""
+    (0: as long as the step). ``stiff``: the feet whose stops are not located for the rest of
+    the sub-step."""
+    s, t_abs = start.ship, start.t_s
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9)
-            and fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
+    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.touching
+            and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
@@ -957,10 +983,11 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
             # in the step (MODEL-NOTES 46); the piece is cut to equal parts of at most
             # stiff_substep, each taken as a piece of its own
             rem = rem / math.ceil(rem / fine_s - 1e-9)
-    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y, t_abs)
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                 StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
-    if fb.touching and fb.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+    if fb.craft.touching and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
@@ -987,8 +1014,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
             drag = near
             body = with_feet(fb, engage, drag)
             ce_y = contact_at(body, ground_at(fb, t_abs), m, ft.absorbing, engage)
-            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                         t_abs)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                         StepFrom(t_abs, m, ce_y))
             m_e = Motion(st.p, st.v, st.q, st.w)
             ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
             memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
@@ -999,8 +1026,8 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
             stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
-                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                              t_abs, stop)
+                              FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                              StepFrom(t_abs, m, ce_y), stop)
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
@@ -1011,7 +1038,7 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
                 st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
-    if (fb.touching and may_split and fb.method == RK4 and per_foot(cfg)
+    if (fb.craft.touching and may_split and fb.craft.method == RK4 and per_foot(cfg)
             and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)
@@ -1021,24 +1048,23 @@ def step_piece(cfg, fb, s, start, rem, t_abs, may_split, stiff, fine_s):
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
         memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
-        if held_friction(body, ground_e, ce_e, st.p, st.v, st.q, st.w, held,
-                         cfg.friction_static).use > 1.0:
-            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m.p, m.v, m.q, m.w, held,
-                                cfg.friction_static)
+        holding = Holding(held, cfg.friction_static)
+        if held_friction(body, ground_e, ce_e, m_e, holding).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
             if hf0.use < 1.0:
                 brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
                                  cfg.friction_static, True)
-                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m,
-                              ce_y, t_abs, brk)
+                pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                              StepFrom(t_abs, m, ce_y), brk)
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
                                      memo, False)
-    if fb.touching and may_split:
+    if fb.craft.touching and may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
-            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, m, ce_y,
-                          t_abs, ev)
+            pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                          StepFrom(t_abs, m, ce_y), ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
                                  memo, False)
@@ -1092,10 +1118,8 @@ def stuck(st, stopped):
 def stepped(s, st):
     """``s`` moved by a (piece of a) sub-step ``st``: its motion, each foot's regime and the held
     feet's friction."""
-    ft = s.footing
-    return Ship(s.surface_state, Motion(st.p, st.v, st.q, st.w), s.mass_kg, s.fuel_kg,
-                Footing(ft.absorbing, st.sliding, ft.settle_ticks, ft.settle_for_s,
-                        ft.settle_margin, st.hold_w), s.pin)
+    return with_footing(with_motion(s, s.surface_state, Motion(st.p, st.v, st.q, st.w)),
+                        with_friction(s.footing, st.sliding, st.hold_w))
 
 
 class Pieces(NamedTuple):
@@ -1120,9 +1144,17 @@ class SubStepEnd(NamedTuple):
 
 
 @kernel
-def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
-    """The contact at a sub-step's end (``t_end`` into the tick; ``memo``'s if it was evaluated
-    there), and the passivity guard there (``sim.energy_guard``)."""
+def is_passive(fb):
+    """No thrust and no RCS torque: nothing can add energy (:func:`passivity_guard`)."""
+    return (fb.craft.thrust_n == 0.0 and fb.craft.rcs_torque_body_nm[0] == 0.0
+            and fb.craft.rcs_torque_body_nm[1] == 0.0 and fb.craft.rcs_torque_body_nm[2] == 0.0)
+
+
+@kernel
+def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
+    """The contact at a sub-step's end (``start.t_end_s`` into the tick; ``memo``'s if it was
+    evaluated there), and the passivity guard there (``sim.energy_guard``)."""
+    t_end = start.t_end_s
     m, ft = s.motion, s.footing
     ground = ground_at(fb, t_end)
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
@@ -1133,7 +1165,7 @@ def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
-    gd = passivity_guard(fb, ground, m, e_ref, passive, airborne)
+    gd = passivity_guard(fb, ground, m, e_ref, is_passive(fb), airborne)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
@@ -1146,7 +1178,7 @@ def guard_substep(cfg, fb, s, e_ref, passive, pieces, start, t_end, memo):
 def substep_peak(fb, start, pieces, pen, v_rad, h):
     """The deepest penetration over a sub-step: located by the method, or interpolated between
     its ends (telemetry)."""
-    if not fb.touching:
+    if not fb.craft.touching:
         return 0.0
     if pieces.located:
         return fmax(fmax(start.pen_m, pen), pieces.peak_m)
@@ -1165,13 +1197,15 @@ class Transitioned(NamedTuple):
 
 
 @kernel
-def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
+def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     """The in-flight transitions, decided on a sub-step's end state: a touchdown the onsets did
     not locate (the method's last resort), a crash in contact, a liftoff (all feet clear and
     moving away), a tip past tipped_angle (or its crash); each emitted with the instant it
-    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd)."""
+    happened inside the sub-step. ``end``: the sub-step's end after the guard (a SubStepEnd);
+    ``start``: the sub-step (a SubStepStart); ``ground``: the ground at its end."""
     s, ce, e_ref = end.ship, end.ce, end.e_ref
-    om = fb.body_omega_radps
+    t_end, h = start.t_end_s, start.h_s
+    om = fb.craft.body_omega_radps
     m, ft = s.motion, s.footing
     p, v, q, w = m.p, m.v, m.q, m.w
     surf = s.surface_state
@@ -1240,12 +1274,12 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
         surf = CRASHED
     # pinned for the rest of the tick: crashed, at rest on the hull, or handed to the pivot model
     stop = crash or (hull and not hull_crash) or (tip and cfg.tipped_model != FULL_TIPPED)
-    s = Ship(surf, Motion(p, v, q, w), s.mass_kg, s.fuel_kg, ft, s.pin)
+    s = with_footing(with_motion(s, surf, Motion(p, v, q, w)), ft)
     if stop:
         pin = pinned_at(fb, s, ce, t_end)
         if hull:  # at rest on the hull
             pin = Pin(pin.pos_bf_m, pin.quat_bf, pin.pivot_bf_m, 0.0)
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg, ft, pin)
+        s = with_pin(s, pin)
     # when each happened inside the sub-step
     if touch:
         t_ev = t_end
@@ -1273,6 +1307,28 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, t_end, h, log):
 
 
 # -- 2. free flight: the stages in order ----------------------------------------------------------
+@kernel
+def fly_clear(cfg, fb, s):
+    """A ship clear of the ground for the whole tick (``fb.craft.touching`` False:
+    sim.phases.near_ground found it out of the feet's reach): one step of the method over the tick
+    under gravity, thrust and RCS torque, then the passivity guard; no foot can press, so no event,
+    friction or transition can happen. The same operations, in the same order, as
+    :func:`free_flight` does for such a ship (the same bits), without its pieces, contact
+    evaluations and transitions."""
+    m, ft = s.motion, s.footing
+    dt = cfg.dt_s
+    res = advance(fb.craft.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
+    v, w, removed = res.v, res.w, 0.0
+    if cfg.energy_guard:
+        e_ref = energy_ref(ship_energy(fb, ground_at(fb, 0.0), m.p, m.v, m.q, m.w))
+        gd = passivity_guard(fb, ground_at(fb, dt), Motion(res.p, res.v, res.q, res.w), e_ref,
+                             is_passive(fb), True)
+        v, w, removed = gd.v, gd.w, gd.removed_j
+    s = with_footing(with_motion(s, s.surface_state, Motion(res.p, v, res.q, w)),
+                     with_friction(ft, ft.sliding, NO_HOLD))
+    return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
+
+
 @separate
 def free_flight(here, fb, s, n_sub, carry, log):
     """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
@@ -1291,7 +1347,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
     h = dt / n_sub
-    om = fb.body_omega_radps
+    om = fb.craft.body_omega_radps
     m = s.motion
     friction_n = 0.0
     peak = 0.0
@@ -1300,16 +1356,14 @@ def free_flight(here, fb, s, n_sub, carry, log):
     ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
-    passive = (fb.thrust_n == 0.0 and fb.rcs_torque_body_nm[0] == 0.0
-               and fb.rcs_torque_body_nm[1] == 0.0 and fb.rcs_torque_body_nm[2] == 0.0)
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
-    carried = fb.hold_w  # the friction the FreeBody carries (with_hold)
+    carried = fb.grip.hold_w  # the friction the FreeBody carries (with_hold)
     ft0 = s.footing
     # the settle thresholds at the tick's start: held for settle_for_s already, or not
     run = SettleRun(True, ft0.settle_margin,
                     -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
-    sample = fb.touching and s.surface_state == CONTACT
+    sample = fb.craft.touching and s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     # the stiff feet's pieces (sim.stiff_substep): in the sub-steps of an impact
@@ -1317,7 +1371,8 @@ def free_flight(here, fb, s, n_sub, carry, log):
         else 0.0
     for j in range(n_sub):
         m = s.motion
-        start = SubStepStart(j * h, ce.max_penetration_m, v_rad, dot(quat_axis_z(m.q), unit(m.p)))
+        start = SubStepStart(j * h, (j + 1) * h, h, ce.max_penetration_m, v_rad,
+                             dot(quat_axis_z(m.q), unit(m.p)))
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
@@ -1329,10 +1384,10 @@ def free_flight(here, fb, s, n_sub, carry, log):
             t_abs = start.t_s + t_in
             carried = s.footing.hold_w if carry else NO_HOLD
             fb_k = with_hold(fb, carried)
-            ps = PieceStart(s, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
+            ps = PieceStart(s, t_abs, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False, memo)
-            if fb.touching:
-                ps = piece_start(cfg, fb_k, s, engage, pieces.onset, t_abs, e_ref, log, memo)
+            if fb.craft.touching:
+                ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
                 s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
                 pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
                                 pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
@@ -1341,7 +1396,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
                     pinned_now = True
                     break
                 fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, s, ps, h - t_in, t_abs, events < MAX_PIECES, stiff,
+            pc = step_piece(cfg, fb_k, ps, h - t_in, events < MAX_PIECES, stiff,
                             fine_s if refined < MAX_REFINED else 0.0)
             memo = pc.memo
             st = pc.step
@@ -1366,14 +1421,14 @@ def free_flight(here, fb, s, n_sub, carry, log):
         if stop:
             break
         fb_k = with_hold(fb, carried)
-        t_end = (j + 1) * h
+        t_end = start.t_end_s
         ground = ground_at(fb_k, t_end)
-        end = guard_substep(cfg, fb_k, s, e_ref, passive, pieces, start, t_end, memo)
+        end = guard_substep(cfg, fb_k, s, e_ref, pieces, start, memo)
         guard_j = guard_j + end.removed_j
         m = end.ship.motion
         peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
                                        dot(m.v, unit(m.p)), h))
-        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, t_end, h, log)
+        tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
         # the end's contact serves the next sub-step's start where it asks for the same
         memo = end.memo
@@ -1397,8 +1452,6 @@ def free_flight(here, fb, s, n_sub, carry, log):
         ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt),
                         Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
     if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
-        s = Ship(surf, s.motion, s.mass_kg, s.fuel_kg,
-                 Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
-                         ft.settle_margin, NO_HOLD), s.pin)
+        s = with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
     return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
                   run if sample and s.surface_state == CONTACT else NO_RUN)

@@ -111,6 +111,21 @@ def tangent_basis(n_hat):
     return t1, cross(n_hat, t1)
 
 
+class Rigid(NamedTuple):
+    """The ship as friction's impulses move it: a rigid body of mass m and principal inertia I."""
+
+    mass_kg: float
+    inertia_kgm2: tuple  # principal moments, body frame
+
+
+class FeetOn(NamedTuple):
+    """The four feet at one instant (sim.contact.Feet) on the ground as it is then
+    (sim.contact.Ground)."""
+
+    ground: object
+    feet: object
+
+
 class Patch(NamedTuple):
     """The footprint as friction sees it."""
 
@@ -443,12 +458,15 @@ def _slipping(a_mat, slip, lam, active, stick_speed_mps):
 
 
 @kernel
-def _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m):
+def _dragged_only(law, rigid, stepped, end, j_n, normals, sliding):
     """:func:`coulomb` where no pressing foot takes an impulse (each is dragged by its friction as
     a force, or none presses): the same numbers, without the solve's arrays. The slips after are
     the slips before (the solve adds no impulse to them), each foot kinetic while it slips faster
     than the stick speed; one sweep, as the solve counts a solve with nothing to do."""
     mu_k, vel_mps, omega_b = law.mu_k, stepped.v, stepped.w
+    ground, ft = end
+    omega_w = quat_rotate(stepped.q, omega_b)
+    inv_m = 1.0 / rigid.mass_kg
     tol2 = law.stick_speed_mps * law.stick_speed_mps
     drag = 0.0
     mean = (0.0, 0.0, 0.0)
@@ -476,16 +494,18 @@ def _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_
 
 
 @separate
-def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, ground, h):
+def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     """Coulomb friction at each pressing foot (module docstring) of a ship of mass m and principal
-    inertia I, after a step of length h (``stepped``: its end state and each foot's normal impulse
+    inertia I (``rigid``, a :class:`Rigid`), after a step of length h (``stepped``: its end state and each foot's normal impulse
     J_i, sim.integrators.Stepped). ``friction_force``: the friction that acted as a force during
     the step (sim.contact.FrictionForce): the feet of its ``kinetic`` were dragged by mu_k N_i
     (sim.contact.evaluate) and take no impulse; its ``hold_w`` carried the holding feet's static
     friction in. Each other foot's impulse lies in its disk: mu_k J_i if it slides (``sliding``,
-    its regime at the step's start), mu_s J_i if it holds (mu_k J_i if it breaks away). ``ft``:
-    the feet at the step's end state, on ``ground`` as it is then."""
+    its regime at the step's start), mu_s J_i if it holds (mu_k J_i if it breaks away). ``end``
+    (a :class:`FeetOn`): the feet at the step's end state, on the ground as it is then."""
     mu_s, mu_k, stick_speed_mps = law
+    mass_kg, inertia_kgm2 = rigid
+    ground, ft = end
     pos_m, vel_mps, quat, omega_b = stepped.p, stepped.v, stepped.q, stepped.w
     foot_impulse_ns = stepped.foot_impulse_ns
     dragged, hold_w = friction_force.kinetic, friction_force.hold_w
@@ -496,7 +516,7 @@ def coulomb(law, mass_kg, inertia_kgm2, stepped, ft, sliding, friction_force, gr
     inv_m = 1.0 / mass_kg
     if not ((j_n[0] > 0.0 and not dragged[0]) or (j_n[1] > 0.0 and not dragged[1])
             or (j_n[2] > 0.0 and not dragged[2]) or (j_n[3] > 0.0 and not dragged[3])):
-        return _dragged_only(law, j_n, normals, ground, stepped, omega_w, ft, sliding, inv_m)
+        return _dragged_only(law, rigid, stepped, end, j_n, normals, sliding)
     # the solve's arrays as views of five scratch allocations (thirteen mallocs were a fifth of
     # the solve's cost where no foot's impulse is solved for; a view by its first index is
     # pointer arithmetic, a reshape a call)

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Motion, acceleration, contact_at, derivatives, \
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, derivatives, \
     derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
@@ -145,18 +145,19 @@ def surely_clear(fb, p):
     force and moment are exactly +0 either way (sim.contact.evaluate sums +0 and the feet's +-0
     into +0), as are the feet's forces. Only on level ground (the bound would need the slope's
     plane and the bumps' heights elsewhere)."""
-    if not (fb.touching and fb.terrain.level):
+    cr = fb.craft
+    if not (cr.touching and cr.terrain.level):
         return False
-    reach = math.sqrt(fb.leg_radius_m * fb.leg_radius_m + fb.com_height_m * fb.com_height_m)
-    return norm(p) - fb.body_radius_m - fb.terrain.base_height_m > reach + CLEAR_MARGIN_M
+    reach = math.sqrt(cr.leg_radius_m * cr.leg_radius_m + cr.com_height_m * cr.com_height_m)
+    return norm(p) - cr.body_radius_m - cr.terrain.base_height_m > reach + CLEAR_MARGIN_M
 
 
 @kernel
-def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
-    """A stage of rk4: the derivatives and the contact at y + frac h k (``y``: the step's start,
-    sim.dynamics.Motion; ``k``: the last stage's derivatives), frac h after t0."""
+def _rk4_stage(fb, hf, y, k, absorbing, t0):
+    """A stage of rk4: the derivatives and the contact at y + hf k (``y``: the step's start,
+    sim.dynamics.Motion; ``k``: the last stage's derivatives; ``hf``: the stage's offset, frac h),
+    hf after t0."""
     p, v, q, w = y
-    hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
     # a stage's contact serves its derivatives and its feet's forces alone: where every foot is
@@ -165,7 +166,7 @@ def _rk4_stage(fb, h, frac, y, k, absorbing, t0):
         ce_s = no_contact(ps)
     else:
         ce_s = contact_at(fb, ground_at(fb, t0 + hf), Motion(ps, vs, qs, ws), absorbing,
-                          fb.engage_m)
+                          fb.grip.engage_m)
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
@@ -180,9 +181,9 @@ def rk4(fb, h, motion, ce, absorbing, t0):
     p, v, q, w = motion
     y = Motion(p, v, q, w)
     k1 = derivatives(fb, ce, p, v, q, w)
-    k2, c2 = _rk4_stage(fb, h, 0.5, y, k1, absorbing, t0)
-    k3, c3 = _rk4_stage(fb, h, 0.5, y, k2, absorbing, t0)
-    k4, c4 = _rk4_stage(fb, h, 1.0, y, k3, absorbing, t0)
+    k2, c2 = _rk4_stage(fb, 0.5 * h, y, k1, absorbing, t0)
+    k3, c3 = _rk4_stage(fb, 0.5 * h, y, k2, absorbing, t0)
+    k4, c4 = _rk4_stage(fb, h, y, k3, absorbing, t0)
     h6 = h / 6.0
     q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
              k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
@@ -196,19 +197,18 @@ def rk4(fb, h, motion, ce, absorbing, t0):
 
 
 @kernel
-def _rk4_stage_held(fb, h, frac, y, k, absorbing, t0, held, mu_s):
+def _rk4_stage_held(fb, hf, y, k, absorbing, t0, holding):
     """A stage of :func:`rk4_held`: the derivatives with the held feet's friction, that friction,
-    and the contact, at y + frac h k."""
+    and the contact, at y + hf k (``hf``: frac h)."""
     p, v, q, w = y
-    hf = frac * h
     ps, vs, qs, ws = add(p, scale(k[0], hf)), add(v, scale(k[1], hf)), \
         quat_add_scaled(q, k[2], hf), add(w, scale(k[3], hf))
     ground = ground_at(fb, t0 + hf)
     if surely_clear(fb, ps):  # (as in _rk4_stage; no foot is then held either)
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.engage_m)
-    d, hd = derivatives_held(fb, ground, ce_s, ps, vs, qs, ws, held, mu_s)
+        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.grip.engage_m)
+    d, hd = derivatives_held(fb, ground, ce_s, Motion(ps, vs, qs, ws), holding)
     return d, hd, ce_s
 
 
@@ -230,17 +230,18 @@ class SteppedHeld(NamedTuple):
 
 
 @separate
-def rk4_held(fb, h, motion, ce, absorbing, t0, held, mu_s):
-    """:func:`rk4` with the static friction of the feet of ``held`` inside the step as the force of
+def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
+    """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
+    inside the step as the force of
     their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
     friction then follows the ship's motion at the method's order, where a force carried from the
     last step and corrected by an impulse after this one was first order in the step."""
     y = motion
     p, v, q, w = motion
-    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, p, v, q, w, held, mu_s)
-    k2, f2, c2 = _rk4_stage_held(fb, h, 0.5, y, k1, absorbing, t0, held, mu_s)
-    k3, f3, c3 = _rk4_stage_held(fb, h, 0.5, y, k2, absorbing, t0, held, mu_s)
-    k4, f4, c4 = _rk4_stage_held(fb, h, 1.0, y, k3, absorbing, t0, held, mu_s)
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
+    k2, f2, c2 = _rk4_stage_held(fb, 0.5 * h, y, k1, absorbing, t0, holding)
+    k3, f3, c3 = _rk4_stage_held(fb, 0.5 * h, y, k2, absorbing, t0, holding)
+    k4, f4, c4 = _rk4_stage_held(fb, h, y, k3, absorbing, t0, holding)
     h6 = h / 6.0
     q_sum = (k1[2][0] + 2.0 * k2[2][0] + 2.0 * k3[2][0] + k4[2][0],
              k1[2][1] + 2.0 * k2[2][1] + 2.0 * k3[2][1] + k4[2][1],
@@ -263,8 +264,8 @@ def _turn(fb, q, w, tau_b, h):
     """The rotation's kick and drift: a half kick of the external torque, then the exact
     torque-free flow (sim.rotation). Returns the new attitude and the body-frame angular momentum
     before the closing half kick."""
-    l_half = add(mul(fb.inertia_kgm2, w), scale(tau_b, 0.5 * h))
-    return free_rotation(q, l_half, fb.inertia_kgm2, h)
+    l_half = add(mul(fb.craft.inertia_kgm2, w), scale(tau_b, 0.5 * h))
+    return free_rotation(q, l_half, fb.craft.inertia_kgm2, h)
 
 
 @kernel
@@ -287,15 +288,15 @@ def velocity_verlet(fb, h, motion, ce, absorbing, t0):
     v_half = add(v, scale(a0, 0.5 * h))
     p1 = add(p, scale(v_half, h))
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = div(l_pre, fb.inertia_kgm2)
+    w_pre = div(l_pre, fb.craft.inertia_kgm2)
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.grip.engage_m)
     v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
-    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     if pressed(ce1):  # the dampers at the end, at the end's velocities (see _damped_end)
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
         v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
-        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
 
 
@@ -337,13 +338,13 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     sim.stability)."""
     p, v, q, w = motion
     n_hat = ce.axis
-    m = fb.mass_kg
+    m = fb.craft.mass_kg
     a0 = acceleration(fb, ce, p, q)
     a0_n = dot(a0, n_hat)
     v_n0 = dot(v, n_hat)
     v_half = add(v, scale(sub(a0, scale(n_hat, a0_n)), 0.5 * h))  # across n only
     q1, l_pre = _turn(fb, q, w, torque_body(fb, ce, q), h)
-    w_pre = div(l_pre, fb.inertia_kgm2)
+    w_pre = div(l_pre, fb.craft.inertia_kgm2)
 
     force0_n = dot(ce.force_w, n_hat)
     a_free = a0_n - force0_n / m  # gravity and thrust along n
@@ -361,16 +362,16 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.engage_m)
+    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.grip.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.engage_m)
+        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
         a1 = acceleration(fb, ce1, p1, q1)
         v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.inertia_kgm2)
+        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     return Stepped(p1, v1, q1, w1,
                    exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg, model_end_n),
                    peak, True)

@@ -22,8 +22,8 @@ from __future__ import annotations
 from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import lowest_foot_penetration
-from touchdown.sim.dynamics import FreeBody, Motion
-from touchdown.sim.flight import crossed_at, free_flight
+from touchdown.sim.dynamics import Craft, FreeBody, Grip, Motion
+from touchdown.sim.flight import crossed_at, fly_clear, free_flight
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
 from touchdown.sim.friction import per_foot
@@ -31,8 +31,9 @@ from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, sub_method
 from touchdown.sim.pivot import pinned_motion, pivot_step
 from touchdown.sim.rest import settle_margin
 from touchdown.sim.ship import (CONTACT, CRASHED, Commands, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED,
-    Footing, HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, NO_SLIP, Pin, RADIAL_NORMAL,
-    REST_LANDED, Ship, TIPPED, emit, fresh_footing, load, scene_ground, store)
+    HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, Pin, RADIAL_NORMAL, REST_LANDED, TIPPED,
+    emit, fresh_footing, load, scene_ground, store, with_footing, with_friction, with_mass,
+    with_motion, with_pin, with_settle, with_state)
 from touchdown.sim.vec import (cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
     quat_rotate_inv, scale, sub, unit)
 
@@ -161,16 +162,16 @@ def free_body(here, s, cmd, touching, method):
     cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     m = s.mass_kg
     two_omega_m = 2.0 * sp.contact_omega_radps * m  # c = 2 zeta sqrt(k m) = 2 zeta omega m
-    return FreeBody(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
-                               sp.mass0_kg, m),
-                    cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
-                    sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
-                    cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
-                    cfg.body_radius_m, cfg.omega_radps, terrain,
-                    cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching, ENGAGE_AT_GROUND,
-                    method == EXPONENTIAL, method,
-                    cfg.friction_kinetic if per_foot(cfg) else 0.0,
-                    s.footing.sliding, s.footing.hold_w, NO_HOLD)
+    craft = Craft(m, inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]),
+                             sp.mass0_kg, m),
+                  cmd.thrust_n, cmd.rcs_torque_body_nm, sp.leg_radius_m, sp.com_height_m,
+                  sp.stiffness_per_kg * m, cfg.damping_ratio * two_omega_m,
+                  cfg.absorb_damping_ratio * two_omega_m, cfg.gm_m3ps2,
+                  cfg.body_radius_m, cfg.omega_radps, terrain,
+                  cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching,
+                  method == EXPONENTIAL, method,
+                  cfg.friction_kinetic if per_foot(cfg) else 0.0)
+    return FreeBody(craft, Grip(ENGAGE_AT_GROUND, s.footing.sliding, s.footing.hold_w, NO_HOLD))
 
 
 @kernel
@@ -202,15 +203,16 @@ def settle(here, s, cmd, run, log):
     ticks = s.footing.settle_ticks + 1 if ok else 0
     ft = s.footing
     if not (ok and held >= cfg.settle_time_s - 1e-9 * dt):
-        return Ship(s.surface_state, s.motion, s.mass_kg, s.fuel_kg,
-                    Footing(ft.absorbing, ft.sliding, ticks, held, margin, ft.hold_w), s.pin)
+        return with_footing(s, with_settle(ft, ticks, held, margin))
     m = s.motion
     pp, pq = pin_pose(m.p, m.q, cos1, sin1)
     om = cfg.omega_radps
     emit(log, CONTACT, LANDED, 0.0, fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
-    return Ship(LANDED, Motion(m.p, surface_velocity(om, m.p), m.q, body_spin_in_body_frame(om, m.q)),
-                s.mass_kg, s.fuel_kg, Footing(ft.absorbing, ft.sliding, 0, 0.0, margin, NO_HOLD),
-                Pin(pp, pq, s.pin.pivot_bf_m, s.pin.rate_radps))
+    landed = with_motion(s, LANDED, Motion(m.p, surface_velocity(om, m.p), m.q,
+                                           body_spin_in_body_frame(om, m.q)))
+    landed = with_footing(landed, with_settle(with_friction(ft, ft.sliding, NO_HOLD), 0, 0.0,
+                                              margin))
+    return with_pin(landed, Pin(pp, pq, s.pin.pivot_bf_m, s.pin.rate_radps))
 
 
 # -- 4. pinned -----------------------------------------------------------------------------------
@@ -255,11 +257,9 @@ def pinned(here, s, cmd, log):
                               dot(quat_axis_z(q_bf), unit(p_bf)), cfg.cos_tipped, 0.0, cfg.dt_s)
         emit(log, s.surface_state, surf, v_rad, t_ev)
     ft = s.footing
-    footing = (fresh_footing(True) if righted else
-               Footing(ft.absorbing, ft.sliding, ft.settle_ticks, ft.settle_for_s,
-                       ft.settle_margin, NO_HOLD))
-    return Ship(surf, Motion(p, v, q, w), m, s.fuel_kg, footing,
-                Pin(p_bf, q_bf, pivot, 0.0 if (righted or surf == CRASHED) else rate))
+    footing = fresh_footing(True) if righted else with_friction(ft, ft.sliding, NO_HOLD)
+    s = with_footing(with_motion(s, surf, Motion(p, v, q, w)), footing)
+    return with_pin(s, Pin(p_bf, q_bf, pivot, 0.0 if (righted or surf == CRASHED) else rate))
 
 
 @kernel
@@ -272,8 +272,8 @@ def lift_off(cfg, s, cmd, log):
     if not cmd.thrust_n * dot(quat_axis_z(s.motion.q), up) > weight:
         return s
     emit(log, s.surface_state, FLYING, 0.0, 0.0)
-    return Ship(FLYING, s.motion, s.mass_kg, s.fuel_kg, fresh_footing(True),
-                Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
+    return with_pin(with_footing(with_state(s, FLYING), fresh_footing(True)),
+                    Pin(s.pin.pos_bf_m, s.pin.quat_bf, s.pin.pivot_bf_m, 0.0))
 
 
 @kernel
@@ -282,9 +282,7 @@ def unsettle(s, log):
     the balance a landed ship rested in, and the physics decides again from its pinned pose at rest
     (MODEL-NOTES 45). The contact goes on on the springs it had."""
     emit(log, LANDED, CONTACT, 0.0, 0.0)
-    ft = s.footing
-    return Ship(CONTACT, s.motion, s.mass_kg, s.fuel_kg,
-                Footing(ft.absorbing, NO_SLIP, 0, 0.0, -1.0, NO_HOLD), s.pin)
+    return with_footing(with_state(s, CONTACT), fresh_footing(s.footing.absorbing))
 
 
 # -- 5. burn -------------------------------------------------------------------------------------
@@ -296,7 +294,7 @@ def burn(here, s, cmd):
     rcs_thrust = (abs(rcs[0]) + abs(rcs[1]) + abs(rcs[2])) / sp.rcs_arm_m
     flow = cmd.thrust_n / (sp.isp_s * G0_MPS2) + rcs_thrust / (sp.rcs_isp_s * G0_MPS2)
     used = fmin(flow * cfg.dt_s, s.fuel_kg)
-    return Ship(s.surface_state, s.motion, s.mass_kg - used, s.fuel_kg - used, s.footing, s.pin)
+    return with_mass(s, s.mass_kg - used, s.fuel_kg - used)
 
 
 # -- 6. observe ----------------------------------------------------------------------------------
@@ -366,7 +364,8 @@ def step_ship(here, rec, inp, out, log):
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and per_foot(cfg)
-        fl = free_flight(here, fb, s, n_sub, not (strikes or held_inside), log)
+        fl = (free_flight(here, fb, s, n_sub, not (strikes or held_inside), log) if fine
+              else fly_clear(cfg, fb, s))
         s, report = fl.ship, fl.report
         if fine:
             s = settle(here, s, cmd, fl.run, log)

@@ -94,6 +94,46 @@ def with_motion(s, surface_state, motion):
     return Ship(surface_state, motion, s.mass_kg, s.fuel_kg, s.footing, s.pin)
 
 
+# A phase changes a Ship through these, one group each (the others passed on): none spells out a
+# whole Ship but :func:`load`.
+@kernel
+def with_state(s, surface_state):
+    """``s`` in ``surface_state``."""
+    return Ship(surface_state, s.motion, s.mass_kg, s.fuel_kg, s.footing, s.pin)
+
+
+@kernel
+def with_footing(s, footing):
+    """``s`` with ``footing``."""
+    return Ship(s.surface_state, s.motion, s.mass_kg, s.fuel_kg, footing, s.pin)
+
+
+@kernel
+def with_pin(s, pin):
+    """``s`` with ``pin``."""
+    return Ship(s.surface_state, s.motion, s.mass_kg, s.fuel_kg, s.footing, pin)
+
+
+@kernel
+def with_mass(s, mass_kg, fuel_kg):
+    """``s`` with its mass and the fuel in it."""
+    return Ship(s.surface_state, s.motion, mass_kg, fuel_kg, s.footing, s.pin)
+
+
+@kernel
+def with_friction(ft, sliding, hold_w):
+    """The footing ``ft`` with each foot's friction regime and the holding feet's friction."""
+    return Footing(ft.absorbing, sliding, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
+                   hold_w)
+
+
+@kernel
+def with_settle(ft, settle_ticks, settle_for_s, settle_margin):
+    """The footing ``ft`` with the settle thresholds' run (sim.fields)."""
+    return Footing(ft.absorbing, ft.sliding, settle_ticks, settle_for_s, settle_margin,
+                   ft.hold_w)
+
+
 @kernel
 def load(rec):
     """A ship's record as a :class:`Ship` (the one place a record is read)."""
