@@ -978,7 +978,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
-        if stiff_feet(cfg, body, drag, ce_y, sr, m.q, STIFF_REACH * rem, stiff):
+        if stiff_feet(cfg, body, start, sr, STIFF_REACH * rem, stiff):
             # Coulomb's law is stiff at such a foot: its impulse after the step is first order
             # in the step (MODEL-NOTES 46); the piece is cut to equal parts of at most
             # stiff_substep, each taken as a piece of its own
@@ -1073,10 +1073,12 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
 
 
 @kernel
-def stiff_feet(cfg, fb, drag, ce, sr, q, h, stiff):
-    """Whether a sliding foot that presses at ``ce`` would take its friction as an impulse after
-    a step (:func:`step_piece`): its own friction could stop it within h (:func:`_could_stop`),
-    and it is not coming to a stop (:func:`slowing`; a foot of ``stiff`` whatever it does)."""
+def stiff_feet(cfg, fb, start, sr, h, stiff):
+    """Whether a sliding foot that presses at a piece's ``start`` (a :class:`PieceStart`) would
+    take its friction as an impulse after a step (:func:`step_piece`): its own friction could stop
+    it within h (:func:`_could_stop`), and it is not coming to a stop (:func:`slowing`, from
+    ``sr``; a foot of ``stiff`` whatever it does)."""
+    drag, ce, q = start.drag, start.ce, start.ship.motion.q
     for i in range(4):
         if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
                 and (stiff[i] or not slowing(sr, i))):
