@@ -1315,8 +1315,9 @@ def fly_clear(cfg, fb, s):
     sim.phases.near_ground found it out of the feet's reach): one step of the method over the tick
     under gravity, thrust and RCS torque, then the passivity guard; no foot can press, so no event,
     friction or transition can happen. The same operations, in the same order, as
-    :func:`free_flight` does for such a ship (the same bits), without its pieces, contact
-    evaluations and transitions."""
+    :func:`free_flight` took for such a ship before this path (the same bits: the golden logs'
+    bounces fly 100 m and more up), without its pieces, contact evaluations and transitions;
+    free_flight now only ever steps a ship near the ground."""
     m, ft = s.motion, s.footing
     dt = cfg.dt_s
     res = advance(fb.craft.method, fb, dt, m, no_contact(m.p), ft.absorbing, 0.0)
