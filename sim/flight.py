@@ -530,7 +530,7 @@ class Piece(NamedTuple):
 def to_event(cfg, fb, roles, h, start, ev):
     """The earliest instant inside (0, h) of a step from ``start`` (a :class:`StepFrom`) at which
     one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press
-    kept from pressing): regula falsi (Illinois) on :func:`_gaps`, each trial a step of the method
+    kept from pressing): regula falsi (Anderson-Bjorck) on :func:`_gaps`, each trial a step of the method
     from the start. A contact that starts or ends inside a step is thus integrated like a crossing,
     for any foot (the fourth as the first), and happens where it does, not at the step's end. The
     step returned ends just past the event (its gap within EVENT_TOL_M above zero)."""
@@ -555,15 +555,19 @@ def to_event(cfg, fb, roles, h, start, ev):
             t = 0.5 * (t_lo + t_hi)
         st = substep(cfg, fb, held_roles, t, start)
         g = _gaps(body, t0 + t, Motion(st.p, st.v, st.q, st.w), absorbing, ev)
+        # Anderson-Bjorck: an end kept twice has its gap scaled by how much the other end's
+        # fell (1 - g_new / g_old), by half where that is not positive (Illinois's factor)
         if g > 0.0:
-            t_hi, g_hi, st_hi = t, g, st
             if side == 1:
-                g_lo = 0.5 * g_lo
+                f = 1.0 - g / g_hi
+                g_lo = (f if f > 0.0 else 0.5) * g_lo
+            t_hi, g_hi, st_hi = t, g, st
             side = 1
         else:
-            t_lo, g_lo = t, g
             if side == -1:
-                g_hi = 0.5 * g_hi
+                f = 1.0 - g / g_lo
+                g_hi = (f if f > 0.0 else 0.5) * g_hi
+            t_lo, g_lo = t, g
             side = -1
         if g_hi <= EVENT_TOL_M or t_hi - t_lo <= EVENT_TOL_S:
             break
