@@ -52,9 +52,9 @@ SCENES = {
 EXPECTED = {
     "bounce": "fe5a636b35516a930e99bb99f54ec16cbea9ae1da82833774ad6e59768c74197",
     "trip": "754bc7aafbf43977d63f2ee4e7f7af222c87bdc4272e4c59d70bb80d2853c6df",
-    "tilted": "b4cb5db49c016a7ee6e7f8d1b3c22ab9b27d132f08013a047d56ebb212b92e16",
-    "slope": "6d0ebbf107507c23f002aecb56a3a5f5749f1163f45628b7094b0b5df3c6dd37",
-    "fleet": "3c74e47ebbffe4966daf49bffe5209221c16dec42755d24c0986ac104a44b3ca",
+    "tilted": "19a7a3998ae4944e31cd5e1fb2c370d0ac67a5490a2a932f6367d7ea22fec425",
+    "slope": "0f684a1976a10deda0482caa29763ad49da8c565495c3e994f43ff230f72fcd8",
+    "fleet": "9ab169abd64a2a002e223f9a06b13c9526a5967cfccbbda9e350c3be767eb1d7",
 }
 
 
