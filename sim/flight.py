@@ -251,9 +251,6 @@ def substep(cfg, fb, roles, h, start):
         res = advance(fb.craft.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
     pressed = j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
-    if not fb.craft.touching:
-        return SubStep(res.p, res.v, res.q, res.w, sliding, 0.0, res.peak_penetration_m,
-                       res.located, pressed, NO_HOLD)
     if not pressed:  # no foot pressed: no friction (nor any foot's regime) to keep
         return SubStep(res.p, res.v, res.q, res.w, z4, 0.0, res.peak_penetration_m, res.located,
                        pressed, NO_HOLD)
@@ -973,8 +970,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.touching
-            and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
+    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
@@ -987,7 +983,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
-    if fb.craft.touching and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+    if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
@@ -1038,7 +1034,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
                 st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
-    if (fb.craft.touching and may_split and fb.craft.method == RK4 and per_foot(cfg)
+    if (may_split and fb.craft.method == RK4 and per_foot(cfg)
             and cfg.friction_static > 0.0 and (held[0] or held[1] or held[2] or held[3])):
         # the holding feet break away where holding them would take more than their cones give:
         # located, and kinetic from there (MODEL-NOTES 46)
@@ -1060,7 +1056,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
                                      memo, False)
-    if fb.craft.touching and may_split:
+    if may_split:
         ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1180,8 +1176,6 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
 def substep_peak(fb, start, pieces, pen, v_rad, h):
     """The deepest penetration over a sub-step: located by the method, or interpolated between
     its ends (telemetry)."""
-    if not fb.craft.touching:
-        return 0.0
     if pieces.located:
         return fmax(fmax(start.pen_m, pen), pieces.peak_m)
     return hermite_peak(start.pen_m, -start.v_rad_mps, pen, -v_rad, h)
@@ -1334,7 +1328,8 @@ def fly_clear(cfg, fb, s):
 
 @separate
 def free_flight(here, fb, s, n_sub, carry, log):
-    """Advance a free ship by one tick in ``n_sub`` equal sub-steps, each in three stages:
+    """Advance a free ship near the ground (``fb.craft.touching``; one clear of it takes
+    :func:`fly_clear`) by one tick in ``n_sub`` equal sub-steps, each in three stages:
 
     a. the touchdown instant (:func:`piece_start`): where the first foot reaches the ground, the
        seed's touchdown rules apply there;
@@ -1366,7 +1361,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
     # the settle thresholds at the tick's start: held for settle_for_s already, or not
     run = SettleRun(True, ft0.settle_margin,
                     -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
-    sample = fb.craft.touching and s.surface_state == CONTACT
+    sample = s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
     # the stiff feet's pieces (sim.stiff_substep): in the sub-steps of an impact
@@ -1389,16 +1384,15 @@ def free_flight(here, fb, s, n_sub, carry, log):
             fb_k = with_hold(fb, carried)
             ps = PieceStart(s, t_abs, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False, memo)
-            if fb.craft.touching:
-                ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
-                s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
-                pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
-                                pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
-                if ps.stop:
-                    stop = True
-                    pinned_now = True
-                    break
-                fb_k = with_hold(fb, carried)
+            ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
+            s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
+            pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
+                            pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
+            if ps.stop:
+                stop = True
+                pinned_now = True
+                break
+            fb_k = with_hold(fb, carried)
             pc = step_piece(cfg, fb_k, ps, h - t_in, events < MAX_PIECES, stiff,
                             fine_s if refined < MAX_REFINED else 0.0)
             memo = pc.memo
