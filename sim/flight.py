@@ -983,7 +983,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
+    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0
+            and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
