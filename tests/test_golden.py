@@ -50,11 +50,11 @@ SCENES = {
 #: (issue 35: landing, friction and tipped ships changed the physics; the stiff feet in pieces,
 #: sim.stiff_substep, changed the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "fe5a636b35516a930e99bb99f54ec16cbea9ae1da82833774ad6e59768c74197",
-    "trip": "754bc7aafbf43977d63f2ee4e7f7af222c87bdc4272e4c59d70bb80d2853c6df",
-    "tilted": "19a7a3998ae4944e31cd5e1fb2c370d0ac67a5490a2a932f6367d7ea22fec425",
-    "slope": "0f684a1976a10deda0482caa29763ad49da8c565495c3e994f43ff230f72fcd8",
-    "fleet": "9ab169abd64a2a002e223f9a06b13c9526a5967cfccbbda9e350c3be767eb1d7",
+    "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
+    "trip": "1d258a341b6f876d8835c7a25205652bda8738d3cbe53602a7c24bce03762d09",
+    "tilted": "a8e3a13225ff2bcf913b8a7bf027ab2c36ab135e24ea6374fdd7f47e32a19b90",
+    "slope": "ebc161cf620f05c38ff08a317f89f3b4cada204e3cf40a5edc0c28c9f7a76e6e",
+    "fleet": "90471000555cfa319b3c55ce85285db0e1ec75b51c158e46768bee6eff425b0d",
 }
 
 
