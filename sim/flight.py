@@ -292,7 +292,7 @@ MAX_PIECES = 8
 MAX_REFINED = 25
 
 
-#: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
+#: Most trial steps locating one event (regula falsi, Anderson-Bjorck), and where it stops: within
 #: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
 #: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
 MAX_EVENT_ITERATIONS = 40
