@@ -48,13 +48,14 @@ SCENES = {
 
 #: sha256 of every tick's state rows, outputs and events (digest() below), since touchdown 0.8.0
 #: (issue 35: landing, friction and tipped ships changed the physics; the stiff feet in pieces,
-#: sim.stiff_substep, changed the tilted touchdown and the fleet)
+#: sim.stiff_substep, changed the tilted touchdown and the fleet; cut in every sub-step, the
+#: tilted touchdown, the slope and the fleet)
 EXPECTED = {
     "bounce": "fe5a636b35516a930e99bb99f54ec16cbea9ae1da82833774ad6e59768c74197",
     "trip": "754bc7aafbf43977d63f2ee4e7f7af222c87bdc4272e4c59d70bb80d2853c6df",
-    "tilted": "b4cb5db49c016a7ee6e7f8d1b3c22ab9b27d132f08013a047d56ebb212b92e16",
-    "slope": "6d0ebbf107507c23f002aecb56a3a5f5749f1163f45628b7094b0b5df3c6dd37",
-    "fleet": "3c74e47ebbffe4966daf49bffe5209221c16dec42755d24c0986ac104a44b3ca",
+    "tilted": "547605c24d04148dce9c7804559f7cb857ad09250ddccd1c8311eb26d89b7857",
+    "slope": "2db3e8af965d0fed739e91e85725ceb37ca4ca5fb0c705e23ab752f026222f8a",
+    "fleet": "bc4cb8d9111b40678cf6cc86c1dec5bf7ec51d0d5c562697a7912b19d960d021",
 }
 
 
