@@ -292,7 +292,7 @@ MAX_PIECES = 8
 MAX_REFINED = 25
 
 
-#: Most trial steps locating one event (regula falsi, Illinois), and where it stops: within
+#: Most trial steps locating one event (regula falsi, Anderson-Bjorck), and where it stops: within
 #: EVENT_TOL_M of it (a foot's penetration, or its force over its stiffness; a position a
 #: planet's radius from its centre is known to ~1e-9 m), or the bracket narrower than EVENT_TOL_S.
 MAX_EVENT_ITERATIONS = 40
@@ -530,10 +530,11 @@ class Piece(NamedTuple):
 def to_event(cfg, fb, roles, h, start, ev):
     """The earliest instant inside (0, h) of a step from ``start`` (a :class:`StepFrom`) at which
     one of the feet of ``ev`` starts or stops pressing, and the step to it (the feet about to press
-    kept from pressing): regula falsi (Illinois) on :func:`_gaps`, each trial a step of the method
-    from the start. A contact that starts or ends inside a step is thus integrated like a crossing,
-    for any foot (the fourth as the first), and happens where it does, not at the step's end. The
-    step returned ends just past the event (its gap within EVENT_TOL_M above zero)."""
+    kept from pressing): regula falsi (Anderson-Bjorck) on :func:`_gaps`, each trial a step of
+    the method from the start. A contact that starts or ends inside a step is thus integrated like
+    a crossing, for any foot (the fourth as the first), and happens where it does, not at the
+    step's end. The step returned ends just past the event (its gap within EVENT_TOL_M above
+    zero)."""
     engage, sliding, dragged, absorbing = roles
     t0 = start.t_s
     on = ev.onset
@@ -547,25 +548,37 @@ def to_event(cfg, fb, roles, h, start, ev):
     g_hi = _gaps(body, t0 + h, Motion(st_hi.p, st_hi.v, st_hi.q, st_hi.w), absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
         return Piece(h, st_hi, False)
+    if g_hi <= EVENT_TOL_M:  # the step's end is already just past the event
+        return Piece(h, st_hi, True)
+    # the trials aim half the tolerance past the event, so that they end inside it from either
+    # side; Anderson-Bjorck: an end kept twice has its value scaled by how much the other end's
+    # fell (1 - G_new / G_old), by half where that is not positive (Illinois's factor)
+    aim = 0.5 * EVENT_TOL_M
+    G_lo, G_hi = g_lo - aim, g_hi - aim
     t_hi = h
     side = 0
     for _ in range(MAX_EVENT_ITERATIONS):
-        t = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo)
+        t = (t_lo * G_hi - t_hi * G_lo) / (G_hi - G_lo)
         if not (t > t_lo and t < t_hi):
             t = 0.5 * (t_lo + t_hi)
         st = substep(cfg, fb, held_roles, t, start)
         g = _gaps(body, t0 + t, Motion(st.p, st.v, st.q, st.w), absorbing, ev)
-        if g > 0.0:
-            t_hi, g_hi, st_hi = t, g, st
+        if g > 0.0 and g <= EVENT_TOL_M:
+            return Piece(t, st, True)
+        G = g - aim
+        if G > 0.0:
             if side == 1:
-                g_lo = 0.5 * g_lo
+                f = 1.0 - G / G_hi
+                G_lo = (f if f > 0.0 else 0.5) * G_lo
+            t_hi, G_hi, st_hi = t, G, st
             side = 1
         else:
-            t_lo, g_lo = t, g
             if side == -1:
-                g_hi = 0.5 * g_hi
+                f = 1.0 - G / G_lo
+                G_hi = (f if f > 0.0 else 0.5) * G_hi
+            t_lo, G_lo = t, G
             side = -1
-        if g_hi <= EVENT_TOL_M or t_hi - t_lo <= EVENT_TOL_S:
+        if t_hi - t_lo <= EVENT_TOL_S:
             break
     return Piece(t_hi, st_hi, True)
 
@@ -991,7 +1004,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3])):
+    if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0
+            and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True

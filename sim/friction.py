@@ -17,7 +17,7 @@ MuJoCo and Bullet). mu_i is mu_s for a foot that held at the step's start, mu_k 
 a holding foot whose solution sits on its mu_s rim breaks away and the solve is repeated with it
 kinetic (MAX_ROUNDS rounds). Solved by projected block Gauss-Seidel (each foot's 2 x 2 disk
 problem exactly, :func:`_disk_step`), and where that crawls, on the near-redundant slips of four
-feet under a tilted ship, by a barrier method; both with fixed maximum counts.
+feet under a tilted ship, by a primal-dual interior-point method; both with fixed maximum counts.
 
 Slow slips are a tolerance: a foot slipping slower than ``stick_speed_mps`` (the seed's 0.01 m/s
 threshold, a scenario key) after the impulses keeps mu_s. The rigid model has no leg compliance, so
@@ -189,16 +189,19 @@ class Friction(NamedTuple):
 
 #: Most Gauss-Seidel sweeps of one solve of the feet's impulses, and the violation of its
 #: optimality conditions (m/s of slip) below which it has converged. Most solves take a few
-#: sweeps; the rest go to the barrier method.
+#: sweeps; the rest go to the interior-point method.
 MAX_SWEEPS = 30
 SLIP_TOL_MPS = 1e-11
 #: Gauss-Seidel's crawl test (:func:`_gauss_seidel`): every CRAWL_SWEEPS sweeps, the residual's
 #: rate over them, projected to MAX_SWEEPS, must reach CRAWL_MARGIN times the tolerance
-CRAWL_SWEEPS = 5
+CRAWL_SWEEPS = 3
 CRAWL_MARGIN = 100.0
-#: The barrier method's schedule: IPM_OUTER values of its weight mu, IPM_INNER Newton steps each.
-IPM_OUTER = 14
-IPM_INNER = 3
+#: The interior-point method (:func:`_interior_point`): most Newton steps of one solve, the change
+#: of the slips (m/s) in a step below which it stops, and the fraction of the way to the cones'
+#: edges a step goes.
+IPM_MAX_STEPS = 30
+IPM_TOL_MPS = 1e-11
+IPM_STEP = 0.99
 #: Most Newton iterations of one foot's disk-constrained step, and its tolerance on the radius.
 MAX_DISK_ITERATIONS = 30
 #: Most rounds of a solve: each turns at least one sticking foot that breaks away to kinetic.
@@ -284,14 +287,17 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
     they did within MAX_SWEEPS.
 
     It gives up early where it would not get there: every CRAWL_SWEEPS sweeps, where the
-    residual res_s, falling on at its rate since the last check, res_s (res_s / res_{s-5})^((
-    MAX_SWEEPS - s) / 5), would still be above CRAWL_MARGIN SLIP_TOL_MPS at MAX_SWEEPS (or has
-    not fallen at all). The barrier method then solves the problem from lam = 0, whatever the
-    sweeps left, as it did after MAX_SWEEPS: of the solves that went to it (93 a touchdown in
-    the envelope sweep, their residuals 1e-6 to 1e-3 m/s after 30 sweeps), most now take 10
-    sweeps rather than 30; a solve whose rate would have quickened enough to converge within
-    MAX_SWEEPS (a few in a thousand touchdowns) is solved by the barrier method instead, to its
-    own accuracy (~1e-10 m/s), rather than to 1e-11: its bits change, its physics does not."""
+    residual res_s, falling on at its rate since the last check, res_s (res_s / res_{s-c})^((
+    MAX_SWEEPS - s) / c) (c = CRAWL_SWEEPS), would still be above CRAWL_MARGIN SLIP_TOL_MPS at
+    MAX_SWEEPS (or has not fallen at all). The interior-point method then solves the problem
+    from lam = 0, whatever the sweeps left. Of the solves that go to it (90 a touchdown in the
+    envelope sweep), most give up after 6 sweeps (the first test that has a rate, c = 3; 10
+    with c = 5 before, 30 before that): c = 3 rather than 5 sends 0.3 more solves a touchdown to
+    the interior-point method (an interior-point solve costs about 40 sweeps) and spares 330 of
+    a touchdown's 1,850 sweeps (issue 36, session 3's counts over 300 envelope touchdowns). A solve
+    whose rate would have quickened enough to converge within MAX_SWEEPS is solved by the
+    interior-point method instead, to its own accuracy (~1e-10 m/s) rather than to 1e-11: its
+    bits change, its physics does not."""
     checkpoint = math.inf  # the residual CRAWL_SWEEPS sweeps ago
     for sweep in range(MAX_SWEEPS):
         for i in range(4):
@@ -317,10 +323,11 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
 
 
 @kernel
-def _cholesky_solve(h_mat, rhs, n, out, l_mat, y):
-    """out = H^-1 rhs for the symmetric positive definite leading n x n block of ``h_mat``
-    (Cholesky into the scratch ``l_mat``, 8 x 8, and ``y``, 8: every entry read is written
-    first). Returns False if a pivot is not positive."""
+def _cholesky_factor(h_mat, n, l_mat):
+    """The Cholesky factor L (H = L L^T) of the symmetric positive definite leading n x n block
+    of ``h_mat``, into the scratch ``l_mat`` (8 x 8; every entry read is written first) with
+    1 / L_ii on its diagonal (the substitutions multiply: a division is ten multiplications'
+    time). Returns False if a pivot is not positive."""
     for i in range(n):
         for j in range(i + 1):
             acc = h_mat[i, j]
@@ -329,100 +336,236 @@ def _cholesky_solve(h_mat, rhs, n, out, l_mat, y):
             if i == j:
                 if not acc > 0.0:
                     return False
-                l_mat[i, i] = math.sqrt(acc)
+                l_mat[i, i] = 1.0 / math.sqrt(acc)
             else:
-                l_mat[i, j] = acc / l_mat[j, j]
-    for i in range(n):
-        acc = rhs[i]
-        for k in range(i):
-            acc -= l_mat[i, k] * y[k]
-        y[i] = acc / l_mat[i, i]
-    for i in range(n - 1, -1, -1):
-        acc = y[i]
-        for k in range(i + 1, n):
-            acc -= l_mat[k, i] * out[k]
-        out[i] = acc / l_mat[i, i]
+                l_mat[i, j] = acc * l_mat[j, j]
     return True
 
 
 @kernel
+def _cholesky_substitute(l_mat, rhs, n, out, y):
+    """out = (L L^T)^-1 rhs for the factor of :func:`_cholesky_factor` (``y``: scratch, 8)."""
+    for i in range(n):
+        acc = rhs[i]
+        for k in range(i):
+            acc -= l_mat[i, k] * y[k]
+        y[i] = acc * l_mat[i, i]
+    for i in range(n - 1, -1, -1):
+        acc = y[i]
+        for k in range(i + 1, n):
+            acc -= l_mat[k, i] * out[k]
+        out[i] = acc * l_mat[i, i]
+
+
+@kernel
+def _cone_step(c, x0, x1, x2, d0, d1, d2):
+    """The largest t with x + t d in the second-order cone x0 >= |(x1, x2)|, x strictly inside
+    it with c = x0^2 - |(x1, x2)|^2 > 0 (given: the caller has it in a factored, accurate form):
+    the first positive root of a t^2 + b t + c, the cone's edge along the line; inf if none. One
+    root of the numerically stable pair c / q, q / a."""
+    a = d0 * d0 - d1 * d1 - d2 * d2
+    b = 2.0 * (x0 * d0 - x1 * d1 - x2 * d2)
+    disc = b * b - 4.0 * a * c
+    if a >= 0.0 and (b >= 0.0 or disc < 0.0):
+        return math.inf  # (a convex quadratic, positive at 0: no positive root)
+    sq = math.sqrt(fmax(disc, 0.0))
+    if b < 0.0:
+        return 2.0 * c / (sq - b)  # the smaller positive root (the only one if a < 0)
+    return -0.5 * (b + sq) / a  # a < 0 <= b: the positive root
+
+
+@kernel
+def _scaled(eta, w, v0, v1, v2):
+    """W v for the Nesterov-Todd scaling W = eta (2 w w^T - J) of a foot's cone pair (w^T J w = 1,
+    J = diag(1, -1, -1); ``w`` = (w0, w1, w2, 1 / (1 + w0))):
+    eta (w0 v0 - wb.vb, vb + (wb.vb / (1 + w0) - v0) wb)."""
+    t = w[1] * v1 + w[2] * v2
+    c = t * w[3] - v0
+    return eta * (w[0] * v0 - t), eta * (v1 + c * w[1]), eta * (v2 + c * w[2])
+
+
+@kernel
 def _interior_point(a_mat, slip, radius, lam, active):
-    """The same problem by a primal barrier method, for the footprints Gauss-Seidel crawls on:
-    feet at different heights holding a rocking ship make the problem's matrix nearly singular
-    (eigenvalues 1e-3 of the others), and Gauss-Seidel then needs thousands of sweeps. Newton's
-    method on  lam.A lam / 2 + slip.lam - mu sum log(rho_i^2 - |lam_i|^2),  IPM_INNER steps for
-    each of IPM_OUTER values of mu, each a tenth of the last, steps kept inside the disks (to 0.99
-    of the way to their edge), from lam = 0. Its result's slips are within ~1e-10 m/s of the
-    exact solution's (checked against 20,000 Gauss-Seidel sweeps in tests/test_friction.py)."""
+    """The same problem by a primal-dual interior-point method, for the footprints Gauss-Seidel
+    crawls on: feet at different heights holding a rocking ship make the problem's matrix nearly
+    singular (eigenvalues 1e-3 of the others, or 0: four feet have 8 slips, the ship 6 freedoms),
+    and Gauss-Seidel then needs thousands of sweeps. Returns its Newton steps.
+
+    As a cone program: each foot's s_k = (rho_k, lam_k) lies in the second-order cone
+    Q = {(t, y): t >= |y|} (rho_k its disk's radius), its dual z_k = (tau_k, v_k) in Q too, and
+    the optimality conditions are
+
+        A lam + slip - v = 0,   s_k o z_k = (rho_k tau_k + lam_k.v_k, rho_k v_k + tau_k lam_k) = 0
+
+    (v_k: foot k's slip after the impulses; o: Q's Jordan product): a foot inside its disk has no
+    slip, a foot on its rim slips at tau_k straight against its impulse. Newton's method on them
+    with s_k o z_k = sigma mu e in place of 0 (mu = sum_k s_k.z_k / feet), in the Nesterov-Todd
+    scaling W_k = eta_k (2 w_k w_k^T - J) of each pair (W_k s_k = W_k^-1 z_k = l_k): each step
+
+        (A + diag_k eta_k^2 (I + 2 wb_k wb_k^T)) dlam = -(A lam + slip - v) + [W_k xi_k]_(1,2),
+        xi_k = l_k \\ c_k (the Jordan quotient),  dz_k = W_k (xi_k - W_k ds_k),  ds_k = (0, dlam_k),
+
+    with Mehrotra's predictor-corrector: the affine step (c_k = -l_k o l_k) sets the centring
+    sigma = (mu_aff / mu)^3 and the second-order term of the combined step (c_k = sigma mu e -
+    l_k o l_k - (W_k ds_k) o (W_k^-1 dz_k)), both solved with one Cholesky factorisation; steps
+    IPM_STEP of the way to the cones' edges. Vandenberghe, "The CVXOPT linear and quadratic cone
+    program solvers" (2010: coneqp; here s_k's first entry is rho_k, so the primal iterates are
+    feasible throughout); Mehrotra, SIAM J. Optim. 2 (1992). From lam = 0 and
+    z_k = (|slip_k| + max_j |slip_j|, slip_k) (feasible, inside both cones), until a step moved
+    no slip by more than IPM_TOL_MPS (with A lam + slip - v under it too), IPM_MAX_STEPS at most:
+    8.7 steps a solve on the lander-like problems of docs/issue36/tools/pdipm_offline.py (the
+    primal barrier method this replaced took 42), its slips within 1e-9 m/s of the exact
+    solution's in all of them and 1e-10 in 99% (the barrier method's: 4e-9, 3e-9); checked on
+    tilted landers' footprints against a long barrier solve in tests/test_friction_law.py."""
     idx = zeros(4, np.int64)
     n_feet = 0
     scale_s = 0.0
-    scale_r = 0.0
     for i in range(4):
         if active[i] and radius[i] > 0.0:
             idx[n_feet] = i
             n_feet += 1
-            scale_s = fmax(scale_s, fmax(abs(slip[i, 0]), abs(slip[i, 1])))
-            scale_r = fmax(scale_r, radius[i])
+            scale_s = fmax(scale_s, math.sqrt(slip[i, 0] * slip[i, 0] + slip[i, 1] * slip[i, 1]))
         lam[i, 0] = lam[i, 1] = 0.0
     n = 2 * n_feet
     if n == 0 or not scale_s > 0.0:
-        return
-    # one scratch allocation for the method's arrays (each a malloc of its own cost as much as
-    # a Newton step's arithmetic)
-    vecs = zeros((4, 8), np.float64)
-    x, grad, dx, y = vecs[0], vecs[1], vecs[2], vecs[3]
-    mats = zeros((2, 8, 8), np.float64)
-    hess, l_mat = mats[0], mats[1]
-    mu = scale_s * scale_r
-    for _ in range(IPM_OUTER):
-        for _ in range(IPM_INNER):
+        return 0
+    # one scratch allocation each for the vectors, the matrices and the feet's cones (each a
+    # malloc of its own costs as much as a Newton step's arithmetic)
+    vecs = zeros((7, 8), np.float64)
+    x, u0, res, rhs, dx, y, rho = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6]
+    mats = zeros((3, 8, 8), np.float64)
+    a_loc, hess, l_mat = mats[0], mats[1], mats[2]
+    cones = zeros((8, 4, 4), np.float64)
+    # z_k; w_k with 1 / (1 + w0); l_k = W_k s_k; xi_k; W_k ds_k and W_k^-1 dz_k of the predictor;
+    # dz_k; (eta_k, 1 / det l_k, det s_k, det z_k)
+    z, w, lsc, xi, wds, wdz, dz, scal = (cones[0], cones[1], cones[2], cones[3], cones[4],
+                                         cones[5], cones[6], cones[7])
+    for a in range(n):
+        fa, ca = idx[a // 2], a % 2
+        u0[a] = slip[fa, ca]
+        for b in range(n):
+            a_loc[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
+    for k in range(n_feet):
+        rho[k] = radius[idx[k]]
+        z[k, 0] = math.sqrt(u0[2 * k] * u0[2 * k] + u0[2 * k + 1] * u0[2 * k + 1]) + scale_s
+        z[k, 1], z[k, 2] = u0[2 * k], u0[2 * k + 1]
+    steps = 0
+    moved = math.inf
+    for _ in range(IPM_MAX_STEPS):
+        gap = 0.0
+        for k in range(n_feet):
+            gap += rho[k] * z[k, 0] + x[2 * k] * z[k, 1] + x[2 * k + 1] * z[k, 2]
+        mu = gap / n_feet
+        worst = 0.0
+        for a in range(n):
+            acc = u0[a] - z[a // 2, 1 + a % 2]
+            for b in range(n):
+                acc += a_loc[a, b] * x[b]
+                hess[a, b] = a_loc[a, b]
+            res[a] = -acc
+            worst = fmax(worst, abs(acc))
+        if worst <= IPM_TOL_MPS and moved <= IPM_TOL_MPS:
+            break
+        inside = True
+        for k in range(n_feet):  # the Nesterov-Todd scaling of foot k's pair
+            s0, s1, s2 = rho[k], x[2 * k], x[2 * k + 1]
+            z0, z1, z2 = z[k, 0], z[k, 1], z[k, 2]
+            s_n, z_n = math.sqrt(s1 * s1 + s2 * s2), math.sqrt(z1 * z1 + z2 * z2)
+            s_det, z_det = (s0 - s_n) * (s0 + s_n), (z0 - z_n) * (z0 + z_n)
+            if not (s_det > 0.0 and z_det > 0.0):
+                inside = False  # rounding has reached a cone's edge: keep this point
+                break
+            s_i, z_i = 1.0 / math.sqrt(s_det), 1.0 / math.sqrt(z_det)
+            s0, s1, s2 = s0 * s_i, s1 * s_i, s2 * s_i
+            z0, z1, z2 = z0 * z_i, z1 * z_i, z2 * z_i
+            g_i = 1.0 / math.sqrt(2.0 * (1.0 + s0 * z0 + s1 * z1 + s2 * z2))
+            w0, w1, w2 = (s0 + z0) * g_i, (s1 - z1) * g_i, (s2 - z2) * g_i
+            wk = (w0, w1, w2, 1.0 / (1.0 + w0))
+            w[k, 0], w[k, 1], w[k, 2], w[k, 3] = wk
+            e2 = s_i / z_i  # eta_k^2 = sqrt(det z_k / det s_k)
+            eta = math.sqrt(e2)
+            scal[k, 0], scal[k, 1], scal[k, 2], scal[k, 3] = eta, s_i * z_i, s_det, z_det
+            hess[2 * k, 2 * k] += e2 * (1.0 + 2.0 * w1 * w1)
+            hess[2 * k + 1, 2 * k + 1] += e2 * (1.0 + 2.0 * w2 * w2)
+            hess[2 * k, 2 * k + 1] += e2 * 2.0 * w1 * w2
+            hess[2 * k + 1, 2 * k] += e2 * 2.0 * w1 * w2
+            l0, l1, l2 = _scaled(eta, wk, rho[k], x[2 * k], x[2 * k + 1])
+            lsc[k, 0], lsc[k, 1], lsc[k, 2], lsc[k, 3] = l0, l1, l2, 1.0 / l0
+        if not inside or not _cholesky_factor(hess, n, l_mat):
+            break  # numerically singular: keep the last point (inside every cone)
+        sigma = 0.0
+        step = 0.0
+        for phase in range(2):  # Mehrotra's predictor (affine), then the combined step
             for a in range(n):
-                fa, ca = idx[a // 2], a % 2
-                acc = slip[fa, ca]
-                for b in range(n):
-                    fb_, cb = idx[b // 2], b % 2
-                    hess[a, b] = a_mat[fa, ca, fb_, cb]
-                    acc += a_mat[fa, ca, fb_, cb] * x[b]
-                grad[a] = acc
+                rhs[a] = res[a]
             for k in range(n_feet):
-                r = radius[idx[k]]
-                l1, l2 = x[2 * k], x[2 * k + 1]
-                d = r * r - l1 * l1 - l2 * l2
-                grad[2 * k] += mu * 2.0 * l1 / d
-                grad[2 * k + 1] += mu * 2.0 * l2 / d
-                c0, c1 = mu * 2.0 / d, mu * 4.0 / (d * d)
-                hess[2 * k, 2 * k] += c0 + c1 * l1 * l1
-                hess[2 * k + 1, 2 * k + 1] += c0 + c1 * l2 * l2
-                hess[2 * k, 2 * k + 1] += c1 * l1 * l2
-                hess[2 * k + 1, 2 * k] += c1 * l1 * l2
-            for a in range(n):
-                grad[a] = -grad[a]
-            if not _cholesky_solve(hess, grad, n, dx, l_mat, y):
-                break  # numerically singular: keep the last point (inside every disk)
-            t = 1.0
-            for k in range(n_feet):  # the largest step that stays inside each disk
-                r = radius[idx[k]]
-                l1, l2 = x[2 * k], x[2 * k + 1]
+                l0, l1, l2 = lsc[k, 0], lsc[k, 1], lsc[k, 2]
+                c0 = -(l0 * l0 + l1 * l1 + l2 * l2)
+                c1, c2 = -2.0 * l0 * l1, -2.0 * l0 * l2
+                if phase == 1:
+                    a0, a1, a2 = wds[k, 0], wds[k, 1], wds[k, 2]
+                    b0, b1, b2 = wdz[k, 0], wdz[k, 1], wdz[k, 2]
+                    c0 += sigma * mu - (a0 * b0 + a1 * b1 + a2 * b2)
+                    c1 -= a0 * b1 + b0 * a1
+                    c2 -= a0 * b2 + b0 * a2
+                q0 = (l0 * c0 - l1 * c1 - l2 * c2) * scal[k, 1]  # xi_k = l_k \ c_k
+                q1, q2 = (c1 - q0 * l1) * lsc[k, 3], (c2 - q0 * l2) * lsc[k, 3]
+                xi[k, 0], xi[k, 1], xi[k, 2] = q0, q1, q2
+                wk = (w[k, 0], w[k, 1], w[k, 2], w[k, 3])
+                _, r1, r2 = _scaled(scal[k, 0], wk, q0, q1, q2)
+                rhs[2 * k] += r1
+                rhs[2 * k + 1] += r2
+            _cholesky_substitute(l_mat, rhs, n, dx, y)
+            alpha = 1.0
+            for k in range(n_feet):
+                eta, wk = scal[k, 0], (w[k, 0], w[k, 1], w[k, 2], w[k, 3])
                 d1, d2 = dx[2 * k], dx[2 * k + 1]
-                qa = d1 * d1 + d2 * d2
-                qb = 2.0 * (l1 * d1 + l2 * d2)
-                qc = l1 * l1 + l2 * l2 - r * r
-                if qa > 0.0:
-                    t_max = (-qb + math.sqrt(fmax(qb * qb - 4.0 * qa * qc, 0.0))) / (2.0 * qa)
-                    t = fmin(t, 0.99 * t_max)
-            for a in range(n):
-                x[a] += t * dx[a]
-        mu = 0.1 * mu
+                a0, a1, a2 = _scaled(eta, wk, 0.0, d1, d2)  # W_k ds_k
+                b0, b1, b2 = xi[k, 0] - a0, xi[k, 1] - a1, xi[k, 2] - a2  # W_k^-1 dz_k
+                e0, e1, e2 = _scaled(eta, wk, b0, b1, b2)
+                if phase == 0:
+                    wds[k, 0], wds[k, 1], wds[k, 2] = a0, a1, a2
+                    wdz[k, 0], wdz[k, 1], wdz[k, 2] = b0, b1, b2
+                dz[k, 0], dz[k, 1], dz[k, 2] = e0, e1, e2
+                alpha = fmin(alpha, _cone_step(scal[k, 2], rho[k], x[2 * k], x[2 * k + 1], 0.0,
+                                               d1, d2))
+                alpha = fmin(alpha, _cone_step(scal[k, 3], z[k, 0], z[k, 1], z[k, 2], e0, e1,
+                                               e2))
+            if phase == 0:  # the centring: how far the affine step would take the gap
+                gap_aff = 0.0
+                for k in range(n_feet):
+                    gap_aff += (rho[k] * (z[k, 0] + alpha * dz[k, 0])
+                                + (x[2 * k] + alpha * dx[2 * k]) * (z[k, 1] + alpha * dz[k, 1])
+                                + (x[2 * k + 1] + alpha * dx[2 * k + 1])
+                                * (z[k, 2] + alpha * dz[k, 2]))
+                ratio = fmax(0.0, fmin(1.0, gap_aff / gap))
+                sigma = ratio * ratio * ratio
+            else:
+                step = fmin(1.0, IPM_STEP * alpha)
+        if not step > 0.0:
+            break
+        moved = 0.0
+        for k in range(n_feet):
+            moved = fmax(moved, step * fmax(abs(dz[k, 1]), abs(dz[k, 2])))
+        if not moved < math.inf:
+            break  # (not finite: keep the last point)
+        for a in range(n):
+            x[a] += step * dx[a]
+        for k in range(n_feet):
+            z[k, 0] += step * dz[k, 0]
+            z[k, 1] += step * dz[k, 1]
+            z[k, 2] += step * dz[k, 2]
+        steps += 1
     for k in range(n_feet):
         lam[idx[k], 0], lam[idx[k], 1] = x[2 * k], x[2 * k + 1]
+    return steps
 
 
 @kernel
 def _solve_feet(a_mat, slip, radius, lam, active):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
-    does not converge within MAX_SWEEPS, the barrier method. Returns 1 or 2: which one."""
+    does not converge within MAX_SWEEPS, the interior-point method. Returns 1 or 2: which one."""
     if _gauss_seidel(a_mat, slip, radius, lam, active):
         return 1
     _interior_point(a_mat, slip, radius, lam, active)

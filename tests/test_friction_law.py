@@ -120,3 +120,89 @@ def test_the_impulse_spread_over_the_step_is_a_constant_forces_drift():
     turn_rad = 2.0 * math.acos(min(1.0, abs(float(np.dot(q2, quat)))))
     assert turn_rad == pytest.approx(0.2 * h / 2, rel=1e-6)
     assert math.isclose(float(np.dot(q2, q2)), 1.0, rel_tol=1e-12)
+
+
+def tilted_lander(rng):
+    """The friction problem of a 15 t lander's pressing feet (foot offsets 2.5 m out, 1.6 m down,
+    the ship tilted up to 0.3 rad; principal inertia 6e4, 6e4, 4e4 kg m^2), as coulomb builds it:
+    A = J M^-1 J^T (rank 6 at most: four feet have 8 slips, the ship 6 freedoms), a slip from a
+    random motion, each disk mu J_i. The problems Gauss-Seidel crawls on."""
+    mass, inertia = 15000.0, np.array([6e4, 6e4, 4e4])
+    tilt, az = rng.uniform(0.0, 0.3), rng.uniform(0.0, 2.0 * math.pi)
+    axis = np.array([math.cos(az), math.sin(az), 0.0])
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    rot = np.eye(3) + math.sin(tilt) * k + (1.0 - math.cos(tilt)) * k @ k
+    feet = np.array([[2.5, 0.0, -1.6], [0.0, 2.5, -1.6], [-2.5, 0.0, -1.6], [0.0, -2.5, -1.6]])
+    offsets = feet @ rot.T
+    t1, t2 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    pressing = rng.permutation(4)[:rng.integers(2, 5)]
+    jac = np.array([np.concatenate([t / math.sqrt(mass),
+                                    np.cross(offsets[i], t) / np.sqrt(inertia)])
+                    for i in pressing for t in (t1, t2)])
+    motion = rng.normal(0.0, 1.0, 6) * rng.choice([1e-2, 1e-1, 1.0])
+    mu_j = rng.choice([0.4, 0.6, 1.0]) * rng.uniform(100.0, 5000.0, len(pressing))
+    return jac @ jac.T, jac @ motion, mu_j
+
+
+def barrier_reference(a, s, r, weights=18, steps=10):
+    """The feet's problem by a long primal barrier method (numpy): Newton's method on
+    lam.A lam / 2 + s.lam - mu sum log(r_i^2 - |lam_i|^2), ``steps`` steps at each of ``weights``
+    values of mu, each a tenth of the last (sim.friction's method before issue 36's third part,
+    run four times as long: its slips agree with 20,000 Gauss-Seidel sweeps where those
+    converge)."""
+    lam = last = np.zeros(len(s))
+    mu = np.abs(s).max() * r.max()
+    for _ in range(weights):
+        for _ in range(steps):
+            l2 = lam.reshape(-1, 2)
+            norm = np.linalg.norm(l2, axis=1)
+            d = (r - norm) * (r + norm)
+            if not np.all(d > 0.0):
+                return last  # rounding reached a disk's edge: the last point inside
+            last = lam
+            grad = a @ lam + s + (2.0 * mu * l2 / d[:, None]).reshape(-1)
+            hess = a.copy()
+            for k in range(len(r)):
+                hess[2 * k:2 * k + 2, 2 * k:2 * k + 2] += (2.0 * mu / d[k] * np.eye(2)
+                                                           + 4.0 * mu / d[k] ** 2
+                                                           * np.outer(l2[k], l2[k]))
+            try:
+                dx = np.linalg.solve(hess, -grad)
+            except np.linalg.LinAlgError:
+                return lam  # numerically singular: this point
+            t = 1.0
+            for k in range(len(r)):
+                dk = dx[2 * k:2 * k + 2]
+                qa, qb = dk @ dk, 2.0 * l2[k] @ dk
+                if qa > 0.0:
+                    t = min(t, 0.99 * (-qb + math.sqrt(max(qb * qb + 4.0 * qa * d[k], 0.0)))
+                            / (2.0 * qa))
+            lam = lam + t * dx
+        mu *= 0.1
+    return lam
+
+
+def test_the_feet_gauss_seidel_crawls_on_end_at_the_exact_slips():
+    """Tilted landers' mixed stick/slide footprints (their matrices singular or nearly so): the
+    solve (Gauss-Seidel, then sim.friction's interior-point method where it crawls) leaves every
+    foot's slip within 1e-9 m/s of a long barrier solve's (a different method: the exact slips
+    to ~1e-12), each impulse inside its disk."""
+    rng = np.random.default_rng(36)
+    methods = []
+    for _ in range(40):
+        a2, s2, r = tilted_lander(rng)
+        nf = len(r)
+        a = np.zeros((4, 2, 4, 2))
+        a[:nf, :, :nf, :] = a2.reshape(nf, 2, nf, 2)
+        slip = np.zeros((4, 2))
+        slip[:nf] = s2.reshape(nf, 2)
+        radius = np.zeros(4)
+        radius[:nf] = r
+        active = radius > 0.0
+        lam = np.zeros((4, 2))
+        methods.append(_solve_feet(a, slip, radius, lam, active))
+        ref = barrier_reference(a2, s2, r)
+        after, after_ref = a2 @ lam[:nf].reshape(-1) + s2, a2 @ ref + s2
+        assert np.abs(after - after_ref).max() < 1e-9, np.abs(after - after_ref).max()
+        assert np.all(np.linalg.norm(lam[:nf], axis=1) <= r)
+    assert methods.count(2) >= 30  # most of them crawl in Gauss-Seidel: the interior-point method

@@ -48,14 +48,13 @@ SCENES = {
 
 #: sha256 of every tick's state rows, outputs and events (digest() below), since touchdown 0.8.0
 #: (issue 35: landing, friction and tipped ships changed the physics; the stiff feet in pieces,
-#: sim.stiff_substep, changed the tilted touchdown and the fleet; cut in every sub-step, the
-#: tilted touchdown, the slope and the fleet)
+#: sim.stiff_substep, changed the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "fe5a636b35516a930e99bb99f54ec16cbea9ae1da82833774ad6e59768c74197",
-    "trip": "754bc7aafbf43977d63f2ee4e7f7af222c87bdc4272e4c59d70bb80d2853c6df",
-    "tilted": "547605c24d04148dce9c7804559f7cb857ad09250ddccd1c8311eb26d89b7857",
-    "slope": "2db3e8af965d0fed739e91e85725ceb37ca4ca5fb0c705e23ab752f026222f8a",
-    "fleet": "bc4cb8d9111b40678cf6cc86c1dec5bf7ec51d0d5c562697a7912b19d960d021",
+    "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
+    "trip": "1d258a341b6f876d8835c7a25205652bda8738d3cbe53602a7c24bce03762d09",
+    "tilted": "a8e3a13225ff2bcf913b8a7bf027ab2c36ab135e24ea6374fdd7f47e32a19b90",
+    "slope": "ebc161cf620f05c38ff08a317f89f3b4cada204e3cf40a5edc0c28c9f7a76e6e",
+    "fleet": "90471000555cfa319b3c55ce85285db0e1ec75b51c158e46768bee6eff425b0d",
 }
 
 
