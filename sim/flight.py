@@ -597,6 +597,14 @@ DRAG_REACH = 1.0
 STIFF_REACH = 0.4
 
 
+#: a sub-step is cut into pieces (sim.stiff_substep) where a sliding foot that is not slowing
+#: could stop within PIECE_REACH of it: below STIFF_REACH it would take an impulse after the
+#: step, first order in it; between the two it is dragged, and its drag turns with its slip at a
+#: rate of 1 / (the time its friction takes to stop it), which rk4 over 1 to 2.5 such times damps
+#: wrongly (MODEL-NOTES 46)
+PIECE_REACH = 1.0
+
+
 @kernel
 def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
@@ -953,6 +961,17 @@ def piece_start(cfg, fb, ps, onset_now, log):
 
 
 # -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
+class Fine(NamedTuple):
+    """How a sub-step is cut where a sliding foot's friction is stiff (sim.stiff_substep)."""
+
+    piece_s: float  # the shortest piece (0: no pieces)
+    floor_s: float  # the feet its friction would stop sooner than this take no pieces
+
+
+#: no pieces
+NOT_FINE = Fine(0.0, 0.0)
+
+
 class PieceStep(NamedTuple):
     """A piece stepped: to the sub-step's end, or to the instant a foot starts or stops pressing,
     or a sliding foot stops."""
@@ -969,14 +988,16 @@ class PieceStep(NamedTuple):
 
 
 @constructor
-def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
+def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
     """One step of the method over the ``rem`` left of the sub-step from ``start`` (a
     :class:`PieceStart`), a sliding foot that could stop within it taking its friction as an
     impulse instead; cut at the first foot that starts or stops pressing inside it, located
     (:func:`to_event`), unless ``may_split`` is False (the pieces' bound); and, where a sliding
-    foot would take its friction as an impulse (:func:`stiff_feet`), no longer than ``fine_s``
-    (0: as long as the step). ``stiff``: the feet whose stops are not located for the rest of
-    the sub-step."""
+    foot would take its friction as an impulse (:func:`stiff_feet`), no longer than the time its
+    friction would take to stop it, nor shorter than ``fine.piece_s`` (0: the step whole), for
+    the feet it would take ``fine.floor_s`` or longer to stop (a :class:`Fine`). ``stiff``: the
+    feet whose stops are not located for the rest of the sub-step."""
+    fine_s = fine.piece_s
     s, t_abs = start.ship, start.t_s
     m, ft = s.motion, s.footing
     engage, drag, ce_y = start.engage, start.drag, start.ce
@@ -988,11 +1009,15 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
-        if stiff_feet(cfg, body, start, sr, STIFF_REACH * rem, stiff):
+        t_stop = stiff_feet(cfg, body, start, sr, PIECE_REACH * rem, stiff, fine.floor_s)
+        if t_stop < math.inf:
             # Coulomb's law is stiff at such a foot: its impulse after the step is first order
-            # in the step (MODEL-NOTES 46); the piece is cut to equal parts of at most
-            # stiff_substep, each taken as a piece of its own
-            rem = rem / math.ceil(rem / fine_s - 1e-9)
+            # in the step, and its drag turns faster than rk4's stages follow (MODEL-NOTES 46);
+            # the piece is cut to equal parts no longer than the time its friction would take to
+            # stop it, and than stiff_substep at the least, each taken as a piece of its own
+            piece = fmax(fine_s, t_stop)
+            if rem > piece * (1.0 + 1e-9):
+                rem = rem / math.ceil(rem / piece - 1e-9)
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
@@ -1083,17 +1108,39 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine_s):
 
 
 @kernel
-def stiff_feet(cfg, fb, start, sr, h, stiff):
-    """Whether a sliding foot that presses at a piece's ``start`` (a :class:`PieceStart`) would
-    take its friction as an impulse after a step (:func:`step_piece`): its own friction could stop
-    it within h (:func:`_could_stop`), and it is not coming to a stop (:func:`slowing`, from
-    ``sr``; a foot of ``stiff`` whatever it does)."""
+def _stop_time(cfg, fb, ce, q, i):
+    """The time foot i's own kinetic friction alone would take to slow its slip (at ``ce``) to the
+    stick speed, s: (|s| - stick) m_eff / (mu_k N) (:func:`_could_stop`'s terms at one end)."""
+    s0 = ce.slip_w[i]
+    speed = norm(s0)
+    if not speed > cfg.stick_speed_mps:
+        return 0.0
+    drag = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
+    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
+                                                  fb.craft.com_height_m)[i], s_hat))
+    inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+    return (speed - cfg.stick_speed_mps) / (drag * inv_m)
+
+
+@kernel
+def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
+    """The shortest time to stop (:func:`_stop_time`) of the sliding feet that press at a piece's
+    ``start`` (a :class:`PieceStart`) and would take their friction as an impulse after a step
+    of h, or be dragged where rk4's stages would not follow their drag's turning
+    (:func:`step_piece`): their own friction could stop them within h (:func:`_could_stop`), and
+    they are not coming to a stop (:func:`slowing`, from ``sr``; a foot of ``stiff`` whatever it
+    does); of those, the ones it would take ``floor_s`` or longer to. Infinite where there is
+    none."""
     drag, ce, q = start.drag, start.ce, start.ship.motion.q
+    out = math.inf
     for i in range(4):
         if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
                 and (stiff[i] or not slowing(sr, i))):
-            return True
-    return False
+            t_stop = _stop_time(cfg, fb, ce, q, i)
+            if t_stop >= floor_s:
+                out = fmin(out, t_stop)
+    return out
 
 
 @kernel
@@ -1378,9 +1425,10 @@ def free_flight(here, fb, s, n_sub, carry, log):
     sample = s.surface_state == CONTACT
     t_seen = 0.0  # the instant of the last sample
     pinned_now = False  # crashed, tipped to the pivot model, or at rest on the hull: pinned
-    # the stiff feet's pieces (sim.stiff_substep): in the sub-steps of an impact
-    fine_s = cfg.stiff_substep_s if cfg.impact_substeps > 0 and n_sub >= cfg.impact_substeps \
-        else 0.0
+    # the stiff feet's pieces (sim.stiff_substep), in every sub-step; outside an impact not for
+    # the feet their friction would stop within the shortest piece (a rocking ship's micro-slips)
+    impact = cfg.impact_substeps > 0 and n_sub >= cfg.impact_substeps
+    fine = Fine(cfg.stiff_substep_s, 0.0 if impact else cfg.stiff_substep_s)
     for j in range(n_sub):
         m = s.motion
         start = SubStepStart(j * h, (j + 1) * h, h, ce.max_penetration_m, v_rad,
@@ -1408,11 +1456,15 @@ def free_flight(here, fb, s, n_sub, carry, log):
                 break
             fb_k = with_hold(fb, carried)
             pc = step_piece(cfg, fb_k, ps, h - t_in, events < MAX_PIECES, stiff,
-                            fine_s if refined < MAX_REFINED else 0.0)
+                            fine if refined < MAX_REFINED else NOT_FINE)
             memo = pc.memo
             st = pc.step
-            stiff = (stiff[0] or pc.slid_on[0], stiff[1] or pc.slid_on[1],
-                     stiff[2] or pc.slid_on[2], stiff[3] or pc.slid_on[3])
+            # (a foot that broke away here slips from zero: its stop is not looked for again
+            # in this sub-step, where it would be found at once)
+            stiff = (stiff[0] or pc.slid_on[0] or pc.broke[0],
+                     stiff[1] or pc.slid_on[1] or pc.broke[1],
+                     stiff[2] or pc.slid_on[2] or pc.broke[2],
+                     stiff[3] or pc.slid_on[3] or pc.broke[3])
             s = stepped(s, broken(stuck(st, pc.stopped), pc.broke))
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,

@@ -214,10 +214,11 @@ SETTINGS: tuple[Setting, ...] = (
           "the ground or rebounds (sim.phases.striking; 0: max_substep everywhere)"),
     S("sim.stiff_substep", "float", 0.001, "s", 0.0, 1.0, dest="sim.stiff_substep_s",
       scene="stiff_substep_s",
-      doc="inside an impact's sub-steps (sim.impact_substep), a ship is stepped in pieces of at "
-          "most this while a sliding foot's friction is stiff (its friction could stop it within "
-          "a fraction of the step while the ship's turning keeps it slipping: "
-          "sim.flight.stiff_feet; 0: the sub-step whole, 0.8's behaviour)"),
+      doc="a ship is stepped in pieces no longer than the time a sliding foot's friction would "
+          "take to stop it, and no shorter than this, while that friction is stiff (it could "
+          "stop the foot within the sub-step while the ship's turning keeps it slipping: "
+          "sim.flight.stiff_feet; outside an impact's sub-steps only for feet it would take "
+          "this or longer to stop; 0: the sub-step whole, 0.8's behaviour)"),
     S("sim.on_unstable", "str", "substep", choices=OnUnstable,
       doc="an unstable method and step: sub-step further, refuse, or run as asked"),
     S("sim.vertical_one_step", "bool", True, dest="sim.vertical_one_step",

@@ -166,17 +166,15 @@ def test_3d_touchdowns_end_as_the_reference_says_at_every_tick(dt, tilt, heading
 def test_3d_touchdowns_follow_the_reference_at_the_default_tick(tilt, heading, yaw, v_down, side,
                                                                 side_heading, spin, mass, com,
                                                                 leg, slope, azimuth):
-    """Over 3-D starts, at the default tick (0.05 s) with its sub-steps at 5 ms and an impact's at
-    1 ms, a ship that stands rocks to the reference's largest tilt and ends where it went, to 1%
-    (0.1 degree, 1 cm): the model converges to the reference. At the default sub-steps (25 ms, 5 ms
-    while it strikes, 1 ms pieces where a sliding foot's friction is stiff in an impact) most
-    starts hold it too, not all: a foot's friction turning between holding and sliding outside an
-    impact is an impulse after each 25 ms sub-step, first order in it (MODEL-NOTES 46's known
-    limit): a 1.4 m/s touchdown with 0.6 m/s sideways onto a 4.3 degree slope rocks to 9.14
-    degrees against the reference's 9.00 (9.005 at 5 ms sub-steps) and ends 2 cm from where it
-    went; a 7.1 m/s touchdown tilted 9.9 degrees onto a 6.5 degree slope slides 1.7% too far
-    (0.1% at 1 ms impact sub-steps). (0.8 needed 1 ms impact sub-steps for the feet that touch
-    down sliding under an impact's load: test_an_impact_converges_with_its_sub_step.)"""
+    """Over 3-D starts, at the default settings (tick 0.05 s, 25 ms sub-steps, 5 ms while it
+    strikes, 1 ms pieces where a sliding foot's friction is stiff), a ship that stands rocks to
+    the reference's largest tilt and ends where it went, to 1% (0.1 degree, 1 cm). Until the
+    stiff feet's pieces were cut in every sub-step, not only an impact's (MODEL-NOTES 46), it
+    held only at 5 ms sub-steps: a foot's friction turning between holding and sliding outside
+    an impact was an impulse after each 25 ms sub-step, and a 1.4 m/s touchdown with 0.6 m/s
+    sideways onto a 4.3 degree slope rocked to 9.14 degrees against the reference's 9.00. (0.8
+    needed 1 ms impact sub-steps for the feet that touch down sliding under an impact's load:
+    test_an_impact_converges_with_its_sub_step.)"""
     sc = _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
                 azimuth)
     ref = _ref(sc)
@@ -184,7 +182,7 @@ def test_3d_touchdowns_follow_the_reference_at_the_default_tick(tilt, heading, y
     assume(ref.first("tipped") is None and ref.first("liftoff") is None)
     assume(abs(float(til.max()) - _edge_limit_deg(com, leg)) > 3.0)
     assume(til[-1] < til.max() - 0.5 or til.max() < 5.0)  # not still turning toward the edge
-    sim = E.run_sim(sc, 0.05, sim={"max_substep": 0.005, "impact_substep": 0.001})
+    sim = E.run_sim(sc, 0.05)
     assert E.peak_tilt(sim) == pytest.approx(E.peak_tilt(ref), rel=0.01, abs=0.1)
     way = np.linalg.norm(E.horizontal_m(ref)[-1])
     assert np.linalg.norm(E.horizontal_m(sim)[-1] - E.horizontal_m(ref)[-1]) <= 0.01 * way + 0.01

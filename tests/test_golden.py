@@ -48,13 +48,14 @@ SCENES = {
 
 #: sha256 of every tick's state rows, outputs and events (digest() below), since touchdown 0.8.0
 #: (issue 35: landing, friction and tipped ships changed the physics; the stiff feet in pieces,
-#: sim.stiff_substep, changed the tilted touchdown and the fleet)
+#: sim.stiff_substep, changed the tilted touchdown and the fleet; cut in every sub-step, the
+#: tilted touchdown, the slope and the fleet)
 EXPECTED = {
     "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
     "trip": "1d258a341b6f876d8835c7a25205652bda8738d3cbe53602a7c24bce03762d09",
-    "tilted": "a8e3a13225ff2bcf913b8a7bf027ab2c36ab135e24ea6374fdd7f47e32a19b90",
-    "slope": "ebc161cf620f05c38ff08a317f89f3b4cada204e3cf40a5edc0c28c9f7a76e6e",
-    "fleet": "90471000555cfa319b3c55ce85285db0e1ec75b51c158e46768bee6eff425b0d",
+    "tilted": "60e5d7ceeac70fe448179097588cb822888f6ecceb4dd41fdd1eca1874521938",
+    "slope": "6aacdeffa6e2969f20bd3a4928b89123e0a801e900ebbf2ecb77361e33b9b8b6",
+    "fleet": "40920baa659c8a7b499e04050d2fddaddc91bee0b0d91c2cffc3dc7f8ec57486",
 }
 
 
