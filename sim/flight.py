@@ -606,6 +606,14 @@ PIECE_REACH = 1.0
 
 
 @kernel
+def _inv_mass_along(fb, q, i, s_hat):
+    """1 / m_eff of foot i along the unit ``s_hat``: 1 / m + (r x s_hat) . I^-1 (r x s_hat)."""
+    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
+                                                  fb.craft.com_height_m)[i], s_hat))
+    return 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+
+
+@kernel
 def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     """Whether foot i's own kinetic friction could slow its slip (at ``ce0``) to the stick speed
     within DRAG_REACH h: (|s| - stick) m_eff / (mu_k N) < DRAG_REACH h, N the larger of the foot's
@@ -618,9 +626,7 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     drag = fb.craft.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
                           ce1.foot_force_n[i] * ce1.push_norm[i])
     s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
-    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
-                                                  fb.craft.com_height_m)[i], s_hat))
-    inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+    inv_m = _inv_mass_along(fb, q, i, s_hat)
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
 
@@ -1117,9 +1123,7 @@ def _stop_time(cfg, fb, ce, q, i):
         return 0.0
     drag = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
     s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
-    arm = quat_rotate_inv(q, cross(foot_offsets_w(q, fb.craft.leg_radius_m,
-                                                  fb.craft.com_height_m)[i], s_hat))
-    inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
+    inv_m = _inv_mass_along(fb, q, i, s_hat)
     return (speed - cfg.stick_speed_mps) / (drag * inv_m)
 
 
