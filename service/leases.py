@@ -38,6 +38,10 @@ class Leases:
         self._started = time.monotonic()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        # held by a renewal from reading the fences to its reply, and by a release while it
+        # takes its shard out of them: RENEW takes a lapsed lease back, so a renewal that read
+        # the fences before a release and ran after it would take the freed lease again
+        self._renewing = threading.Lock()
 
     # -- the renewal thread ------------------------------------------------------------------------
     def start(self) -> None:
@@ -61,8 +65,20 @@ class Leases:
         return gone
 
     def forget(self, k: int) -> None:
-        """Shard k is no longer this worker's (handed over, lost): not renewed again."""
+        """Shard k is no longer this worker's (lost): not renewed again."""
         self.fences.pop(k, None)
+
+    def release(self, k: int, fence: Fence) -> None:
+        """Free shard k's lease (handed over, stopping, not taken): out of the renewals first,
+        once no renewal that read it is in flight, then RELEASE; renewed again if RELEASE
+        fails (the shard is still this worker's)."""
+        with self._renewing:
+            self.fences.pop(k, None)
+        try:
+            self.worker.store.release(k, fence)
+        except BaseException:
+            self.fences[k] = fence
+            raise
 
     def _renew_loop(self) -> None:
         """Renew this worker's heartbeat and leases every lease / 4 on a connection of its own.
@@ -76,10 +92,12 @@ class Leases:
                     if keeper is None:
                         keeper = w.store.lease_keeper(timeout=max(0.2, cfg.lease_s / 4))
                     self.live = keeper.heartbeat(cfg.lease_s)
-                    # (and a shard being taken: restoring a large one outlasts a lease)
-                    fences = dict(self.fences)
-                    order = sorted(k for k in set(w.owned) | self.taking if k in fences)
-                    kept = keeper.renew([(k, fences[k].epoch) for k in order], self.lease_ms)
+                    with self._renewing:
+                        # (and a shard being taken: restoring a large one outlasts a lease)
+                        fences = dict(self.fences)
+                        order = sorted(k for k in set(w.owned) | self.taking if k in fences)
+                        kept = keeper.renew([(k, fences[k].epoch) for k in order],
+                                            self.lease_ms)
                     self._lost.update(k for k, ok in zip(order, kept) if ok == 0)
                     self._gone.update(k for k, ok in zip(order, kept) if ok == -3)
                 except UNREACHABLE:
@@ -121,13 +139,14 @@ class Leases:
                 try:
                     w._take_over(k, fence)
                 except self._refused as exc:  # (a checkpoint this worker cannot read)
-                    self.fences.pop(k, None)
-                    w.store.release(k, fence)
+                    self.release(k, fence)
                     w.log_every(f"take:{k}", f"shard {k}: not taken: {exc}", "error")
                     continue
                 except BaseException:
-                    self.fences.pop(k, None)
-                    w.store.release(k, fence)
+                    try:
+                        self.release(k, fence)
+                    finally:
+                        self.fences.pop(k, None)
                     raise
                 finally:
                     self.taking.discard(k)

@@ -1008,8 +1008,7 @@ class Worker:
         o = self.owned[k]
         if o.unsent or o.results or o.unsure or self._checkpoint(k) != 1:
             return  # try again at the next lease round
-        self.store.release(k, o.fence)
-        self.leases.forget(k)
+        self.leases.release(k, o.fence)
         o.shard.log.close(complete=True, reason="handed over")
         self.reporter.keep_counts(o)
         del self.owned[k]
@@ -1195,7 +1194,7 @@ class Worker:
             if o.unsent or o.results:
                 return False
             if self._checkpoint(k) == 1:
-                self.store.release(k, o.fence)
+                self.leases.release(k, o.fence)
         return True
 
 

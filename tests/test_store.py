@@ -168,3 +168,37 @@ def test_a_lost_holder_learns_the_tick_its_successor_goes_on_from(stores):
     assert a.successor_start(0, fence_a.epoch) == 9
     a.r.set(a.keys.shard(0, "tick"), 12)
     assert a.successor_start(0, fence_a.epoch) == 9  # (b's began, not what it has written since)
+
+
+def test_a_released_lease_stays_free_while_the_renewals_go_on(stores):
+    """A worker that hands a shard over (or stops) frees its lease while its renewal thread runs
+    on: a renewal that read the leases before the release must not take the freed one back
+    (RENEW takes a lapsed lease back), or the next owner waits a whole lease. Renewals every
+    5 ms and 200 releases at whatever moment each comes: without the lock about them a
+    renewal lands on some release's heels nearly every run."""
+    import time
+    from types import SimpleNamespace
+
+    from touchdown.service.leases import Leases
+
+    a, _b = stores
+    lease_s = 0.02
+    worker = SimpleNamespace(cfg=SimpleNamespace(lease_s=lease_s), store=a, owned={},
+                             id="worker-a", where="", log_every=lambda *args: None,
+                             _text=str)
+    leases = Leases(worker, RuntimeError)
+    leases.start()
+    held = []
+    try:
+        for k in range(200):
+            fence = Fence("worker-a", a.take_lease(k, 10_000), 10_000)
+            leases.fences[k] = fence
+            worker.owned[k] = None
+            time.sleep(0.001 * (k % 7))
+            leases.release(k, fence)
+            time.sleep(0.012)  # more than two renewals
+            if a.r.get(a.keys.shard(k, "owner")) is not None:
+                held.append(k)
+    finally:
+        leases.stop()
+    assert held == []
