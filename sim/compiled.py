@@ -314,9 +314,9 @@ def stack_zeros(typingctx, shape, dtype):
     array with no meminfo, in an alloca of the function's entry block (LLVM moves it into the
     caller's where it inlines the function), zeroed where it is used. No malloc, no free, and
     its views' reference counts are the NRT's null check (the friction solve's scratch: 2.3
-    mallocs and frees a contact sub-step, and ~30 views' increfs and decrefs each, 5% of a
-XX
-    that no result holds."""
+    mallocs and frees a contact sub-step, and ~30 views' increfs and decrefs each, 3.9% of a
+    touchdown's instructions: MODEL-NOTES 49). It must not outlive its function: only for
+    scratch that no result holds."""
     if isinstance(shape, nb_types.IntegerLiteral):
         dims = (shape.literal_value,)
     elif isinstance(shape, nb_types.BaseTuple) and all(
