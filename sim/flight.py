@@ -715,6 +715,16 @@ def stopping(cfg, dragged, sr, ce0, ce1, h):
 
 
 @kernel
+def _turned_any(stop, ce0, ce1):
+    """Whether the slip of any foot of ``stop.stop`` runs against where it ran (at ``ce0``) at
+    ``ce1``."""
+    out = False
+    for i in range(4):
+        out = out or (stop.stop[i] and dot(ce1.slip_w[i], ce0.slip_w[i]) < 0.0)
+    return out
+
+
+@kernel
 def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
     """The sliding feet dragged by their friction as a force over a step of h: those that could
     not stop within it (:func:`_could_stop`; none under the seed's law)."""
@@ -1076,7 +1086,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
-                st = pc.step
+                if _turned_any(stop, ce_y, ce_e):
+                    st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
     if (may_split and fb.craft.method == RK4 and per_foot(cfg)
