@@ -11,16 +11,21 @@ the fore foot, the two side feet, the aft foot) sits at
 
     r(theta) = (b cos theta - h sin theta, -b sin theta - h cos theta)
 
-from the centre of mass, moves at (vx + omega r_z, vz - omega r_x), and presses when its penetration
-x = -(z + r_z) > 0 with
+from the centre of mass, moves at (vx + omega r_z, vz - omega r_x), and presses when its depth
+along the normal d = -(z + r_z) > 0. Its penetration is measured vertically, as the seed and
+Touchdown measure it (MODEL-NOTES 22; bench.reference3d likewise): x = d sec(alpha), x' = d' sec(alpha),
+and the ground pushes along -grad x, sec(alpha) long, so that the normal force is
 
-    N = s (k x + c x'),  clamped at 0 unless the contact is absorbed (then bilateral while x > 0),
+    N = s (k x + c x') sec(alpha) = s (k d + c d') sec^2(alpha),
+    clamped at 0 unless the contact is absorbed (then bilateral while d > 0),
 
 s its share (1/4; 1/2 for the pair of side feet), k = m w^2, c = 2 zeta w m, as Touchdown reads the
 seed (SEED-NOTES 1: an impact slower than bounce_speed is taken by the absorbers, zeta_absorb and
 bilateral; the choice is made when a foot first touches, from the centre of mass's speed along the
-normal, and holds until every foot has left the ground). Friction at each pressing foot opposes its
-own slip u:
+local vertical, and holds until every foot has left the ground with the centre of mass rising from
+it along the normal). (Until 0.9 the spring was s (k d + c d') and the choice was taken on the
+normal: on an 18.9 degree slope 12% softer than Touchdown's and the 3-D reference's.) Friction at
+each pressing foot opposes its own slip u:
 
     F = -mu N tanh(u / eps),  mu = mu_s while |u| < stick_speed, mu_k above it,
 
@@ -133,6 +138,7 @@ def forces(ld: Lander, y, absorbing: bool, sliding=(False, False, False)):
     m, w = ld.mass_kg, ld.omega_radps
     k = m * w * w
     c = 2.0 * (ld.zeta_absorb if absorbing else ld.zeta) * w * m
+    sec2 = 1.0 / math.cos(ld.slope_rad) ** 2  # (vertical penetration, pushed along -grad x)
     fx = fz = tq = 0.0
     normals = []
     for (rx, rz, share), slides in zip(foot_offsets(ld, th), sliding):
@@ -141,7 +147,7 @@ def forces(ld: Lander, y, absorbing: bool, sliding=(False, False, False)):
             normals.append(0.0)
             continue
         ux, uz = vx + om * rz, vz - om * rx
-        n = share * (k * pen - c * uz)
+        n = share * (k * pen - c * uz) * sec2
         if not absorbing:
             n = max(n, 0.0)
         mu = ld.mu_k if slides else ld.mu_s
@@ -150,6 +156,11 @@ def forces(ld: Lander, y, absorbing: bool, sliding=(False, False, False)):
         tq += rz * f - rx * n
         normals.append(n)
     return fx, fz, tq, normals
+
+
+def v_up(ld: Lander, y) -> float:
+    """The centre of mass's speed along the local vertical (X runs downhill, Z along the normal)."""
+    return y[4] * math.cos(ld.slope_rad) - y[3] * math.sin(ld.slope_rad)
 
 
 def foot_slips(ld: Lander, y):
@@ -224,7 +235,7 @@ def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.rad
             else:
                 events.append((t, "contact", y.copy()))
                 in_contact = True
-                absorbing = -y[4] < ld.bounce_speed_mps
+                absorbing = -v_up(ld, y) < ld.bounce_speed_mps
         else:
             hit = [i for i in range(3) if sol.t_events[2 + i].size]
             sliding = tuple((not s) if i in hit else s for i, s in enumerate(sliding))
@@ -238,12 +249,13 @@ def energy_j(ld: Lander, y, absorbing: bool = False) -> float:
     kin = 0.5 * m * (y[3] ** 2 + y[4] ** 2) + 0.5 * ld.i_transverse_kgm2 * y[5] ** 2
     pot = m * ld.g_mps2 * (y[1] * ca - y[0] * sa)
     k = m * ld.omega_radps ** 2
-    spring = sum(0.5 * share * k * max(-(y[1] + rz), 0.0) ** 2
+    sec = 1.0 / ca  # the penetration is vertical: x = d sec(alpha)
+    spring = sum(0.5 * share * k * (max(-(y[1] + rz), 0.0) * sec) ** 2
                  for _, rz, share in foot_offsets(ld, y[2]))
     return kin + pot + spring
 
 
 def resting_height(ld: Lander, theta: float = 0.0) -> float:
     """Centre-of-mass height at which an upright lander's four feet carry its weight's normal
-    component statically: x = g cos(alpha) / w^2."""
-    return ld.com_height_m - ld.g_mps2 * math.cos(ld.slope_rad) / ld.omega_radps ** 2
+    component statically: k d sec^2(alpha) = m g cos(alpha), d = g cos^3(alpha) / w^2."""
+    return ld.com_height_m - ld.g_mps2 * math.cos(ld.slope_rad) ** 3 / ld.omega_radps ** 2

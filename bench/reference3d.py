@@ -46,7 +46,8 @@ Integration: scipy's solve_ivp (Radau by default, LSODA and DOP853 to cross-chec
 stiff while a foot sticks: mu N / (m eps) ~ 1e5 1/s) at rtol 1e-9, with the right-hand side and a
 finite-difference Jacobian compiled by numba (a tool, not the simulation's code). Events end a
 segment wherever the law has a kink or a jump: each foot's penetration crossing zero (the damper's
-force jumps there), the liftoff (every foot clear and the centre of mass rising), the tilt from
+force jumps there), the liftoff (every foot clear and the centre of mass rising from the ground
+along its normal: :func:`v_rise`; until 0.9 along the local vertical), the tilt from
 local vertical crossing the tipped angle (either way), and the end of an RCS burn.
 """
 from __future__ import annotations
@@ -436,6 +437,14 @@ def v_radial(gr: Ground3, y) -> float:
     return float(y[3:6] @ _unit(p_of(gr, y)))
 
 
+def v_rise(gr: Ground3, y) -> float:
+    """How fast the centre of mass rises from the ground: g . v, g = p / |p| - grad h (its gap's
+    rate; on level ground the radial speed). A ship hopping off a slope's downhill feet rises
+    from the ground while it descends."""
+    s_e, s_n = gr.gradient
+    return float(y[3:6] @ (_unit(p_of(gr, y)) - np.array([0.0, s_e, s_n])))
+
+
 def ground_normal(gr: Ground3, y) -> np.ndarray:
     s_e, s_n = gr.gradient
     return _unit(_unit(p_of(gr, y)) - np.array([0.0, s_e, s_n]))
@@ -542,7 +551,7 @@ def solve3(ld: Lander3, gr: Ground3, st: Start3, t_end_s: float, law: Law = Law(
                     path.status = "tipped"
                     t, y = t2, y2
                     break
-        elif in_contact and pen2.max() <= 0.0 and v_radial(gr, y) > 0.0:
+        elif in_contact and pen2.max() <= 0.0 and v_rise(gr, y) > 0.0:
             in_contact = False
             absorbing = False
             path.events.append(Event3(t, "liftoff", v_radial(gr, y)))

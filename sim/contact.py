@@ -139,6 +139,21 @@ def under_up(ground, point):
 
 
 @kernel
+def rise_rate(ground, point, v_mps, r_hat):
+    """How fast a point moving at ``v_mps`` (inertial) rises from the ground under it: -x' =
+    g . (v - Omega z x p), g = -grad x (sec(slope) long): the gap the feet see, whatever
+    ``radial``. On level ground the speed along ``r_hat``, the point's local up (the surface's
+    own velocity is across it)."""
+    if ground.terrain.level:
+        return dot(v_mps, r_hat)
+    east, north = site_coords(ground, point)
+    _h, dh_de, dh_dn = height_and_slope(ground, east, north)
+    g = (r_hat[0] + dh_de * ground.sin_theta, r_hat[1] - dh_de * ground.cos_theta,
+         r_hat[2] - dh_dn)
+    return dot(g, sub(v_mps, surface_velocity(ground, point)))
+
+
+@kernel
 def surface_velocity(ground, point):
     """Omega z x p: the velocity of the body's surface (a body-fixed point) at p."""
     om = ground.spin_radps

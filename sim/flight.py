@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
-    lowest_foot_penetration, no_contact)
+    lowest_foot_penetration, no_contact, rise_rate)
 from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at,
     ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, rotation, total, translation
@@ -819,17 +819,21 @@ def touchdown(cfg, fb, ground, p, v, q, w):
 
 
 @kernel
-def clear_instant(fb, ce, p, v, q, w, h):
+def clear_instant(fb, ground, ce, motion, h):
     """How long before the end of a (sub-)step the last foot left the ground, for a ship whose
-    feet are all clear at its end: the lowest foot's flight back to the ground, at its own speed
-    along local up under g - T cos(tilt) / m (exact for a vertical bounce under uniform gravity;
-    the spring had let go before). Clamped to the step."""
+    feet are all clear at its end: the lowest foot's flight back to the ground, at the rate its
+    gap grows (sim.contact.rise_rate) under g - T cos(tilt) / m (exact for a vertical bounce
+    under uniform gravity, and for a plane slope's gap; the spring had let go before). Clamped
+    to the step."""
+    p, v, q, w = motion
     r_hat = unit(p)
     z = -ce.max_penetration_m
     om = fb.craft.body_omega_radps
-    foot_v = add(sub(v, surface_velocity(om, ce.lowest_foot_w)),
-                 cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p)))
-    u = dot(foot_v, r_hat)
+    spin = cross(quat_rotate(q, w), sub(ce.lowest_foot_w, p))
+    if ground.terrain.level:
+        u = dot(add(sub(v, surface_velocity(om, ce.lowest_foot_w)), spin), r_hat)
+    else:
+        u = rise_rate(ground, ce.lowest_foot_w, add(v, spin), unit(ce.lowest_foot_w))
     a_dn = _a_down(fb, p, q, r_hat)
     disc = u * u + 2.0 * a_dn * z
     denom = u + math.sqrt(fmax(disc, 0.0))
@@ -1318,7 +1322,10 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
         # the speed at the crossing, from the ballistic motion on the clear side of it
         above_before = fmax(-start.pen_m, 0.0)
         impact = math.sqrt(fmax(v_rad_before * v_rad_before + 2.0 * a_down * above_before, 0.0))
-    separation = math.sqrt(fmax(v_rad * v_rad + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
+    # rising from the ground: along its normal, as the feet see it (on a slope a ship hopping
+    # off its downhill feet can rise from the ground while it descends; MODEL-NOTES 50)
+    rise = rise_rate(ground, p, v, r_hat)
+    separation = math.sqrt(fmax(rise * rise + 2.0 * a_down * fmax(-pen, 0.0), 0.0))
     # in contact: descending faster than crash_speed at either end of the sub-step (the
     # damper may already have slowed it by the end)
     tipped = was == TIPPED  # the full model's tipped ship (MODEL-NOTES 48)
@@ -1342,7 +1349,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     crash = then == CRASHED or crash_in_contact
     # all feet clear and moving away: a bounce or a thrust-off (the align of a touchdown can
     # lift a foot clear while the ship still descends; that is not a liftoff)
-    lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and v_rad > 0.0
+    lift = was == CONTACT and not crash and ce.max_penetration_m < 0.0 and rise > 0.0
     # past tipped_angle in contact (a touchdown lying down: touchdown_rules)
     tip = was == CONTACT and not lift and not crash and cos_tilt < cfg.cos_tipped
     v_rel = sub(v, surface_velocity(om, p))
@@ -1378,7 +1385,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     if touch:
         t_ev = t_end
     elif lift:
-        t_ev = t_end - clear_instant(fb, ce, p, v, q, w, h)
+        t_ev = t_end - clear_instant(fb, ground, ce, Motion(p, v, q, w), h)
     elif crash_in_contact:
         t_ev = crossed_at(v_rad_before, v_rad, -cfg.crash_speed_mps, start.t_s, t_end)
     elif righted:

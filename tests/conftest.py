@@ -23,6 +23,24 @@ from click.testing import CliRunner
 from redis_server import redis_url  # noqa: F401 - the session's Redis, a fixture for every file
 
 
+def _hypothesis_without_local_constants() -> None:
+    """Hypothesis (6.1xx) mixes numbers it finds in the modules loaded so far into its draws
+    (hypothesis.internal.conjecture.providers._get_local_constants), so a derandomized test drew
+    other examples after other tests had imported other modules in the same worker: a start the
+    3-D reference test never drew alone failed it in the whole suite's run. Without them, a
+    test's examples depend only on its own source, in any run. (An internal of hypothesis: where
+    it is gone, nothing is patched and the draws are hypothesis's own.)"""
+    try:
+        from hypothesis.internal.conjecture import providers
+    except ImportError:
+        return
+    if hasattr(providers, "_get_local_constants") and hasattr(providers, "Constants"):
+        providers._get_local_constants = lambda: providers.Constants()
+
+
+_hypothesis_without_local_constants()
+
+
 def _record(path: Path, scene: str, *sets: str) -> Path:
     from touchdown.cli import main
     args = ["record", scene, "-o", str(path)] + [x for s in sets for x in ("--set", s)]
