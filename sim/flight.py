@@ -1094,7 +1094,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 # its slip turns as it slows (the other forces' part across it is not slowed):
                 # stepped with its drag against its slip in pieces of half the time its stop
                 # takes, down to a tenth of stiff_substep, and only that last stretch dragged
-                # along where it slid (MODEL-NOTES 50)
+                # along where it slid (MODEL-NOTES 51)
                 half = 0.5 * approach_time(cfg, stop, sr)
                 if half > 0.05 * fine_s and rem > half * (1.0 + 1e-9):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
