@@ -727,6 +727,27 @@ def stopping(cfg, dragged, sr, ce0, ce1, h):
 
 
 @kernel
+def approach_time(cfg, stop, sr):
+    """The shortest time the feet of ``stop.stop`` take to slow to the stick speed at their
+    present rates (``sr``), s."""
+    out = math.inf
+    for i in range(4):
+        if stop.stop[i] and sr.rate[i] < 0.0:
+            out = fmin(out, (sr.speed[i] - cfg.stick_speed_mps) / -sr.rate[i])
+    return out
+
+
+@kernel
+def _turned_any(stop, ce0, ce1):
+    """Whether the slip of any foot of ``stop.stop`` runs against where it ran (at ``ce0``) at
+    ``ce1``."""
+    out = False
+    for i in range(4):
+        out = out or (stop.stop[i] and dot(ce1.slip_w[i], ce0.slip_w[i]) < 0.0)
+    return out
+
+
+@kernel
 def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
     """The sliding feet dragged by their friction as a force over a step of h: those that could
     not stop within it (:func:`_could_stop`; none under the seed's law)."""
@@ -1081,6 +1102,17 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             # round): dragged along where it slid until the instant its slip along there is
             # zero, located, and holding from there (MODEL-NOTES 46)
             stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
+            if stop.any and fine_s > 0.0:
+                # its slip turns as it slows (the other forces' part across it is not slowed):
+                # stepped with its drag against its slip in pieces of half the time its stop
+                # takes, down to a tenth of stiff_substep, and only that last stretch dragged
+                # along where it slid (MODEL-NOTES 51)
+                half = 0.5 * approach_time(cfg, stop, sr)
+                if half > 0.05 * fine_s and rem > half * (1.0 + 1e-9):
+                    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
+                                 StepFrom(t_abs, m, ce_y))
+                    return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
+                                     True)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
                               FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1092,7 +1124,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
-                st = pc.step
+                if _turned_any(stop, ce_y, ce_e):
+                    st = pc.step
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
     if (may_split and fb.craft.method == RK4 and per_foot(cfg)
