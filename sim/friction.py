@@ -739,7 +739,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
                 broke = True
         if not broke:
             break
-    moving = _slipping(a_mat, slip, lam, pressing, stick_speed_mps)
+    # (moving: the last round's, at the impulses the loop ends with; MAX_ROUNDS >= 1)
     # held: no foot slides, and the footprint as a whole (its load-weighted mean slip) is at rest.
     # Feet of one footprint may still slip against each other by a hair: the rigid model's
     # redundancy (see AT_REST_MPS), which only the footprint's centre would carry it away with.
