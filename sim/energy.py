@@ -25,6 +25,7 @@ about its pivot). One ship, compiled (sim.compiled).
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
@@ -66,6 +67,19 @@ def mechanical(body, mass_kg, inertia_kgm2, legs, motion, ground, may_touch):
     ``motion`` (pose (p, q), inertial velocities (v, w_b): sim.dynamics.Motion) over the ``body``
     (sim.frames.Body) and its ``ground`` at that instant. ``may_touch`` False: a ship known to be
     clear of the ground (its springs store nothing, and its feet are not looked for)."""
+    p, v, q, w_b = motion
+    far = -math.inf
+    pen = (feet(ground, p, q, legs.leg_radius_m, legs.com_height_m).pen_m if may_touch
+           else (far, far, far, far))
+    return mechanical_at(body, mass_kg, inertia_kgm2, legs.k_npm, motion, ground, pen)
+
+
+@kernel
+def mechanical_at(body, mass_kg, inertia_kgm2, k_npm, motion, ground, pen_m):
+    """:func:`mechanical` with the feet's penetrations ``pen_m`` given (a contact evaluation's at
+    the same state, sim.contact.evaluate: the same bits as sim.contact.feet's; -inf for a ship
+    clear of the ground), so that a guard at an evaluated state does not look its feet up again;
+    the springs of the legs (k / 4 each) store k x^2 / 8 at each foot in the ground."""
     gm_m3ps2, radius_m, spin_radps = body
     p, v, q, w_b = motion
     spin_b = quat_rotate_inv(q, (0.0, 0.0, spin_radps))
@@ -81,10 +95,8 @@ def mechanical(body, mass_kg, inertia_kgm2, legs, motion, ground, may_touch):
         cent = -0.5 * mass_kg * spin_radps * spin_radps * rho2_minus_r2
         cent_spin = -0.5 * dot(spin_b, mul(inertia_kgm2, spin_b))
     spring = 0.0
-    if may_touch:
-        pen = feet(ground, p, q, legs.leg_radius_m, legs.com_height_m).pen_m
-        k_leg = 0.25 * legs.k_npm
-        for i in range(4):
-            x = pen[i]
-            spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)
+    k_leg = 0.25 * k_npm
+    for i in range(4):
+        x = pen_m[i]
+        spring = spring + (0.5 * k_leg * x * x if x > 0.0 else 0.0)
     return Energy(trans, rot, grav, cent, cent_spin, spring)

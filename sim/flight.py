@@ -17,7 +17,7 @@ from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_
     lowest_foot_penetration, no_contact, rise_rate)
 from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at,
     ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
-from touchdown.sim.energy import mechanical, rotation, total, translation
+from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
@@ -61,6 +61,17 @@ def ship_energy(fb, ground, p, v, q, w):
                       Motion(p, v, q, w), ground, cr.touching)
 
 
+@kernel
+def ship_energy_at(fb, ground, m, pen_m):
+    """:func:`ship_energy` at a state whose feet's penetrations ``pen_m`` a contact evaluation
+    has (sim.energy.mechanical_at: the same bits, the feet not looked up again)."""
+    cr = fb.craft
+    far = -math.inf
+    return mechanical_at(Body(cr.gm_m3ps2, cr.body_radius_m, cr.body_omega_radps), cr.mass_kg,
+                         cr.inertia_kgm2, cr.k_npm, m, ground,
+                         pen_m if cr.touching else (far, far, far, far))
+
+
 class EnergyRef(NamedTuple):
     """A passive ship's energy at the end of its last sub-step: the total, and its translational
     and rotational parts (conserved each on its own while nothing touches the ship)."""
@@ -93,7 +104,7 @@ class Guarded(NamedTuple):
 
 
 @kernel
-def passivity_guard(fb, ground, motion, ref, passive, airborne):
+def passivity_guard(fb, ground, motion, ref, passive, airborne, pen_m):
     """With no thrust and no RCS nothing can add energy (sim.energy: the dampers, friction and
     every inelastic transition only take it). A step's integration error can (the explicit
     kicks on a rocking ship, measured up to 2.5e-4 of its energy in a tick; free flight's
@@ -104,9 +115,10 @@ def passivity_guard(fb, ground, motion, ref, passive, airborne):
     translational and rotational energies each on its own, so each is guarded on its own (the
     rotation's step is exact for an axisymmetric ship and must not pay for the translation's
     error). The correction is the size of the local error, so the method's order is kept; what
-    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``)."""
+    it removes is reported as ``energy_guard_j`` (``sim.energy_guard``). ``pen_m``: the feet's
+    penetrations at ``motion`` (a contact evaluation's there; -inf where none presses)."""
     p, v, q, w = motion
-    e = ship_energy(fb, ground, p, v, q, w)
+    e = ship_energy_at(fb, ground, motion, pen_m)
     ex_all = total(e) - ref.total_j if passive and not airborne else 0.0
     ex_tr = translation(e) - ref.translation_j if passive and airborne else 0.0
     ex_rot = rotation(e) - ref.rotation_j if passive and airborne else 0.0
@@ -1267,7 +1279,7 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
-    gd = passivity_guard(fb, ground, m, e_ref, is_passive(fb), airborne)
+    gd = passivity_guard(fb, ground, m, e_ref, is_passive(fb), airborne, ce.pen_m)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
@@ -1425,8 +1437,9 @@ def fly_clear(cfg, fb, s):
     v, w, removed = res.v, res.w, 0.0
     if cfg.energy_guard:
         e_ref = energy_ref(ship_energy(fb, ground_at(fb, 0.0), m.p, m.v, m.q, m.w))
+        far = -math.inf  # (clear of the ground: no foot in it)
         gd = passivity_guard(fb, ground_at(fb, dt), Motion(res.p, res.v, res.q, res.w), e_ref,
-                             is_passive(fb), True)
+                             is_passive(fb), True, (far, far, far, far))
         v, w, removed = gd.v, gd.w, gd.removed_j
     s = with_footing(with_motion(s, s.surface_state, Motion(res.p, v, res.q, w)),
                      with_friction(ft, ft.sliding, NO_HOLD))

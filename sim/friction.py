@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from touchdown.sim.compiled import kernel, separate, zeros
+from touchdown.sim.compiled import kernel, separate, stack_zeros
 from touchdown.sim.constants import SEED_STICK_SPEED_MPS
 from touchdown.sim.contact import foot_velocity, surface_velocity
 from touchdown.sim.settings import FrictionModel
@@ -417,7 +417,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
     primal barrier method this replaced took 42), its slips within 1e-9 m/s of the exact
     solution's in all of them and 1e-10 in 99% (the barrier method's: 4e-9, 3e-9); checked on
     tilted landers' footprints against a long barrier solve in tests/test_friction_law.py."""
-    idx = zeros(4, np.int64)
+    idx = stack_zeros(4, np.int64)
     n_feet = 0
     scale_s = 0.0
     for i in range(4):
@@ -431,11 +431,11 @@ def _interior_point(a_mat, slip, radius, lam, active):
         return 0
     # one scratch allocation each for the vectors, the matrices and the feet's cones (each a
     # malloc of its own costs as much as a Newton step's arithmetic)
-    vecs = zeros((7, 8), np.float64)
+    vecs = stack_zeros((7, 8), np.float64)
     x, u0, res, rhs, dx, y, rho = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5], vecs[6]
-    mats = zeros((3, 8, 8), np.float64)
+    mats = stack_zeros((3, 8, 8), np.float64)
     a_loc, hess, l_mat = mats[0], mats[1], mats[2]
-    cones = zeros((8, 4, 4), np.float64)
+    cones = stack_zeros((8, 4, 4), np.float64)
     # z_k; w_k with 1 / (1 + w0); l_k = W_k s_k; xi_k; W_k ds_k and W_k^-1 dz_k of the predictor;
     # dz_k; (eta_k, 1 / det l_k, det s_k, det z_k)
     z, w, lsc, xi, wds, wdz, dz, scal = (cones[0], cones[1], cones[2], cones[3], cones[4],
@@ -663,18 +663,18 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     # the solve's arrays as views of five scratch allocations (thirteen mallocs were a fifth of
     # the solve's cost where no foot's impulse is solved for; a view by its first index is
     # pointer arithmetic, a reshape a call)
-    bases = zeros((3, 4, 2, 3), np.float64)
+    bases = stack_zeros((3, 4, 2, 3), np.float64)
     tang = bases[0]  # each foot's tangent basis
     turn = bases[1]  # I^-1 R^T (r_i x t): the body-frame turn per unit impulse
     lever = bases[2]  # R^T (r_i x t)
-    per_foot = zeros((4, 4, 2), np.float64)
+    per_foot = stack_zeros((4, 4, 2), np.float64)
     slip = per_foot[0]
     lam = per_foot[1]
     carried = per_foot[2]  # h F_i on each holding foot's basis
     after = per_foot[3]
-    radius = zeros(4, np.float64)
-    a_mat = zeros((4, 2, 4, 2), np.float64)
-    flags = zeros((3, 4), np.bool_)
+    radius = stack_zeros(4, np.float64)
+    a_mat = stack_zeros((4, 2, 4, 2), np.float64)
+    flags = stack_zeros((3, 4), np.bool_)
     pressing = flags[0]
     active = flags[1]  # the feet whose impulses are solved for
     kinetic = flags[2]  # their disks: mu_k (sliding, or broke away) or mu_s
