@@ -1103,12 +1103,14 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             # zero, located, and holding from there (MODEL-NOTES 46)
             stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
             if stop.any and fine_s > 0.0:
-                # its slip turns as it slows (the other forces' part across it is not slowed):
-                # stepped with its drag against its slip in pieces of half the time its stop
-                # takes, down to a tenth of stiff_substep, and only that last stretch dragged
-                # along where it slid (MODEL-NOTES 51)
+                # in an impact's sub-steps (no floor to the pieces) its slip turns as it slows
+                # (the other forces' part across it is not slowed): stepped with its drag
+                # against its slip in pieces of half the time its stop takes, down to a
+                # twentieth of stiff_substep, and only that last stretch dragged along where it
+                # slid (MODEL-NOTES 51)
                 half = 0.5 * approach_time(cfg, stop, sr)
-                if half > 0.05 * fine_s and rem > half * (1.0 + 1e-9):
+                if (half > 0.05 * fine_s and fine.floor_s == 0.0
+                        and rem > half * (1.0 + 1e-9)):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
                                  StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
