@@ -319,6 +319,9 @@ EVENT_TOL_S = 1e-12
 #: an engage threshold no penetration passes: a foot kept from pressing (sim.contact.evaluate)
 NEVER = -math.inf
 
+#: an engage threshold every penetration passes: a foot kept pressing (sim.contact.evaluate)
+ALWAYS = math.inf
+
 
 class Memo(NamedTuple):
     """A contact evaluation and what it was evaluated at: the free-flight loop asks for the
@@ -550,8 +553,15 @@ def to_event(cfg, fb, roles, h, start, ev):
     engage, sliding, dragged, absorbing = roles
     t0 = start.t_s
     on = ev.onset
-    held_off = (NEVER if on[0] else engage[0], NEVER if on[1] else engage[1],
-                NEVER if on[2] else engage[2], NEVER if on[3] else engage[3])
+    # an absorbed foot's force jumps to zero where it leaves the ground (c x' is not zero
+    # there): kept pressing through the trials, so that no stage of a trial ending just past
+    # its release (EVENT_TOL_M) loses its pull (rk4's last stage, a sixth of the piece's pull:
+    # MODEL-NOTES 52); a foot about to press kept from pressing likewise
+    off = ev.release if absorbing else NO_SLIP
+    held_off = (NEVER if on[0] else (ALWAYS if off[0] else engage[0]),
+                NEVER if on[1] else (ALWAYS if off[1] else engage[1]),
+                NEVER if on[2] else (ALWAYS if off[2] else engage[2]),
+                NEVER if on[3] else (ALWAYS if off[3] else engage[3]))
     held_roles = FootRoles(held_off, sliding, dragged, absorbing)
     body = with_feet(fb, held_off, dragged)
     t_lo = 0.0
@@ -559,6 +569,8 @@ def to_event(cfg, fb, roles, h, start, ev):
     st_hi = substep(cfg, fb, held_roles, h, start)
     g_hi = _gaps(body, t0 + h, Motion(st_hi.p, st_hi.v, st_hi.q, st_hi.w), absorbing, ev)
     if not (g_hi > 0.0 and g_lo < 0.0):
+        if off[0] or off[1] or off[2] or off[3]:  # (the pull kept on held it in the ground)
+            return Piece(h, substep(cfg, fb, roles, h, start), False)
         return Piece(h, st_hi, False)
     if g_hi <= EVENT_TOL_M:  # the step's end is already just past the event
         return Piece(h, st_hi, True)
