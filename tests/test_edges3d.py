@@ -210,12 +210,14 @@ def test_3d_touchdowns_follow_the_reference_at_the_default_tick():
     speed and its direction, yaw spin, slope and its azimuth, mass, legs; a seeded sample), at
     the default settings (tick 0.05 s, 25 ms sub-steps, 5 ms while it strikes, 1 ms pieces where
     a sliding foot's friction is stiff), a ship that stands rocks to the reference's largest
-    tilt and ends where it went: all to 3% (0.1 degree, 1 cm), and all but two to issue 35's
-    1%. Those that miss 1% are impacts on slopes of 12-14 degrees (the next test; 4 of 55 such
-    starts in a longer sample, 1.5-3% off). Until the stiff feet's pieces were cut in every
-    sub-step, not only an impact's (MODEL-NOTES 46), a 1.4 m/s touchdown with 0.6 m/s sideways
-    onto a 4.3 degree slope rocked to 9.14 degrees against the reference's 9.00 (1.6%)."""
-    checked, misses, far = 0, [], []
+    tilt and ends where it went, to issue 35's 1% (0.1 degree, 1 cm). Until a stopping foot's
+    drag turned with its slip in an impact (MODEL-NOTES 51) and an absorbed foot's release kept
+    its pull (52), two of these 24 missed 1% (impacts onto 12-14 degree slopes, 1.5-3% off); in
+    a longer sample (55 in scope) one still does: a 2.2 m/s touchdown onto 14.1 degrees slides
+    2.2 cm (1.8%) further than the reference's 1.211 m, an error of the 25 ms sub-steps where
+    two more feet strike the ground 0.75 s after touchdown (docs/issue35/tools/
+    restart_release.py; 5 ms sub-steps end 0.1 cm off)."""
+    checked, misses = 0, []
     for start in _sampled_starts(35, 60):
         verdict = _follows_the_reference(start)
         if verdict is None:
@@ -223,14 +225,10 @@ def test_3d_touchdowns_follow_the_reference_at_the_default_tick():
         checked += 1
         if verdict:
             misses.append(verdict)
-            far_off = _follows_the_reference(start, rel=0.03)
-            if far_off:
-                far.append(far_off)
         if checked == 24:
             break
     assert checked == 24
-    assert not far, "\n".join(far)
-    assert len(misses) <= 2, "\n".join(misses)
+    assert not misses, "\n".join(misses)
 
 
 @pytest.mark.slow
