@@ -26,13 +26,14 @@ def SLOW(dt):  # noqa: N802 - the default tick (0.05 s) is the fast part's; the 
 def test_a_ship_turning_over_an_edge_is_not_pinned(dt):
     """Item 1: the default lander standing square on a 27 degree slope, an edge downhill (1.04
     degrees under the static edge limit): its soft legs load the downhill feet as it turns, it
-    has no barrier left over that edge, and it tips where the reference does (11.83 s), to 1% at
-    dt 0.1 and 0.05 (0.7 landed it at 1.0 s, pinned, at every tick)."""
+    has no barrier left over that edge, and it tips where the reference does (11.83 s), to 0.3%
+    at every tick (0.7 landed it at 1.0 s, pinned, at every tick; until its uphill feet's
+    release kept their pull, MODEL-NOTES 52, it tipped at 11.72 s at dt 0.1 to 0.02)."""
     ref = _ref(E.EDGE_ON_SLOPE)
     sim = E.run_sim(E.EDGE_ON_SLOPE, dt)
     assert E.outcome(ref) == E.outcome(sim) == "tipped"
     assert sim.landed_t_s is None
-    assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.01)
+    assert E.tip_instant(sim) == pytest.approx(E.tip_instant(ref), rel=0.003)
 
 
 @pytest.mark.parametrize("dt", [SLOW(0.1), 0.05])
