@@ -143,8 +143,8 @@ def rise_rate(ground, point, v_mps, r_hat):
     """How fast a point moving at ``v_mps`` (inertial) rises from the ground under it: -x' =
     g . (v - Omega z x p), g = -grad x (sec(slope) long): the gap the feet see, whatever
     ``radial``. On level ground the speed along ``r_hat``, the point's local up (the surface's
-    own velocity is across it)."""
-    if ground.terrain.level:
+    own velocity is across it); with ``radial`` (the seed's normal) too, as the docs say."""
+    if ground.terrain.level or ground.radial:
         return dot(v_mps, r_hat)
     east, north = site_coords(ground, point)
     _h, dh_de, dh_dn = height_and_slope(ground, east, north)
