@@ -29,7 +29,7 @@ from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, in
 from touchdown.sim.friction import per_foot
 from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, sub_method
 from touchdown.sim.pivot import pinned_motion, pivot_step
-from touchdown.sim.rest import settle_margin
+from touchdown.sim.rest import rest_pose, settle_margin
 from touchdown.sim.ship import (CONTACT, CRASHED, Commands, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED,
     HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, Pin, RADIAL_NORMAL, REST_LANDED, TIPPED,
     emit, fresh_footing, load, scene_ground, store, with_footing, with_friction, with_mass,
@@ -205,11 +205,17 @@ def settle(here, s, cmd, run, log):
     if not (ok and held >= cfg.settle_time_s - 1e-9 * dt):
         return with_footing(s, with_settle(ft, ticks, held, margin))
     m = s.motion
-    pp, pq = pin_pose(m.p, m.q, cos1, sin1)
+    # a state of rest is where the rock that is left ends (MODEL-NOTES 55); the seed's attached
+    # state keeps the pose it settled in
+    p, q = m.p, m.q
+    if cfg.landed_model == REST_LANDED:
+        p, q = rest_pose(cfg, here.sp, s.mass_kg, m.p, m.q,
+                         scene_ground(cfg, here.terrain, cos1, sin1))
+    pp, pq = pin_pose(p, q, cos1, sin1)
     om = cfg.omega_radps
     emit(log, CONTACT, LANDED, 0.0, fmin(fmax(dt - (held - cfg.settle_time_s), 0.0), dt))
-    landed = with_motion(s, LANDED, Motion(m.p, surface_velocity(om, m.p), m.q,
-                                           body_spin_in_body_frame(om, m.q)))
+    landed = with_motion(s, LANDED, Motion(p, surface_velocity(om, p), q,
+                                           body_spin_in_body_frame(om, q)))
     landed = with_footing(landed, with_settle(with_friction(ft, ft.sliding, NO_HOLD), 0, 0.0,
                                               margin))
     return with_pin(landed, Pin(pp, pq, s.pin.pivot_bf_m, s.pin.rate_radps))

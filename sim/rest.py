@@ -13,8 +13,8 @@ from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, in
     surface_velocity)
 from touchdown.sim.friction import per_foot
 from touchdown.sim.ship import CONTACT, REST_LANDED, scene_ground
-from touchdown.sim.vec import (add, dot, fmax, fmin, mul, norm, quat_axis_z, quat_rotate,
-    quat_rotate_inv, scale, sub, unit)
+from touchdown.sim.vec import (add, body_axes, cross, dot, fmax, fmin, mul, norm, quat_axis_z,
+    quat_from_rotvec, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
 
 class SettleRun(NamedTuple):
@@ -112,6 +112,101 @@ def stable_at_rest(cfg, sp, s, ground):
         rise = arm * math.sqrt(fmax(1.0 - lu * lu, 0.0)) - dot(sub(p, mid), up) - sink
         least = fmin(least, m * g_mag * rise + 0.5 * k_leg * (x_i * x_i + x_j * x_j) - stored)
     return kinetic < least
+
+
+#: most Newton steps of :func:`rest_pose` (it converges in two or three from a settled ship)
+REST_POSE_STEPS = 8
+#: a step shorter than this (m, at the feet and the centre of mass) ends them
+REST_POSE_TOL_M = 1e-12
+#: a rest pose further than this (m or rad) from where the ship settled is not taken
+REST_POSE_MAX = 0.05
+
+
+@kernel
+def _rest_energy(k_leg, m_kg, g, p, p0, ft):
+    """The potential the rest pose minimises: -m g . (p - p0) + sum k_i x_i^2 / 2 (x_i > 0)."""
+    v = -m_kg * dot(g, sub(p, p0))
+    for i in range(4):
+        x = fmax(ft.pen_m[i], 0.0)
+        v = v + 0.5 * k_leg * x * x
+    return v
+
+
+@kernel
+def rest_pose(cfg, sp, m_kg, p, q, ground):
+    """Where a ship that settles comes to rest, its feet held where they stand (MODEL-NOTES 55).
+
+    A ship lands while it may still rock by a little (the settle thresholds allow 0.01 rad/s);
+    pinned at that instant it would keep the rock's displacement (a 0.05 deg tilt, 3 mm at the
+    centre of mass of the default lander) forever, where the rock, damped, ends at the
+    equilibrium. With its feet held by static friction, a ship moves only in the three ways that
+    move every foot along the feet's plane's normal (to first order): turning by phi about the
+    two axes e_x, e_y in that plane through its centre c = p - h e_z, and moving by u along e_z.
+    The rest pose is the least of the potential over them,
+
+        V = -m g . (p - p0) + sum_i k_i x_i^2 / 2    (x_i > 0; g the effective gravity),
+
+    found by Newton steps on the exact gradient dV = -m g . dp - sum_i k_i x_i g_i . df_i
+    (g_i = -grad x_i, df_i = dphi x (f_i - c) + du e_z) with the Hessian sum_i k_i (g_i . df_i)^2
+    less the weight's m h |g . e_z| on each turn. Returns the pose, or (p, q) unchanged where the
+    Hessian is not positive definite (fewer than three feet hold the ship), the pose is further
+    than REST_POSE_MAX from where it settled, or its potential is not lower (so no energy is
+    made)."""
+    a, h = sp.leg_radius_m, sp.com_height_m
+    k_leg = 0.25 * sp.stiffness_per_kg * m_kg
+    g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
+    pr, qr = p, q
+    for _ in range(REST_POSE_STEPS):
+        ex, ey, ez = body_axes(qr)
+        c = sub(pr, scale(ez, h))
+        ft = feet(ground, pr, qr, a, h)
+        dp0, dp1, dp2 = cross(ex, sub(pr, c)), cross(ey, sub(pr, c)), ez
+        r0 = -m_kg * dot(g, dp0)
+        r1 = -m_kg * dot(g, dp1)
+        r2 = -m_kg * dot(g, dp2)
+        tilt_k = m_kg * h * dot(g, ez)  # the weight's second derivative on a turn (< 0)
+        h00, h11, h22 = tilt_k, tilt_k, 0.0
+        h01 = h02 = h12 = 0.0
+        for i in range(4):
+            x = ft.pen_m[i]
+            if not x > 0.0:
+                continue
+            gi = ft.push_w[i]
+            arm = sub(ft.pos_w[i], c)
+            j0, j1, j2 = dot(gi, cross(ex, arm)), dot(gi, cross(ey, arm)), dot(gi, ez)
+            f = k_leg * x
+            r0, r1, r2 = r0 - f * j0, r1 - f * j1, r2 - f * j2
+            h00, h11, h22 = h00 + k_leg * j0 * j0, h11 + k_leg * j1 * j1, h22 + k_leg * j2 * j2
+            h01, h02, h12 = h01 + k_leg * j0 * j1, h02 + k_leg * j0 * j2, h12 + k_leg * j1 * j2
+        # H theta = -r by Cramer's rule, after the leading minors say H is positive definite
+        m1 = h00
+        m2 = h00 * h11 - h01 * h01
+        det = (h00 * (h11 * h22 - h12 * h12) - h01 * (h01 * h22 - h12 * h02)
+               + h02 * (h01 * h12 - h11 * h02))
+        if not (m1 > 0.0 and m2 > 0.0 and det > 0.0):
+            return p, q
+        b0, b1, b2 = -r0, -r1, -r2
+        t0 = (b0 * (h11 * h22 - h12 * h12) - h01 * (b1 * h22 - h12 * b2)
+              + h02 * (b1 * h12 - h11 * b2)) / det
+        t1 = (h00 * (b1 * h22 - h12 * b2) - b0 * (h01 * h22 - h12 * h02)
+              + h02 * (h01 * b2 - b1 * h02)) / det
+        t2 = (h00 * (h11 * b2 - b1 * h12) - h01 * (h01 * b2 - b1 * h02)
+              + b0 * (h01 * h12 - h11 * h02)) / det
+        turn = quat_from_rotvec(add(scale(ex, t0), scale(ey, t1)))
+        pr = add(add(c, quat_rotate(turn, sub(pr, c))), scale(ez, t2))
+        qr = quat_normalize(quat_mul(turn, qr))
+        if (abs(t0) + abs(t1)) * (h + a) + abs(t2) < REST_POSE_TOL_M:
+            break
+    moved = sub(pr, p)
+    dq = quat_mul(qr, (q[0], -q[1], -q[2], -q[3]))
+    turned = 2.0 * norm((dq[1], dq[2], dq[3]))
+    if not (dot(moved, moved) < REST_POSE_MAX * REST_POSE_MAX and turned < REST_POSE_MAX):
+        return p, q
+    v0 = _rest_energy(k_leg, m_kg, g, p, p, feet(ground, p, q, a, h))
+    v1 = _rest_energy(k_leg, m_kg, g, pr, p, feet(ground, pr, qr, a, h))
+    if not v1 <= v0:
+        return p, q
+    return pr, qr
 
 
 @kernel
