@@ -52,11 +52,11 @@ SCENES = {
 #: tilted touchdown, the slope and the fleet; an absorbed foot's release, MODEL-NOTES 52, the
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
-    "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
+    "bounce": "888b8b87f03f250812e968b3fde47a4507b983f9bf0c8de920fd5951ff028ec3",
     "trip": "ebb45940266cae9773fe7f69b83054287bc59f09611dfd8f5195163075f69bad",
-    "tilted": "349c01e4ddf57fe2eaa16124959168c17a85f8b8216c31048353f623f58a2463",
-    "slope": "8d579e21e7a2ed50fb5f90b6165404ed017df332f0ef7d63d4fb704fbcb437d4",
-    "fleet": "36b8c82e1b740c95da9171bdd44932331d3df1ce76bdc797e519358dc43a1445",
+    "tilted": "ca44633427ac66e89973416cfd6141e12704ae192e8e4c31a9bc0c7e9211f673",
+    "slope": "01b20ddd03d8ec42678f5f4cd9c474f1914745f65d37d537e9a6c064def3ba7e",
+    "fleet": "d372781553bf2f83014f80c6f022291ffebc4f5666708722ee96004e3ae4cf9b",
 }
 
 
