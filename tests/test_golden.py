@@ -53,7 +53,7 @@ SCENES = {
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
     "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
-    "trip": "ebb45940266cae9773fe7f69b83054287bc59f09611dfd8f5195163075f69bad",
+    "trip": "e5be57c879b3be078d5f5a3c92dc8049170bea9f91c6c752ce3f1399790e63ad",
     "tilted": "349c01e4ddf57fe2eaa16124959168c17a85f8b8216c31048353f623f58a2463",
     "slope": "8d579e21e7a2ed50fb5f90b6165404ed017df332f0ef7d63d4fb704fbcb437d4",
     "fleet": "36b8c82e1b740c95da9171bdd44932331d3df1ce76bdc797e519358dc43a1445",
