@@ -53,7 +53,7 @@ SCENES = {
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
     "bounce": "888b8b87f03f250812e968b3fde47a4507b983f9bf0c8de920fd5951ff028ec3",
-    "trip": "ebb45940266cae9773fe7f69b83054287bc59f09611dfd8f5195163075f69bad",
+    "trip": "e5be57c879b3be078d5f5a3c92dc8049170bea9f91c6c752ce3f1399790e63ad",
     "tilted": "ca44633427ac66e89973416cfd6141e12704ae192e8e4c31a9bc0c7e9211f673",
     "slope": "01b20ddd03d8ec42678f5f4cd9c474f1914745f65d37d537e9a6c064def3ba7e",
     "fleet": "d372781553bf2f83014f80c6f022291ffebc4f5666708722ee96004e3ae4cf9b",
