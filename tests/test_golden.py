@@ -52,11 +52,11 @@ SCENES = {
 #: tilted touchdown, the slope and the fleet; an absorbed foot's release, MODEL-NOTES 52, the
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
-    "bounce": "f11a8409e9bf2df7066e1260f736f81e9a39d9bbfd8303d25272af9198ff6db5",
+    "bounce": "acb50b89dfabf566d73f16f498eb725f1229db3b5e54e8a18d13aee68a35767f",
     "trip": "ebb45940266cae9773fe7f69b83054287bc59f09611dfd8f5195163075f69bad",
-    "tilted": "349c01e4ddf57fe2eaa16124959168c17a85f8b8216c31048353f623f58a2463",
+    "tilted": "0c078df67353f82ffad300479caafbac5dc6c5abdf4a2ab5de5fcc27bb6ff99f",
     "slope": "8d579e21e7a2ed50fb5f90b6165404ed017df332f0ef7d63d4fb704fbcb437d4",
-    "fleet": "36b8c82e1b740c95da9171bdd44932331d3df1ce76bdc797e519358dc43a1445",
+    "fleet": "f3b356898caf87595658dfe5383761c118bc23391b1ffe998966ae879b507017",
 }
 
 
