@@ -1458,6 +1458,40 @@ def fly_clear(cfg, fb, s):
     return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
 
 
+#: m: what a flying ship's lowest foot keeps above the ground beyond twice the most its feet can
+#: close on it over a sub-step, to take a whole max_substep in an impact's tick (clear_within)
+CLEAR_MARGIN_M = 0.1
+
+
+@kernel
+def clear_within(cfg, fb, m, ce, h):
+    """Whether no foot of a ship at the motion ``m`` (``ce``: its contact there) can reach the
+    ground within h: its lowest foot's height above the ground, -max penetration, more than twice
+    (1 + tan(slope)) (u h + a h^2) and CLEAR_MARGIN_M, with u = |v - Omega z x p| + (|w| + Omega) d
+    the most a foot moves relative to the ground and a = GM / |p|^2 + Omega^2 |p| + 2 Omega |v_rel|
+    + T / m + ((|tau| + I_max |w|^2) / I_min + |w|^2) d its most acceleration (gravity, the
+    body's turning, thrust; Euler's equations' I dw/dt = tau - w x I w, and the centripetal
+    term), d = sqrt(h_com^2 + a_leg^2) every foot's distance from the centre of mass. A foot's
+    height above a plane slope changes by at most (1 + tan(slope)) times its displacement (the
+    bumps' steepness is not bounded here: a caller asks only on a plane)."""
+    cr = fb.craft
+    om = abs(cr.body_omega_radps)
+    d = math.sqrt(cr.com_height_m * cr.com_height_m + cr.leg_radius_m * cr.leg_radius_m)
+    v_rel = sub(m.v, surface_velocity(cr.body_omega_radps, m.p))
+    w2 = dot(m.w, m.w)
+    w = math.sqrt(w2)
+    i = cr.inertia_kgm2
+    i_min = fmin(fmin(i[0], i[1]), i[2])
+    i_max = fmax(fmax(i[0], i[1]), i[2])
+    tau = norm(cr.rcs_torque_body_nm)
+    u = norm(v_rel) + (w + om) * d
+    r2 = dot(m.p, m.p)
+    a = (cr.gm_m3ps2 / r2 + om * om * math.sqrt(r2) + 2.0 * om * norm(v_rel)
+         + abs(cr.thrust_n) / cr.mass_kg + ((tau + i_max * w2) / i_min + w2) * d)
+    return -ce.max_penetration_m > (2.0 * (1.0 + cfg.slope_tan) * (u * h + a * h * h)
+                                    + CLEAR_MARGIN_M)
+
+
 @separate
 def free_flight(here, fb, s, n_sub, carry, log):
     """Advance a free ship near the ground (``fb.craft.touching``; one clear of it takes
@@ -1473,7 +1507,10 @@ def free_flight(here, fb, s, n_sub, carry, log):
 
     Transitions are emitted in the order they happen, each with the instant it happened. ``carry``:
     the holding feet's friction is carried from step to step as a force (sim.friction.coulomb);
-    without it, impulses alone."""
+    without it, impulses alone. In an impact's tick (``n_sub`` impact sub-steps), a flying ship
+    whose feet cannot reach the ground within a sub-step of max_substep (:func:`clear_within`)
+    takes that many of the impact's sub-steps as one (``sim.coarse_when_clear``): nothing
+    presses in it, and its flight is what a ship near the ground takes at max_substep."""
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
     h = dt / n_sub
@@ -1500,10 +1537,24 @@ def free_flight(here, fb, s, n_sub, carry, log):
     # the feet their friction would stop within the shortest piece (a rocking ship's micro-slips)
     impact = cfg.impact_substeps > 0 and n_sub >= cfg.impact_substeps
     fine = Fine(cfg.stiff_substep_s, 0.0 if impact else cfg.stiff_substep_s)
-    for j in range(n_sub):
+    # a flying ship clear of the ground for a max_substep takes it whole (sim.coarse_when_clear):
+    # r_clear of the impact's sub-steps; on a plane (clear_within bounds no bump's steepness)
+    r_clear = 1
+    if impact and cfg.coarse_when_clear and sp.n_substeps > 0 and here.terrain.n_bumps == 0:
+        r_clear = n_sub // sp.n_substeps
+    u = 0  # the impact's sub-steps done
+    for _j in range(n_sub):
+        if u >= n_sub:
+            break
         m = s.motion
-        start = SubStepStart(j * h, (j + 1) * h, h, ce.max_penetration_m, v_rad,
+        k_sub = 1
+        if (r_clear > 1 and u + r_clear <= n_sub and s.surface_state == FLYING
+                and clear_within(cfg, fb, m, ce, r_clear * h)):
+            k_sub = r_clear
+        h_j = k_sub * h
+        start = SubStepStart(u * h, (u + k_sub) * h, h_j, ce.max_penetration_m, v_rad,
                              dot(quat_axis_z(m.q), unit(m.p)))
+        u += k_sub
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
         pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
@@ -1526,7 +1577,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
                 pinned_now = True
                 break
             fb_k = with_hold(fb, carried)
-            pc = step_piece(cfg, fb_k, ps, h - t_in, events < MAX_PIECES, stiff,
+            pc = step_piece(cfg, fb_k, ps, h_j - t_in, events < MAX_PIECES, stiff,
                             fine if refined < MAX_REFINED else NOT_FINE)
             memo = pc.memo
             st = pc.step
@@ -1561,7 +1612,7 @@ def free_flight(here, fb, s, n_sub, carry, log):
         guard_j = guard_j + end.removed_j
         m = end.ship.motion
         peak = fmax(peak, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
-                                       dot(m.v, unit(m.p)), h))
+                                       dot(m.v, unit(m.p)), h_j))
         tr = in_flight_transitions(cfg, fb_k, ground, end, start, pieces, log)
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
         # the end's contact serves the next sub-step's start where it asks for the same

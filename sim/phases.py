@@ -86,12 +86,19 @@ def commands(here, s, inp):
 # -- 2. free flight ------------------------------------------------------------------------------
 @kernel
 def near_ground(here, s, cmd):
-    """True for a ship that might touch the ground within this tick (conservative bound). On a
-    slope the ground's plane is taken under the ship, rising by tan(slope) over every metre the
-    feet and the tick's motion can reach sideways."""
+    """True for a ship that might touch the ground within this tick (conservative bound): its
+    centre of mass less than ``reach`` (twice the tick's motion under its speed and the largest
+    acceleration, and a metre) above the highest ground plus the feet's reach below it (their
+    distance from it, sqrt(h^2 + a^2), at any attitude: ``sim.tight_reach``). On a slope the
+    ground's plane is taken under the ship, rising by tan(slope) over every metre the feet and the
+    tick's motion can reach sideways."""
     cfg, terrain, sp, cos0, sin0 = here.cfg, here.terrain, here.sp, here.turn.cos0, here.turn.sin0
     dt = cfg.dt_s
-    reach_down = sp.com_height_m + sp.leg_radius_m
+    # how far below the centre of mass a foot can be: its distance from it, |(+-a, 0, -h)| =
+    # sqrt(h^2 + a^2) at any attitude (sim.contact.foot_offsets_w), however the ship turns within
+    # the tick; the sum h + a bounds it too, loosely (0.8's; sim.tight_reach false)
+    com_h, leg_a = sp.com_height_m, sp.leg_radius_m
+    reach_down = math.sqrt(com_h * com_h + leg_a * leg_a) if cfg.tight_reach else com_h + leg_a
     speed = norm(s.motion.v)
     accel = cfg.surface_gravity_mps2 + cmd.thrust_n / s.mass_kg
     reach = 2.0 * (speed * dt + accel * dt * dt) + 1.0

@@ -224,6 +224,16 @@ SETTINGS: tuple[Setting, ...] = (
     S("sim.vertical_one_step", "bool", True, dest="sim.vertical_one_step",
       scene="vertical_one_step",
       doc="with a method exact on the spring, purely vertical ships take one step per tick"),
+    S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
+      scene="coarse_when_clear",
+      doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "
+          "within a max_substep takes it whole (sim.flight.clear_within; on a plane slope); "
+          "false: every sub-step of the tick at impact_substep, 0.8's (MODEL-NOTES 54)"),
+    S("sim.tight_reach", "bool", True, dest="sim.tight_reach", scene="tight_reach",
+      doc="a flying ship is out of its feet's reach of the ground this tick (one step, no contact "
+          "work: sim.phases.near_ground) by its feet's distance from its centre of mass, "
+          "sqrt(com_height^2 + leg_radius^2), at any attitude; false: com_height + leg_radius, "
+          "0.8's looser bound (MODEL-NOTES 54)"),
     S("sim.energy_guard", "bool", True, dest="sim.energy_guard", scene="energy_guard",
       doc="a passive ship's energy never rises over a sub-step (sim.flight.passivity_guard)"),
     # -- contact: the seed's Configuration table, and what SEED-NOTES adds

@@ -52,11 +52,11 @@ SCENES = {
 #: tilted touchdown, the slope and the fleet; an absorbed foot's release, MODEL-NOTES 52, the
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
-    "bounce": "888b8b87f03f250812e968b3fde47a4507b983f9bf0c8de920fd5951ff028ec3",
+    "bounce": "c859644647a67454f6ce5cac2f5f82ae4caa43ecaa3aecdf7b111a633eb7d54a",
     "trip": "e5be57c879b3be078d5f5a3c92dc8049170bea9f91c6c752ce3f1399790e63ad",
-    "tilted": "ca44633427ac66e89973416cfd6141e12704ae192e8e4c31a9bc0c7e9211f673",
+    "tilted": "5c686b4c94f682cec9d0e64b616a6e1880bbd21917b6ca2083a9964aa26e42e8",
     "slope": "01b20ddd03d8ec42678f5f4cd9c474f1914745f65d37d537e9a6c064def3ba7e",
-    "fleet": "d372781553bf2f83014f80c6f022291ffebc4f5666708722ee96004e3ae4cf9b",
+    "fleet": "e6eb0945d088683cb269497ddd2c3aef86097ad022d11911d2886e25afcb2195",
 }
 
 
