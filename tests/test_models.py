@@ -18,6 +18,7 @@ from scipy.integrate import solve_ivp
 
 from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
+from touchdown.sim.enums import EventKind
 from touchdown.sim.phases import commands, near_ground, purely_vertical
 from touchdown.sim.step import step
 
@@ -140,3 +141,32 @@ def test_the_pivot_model_of_a_tipped_ship_matches_the_full_model():
         t_full = int(np.argmax(tilt_deg(full) >= angle)) * dt
         assert t_pivot > 0 and t_full > 0
         assert abs(t_pivot - t_full) <= 2 * dt + 1e-9, (angle, t_pivot, t_full)
+
+
+# -- an impact's clear stretches ----------------------------------------------------------------------
+@pytest.mark.parametrize("initial,body", [
+    # the envelope's worst corner: 12 m/s down, 6 m/s downhill, tilted, onto 6 degrees
+    ({"altitude": 0.5, "vertical_speed": -12.0, "horizontal_speed": 6.0, "tilt_deg": 15.0,
+      "heading_deg": 90.0}, {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}),
+    # a fall from 2 m onto level ground, tilted a little
+    ({"altitude": 2.0, "vertical_speed": -6.0, "tilt_deg": 5.0}, {}),
+    # a fast approach from 1.5 m onto 12 degrees, moving across the slope
+    ({"altitude": 1.5, "vertical_speed": -8.0, "horizontal_speed": 5.0, "tilt_deg": 10.0,
+      "heading_deg": 45.0}, {"terrain": {"slope_deg": 12.0}}),
+])
+def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
+    """sim.coarse_when_clear (MODEL-NOTES 54): in an impact's tick a flying ship whose feet cannot
+    reach the ground within a max_substep takes it as one sub-step. Against every sub-step at
+    impact_substep: the same transitions on the same ticks, each at its instant to 1e-6 s (they
+    are located, whatever the sub-step), and the altitude within 1 mm at every tick; the runs are
+    not the same bits (the coarse stretches were taken)."""
+    runs = {c: records(scene(initial, body=body, duration=8.0, sim={"coarse_when_clear": c}))
+            for c in (True, False)}
+    ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
+              for e in r.events] for c in runs}
+    assert [(k, n) for k, n, _ in ev[True]] == [(k, n) for k, n, _ in ev[False]]
+    assert len(ev[True]) >= 2
+    assert [t for _, _, t in ev[True]] == pytest.approx([t for _, _, t in ev[False]], abs=1e-6)
+    alt = {c: series(runs[c], "altitude_m") for c in runs}
+    assert np.max(np.abs(alt[True] - alt[False])) <= 1e-3
+    assert np.any(alt[True] != alt[False])
