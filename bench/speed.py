@@ -145,8 +145,12 @@ HOVER_THROTTLE = 10000.0 * 1.625 / 60000.0  # the default ship's weight on the M
 #: that state (and model) for the whole measurement.
 STATE_SCENES = [
     ("flying, far above", "coarse: one step a tick, no contact work", {"altitude": 5000.0}, []),
-    ("flying, near the ground (hovering)", "full model, sub-stepped",
+    # 3 m up the feet cannot reach the ground within a tick (sim.tight_reach: one step a tick);
+    # 1 m up they can, and the ship is sub-stepped with the contact looked for
+    ("flying, hovering 3 m up", "coarse: out of the feet's reach",
      {"altitude": 3.0, "vertical_speed": 0.0}, [{"t": 0.0, "throttle": HOVER_THROTTLE}]),
+    ("flying, hovering 1 m up (feet in reach)", "full model, sub-stepped",
+     {"altitude": 1.0, "vertical_speed": 0.0}, [{"t": 0.0, "throttle": HOVER_THROTTLE}]),
     ("bouncing upright (20-49 m/s)", "vertical: one exact step a tick",
      {"altitude": 0.3, "vertical_speed": "bounce"}, []),
     ("contact, upright at rest", "vertical: one exact step a tick",

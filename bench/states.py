@@ -20,7 +20,9 @@ HOVER_THROTTLE = 10000.0 * 1.625 / 60000.0
 
 SCENES = [
     ("flying, far above", {"altitude": 5000.0}, []),
-    ("flying, near the ground (hovering)", {"altitude": 3.0, "vertical_speed": 0.0},
+    ("flying, hovering 3 m up", {"altitude": 3.0, "vertical_speed": 0.0},
+     [{"t": 0.0, "throttle": HOVER_THROTTLE}]),
+    ("flying, hovering 1 m up (feet in reach)", {"altitude": 1.0, "vertical_speed": 0.0},
      [{"t": 0.0, "throttle": HOVER_THROTTLE}]),
     ("bouncing upright (20-49 m/s)", {"altitude": 0.3, "vertical_speed": "bounce"}, []),
     ("contact, upright at rest", {"state": "contact", "altitude": -0.01625}, []),
