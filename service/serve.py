@@ -253,6 +253,18 @@ class _Owned:
     taken_at: float | None = None  # when its lease was taken (until its first tick after)
 
 
+_SAYING = threading.Lock()
+
+
+def _say_on_stderr(line: str) -> None:
+    """One whole line on stderr: the lease thread, the reporter and the tick loop all say things,
+    and print() writes a line and its newline separately, so two threads' lines could run into
+    one (a JSON line followed by another on the same line: unreadable to a log shipper)."""
+    with _SAYING:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+
 class Worker:
     """One worker of the live service: its shards' policy (module docstring), with its
     ``leases`` (service.leases.Leases) and its ``reporter`` (service.report.Reporter)."""
@@ -260,7 +272,7 @@ class Worker:
     def __init__(self, cfg: ServeConfig, say: Callable[[str], None] | None = None):
         self.cfg = cfg
         self.id = cfg.worker_id or f"{socket.gethostname()}-{os.getpid()}"
-        self.say = say or (lambda line: print(line, file=sys.stderr, flush=True))
+        self.say = say or _say_on_stderr
         self.where = rio.redact(cfg.url)
         self.keys = rio.Keys(cfg.prefix, cfg.events_stream, cfg.commands_stream, cfg.cluster)
         self.owned: dict[int, _Owned] = {}

@@ -432,3 +432,30 @@ def test_autoland_flies_a_spawned_ship_down_and_reports_it(service):
     client.close()
     for path in _logs(service.dir / f"shard-{shard_of('ap-1', 2):03d}"):
         assert verify(str(path)).identical
+
+
+def test_lines_said_from_several_threads_stay_whole_lines(capfd):
+    """The tick loop, the lease thread and the reporter all log: each JSON line on stderr is a
+    line of its own however their writes interleave (print() wrote a line and its newline
+    separately, and CI once read two of them run together)."""
+    import json as _json
+    import sys as _sys
+    import threading as _threading
+    from touchdown.service.serve import _say_on_stderr
+    interval = _sys.getswitchinterval()
+    _sys.setswitchinterval(1e-6)  # switch threads as often as CPython lets them
+    try:
+        def talk(k):
+            for i in range(400):
+                _say_on_stderr(_json.dumps({"thread": k, "i": i, "msg": "x" * (k * 7 % 50)}))
+        threads = [_threading.Thread(target=talk, args=(k,)) for k in range(6)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        _sys.setswitchinterval(interval)
+    lines = capfd.readouterr().err.splitlines()
+    assert len(lines) == 6 * 400
+    seen = {(d["thread"], d["i"]) for d in map(_json.loads, lines)}
+    assert len(seen) == 6 * 400
