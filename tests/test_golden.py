@@ -53,10 +53,10 @@ SCENES = {
 #: trip, the tilted touchdown and the slope)
 EXPECTED = {
     "bounce": "c859644647a67454f6ce5cac2f5f82ae4caa43ecaa3aecdf7b111a633eb7d54a",
-    "trip": "e5be57c879b3be078d5f5a3c92dc8049170bea9f91c6c752ce3f1399790e63ad",
-    "tilted": "5c686b4c94f682cec9d0e64b616a6e1880bbd21917b6ca2083a9964aa26e42e8",
-    "slope": "01b20ddd03d8ec42678f5f4cd9c474f1914745f65d37d537e9a6c064def3ba7e",
-    "fleet": "e6eb0945d088683cb269497ddd2c3aef86097ad022d11911d2886e25afcb2195",
+    "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
+    "tilted": "8c6ac3b9bc12c79a62211dfc2b0003f5503f940baa3fce0840315e1cb45f0e40",
+    "slope": "2ae58ff21646ec15c0de927a81425b87735b4e8784ee9d8f3ee6fd0211f28842",
+    "fleet": "eee5273cb987fa809a3012a65b30c3a6bd161ff8aad3ea79d120a244920ab563",
 }
 
 
