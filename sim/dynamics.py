@@ -240,6 +240,16 @@ def held_friction(fb, ground, ce, motion, holding):
     feet's load; each foot's share (the force by load, the moment by load times its lever) is
     what that check starts from."""
     p, v, q, w_b = motion
+    return _held_friction(fb, ce, motion, holding, acceleration(fb, ce, p, q),
+                          torque_body(fb, ce, q))
+
+
+@kernel
+def _held_friction(fb, ce, motion, holding, a0, tau_b):
+    """:func:`held_friction` given the free acceleration ``a0`` (:func:`acceleration`) and the
+    body-frame torque ``tau_b`` (:func:`torque_body`) at the same state, which its caller
+    :func:`derivatives_held` needs too."""
+    p, v, q, w_b = motion
     held, mu_s = holding
     if not ce.touching:
         return NO_HELD
@@ -265,10 +275,8 @@ def held_friction(fb, ground, ce, motion, holding):
     m = fb.craft.mass_kg
     omega_w = quat_rotate(q, w_b)
     r = sub(c, p)
-    a0 = acceleration(fb, ce, p, q)
     i_w = mul(fb.craft.inertia_kgm2, w_b)
-    alpha_w = quat_rotate(q, div(sub(torque_body(fb, ce, q), cross(w_b, i_w)),
-                                 fb.craft.inertia_kgm2))
+    alpha_w = quat_rotate(q, div(sub(tau_b, cross(w_b, i_w)), fb.craft.inertia_kgm2))
     spin = (0.0, 0.0, fb.craft.body_omega_radps)
     acc = add(add(a0, cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
     acc = sub(acc, cross(spin, add(v, cross(omega_w, r))))  # the ground under c accelerates too
@@ -341,10 +349,12 @@ def held_friction(fb, ground, ce, motion, holding):
 def derivatives_held(fb, ground, ce, motion, holding):
     """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
     the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
-    hf = held_friction(fb, ground, ce, motion, holding)
     p, v, q, w_b = motion
+    a0 = acceleration(fb, ce, p, q)
+    tau_b = torque_body(fb, ce, q)
+    hf = _held_friction(fb, ce, motion, holding, a0, tau_b)
     i_w = mul(fb.craft.inertia_kgm2, w_b)
-    tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
+    tau = add(tau_b, quat_rotate_inv(q, hf.torque_w))
     alpha_b = div(sub(tau, cross(w_b, i_w)), fb.craft.inertia_kgm2)
-    acc = add(acceleration(fb, ce, p, q), scale(hf.force_w, 1.0 / fb.craft.mass_kg))
+    acc = add(a0, scale(hf.force_w, 1.0 / fb.craft.mass_kg))
     return (v, acc, quat_derivative(q, w_b), alpha_b), hf

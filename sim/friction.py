@@ -209,13 +209,6 @@ SLIP_TOL_MPS = 1e-11
 #: rate over them, projected to MAX_SWEEPS, must reach CRAWL_MARGIN times the tolerance
 CRAWL_SWEEPS = 3
 CRAWL_MARGIN = 100.0
-#: Most Gauss-Seidel sweeps where three or four feet take impulses: it crawls on nearly all of
-#: those footprints (their matrix has rank 5 at most: a motion along the ground's normal slips no
-#: foot) and gave up after six sweeps, the interior-point method then solving the problem from
-#: scratch (issue 36, session 6: 70 of a touchdown's 75 such solves in the envelope sweep). Two
-#: sweeps from the carried hold still finish a footprint at rest (199 of 200 in bench.states)
-#: (MODEL-NOTES 56)
-FEW_FEET_SWEEPS = 2
 #: The interior-point method (:func:`_interior_point`): most Newton steps of one solve, the change
 #: of the slips (m/s) in a step below which it stops, and the fraction of the way to the cones'
 #: edges a step goes.
@@ -299,12 +292,12 @@ def _residual(a_mat, slip, lam, radius, active):
 
 
 @kernel
-def _gauss_seidel(a_mat, slip, radius, lam, active, max_sweeps):
+def _gauss_seidel(a_mat, slip, radius, lam, active, early):
     """Projected block Gauss-Seidel on the feet's friction impulses: each sweep sets every active
     foot's impulse to its exact minimiser over its own disk with the others held, until the
     optimality conditions hold to SLIP_TOL_MPS (:func:`_residual`; the ship's motion is what is
     unique: several feet that hold together may share their load in many ways). Returns whether
-    they did within ``max_sweeps`` (MAX_SWEEPS, or FEW_FEET_SWEEPS for three or four feet).
+    they did within MAX_SWEEPS.
 
     It gives up early where it would not get there: every CRAWL_SWEEPS sweeps, where the
     residual res_s, falling on at its rate since the last check, res_s (res_s / res_{s-c})^((
@@ -319,6 +312,8 @@ def _gauss_seidel(a_mat, slip, radius, lam, active, max_sweeps):
     interior-point method instead, to its own accuracy (~1e-10 m/s) rather than to 1e-11: its
     bits change, its physics does not."""
     checkpoint = math.inf  # the residual CRAWL_SWEEPS sweeps ago
+    last = math.inf  # the residual a sweep ago
+    margin = CRAWL_MARGIN * SLIP_TOL_MPS
     n_active = 0
     for i in range(4):
         if active[i]:
@@ -341,8 +336,10 @@ def _gauss_seidel(a_mat, slip, radius, lam, active, max_sweeps):
             return True
         if alone:  # one foot's sweep is exact: the next ones repeat it, and the crawl test then
             return False  # gives up (no fall in the residual), as it would after 3-6 of them
-        if sweep + 1 >= max_sweeps:
-            return False
+        if early and sweep == 1:  # three or four feet: the rate over the second sweep
+            if not res < last or res * (res / last) ** (MAX_SWEEPS - 2) > margin:
+                return False
+        last = res
         if (sweep + 1) % CRAWL_SWEEPS == 0:
             left = (MAX_SWEEPS - 1 - sweep) / CRAWL_SWEEPS
             if not res < checkpoint or res * (res / checkpoint) ** left > CRAWL_MARGIN * SLIP_TOL_MPS:
@@ -594,14 +591,13 @@ def _interior_point(a_mat, slip, radius, lam, active):
 def _solve_feet(a_mat, slip, radius, lam, active):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
-    does not converge within MAX_SWEEPS (FEW_FEET_SWEEPS for three or four feet), the
-    interior-point method. Returns 1 or 2: which one."""
+    does not converge within MAX_SWEEPS (or crawls: :func:`_gauss_seidel`), the interior-point
+    method. Returns 1 or 2: which one."""
     n_active = 0
     for i in range(4):
         if active[i]:
             n_active += 1
-    if _gauss_seidel(a_mat, slip, radius, lam, active,
-                     MAX_SWEEPS if n_active < 3 else FEW_FEET_SWEEPS):
+    if _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
     _interior_point(a_mat, slip, radius, lam, active)
     return 2
