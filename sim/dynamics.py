@@ -25,7 +25,7 @@ from touchdown.sim.contact import (Dampers, FrictionForce, Ground, Legs, evaluat
     no_contact)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
-from touchdown.sim.vec import (add, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
+from touchdown.sim.vec import (add, body_axes, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
     quat_derivative, quat_rotate, quat_rotate_inv, scale, sub, unit)
 
 
@@ -198,9 +198,27 @@ class Holding(NamedTuple):
 
 
 @kernel
-def _inv_inertia_w(fb, q, x):
-    """I^-1 x for an inertial vector x (the principal inertia turned to the inertial frame)."""
-    return quat_rotate(q, div(quat_rotate_inv(q, x), fb.craft.inertia_kgm2))
+def _inv_inertia_w(fb, q):
+    """I^-1 in the inertial frame, R diag(1 / I_k) R^T = sum_k e_k e_k^T / I_k (e_k: the body
+    axes), as its six entries (xx, yy, zz, xy, xz, yz): three products by it cost less than three
+    turns into the body frame and back."""
+    ex, ey, ez = body_axes(q)
+    ia = fb.craft.inertia_kgm2
+    a, b, c = 1.0 / ia[0], 1.0 / ia[1], 1.0 / ia[2]
+    return (ex[0] * ex[0] * a + ey[0] * ey[0] * b + ez[0] * ez[0] * c,
+            ex[1] * ex[1] * a + ey[1] * ey[1] * b + ez[1] * ez[1] * c,
+            ex[2] * ex[2] * a + ey[2] * ey[2] * b + ez[2] * ez[2] * c,
+            ex[0] * ex[1] * a + ey[0] * ey[1] * b + ez[0] * ez[1] * c,
+            ex[0] * ex[2] * a + ey[0] * ey[2] * b + ez[0] * ez[2] * c,
+            ex[1] * ex[2] * a + ey[1] * ey[2] * b + ez[1] * ez[2] * c)
+
+
+@kernel
+def _sym_mul(m, x):
+    """The symmetric matrix m (six entries, as :func:`_inv_inertia_w` gives them) times x."""
+    return (m[0] * x[0] + m[3] * x[1] + m[4] * x[2],
+            m[3] * x[0] + m[1] * x[1] + m[5] * x[2],
+            m[4] * x[0] + m[5] * x[1] + m[2] * x[2])
 
 
 @kernel
@@ -221,6 +239,16 @@ def held_friction(fb, ground, ce, motion, holding):
     (sim.friction.coulomb), which correct what the step left. Capped at mu_s times the held
     feet's load; each foot's share (the force by load, the moment by load times its lever) is
     what that check starts from."""
+    p, v, q, w_b = motion
+    return _held_friction(fb, ce, motion, holding, acceleration(fb, ce, p, q),
+                          torque_body(fb, ce, q))
+
+
+@kernel
+def _held_friction(fb, ce, motion, holding, a0, tau_b):
+    """:func:`held_friction` given the free acceleration ``a0`` (:func:`acceleration`) and the
+    body-frame torque ``tau_b`` (:func:`torque_body`) at the same state, which its caller
+    :func:`derivatives_held` needs too."""
     p, v, q, w_b = motion
     held, mu_s = holding
     if not ce.touching:
@@ -247,16 +275,15 @@ def held_friction(fb, ground, ce, motion, holding):
     m = fb.craft.mass_kg
     omega_w = quat_rotate(q, w_b)
     r = sub(c, p)
-    a0 = acceleration(fb, ce, p, q)
     i_w = mul(fb.craft.inertia_kgm2, w_b)
-    alpha_w = quat_rotate(q, div(sub(torque_body(fb, ce, q), cross(w_b, i_w)),
-                                 fb.craft.inertia_kgm2))
+    alpha_w = quat_rotate(q, div(sub(tau_b, cross(w_b, i_w)), fb.craft.inertia_kgm2))
     spin = (0.0, 0.0, fb.craft.body_omega_radps)
     acc = add(add(a0, cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
     acc = sub(acc, cross(spin, add(v, cross(omega_w, r))))  # the ground under c accelerates too
     b1, b2, b3 = dot(t1, acc), dot(t2, acc), dot(alpha_w, nrm)
-    u1 = _inv_inertia_w(fb, q, cross(r, t1))
-    u2 = _inv_inertia_w(fb, q, cross(r, t2))
+    inv_i = _inv_inertia_w(fb, q)
+    u1 = _sym_mul(inv_i, cross(r, t1))
+    u2 = _sym_mul(inv_i, cross(r, t2))
     a11 = 1.0 / m + dot(t1, cross(u1, r))
     a12 = dot(t1, cross(u2, r))
     a22 = 1.0 / m + dot(t2, cross(u2, r))
@@ -266,7 +293,7 @@ def held_friction(fb, ground, ce, motion, holding):
         x1 = -(a22 * b1 - a12 * b2) / det
         x2 = -(a11 * b2 - a12 * b1) / det
     else:
-        u3 = _inv_inertia_w(fb, q, nrm)
+        u3 = _sym_mul(inv_i, nrm)
         a13 = dot(t1, cross(u3, r))
         a23 = dot(t2, cross(u3, r))
         a33 = dot(nrm, u3)
@@ -322,10 +349,12 @@ def held_friction(fb, ground, ce, motion, holding):
 def derivatives_held(fb, ground, ce, motion, holding):
     """(p', v', q', omega_b') with the held feet's static friction (:func:`held_friction`) among
     the forces, and that friction (``ground``: the ground at the instant of ``ce``)."""
-    hf = held_friction(fb, ground, ce, motion, holding)
     p, v, q, w_b = motion
+    a0 = acceleration(fb, ce, p, q)
+    tau_b = torque_body(fb, ce, q)
+    hf = _held_friction(fb, ce, motion, holding, a0, tau_b)
     i_w = mul(fb.craft.inertia_kgm2, w_b)
-    tau = add(torque_body(fb, ce, q), quat_rotate_inv(q, hf.torque_w))
+    tau = add(tau_b, quat_rotate_inv(q, hf.torque_w))
     alpha_b = div(sub(tau, cross(w_b, i_w)), fb.craft.inertia_kgm2)
-    acc = add(acceleration(fb, ce, p, q), scale(hf.force_w, 1.0 / fb.craft.mass_kg))
+    acc = add(a0, scale(hf.force_w, 1.0 / fb.craft.mass_kg))
     return (v, acc, quat_derivative(q, w_b), alpha_b), hf

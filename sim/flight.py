@@ -1515,7 +1515,7 @@ COARSE_SETTLE_MARGIN = -1.0
 @kernel
 def coarse_tick(cfg, fb, s, ce, h):
     """Whether a ship in contact (``ce``: its contact at the tick's start) takes a sub-step of
-    ``h`` (sim.coarse_substep) where it would take max_substep's (MODEL-NOTES 56): a pure
+    ``h`` (sim.coarse_substep) where it would take max_substep's (MODEL-NOTES 57): a pure
     function of the state, true only where nothing the finer sub-steps resolve can happen in it:
 
     - its rocking mode, w^2 = (k/2) a^2 / I_transverse, has w h under COARSE_WH;
@@ -1592,7 +1592,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     ground0 = ground_at(fb, 0.0)
     ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     # a ship in contact where nothing the finer sub-steps resolve can happen takes the coarse
-    # ones (sim.coarse_substep, MODEL-NOTES 56)
+    # ones (sim.coarse_substep, MODEL-NOTES 57)
     if coarse and coarse_tick(cfg, fb, s, ce, dt / cfg.coarse_substeps):
         n_sub = cfg.coarse_substeps
     h = dt / n_sub

@@ -16,8 +16,8 @@ with no slip (it sticks), a foot on its rim slides, its impulse against its own 
 MuJoCo and Bullet). mu_i is mu_s for a foot that held at the step's start, mu_k for one that slid;
 a holding foot whose solution sits on its mu_s rim breaks away and the solve is repeated with it
 kinetic (MAX_ROUNDS rounds). Solved by projected block Gauss-Seidel (each foot's 2 x 2 disk
-problem exactly, :func:`_disk_step`), and where that crawls, on the near-redundant slips of four
-feet under a tilted ship, by a primal-dual interior-point method; both with fixed maximum counts.
+problem exactly, :func:`_disk_step`), and where that crawls, on the near-redundant slips of three
+or four feet, by a primal-dual interior-point method; both with fixed maximum counts.
 
 Slow slips are a tolerance: a foot slipping slower than ``stick_speed_mps`` (the seed's 0.01 m/s
 threshold, a scenario key) after the impulses keeps mu_s. The rigid model has no leg compliance, so
@@ -156,6 +156,19 @@ def patch(pos_m, ft, j_n):
 
 
 @kernel
+def _pressing_normals(pos_m, ft, j_n):
+    """:func:`patch`'s normals of the feet that press (j_n > 0), the same bits; zero for the
+    others, which nothing reads."""
+    up = unit(pos_m)
+    z = (0.0, 0.0, 0.0)
+    n0 = unit(add(sub(ft.push_w[0], unit(ft.pos_w[0])), up)) if j_n[0] > 0.0 else z
+    n1 = unit(add(sub(ft.push_w[1], unit(ft.pos_w[1])), up)) if j_n[1] > 0.0 else z
+    n2 = unit(add(sub(ft.push_w[2], unit(ft.pos_w[2])), up)) if j_n[2] > 0.0 else z
+    n3 = unit(add(sub(ft.push_w[3], unit(ft.pos_w[3])), up)) if j_n[3] > 0.0 else z
+    return n0, n1, n2, n3
+
+
+@kernel
 def hold_footprint(pos_m, ft_start, ft_end, foot_impulse_ns, cos_turn, sin_turn):
     """The ship moved so that a footprint held by static friction through the whole step ends
     exactly where the ground has carried the point it stood on (the ground turning by the angle of
@@ -279,7 +292,7 @@ def _residual(a_mat, slip, lam, radius, active):
 
 
 @kernel
-def _gauss_seidel(a_mat, slip, radius, lam, active):
+def _gauss_seidel(a_mat, slip, radius, lam, active, early):
     """Projected block Gauss-Seidel on the feet's friction impulses: each sweep sets every active
     foot's impulse to its exact minimiser over its own disk with the others held, until the
     optimality conditions hold to SLIP_TOL_MPS (:func:`_residual`; the ship's motion is what is
@@ -299,6 +312,13 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
     interior-point method instead, to its own accuracy (~1e-10 m/s) rather than to 1e-11: its
     bits change, its physics does not."""
     checkpoint = math.inf  # the residual CRAWL_SWEEPS sweeps ago
+    last = math.inf  # the residual a sweep ago
+    margin = CRAWL_MARGIN * SLIP_TOL_MPS
+    n_active = 0
+    for i in range(4):
+        if active[i]:
+            n_active += 1
+    alone = n_active == 1
     for sweep in range(MAX_SWEEPS):
         for i in range(4):
             if not active[i]:
@@ -314,6 +334,12 @@ def _gauss_seidel(a_mat, slip, radius, lam, active):
         res = _residual(a_mat, slip, lam, radius, active)
         if res <= SLIP_TOL_MPS:
             return True
+        if alone:  # one foot's sweep is exact: the next ones repeat it, and the crawl test then
+            return False  # gives up (no fall in the residual), as it would after 3-6 of them
+        if early and sweep == 1:  # three or four feet: the rate over the second sweep
+            if not res < last or res * (res / last) ** (MAX_SWEEPS - 2) > margin:
+                return False
+        last = res
         if (sweep + 1) % CRAWL_SWEEPS == 0:
             left = (MAX_SWEEPS - 1 - sweep) / CRAWL_SWEEPS
             if not res < checkpoint or res * (res / checkpoint) ** left > CRAWL_MARGIN * SLIP_TOL_MPS:
@@ -565,8 +591,13 @@ def _interior_point(a_mat, slip, radius, lam, active):
 def _solve_feet(a_mat, slip, radius, lam, active):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
-    does not converge within MAX_SWEEPS, the interior-point method. Returns 1 or 2: which one."""
-    if _gauss_seidel(a_mat, slip, radius, lam, active):
+    does not converge within MAX_SWEEPS (or crawls: :func:`_gauss_seidel`), the interior-point
+    method. Returns 1 or 2: which one."""
+    n_active = 0
+    for i in range(4):
+        if active[i]:
+            n_active += 1
+    if _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
     _interior_point(a_mat, slip, radius, lam, active)
     return 2
@@ -601,6 +632,17 @@ def _slipping(a_mat, slip, lam, active, stick_speed_mps):
 
 
 @kernel
+def _moving(after, pressing, stick_speed_mps):
+    """Which pressing feet slip faster than ``stick_speed_mps`` (their slips ``after``, as
+    :func:`_post_slips` leaves them)."""
+    tol2 = stick_speed_mps * stick_speed_mps
+    return (pressing[0] and after[0, 0] * after[0, 0] + after[0, 1] * after[0, 1] > tol2,
+            pressing[1] and after[1, 0] * after[1, 0] + after[1, 1] * after[1, 1] > tol2,
+            pressing[2] and after[2, 0] * after[2, 0] + after[2, 1] * after[2, 1] > tol2,
+            pressing[3] and after[3, 0] * after[3, 0] + after[3, 1] * after[3, 1] > tol2)
+
+
+@kernel
 def _dragged_only(law, rigid, stepped, end, j_n, normals, sliding):
     """:func:`coulomb` where no pressing foot takes an impulse (each is dragged by its friction as
     a force, or none presses): the same numbers, without the solve's arrays. The slips after are
@@ -616,16 +658,15 @@ def _dragged_only(law, rigid, stepped, end, j_n, normals, sliding):
     j_sum = 0.0
     kin = (False, False, False, False)
     for i in range(4):
-        pressing = j_n[i] > 0.0
-        if pressing:
-            drag = drag + mu_k * j_n[i]
+        if not j_n[i] > 0.0:
+            continue  # (not pressing: not kinetic, not in the mean)
+        drag = drag + mu_k * j_n[i]
         t1, t2 = tangent_basis(normals[i])
         u = foot_velocity(ground, vel_mps, omega_w, ft.offset_w[i], ft.pos_w[i])
         u1, u2 = dot(u, t1), dot(u, t2)
-        moves = pressing and u1 * u1 + u2 * u2 > tol2
-        if pressing:
-            mean = add(mean, scale(add(scale(t1, u1), scale(t2, u2)), j_n[i]))
-            j_sum = j_sum + j_n[i]
+        moves = u1 * u1 + u2 * u2 > tol2
+        mean = add(mean, scale(add(scale(t1, u1), scale(t2, u2)), j_n[i]))
+        j_sum = j_sum + j_n[i]
         kin = (kin[0] or (i == 0 and moves), kin[1] or (i == 1 and moves),
                kin[2] or (i == 2 and moves), kin[3] or (i == 3 and moves))
     held = j_sum > 0.0 and norm(mean) <= AT_REST_MPS * j_sum
@@ -654,7 +695,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     dragged, hold_w = friction_force.kinetic, friction_force.hold_w
     j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
            fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
-    normals = patch(pos_m, ft, j_n).normals
+    normals = _pressing_normals(pos_m, ft, j_n)
     omega_w = quat_rotate(quat, omega_b)
     inv_m = 1.0 / mass_kg
     if not ((j_n[0] > 0.0 and not dragged[0]) or (j_n[1] > 0.0 and not dragged[1])
@@ -685,6 +726,8 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
         kinetic[i] = active[i] and sliding[i]
         if pressing[i] and dragged[i]:
             drag = drag + mu_k * j_n[i]
+        if not pressing[i]:
+            continue  # (nothing reads a foot's basis, slip or rows where it does not press)
         t1, t2 = tangent_basis(normals[i])
         u = foot_velocity(ground, vel_mps, omega_w, ft.offset_w[i], ft.pos_w[i])
         slip[i, 0], slip[i, 1] = dot(u, t1), dot(u, t2)
@@ -704,6 +747,8 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     # only its columns of active feet are ever read with an impulse that is not zero (where no
     # foot is active, the slips after are the slips before: the zeros leave them as they are)
     for i in range(4):
+        if not pressing[i]:
+            continue
         for a in range(2):
             for j in range(4):
                 if not active[j]:
@@ -719,7 +764,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     for i in range(4):
         for a in range(2):
             for j in range(4):
-                if active[j]:
+                if active[j] and pressing[i]:
                     slip[i, a] -= (a_mat[i, a, j, 0] * carried[j, 0]
                                    + a_mat[i, a, j, 1] * carried[j, 1])
             lam[i, a] = carried[i, a] if active[i] else 0.0
@@ -731,7 +776,8 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
         # A held foot that the solve leaves slipping faster than the stick speed breaks away:
         # kinetic for the whole step. A full disk alone is not slipping: which of several
         # holding feet takes how much is not unique, and Gauss-Seidel fills the first ones first.
-        moving = _slipping(a_mat, slip, lam, pressing, stick_speed_mps)
+        _post_slips(a_mat, slip, lam, pressing, after)
+        moving = _moving(after, pressing, stick_speed_mps)
         broke = False
         for i in range(4):
             if active[i] and moving[i] and not kinetic[i]:
@@ -739,11 +785,10 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
                 broke = True
         if not broke:
             break
-    # (moving: the last round's, at the impulses the loop ends with; MAX_ROUNDS >= 1)
+    # (moving and after: the last round's, at the impulses the loop ends with; MAX_ROUNDS >= 1)
     # held: no foot slides, and the footprint as a whole (its load-weighted mean slip) is at rest.
     # Feet of one footprint may still slip against each other by a hair: the rigid model's
     # redundancy (see AT_REST_MPS), which only the footprint's centre would carry it away with.
-    _post_slips(a_mat, slip, lam, pressing, after)
     mean = (0.0, 0.0, 0.0)
     j_sum = 0.0
     for i in range(4):

@@ -50,13 +50,16 @@ SCENES = {
 #: (issue 35: landing, friction and tipped ships changed the physics; the stiff feet in pieces,
 #: sim.stiff_substep, changed the tilted touchdown and the fleet; cut in every sub-step, the
 #: tilted touchdown, the slope and the fleet; an absorbed foot's release, MODEL-NOTES 52, the
-#: trip, the tilted touchdown and the slope)
+#: trip, the tilted touchdown and the slope; three or four feet's friction solved by the
+#: interior-point method after two sweeps, MODEL-NOTES 56, the tilted touchdown, the slope and the
+#: fleet; coarse contact sub-steps, MODEL-NOTES 57, the trip, the tilted touchdown, the slope and
+#: the fleet)
 EXPECTED = {
     "bounce": "c859644647a67454f6ce5cac2f5f82ae4caa43ecaa3aecdf7b111a633eb7d54a",
     "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "8c6ac3b9bc12c79a62211dfc2b0003f5503f940baa3fce0840315e1cb45f0e40",
-    "slope": "2ae58ff21646ec15c0de927a81425b87735b4e8784ee9d8f3ee6fd0211f28842",
-    "fleet": "eee5273cb987fa809a3012a65b30c3a6bd161ff8aad3ea79d120a244920ab563",
+    "tilted": "3666c0dbeac592a9b022b57de50545e649d704c3272541d6800adc7dea5622eb",
+    "slope": "d7ac8010873686e1f57c30551f6ec07267f31d9ade037b2acadc2132696ec5bb",
+    "fleet": "ecb43a02e050231423aa1cb5e8b590f9474d6ab93aa90c27c8e251ec8e883de3",
 }
 
 

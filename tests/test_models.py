@@ -187,7 +187,7 @@ def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
     ({"state": "contact", "altitude": -0.01625, "tilt_deg": 20.0}, {}),
 ])
 def test_coarse_contact_sub_steps_follow_the_fine_ones(initial, body):
-    """sim.coarse_substep (MODEL-NOTES 56): a ship in contact takes one 50 ms sub-step a tick
+    """sim.coarse_substep (MODEL-NOTES 57): a ship in contact takes one 50 ms sub-step a tick
     where nothing the 25 ms ones resolve can happen in it. Against max_substep's sub-steps
     throughout: the same transitions on the same ticks, each at its instant to 1e-4 s (measured:
     4.2e-5 at most), the centre of mass within 1 mm at every tick (7.3e-5 m); the runs are not
