@@ -1492,8 +1492,77 @@ def clear_within(cfg, fb, m, ce, h):
                                     + CLEAR_MARGIN_M)
 
 
+#: a ship in contact takes a tick as one coarse sub-step (sim.coarse_substep, :func:`coarse_tick`)
+#: only where its rocking mode's w h is under this: a squat ship (w = 13.9 rad/s) sliding on its
+#: four feet down 39.3 degrees grows a pitching oscillation at w h = 0.69 (one 50 ms sub-step)
+#: and stops sliding; at 0.56 (40 ms) and 0.49 (half the stiffness) it slides as at 25 ms
+COARSE_WH = 0.5
+
+#: m/s: the margin on each foot's rate along the ground's normal over a coarse sub-step: no foot
+#: starts or stops pressing within it (a foot's acceleration, spring and damper, ~0.1 m/s in 50 ms)
+COARSE_MARGIN_MPS = 0.2
+
+#: a sliding foot allows a coarse sub-step if its slip outlasts this many of them at its own
+#: kinetic friction's deceleration plus the surface gravity (it neither stops nor turns stiff
+#: within it: sim.flight.step_piece's pieces and impulses ask for less than one)
+COARSE_SLIP_STEPS = 4.0
+
+#: the settle thresholds' margin (sim.rest.margin_on: each a fraction of its threshold) above
+#: which a ship is near enough to rest for the landing instant's samples to want every sub-step
+COARSE_SETTLE_MARGIN = -1.0
+
+
+@kernel
+def coarse_tick(cfg, fb, s, ce, h):
+    """Whether a ship in contact (``ce``: its contact at the tick's start) takes a sub-step of
+    ``h`` (sim.coarse_substep) where it would take max_substep's (MODEL-NOTES 57): a pure
+    function of the state, true only where nothing the finer sub-steps resolve can happen in it:
+
+    - its rocking mode, w^2 = (k/2) a^2 / I_transverse, has w h under COARSE_WH;
+    - it is not near rest: the settle thresholds' margin at the last tick's end is under
+      COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
+    - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
+      penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
+      (|x'| + COARSE_MARGIN_MPS) h;
+    - every sliding foot that presses slips faster than COARSE_SLIP_STEPS h (mu_k N_i / m_eff,i +
+      g): it cannot stop, nor its friction turn stiff, within the sub-step."""
+    cr = fb.craft
+    ft = s.footing
+    i_t = fmin(cr.inertia_kgm2[0], cr.inertia_kgm2[1])
+    w2 = 0.5 * cr.k_npm * cr.leg_radius_m * cr.leg_radius_m / i_t
+    # (and the four feet's bounce, w^2 = k / m, well inside rk4's stability)
+    if not (w2 * h * h < COARSE_WH * COARSE_WH and cr.k_npm / cr.mass_kg * h * h < 1.0):
+        return False
+    if not ft.settle_margin < COARSE_SETTLE_MARGIN:
+        return False
+    absorbing = ft.absorbing
+    c_over_k = (cr.c_absorb_nspm if absorbing else cr.c_nspm) / cr.k_npm
+    g = cr.gm_m3ps2 / dot(s.motion.p, s.motion.p)
+    for i in range(4):
+        x = ce.pen_m[i]
+        rate = ce.pen_rate_mps[i]
+        reach = (abs(rate) + COARSE_MARGIN_MPS) * h
+        if x > 0.0 and (absorbing or ce.foot_force_n[i] > 0.0):
+            gap = x if absorbing else x + c_over_k * rate
+            if not gap > reach:
+                return False
+            if ft.sliding[i]:
+                s0 = ce.slip_w[i]
+                speed = norm(s0)
+                if not speed > 0.0:
+                    return False
+                s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+                own = (cr.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
+                       * _inv_mass_along(fb, s.motion.q, i, s_hat))
+                if not speed > COARSE_SLIP_STEPS * h * (own + g):
+                    return False
+        elif not -x > reach:
+            return False
+    return True
+
+
 @separate
-def free_flight(here, fb, s, n_sub, carry, log):
+def free_flight(here, fb, s, n_sub, carry, coarse, log):
     """Advance a free ship near the ground (``fb.craft.touching``; one clear of it takes
     :func:`fly_clear`) by one tick in ``n_sub`` equal sub-steps, each in three stages:
 
@@ -1510,10 +1579,11 @@ def free_flight(here, fb, s, n_sub, carry, log):
     without it, impulses alone. In an impact's tick (``n_sub`` impact sub-steps), a flying ship
     whose feet cannot reach the ground within a sub-step of max_substep (:func:`clear_within`)
     takes that many of the impact's sub-steps as one (``sim.coarse_when_clear``): nothing
-    presses in it, and its flight is what a ship near the ground takes at max_substep."""
+    presses in it, and its flight is what a ship near the ground takes at max_substep.
+    ``coarse``: a ship in contact that :func:`coarse_tick` finds quiet at the tick's start takes
+    the scene's ``coarse_substeps`` instead of ``n_sub`` (sim.coarse_substep)."""
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
-    h = dt / n_sub
     om = fb.craft.body_omega_radps
     m = s.motion
     friction_n = 0.0
@@ -1521,6 +1591,11 @@ def free_flight(here, fb, s, n_sub, carry, log):
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
     ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    # a ship in contact where nothing the finer sub-steps resolve can happen takes the coarse
+    # ones (sim.coarse_substep, MODEL-NOTES 57)
+    if coarse and coarse_tick(cfg, fb, s, ce, dt / cfg.coarse_substeps):
+        n_sub = cfg.coarse_substeps
+    h = dt / n_sub
     memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard

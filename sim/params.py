@@ -163,7 +163,7 @@ ControllerParams = _section("ControllerParams", "controller", """Attitude hold: 
 #: What Params.scene derives from the parameters (the rest of SCENE_DTYPE is the settings the
 #: step reads as they are: sim.settings.in_scene).
 _SCENE_DERIVED = [
-    ("method", "i8"), ("impact_substeps", "i8"), ("crash_speed2", "f8"),
+    ("method", "i8"), ("impact_substeps", "i8"), ("coarse_substeps", "i8"), ("crash_speed2", "f8"),
     ("settle_lin2", "f8"), ("settle_ang2", "f8"), ("cos_settle_tilt", "f8"), ("cos_tipped", "f8"),
     ("tipped_rest_rad", "f8"), ("cos_tipped_rest", "f8"), ("omega_radps", "f8"), ("omega2", "f8"),
     ("surface_gravity_mps2", "f8"), ("terrain_max_m", "f8"), ("slope_tan", "f8"),
@@ -217,6 +217,9 @@ class Params:
         # max_substep = 0 is the seed's plain step: no sub-steps at all, striking or not
         r["impact_substeps"] = (0 if sim.impact_substep_s <= 0.0 or sim.max_substep_s <= 0.0
                                 else max(1, int(math.ceil(sim.dt_s / sim.impact_substep_s - 1e-9))))
+        # sim.coarse_substep: the sub-steps a quiet contact tick takes (0: max_substep's always)
+        r["coarse_substeps"] = (0 if sim.coarse_substep_s <= 0.0 or sim.max_substep_s <= 0.0
+                                else max(1, int(math.ceil(sim.dt_s / sim.coarse_substep_s - 1e-9))))
         r["crash_speed2"] = cp.crash_speed_mps ** 2
         r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
         r["settle_ang2"] = cp.settle_angular_vel_radps ** 2

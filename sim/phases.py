@@ -402,7 +402,11 @@ def step_ship(here, rec, inp, out, log):
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and per_foot(cfg)
-        fl = (free_flight(here, fb, s, n_sub, not (strikes or held_inside), log) if fine
+        # a ship in contact may take coarser sub-steps where nothing the finer ones resolve can
+        # happen in them (sim.coarse_substep, MODEL-NOTES 57; decided on its contact at the start)
+        coarse = (cfg.coarse_substeps > 0 and cfg.coarse_substeps < n_sub and not strikes
+                  and s.surface_state == CONTACT and method == RK4 and per_foot(cfg))
+        fl = (free_flight(here, fb, s, n_sub, not (strikes or held_inside), coarse, log) if fine
               else fly_clear(cfg, fb, s))
         s, report = fl.ship, fl.report
         if fine:

@@ -212,6 +212,12 @@ SETTINGS: tuple[Setting, ...] = (
     S("sim.impact_substep", "float", 0.005, "s", 0.0, 1.0, dest="sim.impact_substep_s",
       doc="a ship that is not purely vertical takes sub-steps of at most this while it strikes "
           "the ground or rebounds (sim.phases.striking; 0: max_substep everywhere)"),
+    S("sim.coarse_substep", "float", 0.05, "s", 0.0, 1.0, dest="sim.coarse_substep_s",
+      doc="a ship in contact, not striking, takes sub-steps of at most this (ceil(dt / "
+          "coarse_substep) a tick) instead of max_substep's where nothing the finer ones resolve "
+          "can happen within them: no foot near starting or stopping to press, no sliding foot "
+          "near its stop, not near rest, its rocking mode's w h under 0.5 (sim.flight.coarse_tick; "
+          "rk4 and Coulomb's law only; 0: max_substep's always, 0.8's; MODEL-NOTES 57)"),
     S("sim.stiff_substep", "float", 0.001, "s", 0.0, 1.0, dest="sim.stiff_substep_s",
       scene="stiff_substep_s",
       doc="a ship is stepped in pieces no longer than the time a sliding foot's friction would "

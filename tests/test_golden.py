@@ -52,13 +52,14 @@ SCENES = {
 #: tilted touchdown, the slope and the fleet; an absorbed foot's release, MODEL-NOTES 52, the
 #: trip, the tilted touchdown and the slope; three or four feet's friction solved by the
 #: interior-point method after two sweeps, MODEL-NOTES 56, the tilted touchdown, the slope and the
-#: fleet)
+#: fleet; coarse contact sub-steps, MODEL-NOTES 57, the trip, the tilted touchdown, the slope and
+#: the fleet)
 EXPECTED = {
     "bounce": "c859644647a67454f6ce5cac2f5f82ae4caa43ecaa3aecdf7b111a633eb7d54a",
-    "trip": "e5be57c879b3be078d5f5a3c92dc8049170bea9f91c6c752ce3f1399790e63ad",
-    "tilted": "3499db2f02ec63ae8b2affad6c4e93e4c9297a7046b37bf91105e1bdd85a71a5",
-    "slope": "0abc618c6359019822f794b928cf00a7375f596b4fb5232a438543920b625e15",
-    "fleet": "d2da7adb3ab8ec69eaf4841ea1cfcb49b13c2a2d24663007ecddfbbffec36e9b",
+    "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
+    "tilted": "3666c0dbeac592a9b022b57de50545e649d704c3272541d6800adc7dea5622eb",
+    "slope": "d7ac8010873686e1f57c30551f6ec07267f31d9ade037b2acadc2132696ec5bb",
+    "fleet": "ecb43a02e050231423aa1cb5e8b590f9474d6ab93aa90c27c8e251ec8e883de3",
 }
 
 
