@@ -316,9 +316,10 @@ def _checked(doc: dict, source: str, overrides: dict[str, Any] | None
     if math.ceil(top["duration"] / sim["dt"] - 1e-9) > MAX_TICKS:
         rd.fail("duration", f"{top['duration']:g} s is more than {MAX_TICKS:,} ticks of "
                             f"{sim['dt']:g} s")
-    if sim["max_substep"] > 0.0 and sim["dt"] / sim["max_substep"] > MAX_SUBSTEPS_PER_TICK:
-        rd.fail("sim.max_substep", f"{sim['max_substep']:g} s makes more than "
-                                   f"{MAX_SUBSTEPS_PER_TICK} sub-steps a tick of {sim['dt']:g} s")
+    for key in ("max_substep", "impact_substep", "coarse_substep"):
+        if sim[key] > 0.0 and sim["dt"] / sim[key] > MAX_SUBSTEPS_PER_TICK:
+            rd.fail(f"sim.{key}", f"{sim[key]:g} s makes more than "
+                                  f"{MAX_SUBSTEPS_PER_TICK} sub-steps a tick of {sim['dt']:g} s")
     body["surface_gravity"] = None
     del body["surface_gravity"]
     if 0.0 < abs(body["rotation_period"]) < 1.0:

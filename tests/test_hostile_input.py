@@ -205,6 +205,8 @@ def test_a_log_s_scenario_passes_the_same_rules_with_the_same_message(bounce, tm
 @pytest.mark.parametrize("sets,key", [
     (["sim.dt=1e-308"], "sim.dt"), (["sim.dt=nan"], "sim.dt"), (["duration=1e300"], "duration"),
     (["sim.max_substep=1e-300"], "sim.max_substep"),
+    (["sim.impact_substep=1e-308"], "sim.impact_substep"),
+    (["sim.coarse_substep=1e-308"], "sim.coarse_substep"),
     (["sim.integrator=explicit_euler", "contact.damping_ratio=0",
       "contact.absorb_damping_ratio=0"], "sim.integrator"),
     (["contact.crash_speed=1e308"], "contact.crash_speed"),
