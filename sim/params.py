@@ -25,6 +25,14 @@ def _section(cls_name: str, name: str, doc: str, base: type, extra: tuple = ()) 
                           namespace={"__doc__": doc, "__module__": __name__})
 
 
+def substeps(dt_s: float, step_s: float) -> int:
+    """The equal sub-steps of at most ``step_s`` a tick of ``dt_s`` takes, ceil(dt / step)
+    (a hair over a whole number counts as it); 0 where ``step_s`` is 0 (none)."""
+    if step_s <= 0.0:
+        return 0
+    return max(1, int(math.ceil(dt_s / step_s - 1e-9)))
+
+
 class _SimDerived:
     @cached_property
     def n_ticks(self) -> int:
@@ -32,9 +40,7 @@ class _SimDerived:
 
     @cached_property
     def n_fine_substeps(self) -> int:
-        if self.max_substep_s <= 0.0:
-            return 1
-        return max(1, int(math.ceil(self.dt_s / self.max_substep_s - 1e-9)))
+        return substeps(self.dt_s, self.max_substep_s) or 1
 
 
 class _ContactDerived:
@@ -215,11 +221,11 @@ class Params:
             r[s.scene] = getattr(sections[s.section], s.field)
         r["method"] = METHODS[sim.integrator]
         # max_substep = 0 is the seed's plain step: no sub-steps at all, striking or not
-        r["impact_substeps"] = (0 if sim.impact_substep_s <= 0.0 or sim.max_substep_s <= 0.0
-                                else max(1, int(math.ceil(sim.dt_s / sim.impact_substep_s - 1e-9))))
+        r["impact_substeps"] = (0 if sim.max_substep_s <= 0.0
+                                else substeps(sim.dt_s, sim.impact_substep_s))
         # sim.coarse_substep: the sub-steps a quiet contact tick takes (0: max_substep's always)
-        r["coarse_substeps"] = (0 if sim.coarse_substep_s <= 0.0 or sim.max_substep_s <= 0.0
-                                else max(1, int(math.ceil(sim.dt_s / sim.coarse_substep_s - 1e-9))))
+        r["coarse_substeps"] = (0 if sim.max_substep_s <= 0.0
+                                else substeps(sim.dt_s, sim.coarse_substep_s))
         r["crash_speed2"] = cp.crash_speed_mps ** 2
         r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
         r["settle_ang2"] = cp.settle_angular_vel_radps ** 2
