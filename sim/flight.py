@@ -442,11 +442,10 @@ def _gaps(fb, t_s, motion, absorbing, ev):
 
 
 @kernel
-def foot_events(fb, t_end, st, ce_start, absorbing, engage, memo):
+def foot_events(ce_start, ce, absorbing, engage):
     """The feet that start or stop pressing between a step's start (``ce_start``) and its end
-    (``st``; its contact ``memo``'s if it was evaluated there)."""
+    (``ce``: the contact there, evaluated with the same ``engage``)."""
     before = _pressing(ce_start, absorbing, engage)
-    ce = contact_memo(memo, fb, t_end, Motion(st.p, st.v, st.q, st.w), absorbing, engage)
     after = _pressing(ce, absorbing, engage)
     pen = ce.pen_m
     onset = ((not before[0]) and pen[0] > 0.0 and not ce_start.pen_m[0] > -engage[0],
@@ -1165,7 +1164,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
                                      memo, False)
     if may_split:
-        ev = foot_events(with_feet(fb, engage, drag), t_e, st, ce_y, ft.absorbing, engage, memo)
+        # the contact at the step's end is kept (memo): the guard asks for it again at the
+        # sub-step's end where no foot's regime changed (guard_substep), as does the next piece
+        body = with_feet(fb, engage, drag)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        ev = foot_events(ce_y, ce_e, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                           StepFrom(t_abs, m, ce_y), ev)
@@ -1590,13 +1595,18 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     peak = 0.0
     guard_j = 0.0
     ground0 = ground_at(fb, 0.0)
-    ce = contact_at(fb, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    # evaluated with the held feet's friction the first piece carries in (none where it is
+    # not carried: impulses alone, or inside the step), so that the first piece's start finds
+    # it (contact_memo) instead of evaluating the same state again; the fields used before
+    # that (penetrations, their rates, the feet's forces and slips) do not depend on it
+    fb0 = with_hold(fb, s.footing.hold_w if carry else NO_HOLD)
+    ce = contact_at(fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     # a ship in contact where nothing the finer sub-steps resolve can happen takes the coarse
     # ones (sim.coarse_substep, MODEL-NOTES 57)
     if coarse and coarse_tick(cfg, fb, s, ce, dt / cfg.coarse_substeps):
         n_sub = cfg.coarse_substeps
     h = dt / n_sub
-    memo = memo_of(fb, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    memo = memo_of(fb0, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     v_rad = dot(m.v, unit(m.p))
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
