@@ -367,8 +367,9 @@ def in_plane(v, n):
     return sub(v, scale(n, dot(v, n)))
 
 
-# (a kernel, inlined into its one caller, sim.dynamics.contact_at: its ContactEval is then built in
-# contact_at's return slot, not copied there from a call's; 4.2% of a touchdown's instructions)
+# (a kernel, inlined into its one caller, sim.dynamics.contact_inline, itself inlined into the
+# integrators' stages and into sim.dynamics.contact_at: its ContactEval is then built where it is
+# used, not copied there from a call's; 4.2% of a touchdown's instructions, session 4)
 @kernel
 def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_force):
     """Normal force, its moment, and penetration (see the module docstring) of a ship in

