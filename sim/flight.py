@@ -1071,7 +1071,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             # the piece is cut to equal parts no longer than the time its friction would take to
             # stop it, and than stiff_substep at the least, each taken as a piece of its own
             piece = fmax(fine_s, t_stop)
-            if at_transition(cfg, body, ft, ce_y, drag, sr, m.q, fine_s):
+            if at_transition(cfg, body, start, sr, fine_s):
                 # another foot is about to break away or has just begun to slide: the impulses
                 # after a piece of stiff_substep, the stiff foot's kinetic one among them, would
                 # hold it (its slip within what they take out over the piece); the pieces go
@@ -1193,14 +1193,16 @@ TRANSITION_PIECE = 0.1
 
 
 @kernel
-def at_transition(cfg, fb, ft, ce, drag, sr, q, h):
-    """Some pressing foot is at its stick/slip transition at a piece's start (``ce``): holding
+def at_transition(cfg, fb, start, sr, h):
+    """Some pressing foot is at its stick/slip transition at a piece's ``start`` (a
+    :class:`PieceStart`): holding
     (not dragged, regime static) with NEAR_CONE of mu_s N_i or more carried over the last step,
     or sliding, not slowing (:func:`slowing`, from ``sr``), and slow enough that its own
     friction could stop it within h (:func:`_could_stop`): it has just broken away. Where a
     stiff foot takes its friction as an impulse after a piece of h, the impulses solved together
     would hold such a foot (its slip stays within what they take out of it), while its static
     cone alone would not (MODEL-NOTES 58)."""
+    ft, ce, drag, q = start.ship.footing, start.ce, start.drag, start.ship.motion.q
     mu_s = cfg.friction_static
     for i in range(4):
         load = ce.foot_force_n[i] * ce.push_norm[i]
