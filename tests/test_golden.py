@@ -57,9 +57,9 @@ SCENES = {
 EXPECTED = {
     "bounce": "c859644647a67454f6ce5cac2f5f82ae4caa43ecaa3aecdf7b111a633eb7d54a",
     "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "3666c0dbeac592a9b022b57de50545e649d704c3272541d6800adc7dea5622eb",
+    "tilted": "b41b4bdf9058dbc6f588c0bf01918bf187e84c88ab66be69d23f8048ad98edc7",
     "slope": "d7ac8010873686e1f57c30551f6ec07267f31d9ade037b2acadc2132696ec5bb",
-    "fleet": "ecb43a02e050231423aa1cb5e8b590f9474d6ab93aa90c27c8e251ec8e883de3",
+    "fleet": "b6f713ec9efe7b2c9f1c271bb31d1cd6868cdc40545428a207244bd14dfec5cc",
 }
 
 
