@@ -660,6 +660,7 @@ class SlipRates(NamedTuple):
     speed: tuple  # |s_i|, m/s
     rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
     own: tuple  # mu_k N_i / m_eff,i, m/s^2
+    across: tuple  # |ds_i/dt - (d|s_i|/dt) s_hat_i|, m/s^2: what turns the slip
 
 
 @kernel
@@ -680,17 +681,20 @@ def slip_rates(cfg, fb, ground, ce, m):
     speeds = (0.0, 0.0, 0.0, 0.0)
     rates = (0.0, 0.0, 0.0, 0.0)
     owns = (0.0, 0.0, 0.0, 0.0)
+    acrosses = (0.0, 0.0, 0.0, 0.0)
     for i in range(4):
         s0 = ce.slip_w[i]
         speed = norm(s0)
         rate = 0.0
         own = 0.0
+        across = 0.0
         if speed > 0.0:
             s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
             r = off[i]
             acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
             acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
             rate = dot(acc, s_hat)
+            across = norm(sub(acc, scale(s_hat, rate)))
             arm = quat_rotate_inv(m.q, cross(r, s_hat))
             inv_m = 1.0 / fb.craft.mass_kg + dot(arm, div(arm, fb.craft.inertia_kgm2))
             own = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i] * inv_m
@@ -700,11 +704,14 @@ def slip_rates(cfg, fb, ground, ce, m):
                  rate if i == 2 else rates[2], rate if i == 3 else rates[3])
         owns = (own if i == 0 else owns[0], own if i == 1 else owns[1],
                 own if i == 2 else owns[2], own if i == 3 else owns[3])
-    return SlipRates(speeds, rates, owns)
+        acrosses = (across if i == 0 else acrosses[0], across if i == 1 else acrosses[1],
+                    across if i == 2 else acrosses[2], across if i == 3 else acrosses[3])
+    return SlipRates(speeds, rates, owns, acrosses)
 
 
 #: no foot slips
-NO_RATES = SlipRates((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
+NO_RATES = SlipRates((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
+                     (0.0, 0.0, 0.0, 0.0))
 
 
 @kernel
@@ -735,6 +742,22 @@ def stopping(cfg, dragged, sr, ce0, ce1, h):
         stop_dir = (d if i == 0 else stop_dir[0], d if i == 1 else stop_dir[1],
                     d if i == 2 else stop_dir[2], d if i == 3 else stop_dir[3])
     return FootEvents(NO_SLIP, NO_SLIP, stop, stop_dir, stop_speeds(ce0, stop), 0.0, found)
+
+
+#: a stopping foot's slip turns on its way to the stop where what turns it, over what slows it,
+#: is past this (about the angle, rad, it turns by at its present rates: |across| T / |s| with
+#: T = |s| / -rate); then it may pass its least short of zero (MODEL-NOTES 58)
+TURN_REACH = 0.5
+
+
+@kernel
+def turns(stop, sr):
+    """Whether the slip of a foot of ``stop.stop`` turns on its way to its stop: its rates
+    (``sr``) turn it by more than TURN_REACH rad before it gets there."""
+    for i in range(4):
+        if stop.stop[i] and sr.across[i] > -TURN_REACH * sr.rate[i]:
+            return True
+    return False
 
 
 @kernel
@@ -1124,11 +1147,12 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 # its slip turns as it slows (the other forces' part across it is not slowed):
                 # stepped with its drag against its slip in pieces of half the time its stop
                 # takes, down to a twentieth of stiff_substep, and only that last stretch dragged
-                # along where it slid (MODEL-NOTES 51; outside an impact's sub-steps too: a slip
-                # that passes its least short of zero, dragged along where it slid, missed the
-                # turn: MODEL-NOTES 58)
+                # along where it slid (MODEL-NOTES 51); outside an impact's sub-steps where it
+                # turns by more than TURN_REACH on its way (a slip that passes its least short of
+                # zero, dragged along where it slid, missed the turn: MODEL-NOTES 58)
                 half = 0.5 * approach_time(cfg, stop, sr)
-                if half > 0.05 * fine_s and rem > half * (1.0 + 1e-9):
+                if (half > 0.05 * fine_s and (fine.floor_s == 0.0 or turns(stop, sr))
+                        and rem > half * (1.0 + 1e-9)):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
                                  StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
@@ -1200,13 +1224,14 @@ TRANSITION_PIECE = 0.1
 @kernel
 def at_transition(cfg, fb, start, sr, h):
     """Some pressing foot is at its stick/slip transition at a piece's ``start`` (a
-    :class:`PieceStart`): holding
-    (not dragged, regime static) with NEAR_CONE of mu_s N_i or more carried over the last step,
-    or sliding, not slowing (:func:`slowing`, from ``sr``), and slow enough that its own
-    friction could stop it within h (:func:`_could_stop`): it has just broken away. Where a
-    stiff foot takes its friction as an impulse after a piece of h, the impulses solved together
-    would hold such a foot (its slip stays within what they take out of it), while its static
-    cone alone would not (MODEL-NOTES 58)."""
+    :class:`PieceStart`): holding (not dragged, regime static) with NEAR_CONE of mu_s N_i or
+    more carried over the last step, or sliding, not slowing (:func:`slowing`, from ``sr``), and
+    slow enough that its own friction could stop it within TRANSITION_PIECE h
+    (:func:`_could_stop`): it has just broken away. (Within h it would be every stiff foot that
+    is not slowing: +14% pieces over envelope touchdowns.) Where a stiff foot takes its friction
+    as an impulse after a piece of h, the impulses solved together would hold such a foot (its
+    slip stays within what they take out of it), while its static cone alone would not
+    (MODEL-NOTES 58)."""
     ft, ce, drag, q = start.ship.footing, start.ce, start.drag, start.ship.motion.q
     mu_s = cfg.friction_static
     for i in range(4):
@@ -1216,7 +1241,7 @@ def at_transition(cfg, fb, start, sr, h):
         if not ft.sliding[i] and not drag[i]:
             if norm(ft.hold_w[i]) >= NEAR_CONE * mu_s * load:
                 return True
-        elif not slowing(sr, i) and _could_stop(cfg, fb, ce, ce, q, i, h):
+        elif not slowing(sr, i) and _could_stop(cfg, fb, ce, ce, q, i, TRANSITION_PIECE * h):
             return True
     return False
 

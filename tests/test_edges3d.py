@@ -224,29 +224,31 @@ def _follows_the_reference(start, rel=0.01) -> str:
 
 @pytest.mark.slow
 def test_3d_touchdowns_follow_the_reference_at_the_default_tick():
-    """Over 24 3-D starts in the test's scope (tilt and its azimuth against the legs, sideways
-    speed and its direction, yaw spin, slope and its azimuth, mass, legs; a seeded sample), at
-    the default settings (tick 0.05 s, 25 ms sub-steps, 5 ms while it strikes, 1 ms pieces where
-    a sliding foot's friction is stiff), a ship that stands rocks to the reference's largest
-    tilt and ends where it went, to issue 35's 1% (0.1 degree, 1 cm). Until a stopping foot's
-    drag turned with its slip in an impact (MODEL-NOTES 51) and an absorbed foot's release kept
-    its pull (52), two of these 24 missed 1% (impacts onto 12-14 degree slopes, 1.5-3% off); in
-    a longer sample (55 in scope) one still does: a 2.2 m/s touchdown onto 14.1 degrees slides
+    """Over the 142 3-D starts in the test's scope of 200 (tilt and its azimuth against the legs,
+    sideways speed and its direction, yaw spin, slope and its azimuth, mass, legs; a seeded
+    sample), at the default settings (tick 0.05 s, 25 ms sub-steps, 5 ms while it strikes, 1 ms
+    pieces where a sliding foot's friction is stiff), a ship that stands rocks to the
+    reference's largest tilt and ends where it went, to issue 35's 1% (0.1 degree, 1 cm). Until
+    a stopping foot's drag turned with its slip in an impact (MODEL-NOTES 51) and an absorbed
+    foot's release kept its pull (52), two of the first 24 missed 1% (impacts onto 12-14 degree
+    slopes, 1.5-3% off); of the first 55 one more did: a 2.2 m/s touchdown onto 14.1 degrees slides
     2.2 cm (1.8%) further than the reference's 1.211 m, an error of the 25 ms sub-steps where
     two more feet strike the ground 0.75 s after touchdown (docs/issue35/tools/
     restart_release.py; 5 ms sub-steps end 0.1 cm off); those strikes now get the impact's
-    5 ms sub-steps (MODEL-NOTES 53, the test below)."""
+    5 ms sub-steps (MODEL-NOTES 53, the test below). Of the 142, two more missed until the
+    feet at their stick/slip transition beside a stiff foot were resolved (MODEL-NOTES 58): start
+    118, 0.30 m short of 1.338 m (a foot's breakaway held by a stiff foot's impulse), and 48,
+    1.8 cm off of 0.805 m (a slip passing its least short of zero, dragged along where it
+    slid)."""
     checked, misses = 0, []
-    for start in _sampled_starts(35, 60):
+    for start in _sampled_starts(35, 200):
         verdict = _follows_the_reference(start)
         if verdict is None:
             continue
         checked += 1
         if verdict:
             misses.append(verdict)
-        if checked == 24:
-            break
-    assert checked == 24
+    assert checked == 142
     assert not misses, "\n".join(misses)
 
 
