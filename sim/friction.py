@@ -421,7 +421,7 @@ def _semidefinite_factor(h_mat, n, l_mat):
 
 
 @kernel
-def _active_set(a_loc, u0, rho, x, z, n_feet, scale_s, out):
+def _active_set(a_loc, u0, rho, x, z, n_feet, out):
     """The interior-point method's finish (:func:`_interior_point`): from its iterate (x, z),
     guess which feet stick (their dual z_k near its apex) and which slip (lam_k near its rim),
     then Newton's method on the optimality conditions of that split, the slipping feet's
@@ -438,6 +438,9 @@ def _active_set(a_loc, u0, rho, x, z, n_feet, scale_s, out):
     Tried only where every foot reads clearly (by FINISH_CLEAR) as one or the other: else 0."""
     n = 2 * n_feet
     slips = stack_zeros(4, np.bool_)
+    scale_s = 0.0  # (the largest slip before the impulses, as the method's start has it)
+    for k in range(n_feet):
+        scale_s = fmax(scale_s, math.sqrt(u0[2 * k] * u0[2 * k] + u0[2 * k + 1] * u0[2 * k + 1]))
     for k in range(n_feet):
         ln = math.sqrt(x[2 * k] * x[2 * k] + x[2 * k + 1] * x[2 * k + 1])
         far = (rho[k] - ln) / rho[k] * scale_s  # (primal distance to the rim, as a speed)
@@ -652,7 +655,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
         if steps == 0:
             gap_0 = gap
         elif tries < 2 and gap < FINISH_GAPS[tries] * gap_0:
-            tried = _active_set(a_loc, u0, rho, x, z, n_feet, scale_s, dx)
+            tried = _active_set(a_loc, u0, rho, x, z, n_feet, dx)
             if tried == 2:
                 for a in range(n):
                     x[a] = dx[a]
