@@ -638,7 +638,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
         fa, ca = idx[a // 2], a % 2
         u0[a] = slip[fa, ca]
         for b in range(n):
-            a_loc[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
+            a_loc[a, b] = hess[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
     for k in range(n_feet):
         rho[k] = radius[idx[k]]
         z[k, 0] = math.sqrt(u0[2 * k] * u0[2 * k] + u0[2 * k + 1] * u0[2 * k + 1]) + scale_s
@@ -666,7 +666,6 @@ def _interior_point(a_mat, slip, radius, lam, active):
             acc = u0[a] - z[a // 2, 1 + a % 2]
             for b in range(n):
                 acc += a_loc[a, b] * x[b]
-                hess[a, b] = a_loc[a, b]
             res[a] = -acc
             worst = fmax(worst, abs(acc))
         if worst <= IPM_TOL_MPS and moved <= IPM_TOL_MPS:
@@ -690,10 +689,10 @@ def _interior_point(a_mat, slip, radius, lam, active):
             e2 = s_i / z_i  # eta_k^2 = sqrt(det z_k / det s_k)
             eta = math.sqrt(e2)
             scal[k, 0], scal[k, 1], scal[k, 2], scal[k, 3] = eta, s_i * z_i, s_det, z_det
-            hess[2 * k, 2 * k] += e2 * (1.0 + 2.0 * w1 * w1)
-            hess[2 * k + 1, 2 * k + 1] += e2 * (1.0 + 2.0 * w2 * w2)
-            hess[2 * k, 2 * k + 1] += e2 * 2.0 * w1 * w2
-            hess[2 * k + 1, 2 * k] += e2 * 2.0 * w1 * w2
+            # (hess is a_loc off its feet's 2 x 2 diagonal blocks: those are set at every step)
+            hess[2 * k, 2 * k] = a_loc[2 * k, 2 * k] + e2 * (1.0 + 2.0 * w1 * w1)
+            hess[2 * k + 1, 2 * k + 1] = a_loc[2 * k + 1, 2 * k + 1] + e2 * (1.0 + 2.0 * w2 * w2)
+            hess[2 * k + 1, 2 * k] = a_loc[2 * k + 1, 2 * k] + e2 * 2.0 * w1 * w2
             l0, l1, l2 = _scaled(eta, wk, rho[k], x[2 * k], x[2 * k + 1])
             lsc[k, 0], lsc[k, 1], lsc[k, 2], lsc[k, 3] = l0, l1, l2, 1.0 / l0
         if not inside or not _cholesky_factor(hess, n, l_mat):
