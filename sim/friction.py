@@ -923,21 +923,27 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
                                      + hold_w[i][2] * tang[i, a, 2])
     # the Delassus matrix: the change of foot i's slip along t_ia per unit impulse along t_jb;
     # only its columns of active feet are ever read with an impulse that is not zero (where no
-    # foot is active, the slips after are the slips before: the zeros leave them as they are)
+    # foot is active, the slips after are the slips before: the zeros leave them as they are).
+    # Its block of active feet is symmetric (G M^-1 G^T): computed on and above the diagonal
+    # and mirrored (36 entries of four feet's 64; the solvers assume the symmetry)
     for i in range(4):
         if not pressing[i]:
             continue
         for a in range(2):
             for j in range(4):
-                if not active[j]:
+                if not active[j] or (active[i] and j < i):
                     continue
                 for b in range(2):
+                    if active[i] and j == i and b < a:
+                        continue
                     a_mat[i, a, j, b] = (inv_m * (tang[i, a, 0] * tang[j, b, 0]
                                                   + tang[i, a, 1] * tang[j, b, 1]
                                                   + tang[i, a, 2] * tang[j, b, 2])
                                          + lever[i, a, 0] * turn[j, b, 0]
                                          + lever[i, a, 1] * turn[j, b, 1]
                                          + lever[i, a, 2] * turn[j, b, 2])
+                    if active[i]:
+                        a_mat[j, b, i, a] = a_mat[i, a, j, b]
     # the slips less the carried forces' share; solve for the whole impulses
     for i in range(4):
         for a in range(2):
