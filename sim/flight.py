@@ -1071,6 +1071,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             # the piece is cut to equal parts no longer than the time its friction would take to
             # stop it, and than stiff_substep at the least, each taken as a piece of its own
             piece = fmax(fine_s, t_stop)
+            if at_transition(cfg, body, start, sr, fine_s):
+                # another foot is about to break away or has just begun to slide: the impulses
+                # after a piece of stiff_substep, the stiff foot's kinetic one among them, would
+                # hold it (its slip within what they take out over the piece); the pieces go
+                # down to the stiff foot's stop time, so that it stays a force and the other
+                # foot's breakaway is located (MODEL-NOTES 58)
+                piece = fmax(TRANSITION_PIECE * fine_s, t_stop)
             if rem > piece * (1.0 + 1e-9):
                 rem = rem / math.ceil(rem / piece - 1e-9)
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1115,14 +1122,14 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             # zero, located, and holding from there (MODEL-NOTES 46)
             stop = stopping(cfg, drag, sr, ce_y, ce_e, rem)
             if stop.any and fine_s > 0.0:
-                # in an impact's sub-steps (no floor to the pieces) its slip turns as it slows
-                # (the other forces' part across it is not slowed): stepped with its drag
-                # against its slip in pieces of half the time its stop takes, down to a
-                # twentieth of stiff_substep, and only that last stretch dragged along where it
-                # slid (MODEL-NOTES 51)
+                # its slip turns as it slows (the other forces' part across it is not slowed):
+                # stepped with its drag against its slip in pieces of half the time its stop
+                # takes, down to a twentieth of stiff_substep, and only that last stretch dragged
+                # along where it slid (MODEL-NOTES 51; outside an impact's sub-steps too: a slip
+                # that passes its least short of zero, dragged along where it slid, missed the
+                # turn: MODEL-NOTES 58)
                 half = 0.5 * approach_time(cfg, stop, sr)
-                if (half > 0.05 * fine_s and fine.floor_s == 0.0
-                        and rem > half * (1.0 + 1e-9)):
+                if half > 0.05 * fine_s and rem > half * (1.0 + 1e-9):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
                                  StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
@@ -1174,6 +1181,39 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                                  memo, False)
     # a refined piece ends before the sub-step does: the next piece starts there
     return PieceStep(st, rem, rem < whole, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo, rem < whole)
+
+
+#: a holding foot carrying this fraction of its static cone (mu_s N) or more is about to break
+#: away (:func:`at_transition`)
+NEAR_CONE = 0.9
+
+
+#: the shortest piece next to a foot at its transition, as a fraction of sim.stiff_substep
+TRANSITION_PIECE = 0.1
+
+
+@kernel
+def at_transition(cfg, fb, start, sr, h):
+    """Some pressing foot is at its stick/slip transition at a piece's ``start`` (a
+    :class:`PieceStart`): holding
+    (not dragged, regime static) with NEAR_CONE of mu_s N_i or more carried over the last step,
+    or sliding, not slowing (:func:`slowing`, from ``sr``), and slow enough that its own
+    friction could stop it within h (:func:`_could_stop`): it has just broken away. Where a
+    stiff foot takes its friction as an impulse after a piece of h, the impulses solved together
+    would hold such a foot (its slip stays within what they take out of it), while its static
+    cone alone would not (MODEL-NOTES 58)."""
+    ft, ce, drag, q = start.ship.footing, start.ce, start.drag, start.ship.motion.q
+    mu_s = cfg.friction_static
+    for i in range(4):
+        load = ce.foot_force_n[i] * ce.push_norm[i]
+        if not load > 0.0:
+            continue
+        if not ft.sliding[i] and not drag[i]:
+            if norm(ft.hold_w[i]) >= NEAR_CONE * mu_s * load:
+                return True
+        elif not slowing(sr, i) and _could_stop(cfg, fb, ce, ce, q, i, h):
+            return True
+    return False
 
 
 @kernel
