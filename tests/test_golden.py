@@ -58,9 +58,9 @@ SCENES = {
 EXPECTED = {
     "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
     "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "5adad6c2a9e4c868e7e4a42ca444a3dce6c05ce09921394283acfb7d6b72c769",
+    "tilted": "05bf2c43fb56b33d41fa933bd27f6ecafcdace9ee4a6fce46994b9fc7c293692",
     "slope": "52427ecf62ffc14f1dc9c5c047294fd1347c81a90dbdb009e2d8c840c98cc02a",
-    "fleet": "d2f98ee109b95937ef23878eee513dff097c3b8c3d3a65442c62dce079690a60",
+    "fleet": "2461d77faf870e1dc2fd4acfb1bf220d602f1e53524cb9fa9da4bf1eab3baeda",
 }
 
 
