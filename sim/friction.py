@@ -215,6 +215,19 @@ CRAWL_MARGIN = 100.0
 IPM_MAX_STEPS = 30
 IPM_TOL_MPS = 1e-11
 IPM_STEP = 0.99
+#: The active-set finish of the interior-point method (:func:`_active_set`): the IPM's gap
+#: (relative to its first) under which it is tried, a second time under the second; how clearly
+#: every foot must already read as sticking or slipping (the ratio of its dual's and its primal's
+#: distances, both ways); most Newton iterations a try; a reduced pivot under this fraction of its
+#: diagonal entry drops its direction (several sticking feet hold the ship in many ways).
+FINISH_GAPS = (1e-4, 1e-6)
+FINISH_CLEAR = 10.0
+FINISH_ITERATIONS = 3
+FINISH_RATE = 0.1
+FINISH_PIVOT = 1e-12
+#: A slipping foot's impulse is set this fraction of its radius: on its rim (to _residual's
+#: 1e-9), never outside it by a rounding.
+RIM = 1.0 - 1e-15
 #: Most Newton iterations of one foot's disk-constrained step, and its tolerance on the radius.
 MAX_DISK_ITERATIONS = 30
 #: Most rounds of a solve: each turns at least one sticking foot that breaks away to kinetic.
@@ -384,6 +397,161 @@ def _cholesky_substitute(l_mat, rhs, n, out, y):
 
 
 @kernel
+def _semidefinite_factor(h_mat, n, l_mat):
+    """:func:`_cholesky_factor` for a symmetric positive semidefinite block: a pivot under
+    FINISH_PIVOT times its diagonal entry (a direction the matrix does not see, to rounding)
+    gets 1 / L_ii = 0, so :func:`_cholesky_substitute` leaves that direction's component at 0
+    (and its column's entries are 0). Returns False where a pivot is negative beyond that."""
+    for i in range(n):
+        for j in range(i + 1):
+            acc = h_mat[i, j]
+            for k in range(j):
+                acc -= l_mat[i, k] * l_mat[j, k]
+            if i == j:
+                tol = FINISH_PIVOT * abs(h_mat[i, i])
+                if acc > tol:
+                    l_mat[i, i] = 1.0 / math.sqrt(acc)
+                elif acc >= -1e3 * tol:
+                    l_mat[i, i] = 0.0
+                else:
+                    return False
+            else:
+                l_mat[i, j] = acc * l_mat[j, j]
+    return True
+
+
+@kernel
+def _active_set(a_loc, u0, rho, x, z, n_feet, out):
+    """The interior-point method's finish (:func:`_interior_point`): from its iterate (x, z),
+    guess which feet stick (their dual z_k near its apex) and which slip (lam_k near its rim),
+    then Newton's method on the optimality conditions of that split, the slipping feet's
+    impulses on their rims: with nu_k = -v_k.lam_k / rho_k^2 (foot k slips at
+    v_k = -nu_k lam_k), the step dlam = Z y minimises the quadratic model
+    (A + diag_slipping nu_k I) along Z, the sticking feet's two directions and each slipping
+    foot's tangent to its rim (a sequential quadratic step with the multipliers estimated; one
+    reduced Cholesky factorisation, semidefinite: several sticking feet share the ship's load in
+    many ways). After each step the slipping feet go back onto their rims, a sticking foot
+    pushed out of its disk slips, a slipping foot whose slip turned along its impulse sticks.
+    Accepted where the optimality conditions hold to IPM_TOL_MPS (the measure of
+    :func:`_residual`: a foot inside its disk holds, one on its rim slips straight against its
+    impulse) within FINISH_ITERATIONS iterations: impulses into ``out``, returns 2 (else 1).
+    Tried only where every foot reads clearly (by FINISH_CLEAR) as one or the other: else 0."""
+    n = 2 * n_feet
+    slips = stack_zeros(4, np.bool_)
+    scale_s = 0.0  # (the largest slip before the impulses, as the method's start has it)
+    for k in range(n_feet):
+        scale_s = fmax(scale_s, math.sqrt(u0[2 * k] * u0[2 * k] + u0[2 * k + 1] * u0[2 * k + 1]))
+    for k in range(n_feet):
+        ln = math.sqrt(x[2 * k] * x[2 * k] + x[2 * k + 1] * x[2 * k + 1])
+        far = (rho[k] - ln) / rho[k] * scale_s  # (primal distance to the rim, as a speed)
+        tau = z[k, 0]
+        if not (far > FINISH_CLEAR * tau or tau > FINISH_CLEAR * far):
+            return 0
+        slips[k] = tau > far
+        if slips[k]:
+            if not ln > 0.0:
+                return 1
+            out[2 * k], out[2 * k + 1] = x[2 * k] * (rho[k] * RIM / ln), x[2 * k + 1] * (rho[k] * RIM / ln)
+        else:
+            out[2 * k], out[2 * k + 1] = x[2 * k], x[2 * k + 1]
+    vecs = stack_zeros((5, 8), np.float64)
+    v, g, rg, y, dy = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4]
+    cols = stack_zeros((2, 8), np.float64)  # each reduced direction's two coefficients
+    col_foot = stack_zeros(8, np.int64)
+    mats = stack_zeros((2, 8, 8), np.float64)
+    red, l_mat = mats[0], mats[1]
+    nu = stack_zeros(4, np.float64)
+    prev = math.inf
+    for it in range(FINISH_ITERATIONS + 1):
+        # the slips at these impulses, and how far they are from the optimality conditions
+        worst = 0.0
+        for k in range(n_feet):
+            i1, i2 = 2 * k, 2 * k + 1
+            u1, u2 = u0[i1], u0[i2]
+            for b in range(n):
+                u1 += a_loc[i1, b] * out[b]
+                u2 += a_loc[i2, b] * out[b]
+            v[i1], v[i2] = u1, u2
+            l1, l2 = out[i1], out[i2]
+            r = rho[k]
+            l_norm2 = l1 * l1 + l2 * l2
+            if not l_norm2 >= r * r * (1.0 - 1e-9):
+                worst = fmax(worst, math.sqrt(u1 * u1 + u2 * u2))
+            else:
+                ln = math.sqrt(l_norm2)
+                along = (u1 * l1 + u2 * l2) / ln
+                across = (u2 * l1 - u1 * l2) / ln
+                worst = fmax(worst, fmax(abs(across), fmax(along, 0.0)))
+        if worst <= IPM_TOL_MPS:
+            return 2
+        if it == FINISH_ITERATIONS or not worst <= FINISH_RATE * prev:
+            return 1  # (the last, or Newton's method is not converging fast: the IPM goes on)
+        prev = worst
+        turned = False
+        for k in range(n_feet):
+            i1, i2 = 2 * k, 2 * k + 1
+            if slips[k] and v[i1] * out[i1] + v[i2] * out[i2] > 0.0:
+                slips[k] = False  # its slip turned along its impulse: it sticks
+                out[i1], out[i2] = out[i1] * (1.0 - 1e-6), out[i2] * (1.0 - 1e-6)
+                turned = True
+        if turned:
+            for a in range(n):
+                acc = u0[a]
+                for b in range(n):
+                    acc += a_loc[a, b] * out[b]
+                v[a] = acc
+        m = 0
+        for k in range(n_feet):
+            i1, i2 = 2 * k, 2 * k + 1
+            if slips[k]:
+                n1, n2 = out[i1] / rho[k], out[i2] / rho[k]
+                nu[k] = -(v[i1] * n1 + v[i2] * n2) / rho[k]
+                g[i1], g[i2] = v[i1] + nu[k] * out[i1], v[i2] + nu[k] * out[i2]
+                cols[0, m], cols[1, m] = -n2, n1
+                col_foot[m] = k
+                m += 1
+            else:
+                nu[k] = 0.0
+                g[i1], g[i2] = v[i1], v[i2]
+                cols[0, m], cols[1, m] = 1.0, 0.0
+                cols[0, m + 1], cols[1, m + 1] = 0.0, 1.0
+                col_foot[m] = col_foot[m + 1] = k
+                m += 2
+        for c in range(m):
+            fc = col_foot[c]
+            p, q = cols[0, c], cols[1, c]
+            rg[c] = -(p * g[2 * fc] + q * g[2 * fc + 1])
+            for d in range(c + 1):
+                fd = col_foot[d]
+                pd, qd = cols[0, d], cols[1, d]
+                h11 = a_loc[2 * fc, 2 * fd]
+                h12 = a_loc[2 * fc, 2 * fd + 1]
+                h21 = a_loc[2 * fc + 1, 2 * fd]
+                h22 = a_loc[2 * fc + 1, 2 * fd + 1]
+                if fc == fd:
+                    h11 += nu[fc]
+                    h22 += nu[fc]
+                red[c, d] = p * (h11 * pd + h12 * qd) + q * (h21 * pd + h22 * qd)
+        if not _semidefinite_factor(red, m, l_mat):
+            return 1
+        _cholesky_substitute(l_mat, rg, m, dy, y)
+        for c in range(m):
+            fc = col_foot[c]
+            out[2 * fc] += dy[c] * cols[0, c]
+            out[2 * fc + 1] += dy[c] * cols[1, c]
+        for k in range(n_feet):
+            ln = math.sqrt(out[2 * k] * out[2 * k] + out[2 * k + 1] * out[2 * k + 1])
+            if not ln < math.inf:
+                return 1
+            if slips[k] or ln > rho[k]:
+                slips[k] = True
+                if not ln > 0.0:
+                    return 1
+                out[2 * k], out[2 * k + 1] = out[2 * k] * (rho[k] * RIM / ln), out[2 * k + 1] * (rho[k] * RIM / ln)
+    return 1
+
+
+@kernel
 def _cone_step(c, x0, x1, x2, d0, d1, d2):
     """The largest t with x + t d in the second-order cone x0 >= |(x1, x2)|, x strictly inside
     it with c = x0^2 - |(x1, x2)|^2 > 0 (given: the caller has it in a factored, accurate form):
@@ -470,24 +638,34 @@ def _interior_point(a_mat, slip, radius, lam, active):
         fa, ca = idx[a // 2], a % 2
         u0[a] = slip[fa, ca]
         for b in range(n):
-            a_loc[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
+            a_loc[a, b] = hess[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
     for k in range(n_feet):
         rho[k] = radius[idx[k]]
         z[k, 0] = math.sqrt(u0[2 * k] * u0[2 * k] + u0[2 * k + 1] * u0[2 * k + 1]) + scale_s
         z[k, 1], z[k, 2] = u0[2 * k], u0[2 * k + 1]
     steps = 0
     moved = math.inf
+    gap_0 = 0.0
+    tries = 0
     for _ in range(IPM_MAX_STEPS):
         gap = 0.0
         for k in range(n_feet):
             gap += rho[k] * z[k, 0] + x[2 * k] * z[k, 1] + x[2 * k + 1] * z[k, 2]
         mu = gap / n_feet
+        if steps == 0:
+            gap_0 = gap
+        elif tries < 2 and gap < FINISH_GAPS[tries] * gap_0:
+            tried = _active_set(a_loc, u0, rho, x, z, n_feet, dx)
+            if tried == 2:
+                for a in range(n):
+                    x[a] = dx[a]
+                break
+            tries += tried
         worst = 0.0
         for a in range(n):
             acc = u0[a] - z[a // 2, 1 + a % 2]
             for b in range(n):
                 acc += a_loc[a, b] * x[b]
-                hess[a, b] = a_loc[a, b]
             res[a] = -acc
             worst = fmax(worst, abs(acc))
         if worst <= IPM_TOL_MPS and moved <= IPM_TOL_MPS:
@@ -511,10 +689,10 @@ def _interior_point(a_mat, slip, radius, lam, active):
             e2 = s_i / z_i  # eta_k^2 = sqrt(det z_k / det s_k)
             eta = math.sqrt(e2)
             scal[k, 0], scal[k, 1], scal[k, 2], scal[k, 3] = eta, s_i * z_i, s_det, z_det
-            hess[2 * k, 2 * k] += e2 * (1.0 + 2.0 * w1 * w1)
-            hess[2 * k + 1, 2 * k + 1] += e2 * (1.0 + 2.0 * w2 * w2)
-            hess[2 * k, 2 * k + 1] += e2 * 2.0 * w1 * w2
-            hess[2 * k + 1, 2 * k] += e2 * 2.0 * w1 * w2
+            # (hess is a_loc off its feet's 2 x 2 diagonal blocks: those are set at every step)
+            hess[2 * k, 2 * k] = a_loc[2 * k, 2 * k] + e2 * (1.0 + 2.0 * w1 * w1)
+            hess[2 * k + 1, 2 * k + 1] = a_loc[2 * k + 1, 2 * k + 1] + e2 * (1.0 + 2.0 * w2 * w2)
+            hess[2 * k + 1, 2 * k] = a_loc[2 * k + 1, 2 * k] + e2 * 2.0 * w1 * w2
             l0, l1, l2 = _scaled(eta, wk, rho[k], x[2 * k], x[2 * k + 1])
             lsc[k, 0], lsc[k, 1], lsc[k, 2], lsc[k, 3] = l0, l1, l2, 1.0 / l0
         if not inside or not _cholesky_factor(hess, n, l_mat):
@@ -745,21 +923,27 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
                                      + hold_w[i][2] * tang[i, a, 2])
     # the Delassus matrix: the change of foot i's slip along t_ia per unit impulse along t_jb;
     # only its columns of active feet are ever read with an impulse that is not zero (where no
-    # foot is active, the slips after are the slips before: the zeros leave them as they are)
+    # foot is active, the slips after are the slips before: the zeros leave them as they are).
+    # Its block of active feet is symmetric (G M^-1 G^T): computed on and above the diagonal
+    # and mirrored (36 entries of four feet's 64; the solvers assume the symmetry)
     for i in range(4):
         if not pressing[i]:
             continue
         for a in range(2):
             for j in range(4):
-                if not active[j]:
+                if not active[j] or (active[i] and j < i):
                     continue
                 for b in range(2):
+                    if active[i] and j == i and b < a:
+                        continue
                     a_mat[i, a, j, b] = (inv_m * (tang[i, a, 0] * tang[j, b, 0]
                                                   + tang[i, a, 1] * tang[j, b, 1]
                                                   + tang[i, a, 2] * tang[j, b, 2])
                                          + lever[i, a, 0] * turn[j, b, 0]
                                          + lever[i, a, 1] * turn[j, b, 1]
                                          + lever[i, a, 2] * turn[j, b, 2])
+                    if active[i]:
+                        a_mat[j, b, i, a] = a_mat[i, a, j, b]
     # the slips less the carried forces' share; solve for the whole impulses
     for i in range(4):
         for a in range(2):
