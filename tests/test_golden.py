@@ -59,9 +59,9 @@ SCENES = {
 EXPECTED = {
     "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
     "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "05bf2c43fb56b33d41fa933bd27f6ecafcdace9ee4a6fce46994b9fc7c293692",
+    "tilted": "bc4065ff165900cd3c699fb0b10e0d88f0dfd0cc85bfda8eb96c77551811b014",
     "slope": "52427ecf62ffc14f1dc9c5c047294fd1347c81a90dbdb009e2d8c840c98cc02a",
-    "fleet": "2461d77faf870e1dc2fd4acfb1bf220d602f1e53524cb9fa9da4bf1eab3baeda",
+    "fleet": "3885af2b03b53ebbceb6e13f4454b370a062fc00ef310b960beeab2727e7556e",
 }
 
 
