@@ -19,6 +19,7 @@ from scipy.integrate import solve_ivp
 from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from touchdown.sim.enums import EventKind
+from touchdown.sim.flight import TURN_REACH, FootEvents, SlipRates, turns
 from touchdown.sim.phases import commands, near_ground, purely_vertical
 from touchdown.sim.step import step
 
@@ -202,3 +203,18 @@ def test_coarse_contact_sub_steps_follow_the_fine_ones(initial, body):
     pos = {c: np.array([r.state.rows[0]["pos_m"] for r in runs[c]]) for c in runs}
     assert np.max(np.linalg.norm(pos[0.05] - pos[0.0], axis=1)) <= 1e-3
     assert np.any(pos[0.05] != pos[0.0])
+
+
+@pytest.mark.parametrize("ratio, turning", [(0.5 * (1.0 - 1e-9), False), (0.5 * (1.0 + 1e-9), True)])
+def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, turning):
+    """Outside an impact, a foot coming to a stop takes note 51's half-approach pieces only where
+    its slip turns on its way (MODEL-NOTES 58): what turns it, over what slows it, past
+    TURN_REACH = 0.5 (about the angle it turns through before it stops). Its edge, for one
+    foot slowing at 3 m/s^2 while another foot, not stopping, turns fast."""
+    assert TURN_REACH == 0.5
+    z = (0.0, 0.0, 0.0)
+    stop = FootEvents((False,) * 4, (False,) * 4, (False, True, False, False),
+                      (z, (1.0, 0.0, 0.0), z, z), (0.0, 0.2, 0.0, 0.0), 0.0, True)
+    sr = SlipRates((0.3, 0.2, 0.0, 0.0), (1.0, -3.0, 0.0, 0.0), (2.0, 4.0, 0.0, 0.0),
+                   (50.0, 3.0 * ratio, 0.0, 0.0))
+    assert turns(stop, sr) is turning
