@@ -15,8 +15,8 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     lowest_foot_penetration, no_contact, rise_rate)
-from touchdown.sim.dynamics import (Holding, Motion, contact_at, derivatives_held, ground_at,
-    ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Holding, Motion, contact_at, contact_inline, derivatives_held,
+    ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
@@ -375,38 +375,24 @@ def no_memo(m):
 
 
 @kernel
-def contact_memo(memo, fb, t_s, m, absorbing, engage):
+def memo_at(memo, here, fb, t_s, m, absorbing, engage):
+    """Whether ``memo`` was evaluated by ``contact_at(fb, ground_at(fb, t_s), m, absorbing,
+    engage)``: at exactly these. ``here``: the caller knows it was at the motion ``m`` itself
+    (nothing has moved the ship since: the same bits, so the motion's 13 values need not be
+    compared)."""
+    return (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
+            and (here or _same_motion(memo.motion, m)) and _same_vecs(memo.hold_w, fb.grip.hold_w))
+
+
+@kernel
+def contact_memo(memo, here, fb, t_s, m, absorbing, engage):
     """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
-    evaluated at exactly these."""
-    if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
-            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
-            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.grip.hold_w)):
+    evaluated at exactly these (:func:`memo_at`), else evaluated here, inline
+    (sim.dynamics.contact_inline: no call with ~80 arguments, no ContactEval passed back)."""
+    if memo_at(memo, here, fb, t_s, m, absorbing, engage):
         return memo.ce
-    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
-
-
-@kernel
-def contact_memo_here(memo, here, fb, t_s, m, absorbing, engage):
-    """:func:`contact_memo` where the caller knows whether ``memo`` was evaluated at the motion
-    ``m`` itself (``here``: nothing has moved the state since; the same bits, so the motion's 13
-    values need not be compared); the other keys are compared as there."""
-    if not here:
-        return contact_memo(memo, fb, t_s, m, absorbing, engage)
-    if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
-            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
-            and _same_vecs(memo.hold_w, fb.grip.hold_w)):
-        return memo.ce
-    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
-
-
-@kernel
-def contact_memo_grip(memo, fb, t_s, m, absorbing, engage):
-    """:func:`contact_memo` where the caller knows that ``memo`` was evaluated at ``t_s``, ``m``,
-    ``absorbing`` and ``fb``'s held friction (the same piece's state, nothing moved since): only
-    the feet's roles (engage, kinetic) are compared."""
-    if memo.valid and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic):
-        return memo.ce
-    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
+    return contact_inline(fb, ground_at(fb, t_s), m, absorbing, engage)
 
 
 class FootEvents(NamedTuple):
@@ -1025,7 +1011,7 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
     carried = fb.grip.hold_w
     aligned = False
     fb_y = with_feet(fb, engage, drag)
-    ce_y = contact_memo_here(memo, here, fb_y, t_abs, m, ft.absorbing, engage)
+    ce_y = contact_memo(memo, here, fb_y, t_abs, m, ft.absorbing, engage)
     memo = memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage)
     touched = False  # the seed's touchdown here moved the ship (the memo is not at m then)
     was = engage
@@ -1059,9 +1045,11 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
         s = with_footing(s, with_friction(ft, drag, ft.hold_w))
     fb_y = with_feet(fb, engage, drag)
     if touched:
-        ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+        hit = memo_at(memo, False, fb_y, t_abs, m, ft.absorbing, engage)
     else:  # the memo is this instant's, at m, with fb's held friction: only the roles changed
-        ce_y = contact_memo_grip(memo, fb_y, t_abs, m, ft.absorbing, engage)
+        hit = (memo.valid and _same4(memo.engage, engage)
+               and _same4(memo.kinetic, fb_y.grip.kinetic))
+    ce_y = memo.ce if hit else contact_inline(fb_y, ground_y, m, ft.absorbing, engage)
     return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
                       memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
@@ -1143,7 +1131,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
     if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
-        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+        ce_e = contact_memo(memo, False, body, t_e, m_e, ft.absorbing, engage)
         memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
         at_end = True
         # a sliding foot whose friction could stop it within a fraction of the step (a foot
@@ -1207,6 +1195,14 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 if _turned_any(stop, ce_y, ce_e):
                     st = pc.step
                     at_end = False
+    if may_split and not at_end:
+        # the contact at the piece's end, for the breakaway's check and the events (one site:
+        # the breakaway's check is only asked where they are)
+        body = with_feet(fb, engage, drag)
+        m_e = Motion(st.p, st.v, st.q, st.w)
+        ce_e = contact_memo(memo, False, body, t_e, m_e, ft.absorbing, engage)
+        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        at_end = True
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
     if (may_split and fb.craft.method == RK4 and per_foot(cfg)
@@ -1217,12 +1213,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         held = (not drag[0], not drag[1], not drag[2], not drag[3])
         ground_e = ground_at(fb, t_e)
         m_e = Motion(st.p, st.v, st.q, st.w)
-        if at_end:
-            ce_e = memo.ce
-        else:
-            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
-            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
-            at_end = True
+        ce_e = memo.ce  # (may_split: evaluated at st's end above)
         holding = Holding(held, cfg.friction_static)
         if held_friction(body, ground_e, ce_e, m_e, holding).use > 1.0:
             hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
@@ -1239,13 +1230,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         # the contact at the step's end is kept (memo): the guard asks for it again at the
         # sub-step's end where no foot's regime changed (guard_substep), as does the next piece
         body = with_feet(fb, engage, drag)
-        m_e = Motion(st.p, st.v, st.q, st.w)
-        if at_end:
-            ce_e = memo.ce
-        else:
-            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
-            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
-            at_end = True
+        ce_e = memo.ce  # (evaluated at st's end above)
         ev = foot_events(ce_y, ce_e, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1402,15 +1387,12 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     m, ft = s.motion, s.footing
     ground = ground_at(fb, t_end)
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
-    if pieces.memo_here:
-        if (memo.valid and memo.t_s == t_end and memo.absorbing == ft.absorbing
-                and _same4(memo.engage, ENGAGE_AT_GROUND)
-                and _same4(memo.kinetic, ft.sliding)):
-            ce = memo.ce
-        else:
-            ce = contact_at(fb_now, ground, m, ft.absorbing, ENGAGE_AT_GROUND)
+    if pieces.memo_here:  # (and with fb's held friction: the last piece's)
+        hit = (memo.valid and memo.t_s == t_end and memo.absorbing == ft.absorbing
+               and _same4(memo.engage, ENGAGE_AT_GROUND) and _same4(memo.kinetic, ft.sliding))
     else:
-        ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
+        hit = memo_at(memo, False, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
+    ce = memo.ce if hit else contact_inline(fb_now, ground, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
         return SubStepEnd(s, ce, e_ref, 0.0,
                           memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
