@@ -429,7 +429,7 @@ def _gaps(fb, t_s, motion, absorbing, ev):
     """How far each foot of ``ev`` is past its event at the state ``motion``, m: positive once it
     has happened. Onset: its penetration; release: -(k x + c x') / k (absorbed: -x). Returns the
     largest."""
-    ce = contact_at(fb, ground_at(fb, t_s), motion, absorbing, ENGAGE_AT_GROUND)
+    ce = contact_inline(fb, ground_at(fb, t_s), motion, absorbing, ENGAGE_AT_GROUND)
     c_leg = fb.craft.c_absorb_nspm if absorbing else fb.craft.c_nspm
     out = -math.inf
     for i in range(4):
@@ -1704,7 +1704,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     # it (contact_memo) instead of evaluating the same state again; the fields used before
     # that (penetrations, their rates, the feet's forces and slips) do not depend on it
     fb0 = with_hold(fb, s.footing.hold_w if carry else NO_HOLD)
-    ce = contact_at(fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    ce = contact_inline(fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     # a ship in contact where nothing the finer sub-steps resolve can happen takes the coarse
     # ones (sim.coarse_substep, MODEL-NOTES 57)
     if coarse and coarse_tick(cfg, fb, s, ce, dt / cfg.coarse_substeps):
