@@ -362,22 +362,35 @@ def _gauss_seidel(a_mat, slip, radius, lam, active, early):
 
 
 @kernel
-def _cholesky_factor(h_mat, n, l_mat):
-    """The Cholesky factor L (H = L L^T) of the symmetric positive definite leading n x n block
-    of ``h_mat``, into the scratch ``l_mat`` (8 x 8; every entry read is written first) with
-    1 / L_ii on its diagonal (the substitutions multiply: a division is ten multiplications'
-    time). Returns False if a pivot is not positive."""
+def _cholesky_factor(h_mat, n, l_mat, semidefinite):
+    """The Cholesky factor L (H = L L^T) of the symmetric leading n x n block of ``h_mat``, into
+    the scratch ``l_mat`` (8 x 8; every entry read is written first) with 1 / L_ii on its diagonal
+    (the substitutions multiply: a division is ten multiplications' time). The pivot rule:
+    positive definite (``semidefinite`` False), False returned where a pivot is not positive; or
+    positive semidefinite (True), a pivot under FINISH_PIVOT times its diagonal entry (a
+    direction the matrix does not see, to rounding) gets 1 / L_ii = 0, so
+    :func:`_cholesky_substitute` leaves that direction's component at 0 (and its column's
+    entries are 0), False returned where a pivot is negative beyond that. (A constant at each
+    call: the rule's branch folds away where LLVM inlines it.)"""
     for i in range(n):
         for j in range(i + 1):
             acc = h_mat[i, j]
             for k in range(j):
                 acc -= l_mat[i, k] * l_mat[j, k]
-            if i == j:
+            if i != j:
+                l_mat[i, j] = acc * l_mat[j, j]
+            elif not semidefinite:
                 if not acc > 0.0:
                     return False
                 l_mat[i, i] = 1.0 / math.sqrt(acc)
             else:
-                l_mat[i, j] = acc * l_mat[j, j]
+                tol = FINISH_PIVOT * abs(h_mat[i, i])
+                if acc > tol:
+                    l_mat[i, i] = 1.0 / math.sqrt(acc)
+                elif acc >= -1e3 * tol:
+                    l_mat[i, i] = 0.0
+                else:
+                    return False
     return True
 
 
@@ -394,30 +407,6 @@ def _cholesky_substitute(l_mat, rhs, n, out, y):
         for k in range(i + 1, n):
             acc -= l_mat[k, i] * out[k]
         out[i] = acc * l_mat[i, i]
-
-
-@kernel
-def _semidefinite_factor(h_mat, n, l_mat):
-    """:func:`_cholesky_factor` for a symmetric positive semidefinite block: a pivot under
-    FINISH_PIVOT times its diagonal entry (a direction the matrix does not see, to rounding)
-    gets 1 / L_ii = 0, so :func:`_cholesky_substitute` leaves that direction's component at 0
-    (and its column's entries are 0). Returns False where a pivot is negative beyond that."""
-    for i in range(n):
-        for j in range(i + 1):
-            acc = h_mat[i, j]
-            for k in range(j):
-                acc -= l_mat[i, k] * l_mat[j, k]
-            if i == j:
-                tol = FINISH_PIVOT * abs(h_mat[i, i])
-                if acc > tol:
-                    l_mat[i, i] = 1.0 / math.sqrt(acc)
-                elif acc >= -1e3 * tol:
-                    l_mat[i, i] = 0.0
-                else:
-                    return False
-            else:
-                l_mat[i, j] = acc * l_mat[j, j]
-    return True
 
 
 @kernel
@@ -532,7 +521,7 @@ def _active_set(a_loc, u0, rho, x, z, n_feet, out):
                     h11 += nu[fc]
                     h22 += nu[fc]
                 red[c, d] = p * (h11 * pd + h12 * qd) + q * (h21 * pd + h22 * qd)
-        if not _semidefinite_factor(red, m, l_mat):
+        if not _cholesky_factor(red, m, l_mat, True):
             return 1
         _cholesky_substitute(l_mat, rg, m, dy, y)
         for c in range(m):
@@ -695,7 +684,7 @@ def _interior_point(a_mat, slip, radius, lam, active):
             hess[2 * k + 1, 2 * k] = a_loc[2 * k + 1, 2 * k] + e2 * 2.0 * w1 * w2
             l0, l1, l2 = _scaled(eta, wk, rho[k], x[2 * k], x[2 * k + 1])
             lsc[k, 0], lsc[k, 1], lsc[k, 2], lsc[k, 3] = l0, l1, l2, 1.0 / l0
-        if not inside or not _cholesky_factor(hess, n, l_mat):
+        if not inside or not _cholesky_factor(hess, n, l_mat, False):
             break  # numerically singular: keep the last point (inside every cone)
         sigma = 0.0
         step = 0.0

@@ -58,10 +58,10 @@ SCENES = {
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet)
 EXPECTED = {
     "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
-    "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "bc4065ff165900cd3c699fb0b10e0d88f0dfd0cc85bfda8eb96c77551811b014",
-    "slope": "52427ecf62ffc14f1dc9c5c047294fd1347c81a90dbdb009e2d8c840c98cc02a",
-    "fleet": "3885af2b03b53ebbceb6e13f4454b370a062fc00ef310b960beeab2727e7556e",
+    "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
+    "tilted": "144229dd10e3a50f2ad51bb25ebdb7ba52788a7b5f4548bd52d1e1cc553f57a7",
+    "slope": "df611456da2361621974419c0d363ca87db3ea44cc0572d7d75ba1c0564d1cae",
+    "fleet": "2a5e2ef468d08fab57e7985ee0fca31f6e0a68ee04c53bafcf1f96cfa608a1d2",
 }
 
 
