@@ -1133,6 +1133,27 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 piece = fmax(TRANSITION_PIECE * fine_s, t_stop)
             if rem > piece * (1.0 + 1e-9):
                 rem = rem / math.ceil(rem / piece - 1e-9)
+    if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+        # the dragged feet that the step's end cannot make dragged are taken off before it:
+        # their friction could stop them within STIFF_REACH of it at their load here alone (the
+        # larger load of the step's ends only makes that likelier: :func:`_could_stop`), and
+        # they are not kept dragged to have their stop located; stepped with them dragged, the
+        # step was taken again without them (a micro-slip near rest, every piece), the same
+        # step as this one wherever no other foot's role turned on the first one's end
+        body = with_feet(fb, engage, drag)
+        if not rated:
+            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+            rated = True
+        may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
+        if may_split:
+            may = (may[0] or (drag[0] and not stiff[0] and slowing(sr, 0)),
+                   may[1] or (drag[1] and not stiff[1] and slowing(sr, 1)),
+                   may[2] or (drag[2] and not stiff[2] and slowing(sr, 2)),
+                   may[3] or (drag[3] and not stiff[3] and slowing(sr, 3)))
+        if may[0] != drag[0] or may[1] != drag[1] or may[2] != drag[2] or may[3] != drag[3]:
+            drag = may
+            ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m, ft.absorbing,
+                              engage)
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
