@@ -150,9 +150,20 @@ def patch(pos_m, ft, j_n):
         return Patch((n0, n1, n2, n3), up, pos_m)
     n_bar = unit(add(add(add(scale(n0, j_n[0]), scale(n1, j_n[1])), scale(n2, j_n[2])),
                      scale(n3, j_n[3])))
-    c = add(add(add(scale(ft.pos_w[0], j_n[0]), scale(ft.pos_w[1], j_n[1])),
-                scale(ft.pos_w[2], j_n[2])), scale(ft.pos_w[3], j_n[3]))
-    return Patch((n0, n1, n2, n3), n_bar, (c[0] / j_sum, c[1] / j_sum, c[2] / j_sum))
+    return Patch((n0, n1, n2, n3), n_bar, _centre_of_pressure(pos_m, ft.pos_w, j_n))
+
+
+@kernel
+def _centre_of_pressure(pos_m, pos_w, j_n):
+    """:func:`patch`'s centre of pressure of the feet at ``pos_w``: their positions weighted by
+    their normal impulses j_n (``pos_m`` where none presses). Needs no ground: the positions
+    alone."""
+    j_sum = j_n[0] + j_n[1] + j_n[2] + j_n[3]
+    if not j_sum > 0.0:
+        return pos_m
+    c = add(add(add(scale(pos_w[0], j_n[0]), scale(pos_w[1], j_n[1])),
+                scale(pos_w[2], j_n[2])), scale(pos_w[3], j_n[3]))
+    return (c[0] / j_sum, c[1] / j_sum, c[2] / j_sum)
 
 
 @kernel
@@ -169,17 +180,19 @@ def _pressing_normals(pos_m, ft, j_n):
 
 
 @kernel
-def hold_footprint(pos_m, ft_start, ft_end, foot_impulse_ns, cos_turn, sin_turn):
+def hold_footprint(pos_m, start_pos_w, ft_end, foot_impulse_ns, cos_turn, sin_turn):
     """The ship moved so that a footprint held by static friction through the whole step ends
     exactly where the ground has carried the point it stood on (the ground turning by the angle of
     (cos_turn, sin_turn) about z over the step): the position-level half of sticking. The
     velocity-level half (the stop impulse) and the spread of its drift over the step leave a
     residue when a held foot's slip does not grow evenly within the step (a held ship on a
     rotating body, whose ground curves away under its straight inertial step, crept 0.5 m an hour
-    at 25 ms sub-steps without this); only the drift along the ground is undone."""
+    at 25 ms sub-steps without this); only the drift along the ground is undone. ``start_pos_w``:
+    the feet's positions at the step's start (its centre of pressure needs no ground);
+    ``ft_end``: the feet (sim.contact.Feet) at its end."""
     j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
            fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
-    start = patch(pos_m, ft_start, j_n).centre
+    start = _centre_of_pressure(pos_m, start_pos_w, j_n)
     end = patch(pos_m, ft_end, j_n)
     carried = (cos_turn * start[0] - sin_turn * start[1],
                sin_turn * start[0] + cos_turn * start[1], start[2])
