@@ -57,11 +57,11 @@ SCENES = {
 #: MODEL-NOTES 59, the bounce, the tilted touchdown, the slope and the fleet; a stiff foot's
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
+    "bounce": "802d4ecb497bfa301c6fd927414f1241c33d653e2019015cdabde24379bc3171",
     "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "bc4065ff165900cd3c699fb0b10e0d88f0dfd0cc85bfda8eb96c77551811b014",
-    "slope": "52427ecf62ffc14f1dc9c5c047294fd1347c81a90dbdb009e2d8c840c98cc02a",
-    "fleet": "3885af2b03b53ebbceb6e13f4454b370a062fc00ef310b960beeab2727e7556e",
+    "tilted": "c09cf4fdb4631eff5a77f5e72d60ec691c328458291cecd6962823f02f656ba1",
+    "slope": "752310afd245abd6fa07eda6400041e252dff542bc51343eab2fdf2de6e82019",
+    "fleet": "3200a86a50df55013242ae6b899994703a68204e382c15bc4182dc1d90fff767",
 }
 
 
