@@ -329,7 +329,9 @@ class Memo(NamedTuple):
     """A contact evaluation and what it was evaluated at: the free-flight loop asks for the
     contact at one state several times (a piece's end for its drag, its breakaway and its events,
     the sub-step's end for the guard, the next sub-step's start), and an evaluation is a pure
-    function of these, so one asked again with all of them equal is the same bits."""
+    function of these, so one asked again with all of them equal is the same bits. (The
+    FreeBody's drag_dir is not kept: every memo is made and asked with free_flight's own, which
+    only to_event's trial steps change, and they ask none.)"""
 
     valid: bool
     ce: ContactEval
@@ -339,7 +341,6 @@ class Memo(NamedTuple):
     engage: tuple
     kinetic: tuple  # the FreeBody's grip (sim.dynamics.with_feet)
     hold_w: tuple  # the FreeBody's (with_hold)
-    drag_dir: tuple  # the FreeBody's (with_drag_dir)
 
 
 @kernel
@@ -366,14 +367,13 @@ def _same_motion(a, b):
 def memo_of(fb, ce, t_s, m, absorbing, engage):
     """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
     g = fb.grip
-    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w, g.drag_dir)
+    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w)
 
 
 @kernel
 def no_memo(m):
     """A :class:`Memo` that matches nothing."""
-    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD,
-                NO_HOLD)
+    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD)
 
 
 @kernel
@@ -382,8 +382,31 @@ def contact_memo(memo, fb, t_s, m, absorbing, engage):
     evaluated at exactly these."""
     if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
             and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
-            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.grip.hold_w)
-            and _same_vecs(memo.drag_dir, fb.grip.drag_dir)):
+            and _same_motion(memo.motion, m) and _same_vecs(memo.hold_w, fb.grip.hold_w)):
+        return memo.ce
+    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
+
+
+@kernel
+def contact_memo_here(memo, here, fb, t_s, m, absorbing, engage):
+    """:func:`contact_memo` where the caller knows whether ``memo`` was evaluated at the motion
+    ``m`` itself (``here``: nothing has moved the state since; the same bits, so the motion's 13
+    values need not be compared); the other keys are compared as there."""
+    if not here:
+        return contact_memo(memo, fb, t_s, m, absorbing, engage)
+    if (memo.valid and memo.t_s == t_s and memo.absorbing == absorbing
+            and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic)
+            and _same_vecs(memo.hold_w, fb.grip.hold_w)):
+        return memo.ce
+    return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
+
+
+@kernel
+def contact_memo_grip(memo, fb, t_s, m, absorbing, engage):
+    """:func:`contact_memo` where the caller knows that ``memo`` was evaluated at ``t_s``, ``m``,
+    ``absorbing`` and ``fb``'s held friction (the same piece's state, nothing moved since): only
+    the feet's roles (engage, kinetic) are compared."""
+    if memo.valid and _same4(memo.engage, engage) and _same4(memo.kinetic, fb.grip.kinetic):
         return memo.ce
     return contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)
 
@@ -989,13 +1012,14 @@ def pinned_at(fb, s, ce, t_s):
 
 
 @kernel
-def piece_start(cfg, fb, ps, onset_now, log):
+def piece_start(cfg, fb, ps, onset_now, here, log):
     """A piece's start ``ps`` (:class:`PieceStart`: the ship, its instant ``t_s`` into the tick,
     the feet's engage thresholds, the guard's reference and the last contact evaluated, as the
     last piece left them; ``fb`` carrying the held feet's friction) with its touchdown instant's
     rules applied: where the first foot is at the ground while the ship flies, the seed's
     touchdown (its alignment, the absorbers, its transitions: MODEL-NOTES 18); then the feet that
-    meet the ground sliding or holding (``onset_now``: those the last located event touched)."""
+    meet the ground sliding or holding (``onset_now``: those the last located event touched).
+    ``here``: ``ps.memo`` was evaluated at the ship's motion itself (:func:`contact_memo_here`)."""
     s, t_abs, engage, e_ref, memo = ps.ship, ps.t_s, ps.engage, ps.e_ref, ps.memo
     ground_y = ground_at(fb, t_abs)
     m, ft = s.motion, s.footing
@@ -1003,14 +1027,16 @@ def piece_start(cfg, fb, ps, onset_now, log):
     carried = fb.grip.hold_w
     aligned = False
     fb_y = with_feet(fb, engage, drag)
-    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    ce_y = contact_memo_here(memo, here, fb_y, t_abs, m, ft.absorbing, engage)
     memo = memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage)
+    touched = False  # the seed's touchdown here moved the ship (the memo is not at m then)
     was = engage
     engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
     if reach and s.surface_state == FLYING:
         # the first foot is at the ground: the seed's touchdown, here and now
         td = touchdown(cfg, fb, ground_y, m.p, m.v, m.q, m.w)
         m = Motion(td.p, td.v, td.q, td.w)
+        touched = True
         aligned = td.aligned
         carried = NO_HOLD
         fb = with_hold(fb, NO_HOLD)
@@ -1034,7 +1060,10 @@ def piece_start(cfg, fb, ps, onset_now, log):
         drag = regimes_on_touch(cfg, ce_y, ft.sliding, fresh)
         s = with_footing(s, with_friction(ft, drag, ft.hold_w))
     fb_y = with_feet(fb, engage, drag)
-    ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    if touched:
+        ce_y = contact_memo(memo, fb_y, t_abs, m, ft.absorbing, engage)
+    else:  # the memo is this instant's, at m, with fb's held friction: only the roles changed
+        ce_y = contact_memo_grip(memo, fb_y, t_abs, m, ft.absorbing, engage)
     return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
                       memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
@@ -1063,6 +1092,8 @@ class PieceStep(NamedTuple):
     slid_on: tuple  # the sliding feet whose slip turned round there but that cannot stick
     broke: tuple  # the holding feet that broke away there (kinetic from there)
     memo: Memo  # the last contact evaluated at the piece's end
+    #: ``memo`` was evaluated at ``step``'s end state itself (with the piece's held friction)
+    memo_here: bool
     refined: bool  # it was cut short where Coulomb's law is stiff, at no event (sim.stiff_substep)
 
 
@@ -1108,11 +1139,15 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
+    # the memo is at st's end with the feet's roles of now (with_feet(fb, engage, drag)): the
+    # piece's own evaluations at its end find it without comparing anything
+    at_end = False
     if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
         memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        at_end = True
         # a sliding foot whose friction could stop it within a fraction of the step (a foot
         # under an impact's load, where Coulomb's law is stiff) takes its friction as an impulse
         # after it, from the feet's impulses solved together (sim.friction.coulomb), which stops
@@ -1138,7 +1173,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                          StepFrom(t_abs, m, ce_y))
             m_e = Motion(st.p, st.v, st.q, st.w)
-            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+            # (the memo's kinetic feet are the old drag: it cannot serve)
+            ce_e = contact_at(body, ground_at(fb, t_e), m_e, ft.absorbing, engage)
             memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
         if may_split:
             # one that stops later in the step (its friction could stop it, or its slip turned
@@ -1158,7 +1194,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
                                  StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
-                                     True)
+                                     False, True)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
                               FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
@@ -1166,12 +1202,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
-                                     NO_SLIP, memo, False)
+                                     NO_SLIP, memo, False, False)
                 # it does not stop within the step after all: the step dragged along where it slid
                 # (the trial's drag, turning round with a slip near zero inside the method's
                 # stages, may have left the slip where it was)
                 if _turned_any(stop, ce_y, ce_e):
                     st = pc.step
+                    at_end = False
     held = (not drag[0] and ce_y.foot_force_n[0] > 0.0, not drag[1] and ce_y.foot_force_n[1] > 0.0,
             not drag[2] and ce_y.foot_force_n[2] > 0.0, not drag[3] and ce_y.foot_force_n[3] > 0.0)
     if (may_split and fb.craft.method == RK4 and per_foot(cfg)
@@ -1182,8 +1219,12 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         held = (not drag[0], not drag[1], not drag[2], not drag[3])
         ground_e = ground_at(fb, t_e)
         m_e = Motion(st.p, st.v, st.q, st.w)
-        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
-        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        if at_end:
+            ce_e = memo.ce
+        else:
+            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+            at_end = True
         holding = Holding(held, cfg.friction_static)
         if held_friction(body, ground_e, ce_e, m_e, holding).use > 1.0:
             hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
@@ -1195,23 +1236,28 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
-                                     memo, False)
+                                     memo, False, False)
     if may_split:
         # the contact at the step's end is kept (memo): the guard asks for it again at the
         # sub-step's end where no foot's regime changed (guard_substep), as does the next piece
         body = with_feet(fb, engage, drag)
         m_e = Motion(st.p, st.v, st.q, st.w)
-        ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
-        memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+        if at_end:
+            ce_e = memo.ce
+        else:
+            ce_e = contact_memo(memo, body, t_e, m_e, ft.absorbing, engage)
+            memo = memo_of(body, ce_e, t_e, m_e, ft.absorbing, engage)
+            at_end = True
         ev = foot_events(ce_y, ce_e, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                           StepFrom(t_abs, m, ce_y), ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
-                                 memo, False)
+                                 memo, False, False)
     # a refined piece ends before the sub-step does: the next piece starts there
-    return PieceStep(st, rem, rem < whole, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo, rem < whole)
+    return PieceStep(st, rem, rem < whole, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo, at_end,
+                     rem < whole)
 
 
 #: a holding foot carrying this fraction of its static cone (mu_s N) or more is about to break
@@ -1329,6 +1375,7 @@ class Pieces(NamedTuple):
     friction_n: float  # the last piece's friction
     aligned: bool  # a touchdown inside the sub-step stood the ship up
     onset: tuple  # the feet the last located event touched (they meet the ground there)
+    memo_here: bool  # the last piece's memo was evaluated at its end state (PieceStep.memo_here)
 
 
 class SubStepEnd(NamedTuple):
@@ -1351,12 +1398,21 @@ def is_passive(fb):
 @kernel
 def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     """The contact at a sub-step's end (``start.t_end_s`` into the tick; ``memo``'s if it was
-    evaluated there), and the passivity guard there (``sim.energy_guard``)."""
+    evaluated there; ``pieces.memo_here``: at the ship's motion itself, with ``fb``'s held
+    friction), and the passivity guard there (``sim.energy_guard``)."""
     t_end = start.t_end_s
     m, ft = s.motion, s.footing
     ground = ground_at(fb, t_end)
     fb_now = with_feet(fb, ENGAGE_AT_GROUND, ft.sliding)
-    ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
+    if pieces.memo_here:
+        if (memo.valid and memo.t_s == t_end and memo.absorbing == ft.absorbing
+                and _same4(memo.engage, ENGAGE_AT_GROUND)
+                and _same4(memo.kinetic, ft.sliding)):
+            ce = memo.ce
+        else:
+            ce = contact_at(fb_now, ground, m, ft.absorbing, ENGAGE_AT_GROUND)
+    else:
+        ce = contact_memo(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
         return SubStepEnd(s, ce, e_ref, 0.0,
                           memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
@@ -1390,6 +1446,7 @@ class Transitioned(NamedTuple):
     e_ref: EnergyRef
     v_rad_mps: float  # velocity along local up before any touchdown's alignment
     stop: bool  # pinned for the rest of the tick (crashed, on the hull, the pivot model's)
+    moved: bool  # a touchdown's alignment moved the ship (the end's memo is not at its motion)
 
 
 @kernel
@@ -1502,7 +1559,7 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
         else:
             speed = v_rad
         emit(log, was, surf, speed, t_ev)
-    return Transitioned(s, ce, e_ref, v_rad, stop)
+    return Transitioned(s, ce, e_ref, v_rad, stop, touch_ok and cfg.align_on_touchdown)
 
 
 # -- 2. free flight: the stages in order ----------------------------------------------------------
@@ -1674,6 +1731,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
         n_sub = cfg.coarse_substeps
     h = dt / n_sub
     memo = memo_of(fb0, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    memo_here = True  # memo was evaluated at s.motion itself (nothing has moved the ship since)
     v_rad = dot(m.v, unit(m.p))
     e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
@@ -1709,7 +1767,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
         u += k_sub
         engage = ENGAGE_AT_GROUND
         t_in = 0.0  # how far into the sub-step the ship has been stepped
-        pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP)
+        pieces = Pieces(False, True, -math.inf, friction_n, False, NO_SLIP, False)
         stop = False
         stiff = NO_SLIP  # the feet whose stops are not located for the rest of the sub-step
         events = 0  # the pieces cut at an event
@@ -1720,10 +1778,11 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
             fb_k = with_hold(fb, carried)
             ps = PieceStart(s, t_abs, engage, s.footing.sliding, ce, carried, pieces.aligned, e_ref,
                             False, memo)
-            ps = piece_start(cfg, fb_k, ps, pieces.onset, log)
+            ps = piece_start(cfg, fb_k, ps, pieces.onset, memo_here, log)
             s, engage, carried, e_ref = ps.ship, ps.engage, ps.carried, ps.e_ref
             pieces = Pieces(pieces.touched, pieces.located, pieces.peak_m,
-                            pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset)
+                            pieces.friction_n, pieces.aligned or ps.aligned, pieces.onset,
+                            pieces.memo_here)
             if ps.stop:
                 stop = True
                 pinned_now = True
@@ -1732,6 +1791,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
             pc = step_piece(cfg, fb_k, ps, h_j - t_in, events < MAX_PIECES, stiff,
                             fine if refined < MAX_REFINED else NOT_FINE)
             memo = pc.memo
+            memo_here = pc.memo_here  # (stepped keeps st's motion, bit for bit)
             st = pc.step
             # (a foot that broke away here slips from zero: its stop is not looked for again
             # in this sub-step, where it would be found at once)
@@ -1742,7 +1802,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
             s = stepped(s, broken(stuck(st, pc.stopped), pc.broke))
             pieces = Pieces(pieces.touched or st.pressed, pieces.located and st.located,
                             fmax(pieces.peak_m, st.peak_penetration_m), st.friction_n,
-                            pieces.aligned, pc.onset)
+                            pieces.aligned, pc.onset, pc.memo_here)
             if not pc.split:
                 break
             if pc.refined:
@@ -1769,6 +1829,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
         s, ce, e_ref, v_rad = tr.ship, tr.ce, tr.e_ref, tr.v_rad_mps
         # the end's contact serves the next sub-step's start where it asks for the same
         memo = end.memo
+        memo_here = not tr.moved
         if sample:
             run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
             t_seen = t_end

@@ -152,7 +152,10 @@ IMPACT_SAGS = 10.0
 def striking(here, s):
     """A ship near the ground that strikes it, or rebounds, within the tick (MODEL-NOTES 53):
 
-    - its centre of mass moving along local up faster than IMPACT_SPEED_MPS at the tick's start;
+    - in contact, its centre of mass moving along local up faster than IMPACT_SPEED_MPS at the
+      tick's start (a ship turning over a foot, whose end the impact's sub-steps resolve); a
+      flying ship's feet alone say whether it meets the ground within the tick (MODEL-NOTES 60;
+      ``sim.flying_strike_by_centre``: its centre too, 0.8's);
     - or one of its feet (velocity u_i = v + w x r_i over the ground, penetration x_i, the ground's
       push g_i = -grad x_i, so that x_i' = -g_i . u_i) moving along the ground's normal faster than
       IMPACT_SPEED_MPS, |g_i . u_i| > IMPACT_SPEED_MPS |g_i|, and either in the ground (x_i > 0:
@@ -167,7 +170,8 @@ def striking(here, s):
     m = s.motion
     r_hat = unit(m.p)
     v_rad = dot(sub(m.v, surface_velocity(cfg.omega_radps, m.p)), r_hat)
-    if abs(v_rad) > IMPACT_SPEED_MPS:
+    centre = s.surface_state != FLYING or cfg.flying_strike_by_centre
+    if centre and abs(v_rad) > IMPACT_SPEED_MPS:
         return True
     ground = scene_ground(cfg, terrain, cos0, sin0)
     ft = feet(ground, m.p, m.q, sp.leg_radius_m, sp.com_height_m)

@@ -240,6 +240,11 @@ SETTINGS: tuple[Setting, ...] = (
           "work: sim.phases.near_ground) by its feet's distance from its centre of mass, "
           "sqrt(com_height^2 + leg_radius^2), at any attitude; false: com_height + leg_radius, "
           "0.8's looser bound (MODEL-NOTES 54)"),
+    S("sim.flying_strike_by_centre", "bool", False, dest="sim.flying_strike_by_centre",
+      scene="flying_strike_by_centre",
+      doc="a flying ship takes the impact's sub-steps when its centre of mass moves along local "
+          "up faster than 1 m/s, as a ship in contact does (0.8's); false: only where a foot can "
+          "meet the ground within the tick (sim.phases.striking, MODEL-NOTES 60)"),
     S("sim.energy_guard", "bool", True, dest="sim.energy_guard", scene="energy_guard",
       doc="a passive ship's energy never rises over a sub-step (sim.flight.passivity_guard)"),
     # -- contact: the seed's Configuration table, and what SEED-NOTES adds

@@ -57,11 +57,11 @@ SCENES = {
 #: MODEL-NOTES 59, the bounce, the tilted touchdown, the slope and the fleet; a stiff foot's
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "802d4ecb497bfa301c6fd927414f1241c33d653e2019015cdabde24379bc3171",
-    "trip": "c6bc0475545b39812efb5fca9580b265b0761b4b6a3988d8acf0f7076f7a693d",
-    "tilted": "c09cf4fdb4631eff5a77f5e72d60ec691c328458291cecd6962823f02f656ba1",
-    "slope": "752310afd245abd6fa07eda6400041e252dff542bc51343eab2fdf2de6e82019",
-    "fleet": "3200a86a50df55013242ae6b899994703a68204e382c15bc4182dc1d90fff767",
+    "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
+    "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
+    "tilted": "144229dd10e3a50f2ad51bb25ebdb7ba52788a7b5f4548bd52d1e1cc553f57a7",
+    "slope": "df611456da2361621974419c0d363ca87db3ea44cc0572d7d75ba1c0564d1cae",
+    "fleet": "2a5e2ef468d08fab57e7985ee0fca31f6e0a68ee04c53bafcf1f96cfa608a1d2",
 }
 
 

@@ -10,6 +10,7 @@ full model or an independent reference.
 """
 import math
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
@@ -19,8 +20,13 @@ from scipy.integrate import solve_ivp
 from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from touchdown.sim.enums import EventKind
-from touchdown.sim.flight import TURN_REACH, FootEvents, SlipRates, turns
-from touchdown.sim.phases import commands, near_ground, purely_vertical
+from touchdown.sim.dynamics import Motion, contact_at, ground_at, with_feet
+from touchdown.sim.flight import (DRAG_REACH, NEAR_CONE, NO_RATES, TRANSITION_PIECE, TURN_REACH,
+                                  EnergyRef, FootEvents, PieceStart, SlipRates, _stop_time,
+                                  at_transition, no_memo, turns)
+from touchdown.sim.settings import Integrator
+from touchdown.sim.ship import ENGAGE_AT_GROUND, NO_HOLD, Footing, Ship
+from touchdown.sim.phases import commands, free_body, near_ground, purely_vertical
 from touchdown.sim.step import step
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
@@ -160,8 +166,10 @@ def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
     reach the ground within a max_substep takes it as one sub-step. Against every sub-step at
     impact_substep: the same transitions on the same ticks, each at its instant to 1e-6 s (they
     are located, whatever the sub-step), and the altitude within 1 mm at every tick; the runs are
-    not the same bits (the coarse stretches were taken)."""
-    runs = {c: records(scene(initial, body=body, duration=8.0, sim={"coarse_when_clear": c}))
+    not the same bits (the coarse stretches were taken). With its centre's speed deciding whether
+    a flying ship strikes (sim.flying_strike_by_centre, 0.8's), where such stretches are many."""
+    runs = {c: records(scene(initial, body=body, duration=8.0,
+                             sim={"coarse_when_clear": c, "flying_strike_by_centre": True}))
             for c in (True, False)}
     ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
               for e in r.events] for c in runs}
@@ -171,6 +179,32 @@ def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
     alt = {c: series(runs[c], "altitude_m") for c in runs}
     assert np.max(np.abs(alt[True] - alt[False])) <= 1e-3
     assert np.any(alt[True] != alt[False])
+
+
+@pytest.mark.parametrize("initial,body", [
+    ({"altitude": 0.5, "vertical_speed": -12.0, "horizontal_speed": 6.0, "tilt_deg": 15.0,
+      "heading_deg": 90.0}, {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}),
+    ({"altitude": 2.0, "vertical_speed": -6.0, "tilt_deg": 5.0}, {}),
+    ({"altitude": 1.5, "vertical_speed": -8.0, "horizontal_speed": 5.0, "tilt_deg": 10.0,
+      "heading_deg": 45.0}, {"terrain": {"slope_deg": 12.0}}),
+])
+def test_a_flying_ship_strikes_only_where_a_foot_can_meet_the_ground(initial, body):
+    """MODEL-NOTES 60: a flying ship takes the impact's 5 ms sub-steps only where one of its feet
+    can meet the ground within the tick (sim.phases.striking), not wherever its centre of mass
+    falls faster than 1 m/s near the ground (sim.flying_strike_by_centre, 0.8's). The approach
+    to a fast touchdown and a bounce's flight are free flight either way: the same transitions on
+    the same ticks, each at its instant to 1e-7 s, the altitude within a micrometre at every
+    tick (measured: 4e-9 s, 3.3e-9 m); not the same bits (the approach was stepped otherwise)."""
+    runs = {c: records(scene(initial, body=body, duration=8.0,
+                             sim={"flying_strike_by_centre": c})) for c in (False, True)}
+    ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
+              for e in r.events] for c in runs}
+    assert [(k, n) for k, n, _ in ev[False]] == [(k, n) for k, n, _ in ev[True]]
+    assert len(ev[False]) >= 2
+    assert [t for _, _, t in ev[False]] == pytest.approx([t for _, _, t in ev[True]], abs=1e-7)
+    alt = {c: series(runs[c], "altitude_m") for c in runs}
+    assert np.max(np.abs(alt[False] - alt[True])) <= 1e-6
+    assert np.any(alt[False] != alt[True])
 
 
 # -- coarse contact sub-steps -----------------------------------------------------------------------
@@ -218,3 +252,62 @@ def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, 
     sr = SlipRates((0.3, 0.2, 0.0, 0.0), (1.0, -3.0, 0.0, 0.0), (2.0, 4.0, 0.0, 0.0),
                    (50.0, 3.0 * ratio, 0.0, 0.0))
     assert turns(stop, sr) is turning
+
+
+# -- the stick/slip transition's pieces (MODEL-NOTES 58) -------------------------------------------
+@numba.njit
+def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
+    """sim.flight.at_transition for ``s`` standing on level ground, its four feet pressing:
+    foot 0 holding with ``hold_of_cone`` of its static cone mu_s N (``slip_mps`` 0), or sliding at
+    ``slip_mps``, dragged and not slowing, asked for a piece of ``h_of_edge`` times the one in
+    whose TRANSITION_PIECE its own kinetic friction would stop it. (Compiled here: a FreeBody holds
+    a record, which numba cannot hand back to Python.) Returns (at_transition, foot 0's N)."""
+    cmd = commands(here, s, inp)
+    m0 = s.motion
+    m = Motion(m0.p, (m0.v[0], m0.v[1] + slip_mps, m0.v[2]), m0.q, m0.w)
+    sliding = (slip_mps > 0.0, False, False, False)
+    fb = with_feet(free_body(here, s, cmd, True, RK4), ENGAGE_AT_GROUND, sliding)
+    ce = contact_at(fb, ground_at(fb, 0.0), m, False, ENGAGE_AT_GROUND)
+    load_n = ce.foot_force_n[0] * ce.push_norm[0]
+    z = (0.0, 0.0, 0.0)
+    hold_w = ((0.0, hold_of_cone * here.cfg.friction_static * load_n, 0.0), z, z, z)
+    ft = s.footing
+    ship = Ship(s.surface_state, m, s.mass_kg, s.fuel_kg,
+                Footing(ft.absorbing, sliding, ft.settle_ticks, ft.settle_for_s, ft.settle_margin,
+                        hold_w), s.pin)
+    start = PieceStart(ship, 0.0, ENGAGE_AT_GROUND, sliding, ce, NO_HOLD, False,
+                       EnergyRef(0.0, 0.0, 0.0), False, no_memo(m))
+    h_s = 1e-3
+    if slip_mps > 0.0:
+        h_s = h_of_edge * _stop_time(here.cfg, fb, ce, m.q, 0) / (DRAG_REACH * TRANSITION_PIECE)
+    return at_transition(here.cfg, fb, start, NO_RATES, h_s), load_n
+
+
+RK4 = int(Integrator.RK4)
+
+
+@pytest.fixture(scope="module")
+def standing():
+    """A lander standing on level ground after a 1 m/s touchdown (contact, before it lands)."""
+    scn = scene({"altitude": 0.0, "vertical_speed": -1.0}, duration=0.6)
+    rec = [r for r in records(scn) if int(r.state.surface_state[0]) == 1][-1]
+    return one_ship(scn.params, rec.state)
+
+
+@pytest.mark.parametrize("of_cone, at", [(NEAR_CONE * (1.0 - 1e-9), False),
+                                         (NEAR_CONE * (1.0 + 1e-9), True)])
+def test_a_foot_holding_near_its_cone_is_at_its_transition(standing, of_cone, at):
+    """A stiff foot's pieces go down to its stop time while another foot holds with NEAR_CONE =
+    0.9 of mu_s N or more (it may break away inside the piece: MODEL-NOTES 58). Its edge."""
+    assert NEAR_CONE == 0.9
+    found, load_n = _at_transition_standing(*standing, 0.0, of_cone, 1.0)
+    assert load_n > 1000.0  # the foot presses: the lander's weight over four feet
+    assert found is at
+
+
+@pytest.mark.parametrize("of_edge, at", [(1.0 - 1e-9, False), (1.0 + 1e-9, True)])
+def test_a_foot_just_broken_away_is_at_its_transition(standing, of_edge, at):
+    """... or while a foot slides, not slowing, so slowly that its own friction could stop it
+    within TRANSITION_PIECE = 0.1 of the piece: it has just broken away. Its edge."""
+    assert TRANSITION_PIECE == 0.1
+    assert _at_transition_standing(*standing, 0.05, 0.0, of_edge)[0] is at
