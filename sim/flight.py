@@ -1308,6 +1308,13 @@ def _stop_time(cfg, fb, ce, q, i):
     return (speed - cfg.stick_speed_mps) / (drag * inv_m)
 
 
+#: outside an impact, a sliding foot slower than this takes no pieces of its own (stiff_feet): it
+#: slips under 25 um in a 25 ms sub-step, and its friction as an impulse after the step errs by
+#: less; such micro-slips, held up by a ship's slow turn as it comes to rest, have stop times just
+#: above stiff_substep and cut a sub-step into 20-40 pieces (MODEL-NOTES 61), m/s
+MICRO_SLIP_MPS = 1e-3
+
+
 @kernel
 def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     """The shortest time to stop (:func:`_stop_time`) of the sliding feet that press at a piece's
@@ -1315,7 +1322,8 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     of h, or be dragged where rk4's stages would not follow their drag's turning
     (:func:`step_piece`): their own friction could stop them within h (:func:`_could_stop`), and
     they are not coming to a stop (:func:`slowing`, from ``sr``; a foot of ``stiff`` whatever it
-    does); of those, the ones it would take ``floor_s`` or longer to. Infinite where there is
+    does); of those, the ones it would take ``floor_s`` or longer to and, where ``floor_s`` is
+    not 0 (outside an impact), slipping at MICRO_SLIP_MPS or faster. Infinite where there is
     none."""
     drag, ce, q = start.drag, start.ce, start.ship.motion.q
     out = math.inf
@@ -1323,7 +1331,8 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
         if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
                 and (stiff[i] or not slowing(sr, i))):
             t_stop = _stop_time(cfg, fb, ce, q, i)
-            if t_stop >= floor_s:
+            micro = floor_s > 0.0 and norm(ce.slip_w[i]) < MICRO_SLIP_MPS
+            if t_stop >= floor_s and not micro:
                 out = fmin(out, t_stop)
     return out
 
