@@ -192,11 +192,19 @@ def foot_offsets_w(q, leg_radius_m, com_height_m):
             add(down, scale(ey, -a)))
 
 
+@kernel
+def foot_positions_w(pos_m, offset_w):
+    """Each foot's position, inertial: the centre of mass's plus its offset
+    (:func:`foot_offsets_w`)."""
+    return (add(pos_m, offset_w[0]), add(pos_m, offset_w[1]), add(pos_m, offset_w[2]),
+            add(pos_m, offset_w[3]))
+
+
 @separate
 def feet(ground, pos_m, quat, leg_radius_m, com_height_m):
     """Where the feet are, how deep, and which way the ground would push them."""
     off = foot_offsets_w(quat, leg_radius_m, com_height_m)
-    p0, p1, p2, p3 = add(pos_m, off[0]), add(pos_m, off[1]), add(pos_m, off[2]), add(pos_m, off[3])
+    p0, p1, p2, p3 = foot_positions_w(pos_m, off)
     x0, g0 = under(ground, p0)
     x1, g1 = under(ground, p1)
     x2, g2 = under(ground, p2)

@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
-    lowest_foot_penetration, no_contact, rise_rate)
+    foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
 from touchdown.sim.dynamics import (Holding, Motion, contact_at, contact_inline, derivatives_held,
     ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
@@ -280,9 +280,11 @@ def substep(cfg, fb, roles, h, start):
     if fr.held and fr.impulse_ns > 0.0:
         c_turn, s_turn = ground_turn(fb, h)
         ft2 = feet(ground_end, p2, q2, fb.craft.leg_radius_m, fb.craft.com_height_m)
-        # the feet where the step began (what ce_start was evaluated on)
-        ft0 = feet(ground_at(fb, t_start), p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
-        p2 = hold_footprint(p2, ft0, ft2, j, c_turn, s_turn)
+        # the feet where the step began (what ce_start was evaluated on): their positions only,
+        # no ground under them (its centre of pressure reads nothing else)
+        pos0 = foot_positions_w(p, foot_offsets_w(q, fb.craft.leg_radius_m,
+                                                  fb.craft.com_height_m))
+        p2 = hold_footprint(p2, pos0, ft2, j, c_turn, s_turn)
     return SubStep(p2, fr.vel_mps, q2, fr.omega_body_radps, fr.sliding, fr.impulse_ns / h,
                    res.peak_penetration_m, res.located, pressed, fr.hold_w)
 

@@ -150,9 +150,20 @@ def patch(pos_m, ft, j_n):
         return Patch((n0, n1, n2, n3), up, pos_m)
     n_bar = unit(add(add(add(scale(n0, j_n[0]), scale(n1, j_n[1])), scale(n2, j_n[2])),
                      scale(n3, j_n[3])))
-    c = add(add(add(scale(ft.pos_w[0], j_n[0]), scale(ft.pos_w[1], j_n[1])),
-                scale(ft.pos_w[2], j_n[2])), scale(ft.pos_w[3], j_n[3]))
-    return Patch((n0, n1, n2, n3), n_bar, (c[0] / j_sum, c[1] / j_sum, c[2] / j_sum))
+    return Patch((n0, n1, n2, n3), n_bar, _centre_of_pressure(pos_m, ft.pos_w, j_n))
+
+
+@kernel
+def _centre_of_pressure(pos_m, pos_w, j_n):
+    """:func:`patch`'s centre of pressure of the feet at ``pos_w``: their positions weighted by
+    their normal impulses j_n (``pos_m`` where none presses). Needs no ground: the positions
+    alone."""
+    j_sum = j_n[0] + j_n[1] + j_n[2] + j_n[3]
+    if not j_sum > 0.0:
+        return pos_m
+    c = add(add(add(scale(pos_w[0], j_n[0]), scale(pos_w[1], j_n[1])),
+                scale(pos_w[2], j_n[2])), scale(pos_w[3], j_n[3]))
+    return (c[0] / j_sum, c[1] / j_sum, c[2] / j_sum)
 
 
 @kernel
@@ -169,17 +180,19 @@ def _pressing_normals(pos_m, ft, j_n):
 
 
 @kernel
-def hold_footprint(pos_m, ft_start, ft_end, foot_impulse_ns, cos_turn, sin_turn):
+def hold_footprint(pos_m, start_pos_w, ft_end, foot_impulse_ns, cos_turn, sin_turn):
     """The ship moved so that a footprint held by static friction through the whole step ends
     exactly where the ground has carried the point it stood on (the ground turning by the angle of
     (cos_turn, sin_turn) about z over the step): the position-level half of sticking. The
     velocity-level half (the stop impulse) and the spread of its drift over the step leave a
     residue when a held foot's slip does not grow evenly within the step (a held ship on a
     rotating body, whose ground curves away under its straight inertial step, crept 0.5 m an hour
-    at 25 ms sub-steps without this); only the drift along the ground is undone."""
+    at 25 ms sub-steps without this); only the drift along the ground is undone. ``start_pos_w``:
+    the feet's positions at the step's start (its centre of pressure needs no ground);
+    ``ft_end``: the feet (sim.contact.Feet) at its end."""
     j_n = (fmax(foot_impulse_ns[0], 0.0), fmax(foot_impulse_ns[1], 0.0),
            fmax(foot_impulse_ns[2], 0.0), fmax(foot_impulse_ns[3], 0.0))
-    start = patch(pos_m, ft_start, j_n).centre
+    start = _centre_of_pressure(pos_m, start_pos_w, j_n)
     end = patch(pos_m, ft_end, j_n)
     carried = (cos_turn * start[0] - sin_turn * start[1],
                sin_turn * start[0] + cos_turn * start[1], start[2])
@@ -225,6 +238,13 @@ FINISH_CLEAR = 10.0
 FINISH_ITERATIONS = 3
 FINISH_RATE = 0.1
 FINISH_PIVOT = 1e-12
+#: The active-set solve from the impulses carried in (:func:`_from_carried`): a carried impulse
+#: at least this fraction of its radius reads as slipping; most Newton iterations; the residual
+#: may not grow more than this factor in an iteration (only a diverging split is given up
+#: early: from a guessed split the first iterations move feet between sticking and slipping).
+CARRIED_RIM = 0.99
+CARRIED_ITERATIONS = 6
+CARRIED_RATE = 10.0
 #: A slipping foot's impulse is set this fraction of its radius: on its rim (to _residual's
 #: 1e-9), never outside it by a rounding.
 RIM = 1.0 - 1e-15
@@ -443,6 +463,17 @@ def _active_set(a_loc, u0, rho, x, z, n_feet, out):
             out[2 * k], out[2 * k + 1] = x[2 * k] * (rho[k] * RIM / ln), x[2 * k + 1] * (rho[k] * RIM / ln)
         else:
             out[2 * k], out[2 * k + 1] = x[2 * k], x[2 * k + 1]
+    return _active_newton(a_loc, u0, rho, slips, n_feet, out, (FINISH_ITERATIONS, FINISH_RATE))
+
+
+@kernel
+def _active_newton(a_loc, u0, rho, slips, n_feet, out, limits):
+    """:func:`_active_set`'s Newton iterations from the impulses ``out`` (each slipping foot's on
+    its rim) and the split ``slips`` (updated as it goes): the impulses into ``out``, returns 2
+    where the optimality conditions hold to IPM_TOL_MPS within ``limits`` (most iterations, the
+    fall of the residual an iteration must reach), else 1."""
+    iterations, rate = limits
+    n = 2 * n_feet
     vecs = stack_zeros((5, 8), np.float64)
     v, g, rg, y, dy = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4]
     cols = stack_zeros((2, 8), np.float64)  # each reduced direction's two coefficients
@@ -451,7 +482,7 @@ def _active_set(a_loc, u0, rho, x, z, n_feet, out):
     red, l_mat = mats[0], mats[1]
     nu = stack_zeros(4, np.float64)
     prev = math.inf
-    for it in range(FINISH_ITERATIONS + 1):
+    for it in range(iterations + 1):
         # the slips at these impulses, and how far they are from the optimality conditions
         worst = 0.0
         for k in range(n_feet):
@@ -473,7 +504,7 @@ def _active_set(a_loc, u0, rho, x, z, n_feet, out):
                 worst = fmax(worst, fmax(abs(across), fmax(along, 0.0)))
         if worst <= IPM_TOL_MPS:
             return 2
-        if it == FINISH_ITERATIONS or not worst <= FINISH_RATE * prev:
+        if it == iterations or not worst <= rate * prev:
             return 1  # (the last, or Newton's method is not converging fast: the IPM goes on)
         prev = worst
         turned = False
@@ -755,15 +786,79 @@ def _interior_point(a_mat, slip, radius, lam, active):
 
 
 @kernel
+def _from_carried(a_mat, slip, radius, lam, active):
+    """The feet's impulses by the active-set Newton iterations alone (:func:`_active_newton`,
+    the interior-point method's finish), from the impulses ``lam`` the solve starts with (the
+    holding feet's friction carried in from the last step): a foot whose carried impulse is on
+    its rim (to CARRIED_RIM) or none slips, the others stick; a slipping foot that carried none
+    starts on its rim against its slip at the others' impulses. Accepted only where the
+    optimality conditions then hold to IPM_TOL_MPS (the interior-point method's own acceptance,
+    the measure of :func:`_residual`: the slips after are the solution's, which are unique; how
+    several sticking feet share the load, which is not, may differ): the impulses into ``lam``,
+    returns True; else False, ``lam`` untouched."""
+    idx = stack_zeros(4, np.int64)
+    n_feet = 0
+    for i in range(4):
+        if active[i] and radius[i] > 0.0:
+            idx[n_feet] = i
+            n_feet += 1
+    n = 2 * n_feet
+    if n_feet == 0:
+        return False
+    vecs = stack_zeros((3, 8), np.float64)
+    u0, rho, out = vecs[0], vecs[1], vecs[2]
+    a_loc = stack_zeros((8, 8), np.float64)
+    slips = stack_zeros(4, np.bool_)
+    for a in range(n):
+        fa, ca = idx[a // 2], a % 2
+        u0[a] = slip[fa, ca]
+        for b in range(n):
+            a_loc[a, b] = a_mat[fa, ca, idx[b // 2], b % 2]
+    for k in range(n_feet):
+        r = radius[idx[k]]
+        rho[k] = r
+        l1, l2 = lam[idx[k], 0], lam[idx[k], 1]
+        l_norm2 = l1 * l1 + l2 * l2
+        slips[k] = l_norm2 >= (CARRIED_RIM * r) ** 2 or l_norm2 == 0.0
+        if slips[k] and l_norm2 > 0.0:
+            ln = math.sqrt(l_norm2)
+            out[2 * k], out[2 * k + 1] = l1 * (r * RIM / ln), l2 * (r * RIM / ln)
+        else:
+            out[2 * k], out[2 * k + 1] = l1, l2
+    for k in range(n_feet):
+        if slips[k] and out[2 * k] == 0.0 and out[2 * k + 1] == 0.0:
+            u1, u2 = u0[2 * k], u0[2 * k + 1]
+            for b in range(n):
+                u1 += a_loc[2 * k, b] * out[b]
+                u2 += a_loc[2 * k + 1, b] * out[b]
+            un = math.sqrt(u1 * u1 + u2 * u2)
+            if not un > 0.0:
+                return False
+            out[2 * k], out[2 * k + 1] = -u1 * (rho[k] * RIM / un), -u2 * (rho[k] * RIM / un)
+    if _active_newton(a_loc, u0, rho, slips, n_feet, out, (CARRIED_ITERATIONS, CARRIED_RATE)) != 2:
+        return False
+    for i in range(4):
+        lam[i, 0] = lam[i, 1] = 0.0
+    for k in range(n_feet):
+        lam[idx[k], 0], lam[idx[k], 1] = out[2 * k], out[2 * k + 1]
+    return True
+
+
+@kernel
 def _solve_feet(a_mat, slip, radius, lam, active):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
     does not converge within MAX_SWEEPS (or crawls: :func:`_gauss_seidel`), the interior-point
-    method. Returns 1 or 2: which one."""
+    method. Three or four feet, on which Gauss-Seidel crawls (it converges on 4% of them), try
+    the active-set solve from the impulses carried in first (:func:`_from_carried`: 60% of them
+    settled there, in the envelope sweep; issue 36, session 10). Returns 1 (Gauss-Seidel) or 2
+    (the others)."""
     n_active = 0
     for i in range(4):
         if active[i]:
             n_active += 1
+    if n_active >= 3 and _from_carried(a_mat, slip, radius, lam, active):
+        return 2
     if _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
     _interior_point(a_mat, slip, radius, lam, active)

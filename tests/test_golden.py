@@ -57,11 +57,11 @@ SCENES = {
 #: MODEL-NOTES 59, the bounce, the tilted touchdown, the slope and the fleet; a stiff foot's
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
+    "bounce": "802d4ecb497bfa301c6fd927414f1241c33d653e2019015cdabde24379bc3171",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
-    "tilted": "144229dd10e3a50f2ad51bb25ebdb7ba52788a7b5f4548bd52d1e1cc553f57a7",
-    "slope": "c2bf1de6370f43d6cddda010ecacec5c75dcc02991d06ad3a3ac4d615810e91f",
-    "fleet": "2a5e2ef468d08fab57e7985ee0fca31f6e0a68ee04c53bafcf1f96cfa608a1d2",
+    "tilted": "b9cba1638aad93e4e08ebcbf90a40335eb0d950e3158de45302481d2c99173aa",
+    "slope": "bd92924a58c3479ef545ccd787894e9d227b4ccef3a31cf2a1d8857ce72e4e8e",
+    "fleet": "c51d8b465bb8f51e17c0d81047f6a7a14b99d09f6bb8591601c5c8978675b395",
 }
 
 
