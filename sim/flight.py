@@ -1121,6 +1121,27 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 piece = fmax(TRANSITION_PIECE * fine_s, t_stop)
             if rem > piece * (1.0 + 1e-9):
                 rem = rem / math.ceil(rem / piece - 1e-9)
+    if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
+        # the dragged feet that the step's end cannot make dragged are taken off before it:
+        # their friction could stop them within STIFF_REACH of it at their load here alone (the
+        # larger load of the step's ends only makes that likelier: :func:`_could_stop`), and
+        # they are not kept dragged to have their stop located; stepped with them dragged, the
+        # step was taken again without them (a micro-slip near rest, every piece), the same
+        # step as this one wherever no other foot's role turned on the first one's end
+        body = with_feet(fb, engage, drag)
+        if not rated:
+            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+            rated = True
+        may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
+        if may_split:
+            may = (may[0] or (drag[0] and not stiff[0] and slowing(sr, 0)),
+                   may[1] or (drag[1] and not stiff[1] and slowing(sr, 1)),
+                   may[2] or (drag[2] and not stiff[2] and slowing(sr, 2)),
+                   may[3] or (drag[3] and not stiff[3] and slowing(sr, 3)))
+        if may[0] != drag[0] or may[1] != drag[1] or may[2] != drag[2] or may[3] != drag[3]:
+            drag = may
+            ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m, ft.absorbing,
+                              engage)
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
                  StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
@@ -1291,6 +1312,13 @@ def _stop_time(cfg, fb, ce, q, i):
     return (speed - cfg.stick_speed_mps) / (drag * inv_m)
 
 
+#: outside an impact, a sliding foot slower than this takes no pieces of its own (stiff_feet): it
+#: slips under 25 um in a 25 ms sub-step, and its friction as an impulse after the step errs by
+#: less; such micro-slips, held up by a ship's slow turn as it comes to rest, have stop times just
+#: above stiff_substep and cut a sub-step into 20-40 pieces (MODEL-NOTES 61), m/s
+MICRO_SLIP_MPS = 1e-3
+
+
 @kernel
 def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     """The shortest time to stop (:func:`_stop_time`) of the sliding feet that press at a piece's
@@ -1298,7 +1326,8 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     of h, or be dragged where rk4's stages would not follow their drag's turning
     (:func:`step_piece`): their own friction could stop them within h (:func:`_could_stop`), and
     they are not coming to a stop (:func:`slowing`, from ``sr``; a foot of ``stiff`` whatever it
-    does); of those, the ones it would take ``floor_s`` or longer to. Infinite where there is
+    does); of those, the ones it would take ``floor_s`` or longer to and, where ``floor_s`` is
+    not 0 (outside an impact), slipping at MICRO_SLIP_MPS or faster. Infinite where there is
     none."""
     drag, ce, q = start.drag, start.ce, start.ship.motion.q
     out = math.inf
@@ -1306,7 +1335,8 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
         if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
                 and (stiff[i] or not slowing(sr, i))):
             t_stop = _stop_time(cfg, fb, ce, q, i)
-            if t_stop >= floor_s:
+            micro = floor_s > 0.0 and norm(ce.slip_w[i]) < MICRO_SLIP_MPS
+            if t_stop >= floor_s and not micro:
                 out = fmin(out, t_stop)
     return out
 

@@ -60,7 +60,7 @@ EXPECTED = {
     "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
     "tilted": "144229dd10e3a50f2ad51bb25ebdb7ba52788a7b5f4548bd52d1e1cc553f57a7",
-    "slope": "df611456da2361621974419c0d363ca87db3ea44cc0572d7d75ba1c0564d1cae",
+    "slope": "c2bf1de6370f43d6cddda010ecacec5c75dcc02991d06ad3a3ac4d615810e91f",
     "fleet": "2a5e2ef468d08fab57e7985ee0fca31f6e0a68ee04c53bafcf1f96cfa608a1d2",
 }
 

@@ -21,11 +21,11 @@ from scenes import events, one_ship, records, scene, series, tilt_deg, topics
 from touchdown.sim.constants import MOON_GM_M3PS2, MOON_RADIUS_M
 from touchdown.sim.enums import EventKind
 from touchdown.sim.dynamics import Motion, contact_at, ground_at, with_feet
-from touchdown.sim.flight import (DRAG_REACH, NEAR_CONE, NO_RATES, TRANSITION_PIECE, TURN_REACH,
-                                  EnergyRef, FootEvents, PieceStart, SlipRates, _stop_time,
-                                  at_transition, no_memo, turns)
+from touchdown.sim.flight import (DRAG_REACH, MICRO_SLIP_MPS, NEAR_CONE, NO_RATES,
+                                  TRANSITION_PIECE, TURN_REACH, EnergyRef, FootEvents, PieceStart,
+                                  SlipRates, _stop_time, at_transition, no_memo, stiff_feet, turns)
 from touchdown.sim.settings import Integrator
-from touchdown.sim.ship import ENGAGE_AT_GROUND, NO_HOLD, Footing, Ship
+from touchdown.sim.ship import ENGAGE_AT_GROUND, NO_HOLD, NO_SLIP, Footing, Ship
 from touchdown.sim.phases import commands, free_body, near_ground, purely_vertical
 from touchdown.sim.step import step
 
@@ -254,14 +254,13 @@ def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, 
     assert turns(stop, sr) is turning
 
 
-# -- the stick/slip transition's pieces (MODEL-NOTES 58) -------------------------------------------
-@numba.njit
-def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
-    """sim.flight.at_transition for ``s`` standing on level ground, its four feet pressing:
-    foot 0 holding with ``hold_of_cone`` of its static cone mu_s N (``slip_mps`` 0), or sliding at
-    ``slip_mps``, dragged and not slowing, asked for a piece of ``h_of_edge`` times the one in
-    whose TRANSITION_PIECE its own kinetic friction would stop it. (Compiled here: a FreeBody holds
-    a record, which numba cannot hand back to Python.) Returns (at_transition, foot 0's N)."""
+# -- the stick/slip transition's pieces (MODEL-NOTES 58, 61) ---------------------------------------
+@numba.njit(inline="always")
+def _standing(here, s, inp, slip_mps, hold_of_cone):
+    """``s`` standing on level ground, its four feet pressing, as a piece's start: foot 0 holding
+    with ``hold_of_cone`` of its static cone mu_s N (``slip_mps`` 0), or sliding at ``slip_mps``
+    and dragged. Returns (its FreeBody, the sim.flight.PieceStart, foot 0's N). (Inlined into
+    compiled probes: a FreeBody holds a record, which numba cannot return from a call.)"""
     cmd = commands(here, s, inp)
     m0 = s.motion
     m = Motion(m0.p, (m0.v[0], m0.v[1] + slip_mps, m0.v[2]), m0.q, m0.w)
@@ -277,10 +276,30 @@ def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
                         hold_w), s.pin)
     start = PieceStart(ship, 0.0, ENGAGE_AT_GROUND, sliding, ce, NO_HOLD, False,
                        EnergyRef(0.0, 0.0, 0.0), False, no_memo(m))
+    return fb, start, load_n
+
+
+@numba.njit
+def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
+    """sim.flight.at_transition at :func:`_standing`'s start, foot 0 not slowing, asked for a
+    piece of ``h_of_edge`` times the one in whose TRANSITION_PIECE its own kinetic friction would
+    stop it (sliding) or of 1 ms (holding). Returns (at_transition, foot 0's N)."""
+    fb, start, load_n = _standing(here, s, inp, slip_mps, hold_of_cone)
     h_s = 1e-3
     if slip_mps > 0.0:
-        h_s = h_of_edge * _stop_time(here.cfg, fb, ce, m.q, 0) / (DRAG_REACH * TRANSITION_PIECE)
+        t_stop = _stop_time(here.cfg, fb, start.ce, start.ship.motion.q, 0)
+        h_s = h_of_edge * t_stop / (DRAG_REACH * TRANSITION_PIECE)
     return at_transition(here.cfg, fb, start, NO_RATES, h_s), load_n
+
+
+@numba.njit
+def _stiff_feet_standing(here, s, inp, slip_mps, floor_s):
+    """sim.flight.stiff_feet at :func:`_standing`'s start, foot 0 sliding at ``slip_mps``, not
+    slowing, over a 25 ms sub-step. Returns (the shortest stop time of the feet that take pieces,
+    foot 0's own stop time)."""
+    fb, start, _ = _standing(here, s, inp, slip_mps, 0.0)
+    t_stop = _stop_time(here.cfg, fb, start.ce, start.ship.motion.q, 0)
+    return stiff_feet(here.cfg, fb, start, NO_RATES, 0.025, NO_SLIP, floor_s), t_stop
 
 
 RK4 = int(Integrator.RK4)
@@ -311,3 +330,18 @@ def test_a_foot_just_broken_away_is_at_its_transition(standing, of_edge, at):
     within TRANSITION_PIECE = 0.1 of the piece: it has just broken away. Its edge."""
     assert TRANSITION_PIECE == 0.1
     assert _at_transition_standing(*standing, 0.05, 0.0, of_edge)[0] is at
+
+
+@pytest.mark.parametrize("slip_mps, pieces", [(MICRO_SLIP_MPS * (1.0 - 1e-9), False),
+                                              (MICRO_SLIP_MPS * (1.0 + 1e-9), True)])
+def test_a_micro_slip_takes_no_pieces_outside_an_impact(standing, slip_mps, pieces):
+    """Outside an impact a sliding foot whose friction could stop it within the sub-step, not
+    slowing, takes pieces of its stop time (sim.stiff_substep) unless it slips slower than
+    MICRO_SLIP_MPS = 1 mm/s (MODEL-NOTES 61): its edge, for a foot whose stop time is over the
+    floor either way; in an impact (floor 0) it takes them at any speed."""
+    assert MICRO_SLIP_MPS == 1e-3
+    floor_s = 1e-4
+    shortest, t_stop = _stiff_feet_standing(*standing, slip_mps, floor_s)
+    assert floor_s < t_stop < 0.025
+    assert (shortest == t_stop) is pieces and (shortest == math.inf) is not pieces
+    assert _stiff_feet_standing(*standing, slip_mps, 0.0)[0] == t_stop
