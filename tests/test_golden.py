@@ -57,11 +57,11 @@ SCENES = {
 #: MODEL-NOTES 59, the bounce, the tilted touchdown, the slope and the fleet; a stiff foot's
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet)
 EXPECTED = {
-    "bounce": "802d4ecb497bfa301c6fd927414f1241c33d653e2019015cdabde24379bc3171",
+    "bounce": "0362013dc9da0a9a8672d763d17366406dadac642f2130f33076f8cc7e40a6cd",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
-    "tilted": "b9cba1638aad93e4e08ebcbf90a40335eb0d950e3158de45302481d2c99173aa",
-    "slope": "bd92924a58c3479ef545ccd787894e9d227b4ccef3a31cf2a1d8857ce72e4e8e",
-    "fleet": "c51d8b465bb8f51e17c0d81047f6a7a14b99d09f6bb8591601c5c8978675b395",
+    "tilted": "4d2da69dc950fdea0ca3c3442b3a84cc6a5de12724c4292b69007b30048c732d",
+    "slope": "f936b5e0a2b466921c28ca4facaa144cbdec2ed550795ef1b64579c31388bc35",
+    "fleet": "0277c3696b80958e4ba059a2d744f58ecb1ab8dfef992c895c525af6974cb10a",
 }
 
 
