@@ -659,7 +659,7 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
         return True
     drag = fb.craft.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
                           ce1.foot_force_n[i] * ce1.push_norm[i])
-    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    s_hat = unit(s0)
     inv_m = _inv_mass_along(fb, q, i, s_hat)
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
@@ -700,7 +700,7 @@ def slip_rates(cfg, fb, ground, ce, m):
         own = 0.0
         across = 0.0
         if speed > 0.0:
-            s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+            s_hat = unit(s0)
             r = off[i]
             acc = add(add(d[1], cross(alpha_w, r)), cross(omega_w, cross(omega_w, r)))
             acc = sub(acc, cross(spin, add(m.v, cross(omega_w, r))))
@@ -1309,7 +1309,7 @@ def _stop_time(cfg, fb, ce, q, i):
     if not speed > cfg.stick_speed_mps:
         return 0.0
     drag = fb.craft.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
-    s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+    s_hat = unit(s0)
     inv_m = _inv_mass_along(fb, q, i, s_hat)
     return (speed - cfg.stick_speed_mps) / (drag * inv_m)
 
@@ -1692,7 +1692,7 @@ def coarse_tick(cfg, fb, s, ce, h):
                 speed = norm(s0)
                 if not speed > 0.0:
                     return False
-                s_hat = (s0[0] / speed, s0[1] / speed, s0[2] / speed)
+                s_hat = unit(s0)
                 own = (cr.mu_k * ce.foot_force_n[i] * ce.push_norm[i]
                        * _inv_mass_along(fb, s.motion.q, i, s_hat))
                 if not speed > COARSE_SLIP_STEPS * h * (own + g):
