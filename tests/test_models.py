@@ -151,7 +151,8 @@ def test_the_pivot_model_of_a_tipped_ship_matches_the_full_model():
 
 
 # -- an impact's clear stretches ----------------------------------------------------------------------
-@pytest.mark.parametrize("initial,body", [
+#: fast approaches to a touchdown: (initial, body)
+FAST_APPROACHES = [
     # the envelope's worst corner: 12 m/s down, 6 m/s downhill, tilted, onto 6 degrees
     ({"altitude": 0.5, "vertical_speed": -12.0, "horizontal_speed": 6.0, "tilt_deg": 15.0,
       "heading_deg": 90.0}, {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}),
@@ -160,7 +161,24 @@ def test_the_pivot_model_of_a_tipped_ship_matches_the_full_model():
     # a fast approach from 1.5 m onto 12 degrees, moving across the slope
     ({"altitude": 1.5, "vertical_speed": -8.0, "horizontal_speed": 5.0, "tilt_deg": 10.0,
       "heading_deg": 45.0}, {"terrain": {"slope_deg": 12.0}}),
-])
+]
+
+
+def _same_flight(runs, a, b, instant_s, altitude_m):
+    """Runs ``runs[a]`` and ``runs[b]`` make the same transitions on the same ticks (two at least),
+    each at its instant to ``instant_s``, and keep the altitude within ``altitude_m`` at every
+    tick; they are not the same bits."""
+    ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
+              for e in r.events] for c in runs}
+    assert [(k, n) for k, n, _ in ev[a]] == [(k, n) for k, n, _ in ev[b]]
+    assert len(ev[a]) >= 2
+    assert [t for _, _, t in ev[a]] == pytest.approx([t for _, _, t in ev[b]], abs=instant_s)
+    alt = {c: series(runs[c], "altitude_m") for c in runs}
+    assert np.max(np.abs(alt[a] - alt[b])) <= altitude_m
+    assert np.any(alt[a] != alt[b])
+
+
+@pytest.mark.parametrize("initial,body", FAST_APPROACHES)
 def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
     """sim.coarse_when_clear (MODEL-NOTES 54): in an impact's tick a flying ship whose feet cannot
     reach the ground within a max_substep takes it as one sub-step. Against every sub-step at
@@ -171,23 +189,10 @@ def test_an_impacts_clear_stretches_taken_whole_move_no_event(initial, body):
     runs = {c: records(scene(initial, body=body, duration=8.0,
                              sim={"coarse_when_clear": c, "flying_strike_by_centre": True}))
             for c in (True, False)}
-    ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
-              for e in r.events] for c in runs}
-    assert [(k, n) for k, n, _ in ev[True]] == [(k, n) for k, n, _ in ev[False]]
-    assert len(ev[True]) >= 2
-    assert [t for _, _, t in ev[True]] == pytest.approx([t for _, _, t in ev[False]], abs=1e-6)
-    alt = {c: series(runs[c], "altitude_m") for c in runs}
-    assert np.max(np.abs(alt[True] - alt[False])) <= 1e-3
-    assert np.any(alt[True] != alt[False])
+    _same_flight(runs, True, False, 1e-6, 1e-3)
 
 
-@pytest.mark.parametrize("initial,body", [
-    ({"altitude": 0.5, "vertical_speed": -12.0, "horizontal_speed": 6.0, "tilt_deg": 15.0,
-      "heading_deg": 90.0}, {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}),
-    ({"altitude": 2.0, "vertical_speed": -6.0, "tilt_deg": 5.0}, {}),
-    ({"altitude": 1.5, "vertical_speed": -8.0, "horizontal_speed": 5.0, "tilt_deg": 10.0,
-      "heading_deg": 45.0}, {"terrain": {"slope_deg": 12.0}}),
-])
+@pytest.mark.parametrize("initial,body", FAST_APPROACHES)
 def test_a_flying_ship_strikes_only_where_a_foot_can_meet_the_ground(initial, body):
     """MODEL-NOTES 60: a flying ship takes the impact's 5 ms sub-steps only where one of its feet
     can meet the ground within the tick (sim.phases.striking), not wherever its centre of mass
@@ -197,14 +202,7 @@ def test_a_flying_ship_strikes_only_where_a_foot_can_meet_the_ground(initial, bo
     tick (measured: 4e-9 s, 3.3e-9 m); not the same bits (the approach was stepped otherwise)."""
     runs = {c: records(scene(initial, body=body, duration=8.0,
                              sim={"flying_strike_by_centre": c})) for c in (False, True)}
-    ev = {c: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[c]
-              for e in r.events] for c in runs}
-    assert [(k, n) for k, n, _ in ev[False]] == [(k, n) for k, n, _ in ev[True]]
-    assert len(ev[False]) >= 2
-    assert [t for _, _, t in ev[False]] == pytest.approx([t for _, _, t in ev[True]], abs=1e-7)
-    alt = {c: series(runs[c], "altitude_m") for c in runs}
-    assert np.max(np.abs(alt[False] - alt[True])) <= 1e-6
-    assert np.any(alt[False] != alt[True])
+    _same_flight(runs, False, True, 1e-7, 1e-6)
 
 
 # -- coarse contact sub-steps -----------------------------------------------------------------------
