@@ -806,6 +806,16 @@ def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
 
 
 @kernel
+def with_stopping(drag, near, stiff, sr):
+    """The feet of ``near`` and those of ``drag`` coming to a stop (:func:`slowing`, from ``sr``)
+    whose stops are looked for (not of ``stiff``): dragged, so that their stop is located."""
+    return (near[0] or (drag[0] and not stiff[0] and slowing(sr, 0)),
+            near[1] or (drag[1] and not stiff[1] and slowing(sr, 1)),
+            near[2] or (drag[2] and not stiff[2] and slowing(sr, 2)),
+            near[3] or (drag[3] and not stiff[3] and slowing(sr, 3)))
+
+
+@kernel
 def regimes_on_touch(cfg, ce, sliding, fresh):
     """Each foot's friction regime as it starts to press (``fresh``): kinetic if it meets the
     ground slipping faster than the stick speed."""
@@ -1136,10 +1146,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             rated = True
         may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
         if may_split:
-            may = (may[0] or (drag[0] and not stiff[0] and slowing(sr, 0)),
-                   may[1] or (drag[1] and not stiff[1] and slowing(sr, 1)),
-                   may[2] or (drag[2] and not stiff[2] and slowing(sr, 2)),
-                   may[3] or (drag[3] and not stiff[3] and slowing(sr, 3)))
+            may = with_stopping(drag, may, stiff, sr)
         if may[0] != drag[0] or may[1] != drag[1] or may[2] != drag[2] or may[3] != drag[3]:
             drag = may
             ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m, ft.absorbing,
@@ -1169,12 +1176,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         if not rated:
             sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
-            keep = (drag[0] and not near[0] and not stiff[0] and slowing(sr, 0),
-                    drag[1] and not near[1] and not stiff[1] and slowing(sr, 1),
-                    drag[2] and not near[2] and not stiff[2] and slowing(sr, 2),
-                    drag[3] and not near[3] and not stiff[3] and slowing(sr, 3))
-            near = (near[0] or keep[0], near[1] or keep[1], near[2] or keep[2],
-                    near[3] or keep[3])
+            near = with_stopping(drag, near, stiff, sr)
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
             drag = near
             body = with_feet(fb, engage, drag)
