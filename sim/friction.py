@@ -75,7 +75,8 @@ def per_foot(cfg):
 @kernel
 def law_of(cfg):
     """The scene's :class:`FrictionLaw`."""
-    return FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps)
+    return FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps,
+                       cfg.carried_try_pairs)
 
 
 class FrictionLaw(NamedTuple):
@@ -86,6 +87,10 @@ class FrictionLaw(NamedTuple):
     mu_s: float
     mu_k: float
     stick_speed_mps: float
+    #: the solve's try from the carried impulses (:func:`_solve_feet`) for two or three feet, to
+    #: its last iteration; False: for three or four, given up where its residual grows tenfold
+    #: (sim.carried_try_pairs, MODEL-NOTES 64)
+    try_pairs: bool
 
 
 @kernel
@@ -245,6 +250,11 @@ FINISH_PIVOT = 1e-12
 CARRIED_RIM = 0.99
 CARRIED_ITERATIONS = 6
 CARRIED_RATE = 10.0
+#: The fewest and most feet the try is for (sim.carried_try_pairs; MODEL-NOTES 64): two feet
+#: that slip against each other by a hair, both on their rims, are its (Gauss-Seidel crawls
+#: there, along the pair's null direction); four feet's carried split is wrong or its first
+#: step throws the sticking feet out of their disks (3% settled: the try cost more than it saved)
+PAIRS_FEET = (2, 3)
 #: A slipping foot's impulse is set this fraction of its radius: on its rim (to _residual's
 #: 1e-9), never outside it by a rounding.
 RIM = 1.0 - 1e-15
@@ -786,16 +796,17 @@ def _interior_point(a_mat, slip, radius, lam, active):
 
 
 @kernel
-def _from_carried(a_mat, slip, radius, lam, active):
+def _from_carried(a_mat, slip, radius, lam, active, rate):
     """The feet's impulses by the active-set Newton iterations alone (:func:`_active_newton`,
     the interior-point method's finish), from the impulses ``lam`` the solve starts with (the
     holding feet's friction carried in from the last step): a foot whose carried impulse is on
     its rim (to CARRIED_RIM) or none slips, the others stick; a slipping foot that carried none
     starts on its rim against its slip at the others' impulses. Accepted only where the
-    optimality conditions then hold to IPM_TOL_MPS (the interior-point method's own acceptance,
-    the measure of :func:`_residual`: the slips after are the solution's, which are unique; how
-    several sticking feet share the load, which is not, may differ): the impulses into ``lam``,
-    returns True; else False, ``lam`` untouched."""
+    optimality conditions then hold to IPM_TOL_MPS within CARRIED_ITERATIONS (the interior-point
+    method's own acceptance, the measure of :func:`_residual`: the slips after are the
+    solution's, which are unique; how several sticking feet share the load, which is not, may
+    differ): the impulses into ``lam``, returns True; else False, ``lam`` untouched. Given up
+    early where the residual grows ``rate`` times in an iteration (math.inf: never)."""
     idx = stack_zeros(4, np.int64)
     n_feet = 0
     for i in range(4):
@@ -835,7 +846,7 @@ def _from_carried(a_mat, slip, radius, lam, active):
             if not un > 0.0:
                 return False
             out[2 * k], out[2 * k + 1] = -u1 * (rho[k] * RIM / un), -u2 * (rho[k] * RIM / un)
-    if _active_newton(a_loc, u0, rho, slips, n_feet, out, (CARRIED_ITERATIONS, CARRIED_RATE)) != 2:
+    if _active_newton(a_loc, u0, rho, slips, n_feet, out, (CARRIED_ITERATIONS, rate)) != 2:
         return False
     for i in range(4):
         lam[i, 0] = lam[i, 1] = 0.0
@@ -845,7 +856,7 @@ def _from_carried(a_mat, slip, radius, lam, active):
 
 
 @kernel
-def _solve_feet(a_mat, slip, radius, lam, active):
+def _solve_feet(a_mat, slip, radius, lam, active, try_pairs=True):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
     does not converge within MAX_SWEEPS (or crawls: :func:`_gauss_seidel`), the interior-point
@@ -853,8 +864,11 @@ def _solve_feet(a_mat, slip, radius, lam, active):
     they slip against one another by a hair) try the active-set solve from the impulses carried
     in before the interior-point method (:func:`_from_carried`: 60% of them settled there; issue
     36, session 10). After Gauss-Seidel, not before: where it converges (a ship upright on level
-    ground, its feet sticking alike) its sweeps cost a fraction of the try. Returns 1
-    (Gauss-Seidel) or 2 (the others)."""
+    ground, its feet sticking alike) its sweeps cost a fraction of the try. ``try_pairs``
+    (sim.carried_try_pairs, MODEL-NOTES 64): the try is for two or three feet instead, to its
+    last iteration (two feet slipping against each other by a hair, on their rims, are where
+    Gauss-Seidel gives up on two; four feet's try settled 3%). Returns 1 (Gauss-Seidel) or 2
+    (the others)."""
     n_active = 0
     for i in range(4):
         if active[i]:
@@ -864,11 +878,17 @@ def _solve_feet(a_mat, slip, radius, lam, active):
         carried[i, 0], carried[i, 1] = lam[i, 0], lam[i, 1]
     if _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
-    if n_active >= 3:
+    if try_pairs:
+        tried = PAIRS_FEET[0] <= n_active <= PAIRS_FEET[1]
+        rate = math.inf  # a guessed split's first iterations may move its residual up first
+    else:
+        tried = n_active >= 3
+        rate = CARRIED_RATE
+    if tried:
         # the try starts from the carried impulses, not from what the sweeps left
         for i in range(4):
             lam[i, 0], lam[i, 1] = carried[i, 0], carried[i, 1]
-        if _from_carried(a_mat, slip, radius, lam, active):
+        if _from_carried(a_mat, slip, radius, lam, active, rate):
             return 2
     _interior_point(a_mat, slip, radius, lam, active)
     return 2
@@ -958,7 +978,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     friction in. Each other foot's impulse lies in its disk: mu_k J_i if it slides (``sliding``,
     its regime at the step's start), mu_s J_i if it holds (mu_k J_i if it breaks away). ``end``
     (a :class:`FeetOn`): the feet at the step's end state, on the ground as it is then."""
-    mu_s, mu_k, stick_speed_mps = law
+    mu_s, mu_k, stick_speed_mps = law.mu_s, law.mu_k, law.stick_speed_mps
     mass_kg, inertia_kgm2 = rigid
     ground, ft = end
     pos_m, vel_mps, quat, omega_b = stepped.p, stepped.v, stepped.q, stepped.w
@@ -1049,7 +1069,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     for _ in range(MAX_ROUNDS):
         for i in range(4):
             radius[i] = (mu_k if kinetic[i] else mu_s) * j_n[i] if active[i] else 0.0
-        sweeps += _solve_feet(a_mat, slip, radius, lam, active)
+        sweeps += _solve_feet(a_mat, slip, radius, lam, active, law.try_pairs)
         # A held foot that the solve leaves slipping faster than the stick speed breaks away:
         # kinetic for the whole step. A full disk alone is not slipping: which of several
         # holding feet takes how much is not unique, and Gauss-Seidel fills the first ones first.

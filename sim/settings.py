@@ -250,6 +250,12 @@ SETTINGS: tuple[Setting, ...] = (
       doc="a flying ship takes the impact's sub-steps when its centre of mass moves along local "
           "up faster than 1 m/s, as a ship in contact does (0.8's); false: only where a foot can "
           "meet the ground within the tick (sim.phases.striking, MODEL-NOTES 60)"),
+    S("sim.carried_try_pairs", "bool", True, dest="sim.carried_try_pairs",
+      scene="carried_try_pairs",
+      doc="the feet's friction solve, where Gauss-Seidel gives up, tries Newton's iterations "
+          "from the impulses carried in (sim.friction._from_carried) for two or three feet, to "
+          "its last iteration; false: for three or four feet, given up where its residual grows "
+          "tenfold in one (MODEL-NOTES 62's; MODEL-NOTES 64)"),
     S("sim.energy_guard", "bool", True, dest="sim.energy_guard", scene="energy_guard",
       doc="a passive ship's energy never rises over a sub-step (sim.flight.passivity_guard)"),
     # -- contact: the seed's Configuration table, and what SEED-NOTES adds

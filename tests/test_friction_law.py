@@ -18,7 +18,8 @@ import math
 import numpy as np
 import pytest
 
-from touchdown.sim.friction import _disk_step, _slipping, _solve_feet, spread_over_step
+from touchdown.sim.friction import (CARRIED_RATE, _disk_step, _from_carried, _gauss_seidel,
+                                     _slipping, _solve_feet, spread_over_step)
 
 
 def disk(b, c, r):
@@ -206,3 +207,52 @@ def test_the_feet_gauss_seidel_crawls_on_end_at_the_exact_slips():
         assert np.abs(after - after_ref).max() < 1e-9, np.abs(after - after_ref).max()
         assert np.all(np.linalg.norm(lam[:nf], axis=1) <= r)
     assert methods.count(2) >= 30  # most of them crawl in Gauss-Seidel: the interior-point method
+
+
+def two_feet_on_their_rims():
+    """Feet 1 and 3 of an envelope touchdown's striking tick (case 45, the step to tick 178):
+    their Delassus block is singular to rounding (they slip against each other by a hair, foot 1
+    ends on its rim), and the impulses carried in are ~0.05 of their disks (MODEL-NOTES 64)."""
+    block = np.array([
+        [5.1041807688850316e-04, 1.1271476842879717e-06, 1.1042622420090814e-04,
+         1.1273455163023973e-06],
+        [1.1271476842879717e-06, 3.1043188930845653e-04, -1.1271391820597576e-06,
+         3.1043279010227367e-04],
+        [1.1042622420090814e-04, -1.1271391820597576e-06, 5.1041807462176147e-04,
+         -1.1273370131684900e-06],
+        [1.1273455163023973e-06, 3.1043279010227367e-04, -1.1273370131684900e-06,
+         3.1043369090013304e-04]])
+    a = np.zeros((4, 2, 4, 2))
+    slip, lam, radius = np.zeros((4, 2)), np.zeros((4, 2)), np.zeros(4)
+    feet = (1, 3)
+    for p, i in enumerate(feet):
+        for q, j in enumerate(feet):
+            a[i, :, j, :] = block[2 * p:2 * p + 2, 2 * q:2 * q + 2]
+    slip[1] = (-2.8997577484884935e-04, -1.8460055860288935e-06)
+    slip[3] = (-2.8916779763265389e-04, -1.8452405671371844e-06)
+    radius[1], radius[3] = 8.92341832314799, 8.929704251730845
+    lam[1] = (0.46737357248745914, 0.0029675141547827423)
+    lam[3] = (0.4654583114432366, 0.0029696057136297813)
+    active = np.array([False, True, False, True])
+    return a, slip, radius, lam, active
+
+
+def test_two_feet_slipping_by_a_hair_settle_by_the_carried_try_to_the_interior_point_slips():
+    """Gauss-Seidel gives up on the pair; the try from the carried impulses settles it once
+    it may run its iterations whatever the residual does on the way (the tenfold rule of
+    MODEL-NOTES 62 gave it up); sim.carried_try_pairs' solve and note 62's (the interior-point
+    method here) leave the same slips, to the methods' ~1e-10 m/s, each impulse in its disk."""
+    a, slip, radius, lam0, active = two_feet_on_their_rims()
+    assert not _gauss_seidel(a, slip, radius, lam0.copy(), active, False)
+    assert _from_carried(a, slip, radius, lam0.copy(), active, math.inf)
+    assert not _from_carried(a, slip, radius, lam0.copy(), active, CARRIED_RATE)
+    after, lams = {}, {}
+    for pairs in (True, False):
+        lam = lams[pairs] = lam0.copy()
+        _solve_feet(a, slip, radius, lam, active, pairs)
+        assert np.all(np.linalg.norm(lam, axis=1) <= radius * (1.0 + 1e-12))
+        after[pairs] = slip + np.einsum("iajb,jb->ia", a, lam)
+    assert np.abs(after[True] - after[False]).max() < 1e-10
+    # foot 1 ends on its rim, slipping by a hair (~8e-10 m/s) that no impulse in the disks takes out
+    assert np.linalg.norm(lams[True][1]) >= radius[1] * (1.0 - 1e-9)
+    assert 0.0 < np.linalg.norm(after[True][1]) < 1e-8

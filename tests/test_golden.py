@@ -57,13 +57,15 @@ SCENES = {
 #: MODEL-NOTES 59, the bounce, the tilted touchdown, the slope and the fleet; a stiff foot's
 #: pieces beside a foot at its transition, MODEL-NOTES 58, the tilted touchdown and the fleet;
 #: a flying ship clear of the ground for the tick in one step, MODEL-NOTES 63, the bounce (its
-#: tick outputs only: positions and events the same), the tilted touchdown and the fleet)
+#: tick outputs only: positions and events the same), the tilted touchdown and the fleet; the
+#: carried-impulse try for two or three feet, MODEL-NOTES 64, the tilted touchdown, the slope and
+#: the fleet)
 EXPECTED = {
     "bounce": "d00955a27d3261d74206444c92175624c5effa27036d6d7e52672fd677e8e21e",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
-    "tilted": "324661fa9d64f6f2d2d28e74f9521af2a02ea908d13320b45be9dddd945e1a16",
-    "slope": "f936b5e0a2b466921c28ca4facaa144cbdec2ed550795ef1b64579c31388bc35",
-    "fleet": "39d4a8744e7b3d33c5eeea7c9b4ba41402b88dab33814291cab105f70648e648",
+    "tilted": "91c34c06b0cfeaac766233986ae45f407c643d19e329de80abe859244af73e95",
+    "slope": "8f0bc54cb02ec9f90b8a8bca76407f77732346d9e38a4a01353646cb4935ca0f",
+    "fleet": "4bc5e4f574ff00fc141f780aca64e55fda39f746ff883739fe00a9070caf0f13",
 }
 
 
