@@ -1700,8 +1700,15 @@ CLEAR_MARGIN_M = 0.1
 
 @kernel
 def clear_within(cfg, fb, m, ce, h):
-    """Whether no foot of a ship at the motion ``m`` (``ce``: its contact there) can reach the
-    ground within h: its lowest foot's height above the ground, -max penetration, more than twice
+    """:func:`feet_clear` for a ship at the motion ``m`` whose contact there is ``ce``."""
+    return feet_clear(cfg, fb.craft, m, ce.max_penetration_m, h)
+
+
+@kernel
+def feet_clear(cfg, cr, m, max_penetration_m, h):
+    """Whether no foot of a ship (``cr``: its Craft) at the motion ``m``, its deepest foot's
+    penetration ``max_penetration_m``, can reach the ground within h: its lowest foot's height
+    above the ground, -max penetration, more than twice
     (1 + tan(slope)) (u h + a h^2) and CLEAR_MARGIN_M, with u = |v - Omega z x p| + (|w| + Omega) d
     the most a foot moves relative to the ground and a = GM / |p|^2 + Omega^2 |p| + 2 Omega |v_rel|
     + T / m + ((|tau| + I_max |w|^2) / I_min + |w|^2) d its most acceleration (gravity, the
@@ -1709,7 +1716,6 @@ def clear_within(cfg, fb, m, ce, h):
     term), d = sqrt(h_com^2 + a_leg^2) every foot's distance from the centre of mass. A foot's
     height above a plane slope changes by at most (1 + tan(slope)) times its displacement (the
     bumps' steepness is not bounded here: a caller asks only on a plane)."""
-    cr = fb.craft
     om = abs(cr.body_omega_radps)
     d = math.sqrt(cr.com_height_m * cr.com_height_m + cr.leg_radius_m * cr.leg_radius_m)
     v_rel = sub(m.v, surface_velocity(cr.body_omega_radps, m.p))
@@ -1723,8 +1729,8 @@ def clear_within(cfg, fb, m, ce, h):
     r2 = dot(m.p, m.p)
     a = (cr.gm_m3ps2 / r2 + om * om * math.sqrt(r2) + 2.0 * om * norm(v_rel)
          + abs(cr.thrust_n) / cr.mass_kg + ((tau + i_max * w2) / i_min + w2) * d)
-    return -ce.max_penetration_m > (2.0 * (1.0 + cfg.slope_tan) * (u * h + a * h * h)
-                                    + CLEAR_MARGIN_M)
+    return -max_penetration_m > (2.0 * (1.0 + cfg.slope_tan) * (u * h + a * h * h)
+                                 + CLEAR_MARGIN_M)
 
 
 #: a ship in contact takes a tick as one coarse sub-step (sim.coarse_substep, :func:`coarse_tick`)

@@ -24,8 +24,8 @@ import math
 from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import feet, foot_velocity, lowest_foot_penetration
-from touchdown.sim.dynamics import Craft, FreeBody, Grip, Motion
-from touchdown.sim.flight import crossed_at, fly_clear, free_flight
+from touchdown.sim.dynamics import Craft, FreeBody, Grip, Motion, ground_at
+from touchdown.sim.flight import crossed_at, feet_clear, fly_clear, free_flight
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
 from touchdown.sim.friction import per_foot
@@ -109,6 +109,24 @@ def near_ground(here, s, cmd):
                  + cfg.slope_tan * (reach_down + reach))
     clearance = norm(s.motion.p) - cfg.body_radius_m - cfg.terrain_max_m - plane - reach_down
     return clearance < reach
+
+
+@kernel
+def clear_tick(here, s, cmd):
+    """A flying ship that near_ground keeps near the ground but whose feet cannot reach it within
+    the tick (sim.flight.feet_clear over dt from its lowest foot's height: a bound on every
+    foot's speed and acceleration relative to the ground, however the ship turns; on a plane
+    slope, as feet_clear bounds no bump's steepness): it flies the tick in one step, as a ship
+    far above does (``sim.clear_tick``; MODEL-NOTES 63). near_ground's test is the centre of
+    mass's, with a metre's margin; this one is the feet's own."""
+    cfg, sp = here.cfg, here.sp
+    if not cfg.clear_tick or here.terrain.n_bumps != 0 or s.surface_state != FLYING:
+        return False
+    fb = free_body(here, s, cmd, False, cfg.method)
+    ground = ground_at(fb, 0.0)
+    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m,
+                                  sp.com_height_m)
+    return feet_clear(cfg, fb.craft, s.motion, pen, cfg.dt_s)
 
 
 @kernel
@@ -393,7 +411,7 @@ def step_ship(here, rec, inp, out, log):
                      and not (on_hull(cfg, s) and not rcs_fires(cmd)))
     if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
         fine = (s.surface_state != FLYING
-                or near_ground(here, s, cmd))
+                or (near_ground(here, s, cmd) and not clear_tick(here, s, cmd)))
         exact_one = (fine and cfg.vertical_one_step
                      and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
                      and purely_vertical(here, s, cmd))

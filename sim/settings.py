@@ -240,6 +240,11 @@ SETTINGS: tuple[Setting, ...] = (
           "work: sim.phases.near_ground) by its feet's distance from its centre of mass, "
           "sqrt(com_height^2 + leg_radius^2), at any attitude; false: com_height + leg_radius, "
           "0.8's looser bound (MODEL-NOTES 54)"),
+    S("sim.clear_tick", "bool", True, dest="sim.clear_tick", scene="clear_tick",
+      doc="a flying ship near the ground whose feet cannot reach it within the tick (a bound on "
+          "their speed and acceleration: sim.flight.feet_clear; on a plane slope) flies the tick "
+          "in one step, as a ship far above does; false: free_flight's sub-steps and contact "
+          "evaluations wherever sim.phases.near_ground holds, 0.8's (MODEL-NOTES 63)"),
     S("sim.flying_strike_by_centre", "bool", False, dest="sim.flying_strike_by_centre",
       scene="flying_strike_by_centre",
       doc="a flying ship takes the impact's sub-steps when its centre of mass moves along local "

@@ -20,7 +20,8 @@ from touchdown.sim.enums import SurfaceState, TRANSITION_EVENTS
 from touchdown.sim.frames import body_rotation
 from touchdown.sim.params import Params
 from touchdown.sim.phases import observe, step_ship
-from touchdown.sim.ship import NO_COMMANDS, NO_REPORT, Commands, EventLog, Here, Turn, load
+from touchdown.sim.ship import (CRASHED, LANDED, NO_COMMANDS, NO_REPORT, TIPPED, Commands, EventLog,
+    Here, Turn, load)
 from touchdown.sim.state import (Event, INPUTS_DTYPE, Inputs, OUTPUTS_DTYPE, Outputs, STATE_DTYPE,
     State, TRANSITION_DTYPE)
 
@@ -34,6 +35,63 @@ class Written(NamedTuple):
     events: np.ndarray  # TRANSITION_DTYPE, appended
     event_ticks: np.ndarray  # the tick each event led to
     count: np.ndarray  # count[0]: the events so far
+
+
+class Resting(NamedTuple):
+    """Ships at a fixed point of the step, which step_ticks does not step again: a ship whose tick
+    gave back its state bit for bit with no transition, on a body that does not turn, is given
+    the same state and telemetry at every later tick while its state and inputs stay as they were
+    then (the step is a pure function of them, its parameters and the body's angles), so those
+    ticks are copied instead of stepped. Landed and tipped ships at rest are such. Each array is a
+    64-bit word view of its records (``_words``): rows compared and copied word by word."""
+
+    on: bool  # the body does not turn: a pinned ship's pose is the same at every tick
+    fixed: np.ndarray  # bool per ship: the fix_* rows hold its fixed point
+    state_w: np.ndarray  # (ships, words) the state being stepped
+    inputs_w: np.ndarray  # (ships, words) its inputs
+    outputs_w: np.ndarray  # (ticks, ships, words) Written.outputs
+    fix_state_w: np.ndarray  # (ships, words) each fixed ship's state ...
+    fix_inputs_w: np.ndarray  # ... the inputs it stepped with ...
+    fix_outputs_w: np.ndarray  # ... and its telemetry then
+    before_w: np.ndarray  # (words,) scratch: a ship's state before its step
+
+
+def _words(rows: np.ndarray) -> np.ndarray:
+    """A 64-bit word view of a record array's rows (its last axis the record's words)."""
+    return rows.view(np.uint64).reshape(rows.shape + (rows.dtype.itemsize // 8,))
+
+
+def resting(n_ships: int, state: np.ndarray, inputs: np.ndarray, outputs: np.ndarray,
+            on: bool, kept: Resting | None = None) -> Resting:
+    """A Resting over these arrays; ``kept``: the fixed points of an earlier block of the same
+    ships (their rows kept), else none known."""
+    if kept is None or kept.fixed.shape[0] != n_ships:
+        kept = Resting(on, np.zeros(n_ships, np.bool_), _words(state), _words(inputs),
+                       _words(outputs), np.zeros((n_ships, STATE_DTYPE.itemsize // 8), np.uint64),
+                       np.zeros((n_ships, INPUTS_DTYPE.itemsize // 8), np.uint64),
+                       np.zeros((n_ships, OUTPUTS_DTYPE.itemsize // 8), np.uint64),
+                       np.zeros(STATE_DTYPE.itemsize // 8, np.uint64))
+    return kept._replace(on=on, state_w=_words(state), inputs_w=_words(inputs),
+                         outputs_w=_words(outputs))
+
+
+#: a Resting that finds no fixed point (step: one tick of a batch)
+def no_resting(state: np.ndarray, inputs: np.ndarray, outputs: np.ndarray) -> Resting:
+    return resting(state.shape[0], state, inputs, outputs, False)
+
+
+@kernel
+def _same_words(a, b):
+    for j in range(a.shape[0]):
+        if a[j] != b[j]:
+            return False
+    return True
+
+
+@kernel
+def _copy_words(src, dst):
+    for j in range(src.shape[0]):
+        dst[j] = src[j]
 
 
 @separate
@@ -75,14 +133,16 @@ class Span(NamedTuple):
 
 
 @entry
-def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
+def step_ticks(recs, state, inputs, queue, span, out, tick_capacity, rest):
     """Ticks ``span.first_tick``, ``span.first_tick + 1``, ... one after another, up to
     ``len(out.states)`` (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step
     from each tick the commands of ``queue`` for it are applied to ``inputs``; after it the state,
     the telemetry and the commands in force are row k of ``out.states``, ``out.outputs`` and
     ``out.inputs``. Transitions are appended to ``out.events`` (the tick each one led to in
     ``out.event_ticks``); the loop stops early when fewer than ``tick_capacity`` places are left.
-    Returns (ticks stepped, index of the next command)."""
+    ``rest`` (:class:`Resting`): the ships at a fixed point, whose ticks are copied, not
+    stepped; it is updated as ships reach or leave one. Returns (ticks stepped, index of the
+    next command)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     commands, first_tick, rotations = queue.table, span.first_tick, span.rotations
     states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
@@ -99,8 +159,26 @@ def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
         out_k = outputs_out[k]
         turn = Turn(rotations[k, 0], rotations[k, 1], rotations[k + 1, 0], rotations[k + 1, 1])
         for i in range(state.shape[0]):
+            if (rest.fixed[i] and _same_words(rest.state_w[i], rest.fix_state_w[i])
+                    and _same_words(rest.inputs_w[i], rest.fix_inputs_w[i])):
+                _copy_words(rest.fix_outputs_w[i], rest.outputs_w[k, i])
+                continue
+            # only a pinned ship can come back to its state bit for bit (a flying or sliding
+            # one moves): the others are not watched, and pay nothing for it
+            surf = state[i].surface_state
+            watch = rest.on and (surf == LANDED or surf == TIPPED or surf == CRASHED)
+            if watch:
+                _copy_words(rest.state_w[i], rest.before_w)
+            n_i = count[0]
             step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], out_k[i],
                       EventLog(events, count, i))
+            fixed = (watch and count[0] == n_i
+                     and _same_words(rest.state_w[i], rest.before_w))
+            rest.fixed[i] = fixed
+            if fixed:
+                _copy_words(rest.state_w[i], rest.fix_state_w[i])
+                _copy_words(rest.inputs_w[i], rest.fix_inputs_w[i])
+                _copy_words(rest.outputs_w[k, i], rest.fix_outputs_w[i])
         for e in range(n0, min(count[0], events.shape[0])):
             event_ticks[e] = tick + 1
         # record by record: a slice assignment compiles numba's shape-mismatch message (string
@@ -139,9 +217,11 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     cap = tick_capacity(params)
     events, event_ticks = np.empty(cap, TRANSITION_DTYPE), np.empty(cap, np.int64)
     count = np.zeros(1, np.int64)
-    step_ticks(params.records, state.rows.copy(), inputs.rows.copy(), Queue(NO_COMMANDS, 0),
+    rows, in_rows = state.rows.copy(), inputs.rows.copy()
+    step_ticks(params.records, rows, in_rows, Queue(NO_COMMANDS, 0),
                Span(state.tick, rotations(params, state.tick, 1)),
-               Written(states, outputs, ins, events, event_ticks, count), cap)
+               Written(states, outputs, ins, events, event_ticks, count), cap,
+               no_resting(rows, in_rows, outputs))
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
             transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))

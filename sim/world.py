@@ -25,7 +25,7 @@ from touchdown.sim.placement import quat_from_axes
 from touchdown.sim.scenario import Scenario, Scene, parse
 from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
     TRANSITION_DTYPE, Event, Inputs, Outputs, State, concatenate)
-from touchdown.sim.step import (Queue, Span, Written, outputs_at, rotations, step_ticks,
+from touchdown.sim.step import (Queue, Span, Written, outputs_at, resting, rotations, step_ticks,
     tick_capacity, transitions)
 from touchdown.sim.fields import INPUTS as INPUT_FIELDS
 from touchdown.sim.timeline import INPUTS, Command, CommandError, Retire, Spawn, Timeline, command_of
@@ -110,6 +110,8 @@ class World:
     known: dict[str, dict] = field(default_factory=dict)
     _index: tuple = field(default=((), {}), repr=False)  # ship ids -> rows, for the fleet of now
     _own: tuple = field(default=(None, None), repr=False)  # the state and inputs it stepped
+    #: (sim.step.Resting, the params it was for): the ships at a fixed point of the step
+    _resting: tuple = field(default=(None, None), repr=False)
 
     @classmethod
     def of(cls, scn: Scenario) -> "World":
@@ -273,9 +275,15 @@ class World:
         events = np.empty(cap * min(k_max, 8), TRANSITION_DTYPE)
         event_ticks = np.empty(events.shape[0], np.int64)
         count = np.zeros(1, np.int64)
+        # the ships at a fixed point of the step, carried from block to block of the same fleet
+        # (a change of ships starts afresh); step_ticks compares their rows before it trusts them
+        kept, of = self._resting
+        self._resting = (resting(n, state, inputs, outputs, params.body.omega_radps == 0.0,
+                                 kept if of is params else None), params)
         done, c = step_ticks(params.records, state, inputs, Queue(table, 0),
                              Span(first, rotations(params, first, k_max)),
-                             Written(states, outputs, ins, events, event_ticks, count), cap)
+                             Written(states, outputs, ins, events, event_ticks, count), cap,
+                             self._resting[0])
         applied = commands[:c]
         self.timeline = Timeline(self.timeline.spawns, self.timeline.retires,
                                  commands[c:] + rest)

@@ -1,11 +1,12 @@
 """Determinism: the step is a pure function, and a ship's numbers do not depend on its batch."""
+import dataclasses
 from fractions import Fraction
 
 import numpy as np
 import pytest
 
 from scenes import records, scene
-from touchdown.sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS
+from touchdown.sim.state import OUTPUTS_DTYPE, STATE_ARRAY_FIELDS, STATE_DTYPE
 from touchdown.sim.step import step
 
 OUTPUT_FIELDS = OUTPUTS_DTYPE.names
@@ -85,6 +86,43 @@ def test_one_ship_alone_and_among_a_thousand_of_other_classes_is_bit_identical()
                     if e.ship == k]
             ev_b = [(e.kind, e.from_state, e.to_state, e.v_radial_mps) for e in b.events]
             assert ev_a == ev_b
+
+
+def test_ships_at_rest_copied_not_stepped_give_the_stepped_bits():
+    """sim.step.Resting: a world does not step again a ship whose tick gave back its state bit for
+    bit (landed and tipped ships at rest, on a body that does not turn); it copies that tick. The
+    varied fleet on such a body (its ships landing, tipping, resting, lifting off and torqued by
+    RCS on their commands), run by the world, has every ship's state, telemetry and events at
+    every tick bit for bit as stepping the whole batch tick by tick (sim.step.step, which never
+    copies), and the copying did happen."""
+    from touchdown.sim.world import World
+    fleet = varied_fleet(240, seed=20261129)
+    for i, ship in enumerate(fleet):  # landed and tipped ships given commands after rest
+        if ship["initial"]["state"] in ("landed", "tipped") and i % 4 == 0:
+            ship["inputs"] = [{"t": 1.2, "throttle": 1.0}, {"t": 1.5, "throttle": 0.0}]
+        elif ship["initial"]["state"] in ("landed", "tipped") and i % 4 == 2:
+            ship["inputs"] = [{"t": 1.0, "rcs": [0.0, 1.0, 0.0]}, {"t": 1.1, "rcs": [0.0, 0.0, 0.0]}]
+    body = {"terrain": {"bumps": [{"east": 30.0, "north": 0.0, "radius": 40.0, "height": 1.5}]}}
+    scn = scene(ships=fleet, body=body, duration=3.0)
+    world = World.of(scn)
+    blocks = list(world.blocks(60, max_ticks=7))  # blocks of 7 ticks: rest carried across them
+    assert world._resting[0].fixed.sum() >= 40
+    state = scn.initial
+    k = 0
+    for block in blocks:
+        stepped = []
+        for j in range(len(block)):
+            state, out, evs = step(scn.params, state, scn.inputs_at(k))
+            stepped += evs
+            k += 1
+            for name in STATE_DTYPE.names:  # field by field: a record's padding is not state
+                assert block.states[j][name].tobytes() == state.rows[name].tobytes(), (k, name)
+            for name in OUTPUT_FIELDS:
+                assert block.outputs[j][name].tobytes() == out.rows[name].tobytes(), (k, name)
+        assert block.events == [dataclasses.replace(e, ship_id=block.ship_ids[e.ship])
+                                for e in stepped]
+    events = [(e.ship, e.kind) for b in blocks for e in b.events]
+    assert len(events) >= 10
 
 
 def test_the_fleet_reaches_contact_and_transitions():

@@ -26,7 +26,7 @@ from touchdown.sim.flight import (DRAG_REACH, MICRO_SLIP_MPS, NEAR_CONE, NO_RATE
                                   SlipRates, _stop_time, at_transition, no_memo, stiff_feet, turns)
 from touchdown.sim.settings import Integrator
 from touchdown.sim.ship import ENGAGE_AT_GROUND, NO_HOLD, NO_SLIP, Footing, Ship
-from touchdown.sim.phases import commands, free_body, near_ground, purely_vertical
+from touchdown.sim.phases import clear_tick, commands, free_body, near_ground, purely_vertical
 from touchdown.sim.step import step
 
 G = MOON_GM_M3PS2 / MOON_RADIUS_M ** 2
@@ -129,6 +129,64 @@ def test_coarse_flight_is_never_caught_below_the_ground(altitude, vertical, hori
     _, out, _ = step(scn.params, scn.initial, inp)
     if far:
         assert out.altitude_m[0] > 0.0
+
+
+@settings(max_examples=120, deadline=None, derandomize=True, database=None,
+          phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
+@given(altitude=st.floats(0.0, 8.0), vertical=st.floats(-30.0, 10.0),
+       horizontal=st.floats(0.0, 20.0), tilt=st.floats(0.0, 120.0),
+       spin=st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3),
+       throttle=st.floats(0.0, 1.0), rcs=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3),
+       dt=st.sampled_from([0.02, 0.05, 0.1, 0.25]),
+       slope=st.sampled_from([0.0, 0.0, 6.0, 20.0, 40.0]), azimuth=st.floats(-180.0, 180.0),
+       heading=st.floats(-180.0, 180.0))
+def test_a_tick_judged_clear_touches_nothing(altitude, vertical, horizontal, tilt, spin,
+                                             throttle, rcs, dt, slope, azimuth, heading):
+    """sim.clear_tick (MODEL-NOTES 63): a flying ship near the ground that the step judges clear of
+    it for the whole tick (one step, no contact work) is one that the sub-stepped flight with
+    every contact evaluation (sim.clear_tick false) finds touching nothing in that tick: no
+    transition, every foot still above the ground at its end; starts low and turning, under
+    thrust and RCS, on slopes, where the feet's bound is tight. (Its one step's error is the far
+    flight's: a ship tumbling at 2 rad/s under RCS ends 0.1 mm from the sub-steps' height.)"""
+    def scn(clear):
+        return scene({"altitude": altitude, "vertical_speed": vertical,
+                      "horizontal_speed": horizontal, "tilt_deg": tilt, "heading_deg": heading,
+                      "angular_velocity": spin},
+                     inputs=[{"t": 0.0, "throttle": throttle, "rcs": rcs}],
+                     sim={"dt": dt, "on_unstable": "allow", "clear_tick": clear},
+                     contact={"align_on_touchdown": False},
+                     body={"terrain": {"slope_deg": slope, "slope_azimuth_deg": azimuth}},
+                     duration=dt)
+    judged = scn(True)
+    inp = judged.inputs_at(0)
+    here, ship, rec = one_ship(judged.params, judged.initial, inp)
+    cmd = commands(here, ship, rec)
+    if not (near_ground(here, ship, cmd) and clear_tick(here, ship, cmd)):
+        return
+    full = scn(False)
+    _, out, evs = step(full.params, full.initial, full.inputs_at(0))
+    assert evs == [] and out.altitude_m[0] > 0.0
+    _, out_clear, evs_clear = step(judged.params, judged.initial, inp)
+    assert evs_clear == [] and out_clear.altitude_m[0] > 0.0
+
+
+def test_a_ship_hovering_near_the_ground_flies_its_ticks_whole():
+    """sim.clear_tick (MODEL-NOTES 63): a ship hovering with its feet a metre up is judged clear
+    (its feet cannot reach the ground in a tick), one with them 5 cm up is not; the hover and a
+    slow descent onto the ground make the same transitions at the same instants (1e-7 s) with and
+    without it, and heights within a micrometre."""
+    hover = [{"t": 0.0, "throttle": 10000.0 * G / 60000.0}]
+    for alt, clear in ((1.0, True), (0.05, False)):
+        scn = scene({"altitude": alt, "vertical_speed": 0.0}, inputs=hover)
+        inp = scn.inputs_at(0)
+        here, ship, rec = one_ship(scn.params, scn.initial, inp)
+        cmd = commands(here, ship, rec)
+        assert near_ground(here, ship, cmd) and bool(clear_tick(here, ship, cmd)) == clear
+    descent = [{"t": 0.0, "throttle": 0.9 * 10000.0 * G / 60000.0}, {"t": 2.5, "throttle": 0.0}]
+    runs = {c: records(scene({"altitude": 1.5, "vertical_speed": -0.5, "tilt_deg": 3.0},
+                             inputs=descent, sim={"clear_tick": c}, duration=10.0))
+            for c in (False, True)}
+    _same_flight(runs, False, True, 1e-7, 1e-6)
 
 
 # -- pivot ----------------------------------------------------------------------------------------------
