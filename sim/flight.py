@@ -15,14 +15,14 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
-from touchdown.sim.dynamics import (NO_HELD, Holding, Motion, contact_at, contact_inline,
+from touchdown.sim.dynamics import (Holding, Motion, contact_at, contact_inline, derivatives_held,
     ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import RK4, HeldStage, advance, held_stage, rk4_held
+from touchdown.sim.integrators import RK4, advance, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -226,52 +226,11 @@ class FootRoles(NamedTuple):
 
 class StepFrom(NamedTuple):
     """Where a step of the method starts: its instant, the ship's motion there, and the contact
-    evaluated there (with the feet's roles the step is taken with); and, where known, the held
-    feet's first stage there (sim.integrators.held_stage), which every step from there shares."""
+    evaluated there (with the feet's roles the step is taken with)."""
 
     t_s: float  # from the tick's start
     motion: Motion
     ce: ContactEval
-    first: HeldStage
-    staged: bool  # ``first`` is at this start (else a placeholder)
-
-
-#: no first stage known
-NO_STAGE = HeldStage(Holding(NO_SLIP, 0.0),
-                     ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
-                     NO_HELD)
-
-
-@kernel
-def step_from(t_s, m, ce):
-    """A :class:`StepFrom` with no first stage known."""
-    return StepFrom(t_s, m, ce, NO_STAGE, False)
-
-
-@kernel
-def takes_held(cfg, fb, sliding, ce):
-    """A step from the contact ``ce`` with the feet of ``sliding`` sliding integrates the held
-    feet's friction inside it (sim.integrators.rk4_held): a foot not sliding presses there."""
-    f0 = ce.foot_force_n
-    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
-               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
-    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
-    return fb.craft.method == RK4 and holding and per_foot(cfg)
-
-
-@kernel
-def staged_from(cfg, fb, sliding, start):
-    """``start`` (a :class:`StepFrom`) with the first stage its steps take, where they take
-    one (:func:`takes_held`): the one it carries if that holds the feet not of ``sliding``, else
-    computed here, once for the steps from it (a located event's trials start there too)."""
-    if not takes_held(cfg, fb, sliding, start.ce):
-        return start
-    held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-    if start.staged and _same4(start.first.holding.feet, held):
-        return start
-    return StepFrom(start.t_s, start.motion, start.ce,
-                    held_stage(fb, ground_at(fb, start.t_s), start.ce, start.motion,
-                               Holding(held, cfg.friction_static)), True)
 
 
 @separate
@@ -281,16 +240,21 @@ def substep(cfg, fb, roles, h, start):
     (``start.ce`` evaluated so); then Coulomb's impulses at the other pressing feet (or the seed's
     law), spread over the step, and a held footprint kept where the ground carried it."""
     engage, sliding, dragged, absorbing = roles
-    t_start, motion, ce_start = start.t_s, start.motion, start.ce
+    t_start, motion, ce_start = start
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
     carried = fb.grip.hold_w
-    if takes_held(cfg, fb, sliding, ce_start):
+    f0 = ce_start.foot_force_n
+    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
+               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
+    if fb.craft.method == RK4 and holding and per_foot(cfg):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
-        first = staged_from(cfg, fb, sliding, start).first
-        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start, first)
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
+                      Holding(held, cfg.friction_static))
         res = rh.stepped
         hi = rh.held_impulse_w
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
@@ -377,10 +341,6 @@ class Memo(NamedTuple):
     engage: tuple
     kinetic: tuple  # the FreeBody's grip (sim.dynamics.with_feet)
     hold_w: tuple  # the FreeBody's (with_hold)
-    #: the held feet's first stage at ``ce`` and ``motion`` (sim.integrators.held_stage), where
-    #: one was computed there (the breakaway's check at a piece's end): the next step's start
-    first: HeldStage
-    staged: bool
 
 
 @kernel
@@ -407,22 +367,13 @@ def _same_motion(a, b):
 def memo_of(fb, ce, t_s, m, absorbing, engage):
     """The :class:`Memo` of ``ce``, evaluated by ``contact_at(fb, ground_at(fb, t_s), m, ...)``."""
     g = fb.grip
-    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w, NO_STAGE, False)
+    return Memo(True, ce, t_s, m, absorbing, engage, g.kinetic, g.hold_w)
 
 
 @kernel
 def no_memo(m):
     """A :class:`Memo` that matches nothing."""
-    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD,
-                NO_STAGE, False)
-
-
-@kernel
-def staged_memo(memo, first, staged):
-    """``memo`` with the first stage ``first`` at its contact and motion (``staged``: else
-    none)."""
-    return Memo(memo.valid, memo.ce, memo.t_s, memo.motion, memo.absorbing, memo.engage,
-                memo.kinetic, memo.hold_w, first, staged)
+    return Memo(False, no_contact(m.p), 0.0, m, False, ENGAGE_AT_GROUND, NO_SLIP, NO_HOLD)
 
 
 @kernel
@@ -724,13 +675,16 @@ class SlipRates(NamedTuple):
 
 
 @kernel
-def slip_rates(fb, ce, m, d):
-    """:class:`SlipRates` at the contact ``ce`` of the state ``m``, ``d`` the derivatives there
-    with the holding feet's friction among the forces (:func:`rates_stage`). A foot coming to a
-    stop has its slip falling at least half as fast as its own friction would slow it; one whose
-    slip the ship's turning keeps up (under an impact's load, the other feet sliding and one
-    holding) has not, though its friction could stop it within a step: its slip is a balance, and
-    Coulomb's law there is stiff (its direction turns within a fraction of the step)."""
+def slip_rates(cfg, fb, ground, ce, m):
+    """:class:`SlipRates` at the contact ``ce`` of the state ``m`` (the holding feet's friction
+    among the forces, sim.dynamics.held_friction). A foot coming to a stop has its slip falling at
+    least half as fast as its own friction would slow it; one whose slip the ship's turning keeps
+    up (under an impact's load, the other feet sliding and one holding) has not, though its
+    friction could stop it within a step: its slip is a balance, and Coulomb's law there is stiff
+    (its direction turns within a fraction of the step)."""
+    kin = fb.grip.kinetic
+    held = (not kin[0], not kin[1], not kin[2], not kin[3])
+    d, _ = derivatives_held(fb, ground, ce, m, Holding(held, cfg.friction_static))
     off = foot_offsets_w(m.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
@@ -764,28 +718,6 @@ def slip_rates(fb, ce, m, d):
         acrosses = (across if i == 0 else acrosses[0], across if i == 1 else acrosses[1],
                     across if i == 2 else acrosses[2], across if i == 3 else acrosses[3])
     return SlipRates(speeds, rates, owns, acrosses)
-
-
-@kernel
-def rates_from(cfg, fb, start):
-    """``start`` (a :class:`StepFrom`) with the first stage :func:`slip_rates` takes
-    (:func:`rates_stage`): the one it carries if that holds the same feet."""
-    kin = fb.grip.kinetic
-    held = (not kin[0], not kin[1], not kin[2], not kin[3])
-    if start.staged and _same4(start.first.holding.feet, held):
-        return start
-    return StepFrom(start.t_s, start.motion, start.ce,
-                    rates_stage(cfg, fb, ground_at(fb, start.t_s), start.ce, start.motion), True)
-
-
-@kernel
-def rates_stage(cfg, fb, ground, ce, m):
-    """The derivatives :func:`slip_rates` takes, as the first stage of a step from ``ce`` at
-    ``m`` that holds the feet not dragged (``fb.grip.kinetic``; sim.integrators.held_stage):
-    where those are the feet not sliding, the step takes it as its own (:func:`staged_from`)."""
-    kin = fb.grip.kinetic
-    held = (not kin[0], not kin[1], not kin[2], not kin[3])
-    return held_stage(fb, ground, ce, m, Holding(held, cfg.friction_static))
 
 
 #: no foot slips
@@ -1091,12 +1023,8 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
     carried = fb.grip.hold_w
     aligned = False
     fb_y = with_feet(fb, engage, drag)
-    # (a hit keeps the memo's first stage: it is at the same contact and motion)
-    hit = memo_at(memo, here, fb_y, t_abs, m, ft.absorbing, engage)
-    ce_y = memo.ce if hit else contact_inline(fb_y, ground_at(fb_y, t_abs), m, ft.absorbing,
-                                              engage)
-    memo = staged_memo(memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage), memo.first,
-                       hit and memo.staged)
+    ce_y = contact_memo(memo, here, fb_y, t_abs, m, ft.absorbing, engage)
+    memo = memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage)
     touched = False  # the seed's touchdown here moved the ship (the memo is not at m then)
     was = engage
     engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
@@ -1135,8 +1063,7 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
                and _same4(memo.kinetic, fb_y.grip.kinetic))
     ce_y = memo.ce if hit else contact_inline(fb_y, ground_y, m, ft.absorbing, engage)
     return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, False,
-                      staged_memo(memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage),
-                                  memo.first, hit and memo.staged))
+                      memo_of(fb_y, ce_y, t_abs, m, ft.absorbing, engage))
 
 
 # -- 2b. integrating: a piece of a sub-step, then the guard at the sub-step's end ----------------
@@ -1185,14 +1112,10 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    # the step's start, with the first stage its steps take once known (the slip rates' own
-    # where the feet they hold are the step's: every sliding foot dragged)
-    from_y = StepFrom(t_abs, m, ce_y, start.memo.first, start.memo.staged)
     if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0
             and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
-        from_y = rates_from(cfg, body, from_y)
-        sr = slip_rates(body, ce_y, m, from_y.first.d)
+        sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
         t_stop = stiff_feet(cfg, body, start, sr, PIECE_REACH * rem, stiff, fine.floor_s)
         if t_stop < math.inf:
@@ -1219,8 +1142,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         # step as this one wherever no other foot's role turned on the first one's end
         body = with_feet(fb, engage, drag)
         if not rated:
-            from_y = rates_from(cfg, body, from_y)
-            sr = slip_rates(body, ce_y, m, from_y.first.d)
+            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
             rated = True
         may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
         if may_split:
@@ -1229,9 +1151,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             drag = may
             ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m, ft.absorbing,
                               engage)
-            from_y = step_from(t_abs, m, ce_y)
-    from_y = staged_from(cfg, fb, ft.sliding, from_y)
-    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, from_y)
+    st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                 StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
     # the memo is at st's end with the feet's roles of now (with_feet(fb, engage, drag)): the
@@ -1253,16 +1174,15 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         # slip, stays within what the method's stages follow (STIFF_REACH of the step)
         near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
         if not rated:
-            sr = slip_rates(body, ce_y, m,
-                            rates_stage(cfg, body, ground_at(fb, t_abs), ce_y, m).d)
+            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
             near = with_stopping(drag, near, stiff, sr)
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
             drag = near
             body = with_feet(fb, engage, drag)
             ce_y = contact_at(body, ground_at(fb, t_abs), m, ft.absorbing, engage)
-            from_y = staged_from(cfg, fb, ft.sliding, step_from(t_abs, m, ce_y))
-            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem, from_y)
+            st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
+                         StepFrom(t_abs, m, ce_y))
             m_e = Motion(st.p, st.v, st.q, st.w)
             # (the memo's kinetic feet are the old drag: it cannot serve)
             ce_e = contact_at(body, ground_at(fb, t_e), m_e, ft.absorbing, engage)
@@ -1283,13 +1203,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 if (half > 0.05 * fine_s and (fine.floor_s == 0.0 or turns(stop, sr))
                         and rem > half * (1.0 + 1e-9)):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
-                                 from_y)
+                                 StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
                                      False, True)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
                               FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                              from_y, stop)
+                              StepFrom(t_abs, m, ce_y), stop)
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
@@ -1320,20 +1240,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         m_e = Motion(st.p, st.v, st.q, st.w)
         ce_e = memo.ce  # (may_split: evaluated at st's end above)
         holding = Holding(held, cfg.friction_static)
-        # as the first stage there, kept with the memo: the next piece's step starts from it
-        end_stage = held_stage(body, ground_e, ce_e, m_e, holding)
-        memo = staged_memo(memo, end_stage, True)
-        if end_stage.held.use > 1.0:
-            # (at the step's start: the first stage's friction where it holds these feet)
-            if from_y.staged and _same4(from_y.first.holding.feet, held):
-                hf0 = from_y.first.held
-            else:
-                hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
+        if held_friction(body, ground_e, ce_e, m_e, holding).use > 1.0:
+            hf0 = held_friction(body, ground_at(fb, t_abs), ce_y, m, holding)
             if hf0.use < 1.0:
                 brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
                                  cfg.friction_static, True)
                 pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                              from_y, brk)
+                              StepFrom(t_abs, m, ce_y), brk)
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
@@ -1346,7 +1259,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         ev = foot_events(ce_y, ce_e, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                          from_y, ev)
+                          StepFrom(t_abs, m, ce_y), ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
                                  memo, False, False)
@@ -1516,8 +1429,7 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     ce = memo.ce if hit else contact_inline(fb_now, ground, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
         return SubStepEnd(s, ce, e_ref, 0.0,
-                          staged_memo(memo_of(fb_now, ce, t_end, m, ft.absorbing,
-                                              ENGAGE_AT_GROUND), memo.first, hit and memo.staged))
+                          memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
     # airborne: clear of the ground at both ends and nothing pressed between (a bilateral
     # absorber's pull passes no positive impulse, yet trades translation for rotation)
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
@@ -1526,12 +1438,8 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
         ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
                         ENGAGE_AT_GROUND)
-    # (the memo's first stage holds where the guard left the motion as it was)
-    kept = (hit and memo.staged and gd.removed_j == 0.0 and _same3(gd.v, m.v)
-            and _same3(gd.w, m.w))
     return SubStepEnd(s, ce, gd.ref, gd.removed_j,
-                      staged_memo(memo_of(fb_now, ce, t_end, s.motion, ft.absorbing,
-                                          ENGAGE_AT_GROUND), memo.first, kept))
+                      memo_of(fb_now, ce, t_end, s.motion, ft.absorbing, ENGAGE_AT_GROUND))
 
 
 @kernel

@@ -18,8 +18,8 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Held, Holding, Motion, acceleration, contact_at, \
-    contact_inline, derivatives, derivatives_held, ground_at, torque_body
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_inline, \
+    derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -221,23 +221,6 @@ def _held_impulse(h, a, b, c, d):
             w1 * a[2] + w2 * b[2] + w2 * c[2] + w1 * d[2])
 
 
-class HeldStage(NamedTuple):
-    """:func:`rk4_held`'s first stage at a step's start: the feet held and their coefficient, the
-    derivatives there with their friction, and that friction (sim.dynamics.derivatives_held).
-    Computed once per start, it serves every step from there and its caller's own needs."""
-
-    holding: Holding
-    d: tuple  # (p', v', q', omega_b')
-    held: Held
-
-
-@kernel
-def held_stage(fb, ground, ce, motion, holding):
-    """:class:`HeldStage` at the state ``motion`` with the contact ``ce`` evaluated there."""
-    d, hf = derivatives_held(fb, ground, ce, motion, holding)
-    return HeldStage(holding, d, hf)
-
-
 class SteppedHeld(NamedTuple):
     """A step of :func:`rk4_held`, and the held feet's static friction impulse over it (each
     foot's, inertial, N s)."""
@@ -247,16 +230,15 @@ class SteppedHeld(NamedTuple):
 
 
 @separate
-def rk4_held(fb, h, motion, ce, absorbing, t0, first):
-    """:func:`rk4` with the static friction of the feet of ``first.holding``
-    (sim.dynamics.Holding) inside the step as the force of their constraint
-    (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's friction then
-    follows the ship's motion at the method's order, where a force carried from the last step and
-    corrected by an impulse after this one was first order in the step. ``first``: its first
-    stage, at ``motion`` with ``ce`` (:func:`held_stage`), which its caller has."""
+def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
+    """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
+    inside the step as the force of
+    their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
+    friction then follows the ship's motion at the method's order, where a force carried from the
+    last step and corrected by an impulse after this one was first order in the step."""
     y = motion
     p, v, q, w = motion
-    holding, k1, f1 = first
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
     k2, f2, c2 = _rk4_stage_held(fb, 0.5 * h, y, k1, absorbing, t0, holding)
     k3, f3, c3 = _rk4_stage_held(fb, 0.5 * h, y, k2, absorbing, t0, holding)
     k4, f4, c4 = _rk4_stage_held(fb, h, y, k3, absorbing, t0, holding)
