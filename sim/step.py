@@ -35,6 +35,7 @@ class Written(NamedTuple):
     events: np.ndarray  # TRANSITION_DTYPE, appended
     event_ticks: np.ndarray  # the tick each event led to
     count: np.ndarray  # count[0]: the events so far
+    rest: "Resting"  # the ships at a fixed point: read, and updated as ships reach or leave one
 
 
 class Resting(NamedTuple):
@@ -133,20 +134,20 @@ class Span(NamedTuple):
 
 
 @entry
-def step_ticks(recs, state, inputs, queue, span, out, tick_capacity, rest):
+def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
     """Ticks ``span.first_tick``, ``span.first_tick + 1``, ... one after another, up to
     ``len(out.states)`` (``recs``: :class:`Records`; ``out``: :class:`Written`): before the step
     from each tick the commands of ``queue`` for it are applied to ``inputs``; after it the state,
     the telemetry and the commands in force are row k of ``out.states``, ``out.outputs`` and
     ``out.inputs``. Transitions are appended to ``out.events`` (the tick each one led to in
     ``out.event_ticks``); the loop stops early when fewer than ``tick_capacity`` places are left.
-    ``rest`` (:class:`Resting`): the ships at a fixed point, whose ticks are copied, not
+    ``out.rest`` (:class:`Resting`): the ships at a fixed point, whose ticks are copied, not
     stepped; it is updated as ships reach or leave one. Returns (ticks stepped, index of the
     next command)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     commands, first_tick, rotations = queue.table, span.first_tick, span.rotations
     states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
-    events, event_ticks, count = out.events, out.event_ticks, out.count
+    events, event_ticks, count, rest = out.events, out.event_ticks, out.count, out.rest
     c = queue.next
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
@@ -220,8 +221,8 @@ def step(params: Params, state: State, inputs: Inputs) -> tuple[State, Outputs, 
     rows, in_rows = state.rows.copy(), inputs.rows.copy()
     step_ticks(params.records, rows, in_rows, Queue(NO_COMMANDS, 0),
                Span(state.tick, rotations(params, state.tick, 1)),
-               Written(states, outputs, ins, events, event_ticks, count), cap,
-               no_resting(rows, in_rows, outputs))
+               Written(states, outputs, ins, events, event_ticks, count,
+                       no_resting(rows, in_rows, outputs)), cap)
     tick = state.tick + 1
     return (State(rows=states[0], tick=tick), Outputs(rows=outputs[0]),
             transitions(events[:count[0]], event_ticks[:count[0]], params.sim.dt_s))

@@ -282,8 +282,8 @@ class World:
                                  kept if of is params else None), params)
         done, c = step_ticks(params.records, state, inputs, Queue(table, 0),
                              Span(first, rotations(params, first, k_max)),
-                             Written(states, outputs, ins, events, event_ticks, count), cap,
-                             self._resting[0])
+                             Written(states, outputs, ins, events, event_ticks, count,
+                                     self._resting[0]), cap)
         applied = commands[:c]
         self.timeline = Timeline(self.timeline.spawns, self.timeline.retires,
                                  commands[c:] + rest)
