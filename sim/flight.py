@@ -22,7 +22,7 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import RK4, advance, rk4_held
+from touchdown.sim.integrators import RK4, advance, exponential, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -1599,6 +1599,172 @@ def fly_clear(cfg, fb, s):
     s = with_footing(with_motion(s, s.surface_state, Motion(res.p, v, res.q, w)),
                      with_friction(ft, ft.sliding, NO_HOLD))
     return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
+
+
+#: Most pieces a purely vertical ship's tick is cut into (:func:`vertical_flight`): a flight to
+#: the feet's onset, the touchdown's rules there, the rest of the tick; one more spare.
+MAX_VERTICAL_PIECES = 4
+
+
+#: m: how far past the ground the onset's instant puts the lowest foot (to_event's aim: half of
+#: EVENT_TOL_M), so that the feet count as at the ground there (within ONSET_MARGIN_M)
+ONSET_AIM_M = 0.5 * EVENT_TOL_M
+
+
+@kernel
+def vertical_onset(fb, ce, m, h):
+    """How long a purely vertical ship none of whose feet presses (``ce``) flies before its lowest
+    foot reaches ONSET_AIM_M into the ground, within ``h`` (math.inf: not within it). Its gap
+    z = -x + ONSET_AIM_M closes at the foot's rate u = x' and accelerates by a = gamma a_down
+    (g - T / m along local up, gamma the foot's push along the spring axis): the root of
+    u t + a t^2 / 2 = z, t = 2 z / (u + sqrt(u^2 + 2 a z)) (no cancellation: the form
+    sim.flight.clear_instant takes). The flight is the exponential method's ballistic flow under
+    the gravity of the step's start, whose position this is exactly; what is left (the gravity's
+    change over the flight, ~1e-6 of a metre's fall, and the curvature of |foot| in the height,
+    (a / R)^2) moves the foot by far less than ONSET_MARGIN_M."""
+    best = 0
+    for i in range(1, 4):
+        if ce.pen_m[i] > ce.pen_m[best]:
+            best = i
+    x = ce.pen_m[best]
+    u = ce.pen_rate_mps[best]
+    a = ce.lowest_gamma * _a_down(fb, m.p, m.q, unit(m.p))
+    z = ONSET_AIM_M - x
+    if not z > 0.0:
+        return 0.0
+    disc = u * u + 2.0 * a * z
+    if not disc >= 0.0:
+        return math.inf
+    denom = u + math.sqrt(disc)
+    if not denom > 0.0:
+        return math.inf
+    t = 2.0 * z / denom
+    return t if t < h else math.inf
+
+
+@kernel
+def _none_presses(ce, engage):
+    pen = ce.pen_m
+    return not (pen[0] > -engage[0] or pen[1] > -engage[1] or pen[2] > -engage[2]
+                or pen[3] > -engage[3])
+
+
+#: every foot kept from pressing (to_event's held_off for feet about to press)
+NEVER4 = (NEVER, NEVER, NEVER, NEVER)
+
+
+@separate
+def vertical_flight(here, fb, s, log):
+    """A purely vertical ship near the ground (sim.phases.purely_vertical, with the exponential
+    method's one step a tick) through its tick without :func:`free_flight`'s general machinery
+    (``sim.vertical_path``, MODEL-NOTES 65). Its motion is along the local vertical: the pressing
+    feet are one linear spring-damper whose exact flow the exponential method steps
+    (sim.integrators.exponential, its release located inside the step, the ballistic arc after
+    it), and no foot slips, so no friction acts (free_flight's Coulomb solve gives four sticking
+    feet impulses of rounding's size). The tick is cut only where the feet reach the ground: that
+    instant is the root of the ballistic flow's quadratic (:func:`vertical_onset`), not
+    to_event's search by trial steps; the feet are kept from pressing up to it, as to_event keeps
+    them. At each piece's start :func:`piece_start` applies the touchdown's rules as in
+    free_flight; at the tick's end, the passivity guard (:func:`guard_substep`), the in-flight
+    transitions (:func:`in_flight_transitions`: a liftoff and its instant, a crash in contact)
+    and the settle samples, the same functions on the same records as free_flight's one
+    sub-step. (The release is not a piece of its own: the settle thresholds are sampled at the
+    tick's end, not at the release too.)"""
+    cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
+    dt = cfg.dt_s
+    om = fb.craft.body_omega_radps
+    fb = with_hold(fb, NO_HOLD)
+    m, ft0 = s.motion, s.footing
+    ground0 = ground_at(fb, 0.0)
+    engage = ENGAGE_AT_GROUND
+    ce = contact_inline(with_feet(fb, engage, ft0.sliding), ground0, m, ft0.absorbing, engage)
+    memo = memo_of(with_feet(fb, engage, ft0.sliding), ce, 0.0, m, ft0.absorbing, engage)
+    e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
+             else EnergyRef(0.0, 0.0, 0.0))
+    r_hat = unit(m.p)
+    start = SubStepStart(0.0, dt, dt, ce.max_penetration_m, dot(m.v, r_hat),
+                         dot(quat_axis_z(m.q), r_hat))
+    run = SettleRun(True, ft0.settle_margin,
+                    -ft0.settle_for_s if ft0.settle_ticks > 0 else 0.0)
+    sample = s.surface_state == CONTACT
+    t_seen = 0.0  # the instant of the last sample
+    t_in = 0.0
+    touched = False
+    aligned = False
+    peak = -math.inf
+    stop = False
+    for k in range(MAX_VERTICAL_PIECES):
+        ps = PieceStart(s, t_in, engage, s.footing.sliding, ce, NO_HOLD, aligned, e_ref, False,
+                        memo)
+        ps = piece_start(cfg, fb, ps, NO_SLIP, True, log)
+        s, engage, ce, e_ref = ps.ship, ps.engage, ps.ce, ps.e_ref
+        aligned = aligned or ps.aligned
+        if ps.stop:
+            stop = True
+            break
+        rem = dt - t_in
+        ft = s.footing
+        tau = math.inf
+        if k < MAX_VERTICAL_PIECES - 1 and _none_presses(ce, engage):
+            tau = vertical_onset(fb, ce, s.motion, rem)
+        if tau < rem and tau > 0.0:
+            # the flight to the feet's onset, the feet kept from pressing up to it
+            st = exponential(with_feet(fb, NEVER4, ft.sliding), tau, s.motion, ce,
+                             ft.absorbing, t_in)
+        else:
+            tau = rem
+            st = exponential(with_feet(fb, engage, ft.sliding), rem, s.motion, ce,
+                             ft.absorbing, t_in)
+        j = st.foot_impulse_ns
+        touched = touched or j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
+        peak = fmax(peak, st.peak_penetration_m)
+        m = Motion(st.p, st.v, st.q, st.w)
+        s = with_footing(with_motion(s, s.surface_state, m),
+                         with_friction(ft, ft.sliding, NO_HOLD))
+        t_in = t_in + tau
+        if not t_in < dt:
+            t_in = dt
+            break
+        # the next piece starts at the onset, with the feet's engage thresholds as they were
+        engage = ENGAGE_AT_GROUND
+        fb_y = with_feet(fb, engage, ft.sliding)
+        ce = contact_inline(fb_y, ground_at(fb, t_in), m, ft.absorbing, engage)
+        memo = memo_of(fb_y, ce, t_in, m, ft.absorbing, engage)
+        if sample:  # the thresholds at the onset too, as free_flight samples them at its events
+            run = settle_sample(cfg, sp, s, ground_at(fb, t_in), run, t_seen, t_in)
+            t_seen = t_in
+    peak_t = 0.0
+    guard_j = 0.0
+    ce_end = ce
+    if not stop:
+        pieces = Pieces(touched, True, peak, 0.0, aligned, NO_SLIP, False)
+        end = guard_substep(cfg, fb, s, e_ref, pieces, start, no_memo(s.motion))
+        guard_j = end.removed_j
+        m = end.ship.motion
+        peak_t = fmax(0.0, substep_peak(fb, start, pieces, end.ce.max_penetration_m,
+                                        dot(m.v, unit(m.p)), dt))
+        ground = ground_at(fb, dt)
+        tr = in_flight_transitions(cfg, fb, ground, end, start, pieces, log)
+        s, ce_end = tr.ship, tr.ce
+        if sample:
+            run = settle_sample(cfg, sp, s, ground, run, t_seen, dt)
+        stop = tr.stop
+    surf = s.surface_state
+    ft = s.footing
+    if stop:
+        # pinned during the tick: carried with the body to the tick's end, moving as pinned
+        pin = s.pin
+        p = rotate_z(pin.pos_bf_m, cos1, sin1)
+        q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
+        v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
+                             pin.rate_radps if surf == TIPPED else 0.0)
+        s = with_motion(s, surf, Motion(p, v, q, w))
+        ce_end = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb, dt),
+                            Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
+    if surf != CONTACT and not (surf == TIPPED and not stop):  # no foot holds
+        s = with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
+    return Flight(s, Report(0.0, abs(ce_end.normal_n), peak_t, 0.0 + guard_j),
+                  run if sample and s.surface_state == CONTACT else NO_RUN)
 
 
 #: m: what a flying ship's lowest foot keeps above the ground beyond twice the most its feet can

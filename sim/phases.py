@@ -25,7 +25,8 @@ from touchdown.sim.compiled import constructor, kernel
 from touchdown.sim.constants import G0_MPS2
 from touchdown.sim.contact import feet, foot_velocity, lowest_foot_penetration
 from touchdown.sim.dynamics import Craft, FreeBody, Grip, Motion, ground_at
-from touchdown.sim.flight import crossed_at, feet_clear, fly_clear, free_flight
+from touchdown.sim.flight import (crossed_at, feet_clear, fly_clear, free_flight,
+    vertical_flight)
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia, pin_pose,
     quat_z, rotate_z, surface_velocity)
 from touchdown.sim.friction import per_foot
@@ -428,8 +429,13 @@ def step_ship(here, rec, inp, out, log):
         # happen in them (sim.coarse_substep, MODEL-NOTES 57; decided on its contact at the start)
         coarse = (cfg.coarse_substeps > 0 and cfg.coarse_substeps < n_sub and not strikes
                   and s.surface_state == CONTACT and method == RK4 and per_foot(cfg))
-        fl = (free_flight(here, fb, s, n_sub, not (strikes or held_inside), coarse, log) if fine
-              else fly_clear(cfg, fb, s))
+        if not fine:
+            fl = fly_clear(cfg, fb, s)
+        elif exact_one and cfg.vertical_path and per_foot(cfg):
+            # motion along the local vertical alone: its own path (MODEL-NOTES 65)
+            fl = vertical_flight(here, fb, s, log)
+        else:
+            fl = free_flight(here, fb, s, n_sub, not (strikes or held_inside), coarse, log)
         s, report = fl.ship, fl.report
         if fine:
             s = settle(here, s, cmd, fl.run, log)

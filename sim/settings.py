@@ -230,6 +230,11 @@ SETTINGS: tuple[Setting, ...] = (
     S("sim.vertical_one_step", "bool", True, dest="sim.vertical_one_step",
       scene="vertical_one_step",
       doc="with a method exact on the spring, purely vertical ships take one step per tick"),
+    S("sim.vertical_path", "bool", True, dest="sim.vertical_path", scene="vertical_path",
+      doc="a purely vertical ship near the ground (one exact step a tick) takes a path of its "
+          "own: the spring-damper's exact flow, the feet's onset the root of the ballistic "
+          "flow, no friction solve (sim.flight.vertical_flight); false: free_flight's general "
+          "pieces and friction, the session-16 main's, bit for bit (MODEL-NOTES 65)"),
     S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
       scene="coarse_when_clear",
       doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "
