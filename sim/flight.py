@@ -1613,9 +1613,21 @@ ONSET_AIM_M = 0.5 * EVENT_TOL_M
 
 @kernel
 def vertical_onset(fb, ce, m, h):
+    """:func:`vertical_onset_at` ONSET_AIM_M into the ground."""
+    return vertical_onset_at(fb, ce, m, h, ONSET_AIM_M)
+
+
+#: m: a flying vertical ship whose lowest foot the ballistic flow keeps this far above the ground
+#: through the tick (and none of whose feet presses) flies it as a ship clear of it (fly_clear):
+#: far beyond what the flow leaves out (gravity's change over the tick, |foot|'s curvature)
+VERTICAL_CLEAR_M = 1e-3
+
+
+@kernel
+def vertical_onset_at(fb, ce, m, h, aim_m):
     """How long a purely vertical ship none of whose feet presses (``ce``) flies before its lowest
-    foot reaches ONSET_AIM_M into the ground, within ``h`` (math.inf: not within it). Its gap
-    z = -x + ONSET_AIM_M closes at the foot's rate u = x' and accelerates by a = gamma a_down
+    foot reaches ``aim_m`` into the ground, within ``h`` (math.inf: not within it). Its gap
+    z = -x + aim_m closes at the foot's rate u = x' and accelerates by a = gamma a_down
     (g - T / m along local up, gamma the foot's push along the spring axis): the root of
     u t + a t^2 / 2 = z, t = 2 z / (u + sqrt(u^2 + 2 a z)) (no cancellation: the form
     sim.flight.clear_instant takes). The flight is the exponential method's ballistic flow under
@@ -1629,7 +1641,7 @@ def vertical_onset(fb, ce, m, h):
     x = ce.pen_m[best]
     u = ce.pen_rate_mps[best]
     a = ce.lowest_gamma * _a_down(fb, m.p, m.q, unit(m.p))
-    z = ONSET_AIM_M - x
+    z = aim_m - x
     if not z > 0.0:
         return 0.0
     disc = u * u + 2.0 * a * z
@@ -1678,8 +1690,13 @@ def vertical_flight(here, fb, s, log):
     ground0 = ground_at(fb, 0.0)
     engage = ENGAGE_AT_GROUND
     ce = contact_inline(with_feet(fb, engage, ft0.sliding), ground0, m, ft0.absorbing, engage)
+    if (s.surface_state == FLYING and _none_presses(ce, engage)
+            and vertical_onset_at(fb, ce, m, dt, -VERTICAL_CLEAR_M) == math.inf):
+        # its feet stay clear of the ground through the tick: a flight clear of it
+        return fly_clear(cfg, fb, s)
     memo = memo_of(with_feet(fb, engage, ft0.sliding), ce, 0.0, m, ft0.absorbing, engage)
-    e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
+    # (the feet's penetrations the evaluation has: sim.energy.mechanical's bits)
+    e_ref = (energy_ref(ship_energy_at(fb, ground0, m, ce.pen_m)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
     r_hat = unit(m.p)
     start = SubStepStart(0.0, dt, dt, ce.max_penetration_m, dot(m.v, r_hat),
