@@ -1,4 +1,10 @@
-"""Per contact tick of envelope touchdowns: sub-steps, pieces, friction solves (uncompiled copy)."""
+"""Per tick of envelope touchdowns (flying near the ground and in contact): sub-steps, pieces,
+method steps, friction solves by active feet, coarse_tick's answers and contact evaluations,
+counted by wrapping the uncompiled copy's functions (issue 36, session 12):
+
+    docs/issue35/tools/uncompiled/make.sh /tmp/plain
+    TD_PY=1 PYTHONPATH=/tmp/plain.pkg python tick_counts.py [STRIDE]   # cases 0, STRIDE, ... of 300
+"""
 import collections, copy, sys, tomllib
 import numpy as np
 from touchdown import scenarios
