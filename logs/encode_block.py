@@ -6,6 +6,8 @@ loads no compiled code.
 """
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from touchdown.logs.codec import PACKED, varint
@@ -58,16 +60,54 @@ def _put_varint(out, o, value):
             return o + 1
 
 
+#: the machine keeps its words little-endian, the wire's order: a word is stored as it is
+LITTLE = sys.byteorder == "little"
+
+
+@kernel
+def _put_words(out64, o, words, i0, i1, w0, count):
+    """Words ``words[i, w0:w0 + count]`` of ships ``i0 .. i1 - 1``, one after another, at byte
+    ``o`` of the buffer whose words are ``out64`` (a little-endian machine's: byte b of word q is
+    the buffer's byte 8 q + b); returns the byte after them. A field's numbers begin anywhere
+    (after its key and length), so each word of the wire straddles two of the buffer's words at
+    a shift of ``o % 8`` bytes: word q takes the last number's high bytes and the next one's low
+    bytes (a funnel shift), and the bytes before ``o`` and after the last number are kept as
+    they were. The same bytes as storing each number byte by byte, with one store per word."""
+    q = o >> 3
+    r = o & 7
+    n_words = (i1 - i0) * count
+    if r == 0:
+        for i in range(i0, i1):
+            for j in range(count):
+                out64[q] = words[i, w0 + j]
+                q += 1
+        return o + 8 * n_words
+    up = np.uint64(8 * r)
+    down = np.uint64(64 - 8 * r)
+    below = (np.uint64(1) << up) - np.uint64(1)  # the bytes of word q before byte o
+    carry = out64[q] & below
+    for i in range(i0, i1):
+        for j in range(count):
+            w = words[i, w0 + j]
+            out64[q] = carry | (w << up)
+            carry = w >> down
+            q += 1
+    out64[q] = (out64[q] & ~below) | carry
+    return o + 8 * n_words
+
+
 #: ships gathered at a time: their records stay in cache while every field takes its numbers
 GATHER_SHIPS = 256
 
 
 @kernel
-def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, table, start, out):
+def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, table, start, out,
+            out64, little):
     """One tick's numbers of every field, written to ``out`` where each field's numbers begin
     (``start[f]``; -1: not in this tick). Ships are taken GATHER_SHIPS at a time, so each record
-    is read from memory once; an eight-byte number is read as a word and stored byte by byte
-    (the wire's little-endian order). Returns -1 if a one-byte number is past 127 (a two-byte
+    is read from memory once; an eight-byte number is read as a word and stored as it is on a
+    little-endian machine (``little``; :func:`_put_words`, into ``out64``, ``out``'s words),
+    else byte by byte in the wire's little-endian order. Returns -1 if a one-byte number is past 127 (a two-byte
     varint: never written here)."""
     n = states.shape[0]
     for i0 in range(0, n, GATHER_SHIPS):
@@ -78,7 +118,12 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, tabl
             src, off, count, size, wire = table[f, 0], table[f, 1], table[f, 2], table[f, 3], \
                 table[f, 4]
             o = start[f] + i0 * count * wire
-            if wire == 8:
+            if wire == 8 and little:
+                words = states64 if src == 0 else (outputs64 if src == 1 else (
+                    inputs64 if src == 2 else keys64))
+                w0 = off // 8
+                o = _put_words(out64, o, words, i0, i1, w0, count)
+            elif wire == 8:
                 words = states64 if src == 0 else (outputs64 if src == 1 else (
                     inputs64 if src == 2 else keys64))
                 w0 = off // 8
@@ -102,7 +147,7 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, tabl
 
 @kernel
 def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, keyframe_interval,
-                  keyframe_phase, first_keyframe, out, offsets):
+                  keyframe_phase, first_keyframe, out, offsets, little):
     """Each tick of a block as a TickBatch, one after another into ``out``; ``offsets[k]`` is
     where tick k starts. ``states``, ``outputs``, ``inputs``: the block's records as bytes
     (K, N, itemsize; 8-byte aligned, so also read as words). Each tick's keys and lengths are
@@ -111,6 +156,7 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
     n = states.shape[1]
     nf = table.shape[0]
     start = np.empty(nf, np.int64)
+    out64 = out.view(np.uint64)  # (its length a multiple of 8: BlockEncoder.encode)
     o = 0
     for k in range(ticks.shape[0]):
         offsets[k] = o
@@ -142,7 +188,7 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
             o += length
         s8, o8, i8 = states[k], outputs[k], inputs[k]
         if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), keys64,
-                   table, start, out) < 0:
+                   table, start, out, out64, little) < 0:
             return -1
     offsets[ticks.shape[0]] = o
     return o
@@ -179,10 +225,11 @@ class BlockEncoder:
         ticks = np.arange(first_tick, first_tick + k, dtype=np.int64)
         t_s = ticks * self.dt_s
         t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
-        out = np.empty(k * self._bytes_per_tick(n), np.uint8)
+        # whole words, and one spare: _put_words reads and writes the word a field's numbers end in
+        out = np.empty((k * self._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
         offsets = np.empty(k + 1, np.int64)
         if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
-                         self.keyframe_phase, first_keyframe, out, offsets) < 0:
+                         self.keyframe_phase, first_keyframe, out, offsets, LITTLE) < 0:
             raise ValueError("a one-byte field holds a value outside 0..127")
         return out, offsets
 

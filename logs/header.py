@@ -78,8 +78,54 @@ def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np
     return arrays
 
 
+#: the surface states and event topics by number (an enum's call costs a microsecond or two,
+#: a ship's event message a few of them: thousands a second when a fleet touches down)
+_SURFACE = {int(x): x for x in SurfaceState}
+_TOPIC = {int(x): x.topic for x in EventKind}
+
+
+def surface_state(value) -> SurfaceState:
+    """``SurfaceState(int(value))``, by a look-up (the same ValueError for a value outside)."""
+    got = _SURFACE.get(int(value))
+    return got if got is not None else SurfaceState(int(value))
+
+
 def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: int
                        ) -> pb.ShipState:
+    """Ship ``i`` of ``rec_state`` (a State) as a ShipState: its state, position, velocity,
+    attitude and rates, and its tilt from local vertical, acos(ez . r_hat) with ez the body's
+    long axis from the attitude quaternion and r_hat = p / |p|.
+
+    The ship's record is read once (its row), its numbers taken as Python floats: the same
+    IEEE operations, one by one, as on numpy's scalars (the two dot products still numpy's), so
+    the same bits, at half the cost (a test compares them with the field-by-field way)."""
+    rows = getattr(rec_state, "rows", None)
+    if rows is None:
+        return _ship_state_message_fields(ship_id, player_id, body, rec_state, i)
+    row = rows[i]
+    st = surface_state(row["surface_state"])
+    p = row["pos_m"]
+    q0, q1, q2, q3 = row["quat"].tolist()
+    r_hat = p / math.sqrt(float(p @ p))
+    ez = np.array([2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), 1 - 2 * (q1 ** 2 + q2 ** 2)])
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
+    px, py, pz = p.tolist()
+    vx, vy, vz = row["vel_mps"].tolist()
+    wx, wy, wz = row["omega_body_radps"].tolist()
+    return pb.ShipState(
+        ship_id=ship_id, player_id=player_id,
+        landed_body_name="" if st is SurfaceState.FLYING else body,
+        position_m={"x": px, "y": py, "z": pz}, velocity_mps={"x": vx, "y": vy, "z": vz},
+        attitude={"w": q0, "x": q1, "y": q2, "z": q3},
+        omega_body_radps={"x": wx, "y": wy, "z": wz},
+        mass_kg=float(row["mass_kg"]), fuel_kg=float(row["fuel_kg"]), state=int(st),
+        tilt_deg=tilt, surface_contact_state=st.seed_string)
+
+
+def _ship_state_message_fields(ship_id: str, player_id: str, body: str, rec_state, i: int
+                               ) -> pb.ShipState:
+    """ship_state_message field by field, on numpy's scalars (any object with the State's
+    fields as arrays)."""
     st = SurfaceState(int(rec_state.surface_state[i]))
     p, v, q, w = (rec_state.pos_m[i], rec_state.vel_mps[i], rec_state.quat[i],
                   rec_state.omega_body_radps[i])
@@ -102,8 +148,10 @@ def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
     """A transition as the log and the event stream carry it."""
     ship_id = ev.ship_id
     player_id = ships.players[ships.key(ship_id)]
+    topic = _TOPIC.get(int(ev.kind))
     return pb.TransitionEvent(
-        event=EventKind(ev.kind).topic, tick=ev.tick, t_s=ev.tick * dt_s, ship_id=ship_id,
+        event=EventKind(ev.kind).topic if topic is None else topic, tick=ev.tick,
+        t_s=ev.tick * dt_s, ship_id=ship_id,
         player_id=player_id, body=body, from_state=ev.from_state, to_state=ev.to_state,
         ship=ship_state_message(ship_id, player_id, body, state, ev.ship),
         v_radial_mps=ev.v_radial_mps, t_event_s=ev.t_event_s)
@@ -251,6 +299,7 @@ def tick_bytes_bound(ships: int) -> int:
 
 __all__ = ["LOG_FORMAT_VERSION", "TOPIC_SCENARIO", "TOPIC_TICKS", "TOPIC_EVENTS", "TOPIC_SUMMARY",
            "TOPIC_FLEET", "TOPIC_COMMANDS", "KEYFRAME_ONLY", "WIDTH", "keyframe_due",
-           "tick_arrays", "ship_state_message", "event_message", "scenario_message",
+           "tick_arrays", "ship_state_message", "surface_state", "event_message",
+           "scenario_message",
            "world_header", "world_header_later", "record_bytes", "ShipTable", "CHUNK_BYTES_MAX",
            "tick_bytes_bound"]

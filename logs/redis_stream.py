@@ -24,11 +24,20 @@ def _instant(ev: pb.TransitionEvent) -> float:
     return ev.t_event_s if ev.HasField("t_event_s") else ev.t_s
 
 
+#: the states' labels by number (an enum's call costs a microsecond or two)
+_LABELS = {int(x): x.label for x in SurfaceState}
+
+
+def _label(value: int) -> str:
+    got = _LABELS.get(value)
+    return got if got is not None else SurfaceState(value).label
+
+
 def entry_fields(ev: pb.TransitionEvent) -> dict[str, str | bytes]:
     return {"event": ev.event, "ship_id": ev.ship_id, "player_id": ev.player_id, "body": ev.body,
             "tick": str(ev.tick), "t_event": repr(_instant(ev)),
-            "from_state": SurfaceState(ev.from_state).label,
-            "to_state": SurfaceState(ev.to_state).label, "proto": ev.SerializeToString()}
+            "from_state": _label(ev.from_state),
+            "to_state": _label(ev.to_state), "proto": ev.SerializeToString()}
 
 
 def _cluster_enabled(client: redis.Redis) -> bool:

@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.proto import service_pb2 as spb
+from touchdown.logs.header import surface_state
 from touchdown.logs.redis_stream import entry_fields
 from touchdown.service.autopilot import AutolandOutcome, autoland_commands
 from touchdown.service.commands import Rejected, Request
@@ -151,7 +152,7 @@ class Shard:
             for m in msgs:
                 fields = entry_fields(m)
                 self._emit(out, fields)
-                out.hashes[m.ship_id] = ship_hash(SurfaceState(m.to_state), self.body, m.tick,
+                out.hashes[m.ship_id] = ship_hash(surface_state(m.to_state), self.body, m.tick,
                                                   m.player_id, self.index)
         return out
 

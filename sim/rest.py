@@ -62,6 +62,17 @@ def over_footprint(cfg, sp, p, q):
 
 
 @kernel
+def springs_energy(k_leg, ft, e0_j):
+    """e0_j + sum_i k x_i^2 / 2 over the pressing feet (x_i > 0), J: the legs' stored energy,
+    added foot by foot to e0_j in feet order."""
+    e = e0_j
+    for i in range(4):
+        x = fmax(ft.pen_m[i], 0.0)
+        e = e + 0.5 * k_leg * x * x
+    return e
+
+
+@kernel
 def stable_at_rest(cfg, sp, s, ground):
     """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
     kinetic energy relative to the surface is below the barrier over every edge of its footprint.
@@ -92,10 +103,7 @@ def stable_at_rest(cfg, sp, s, ground):
     w_rel = sub(s.motion.w, body_spin_in_body_frame(om, q))
     i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]), sp.mass0_kg, m)
     kinetic = 0.5 * m * dot(v_rel, v_rel) + 0.5 * dot(w_rel, mul(i_b, w_rel))
-    stored = 0.0
-    for i in range(4):
-        x = fmax(ft.pen_m[i], 0.0)
-        stored = stored + 0.5 * k_leg * x * x
+    stored = springs_energy(k_leg, ft, 0.0)
     least = math.inf
     for i in range(4):
         j = (i + 1) % 4  # feet 0, 1, 2, 3 go round the footprint: i, i + 1 span an edge
@@ -125,11 +133,7 @@ REST_POSE_MAX = 0.05
 @kernel
 def _rest_energy(k_leg, m_kg, g, p, p0, ft):
     """The potential the rest pose minimises: -m g . (p - p0) + sum k_i x_i^2 / 2 (x_i > 0)."""
-    v = -m_kg * dot(g, sub(p, p0))
-    for i in range(4):
-        x = fmax(ft.pen_m[i], 0.0)
-        v = v + 0.5 * k_leg * x * x
-    return v
+    return springs_energy(k_leg, ft, -m_kg * dot(g, sub(p, p0)))
 
 
 @kernel

@@ -76,8 +76,9 @@ def resting(n_ships: int, state: np.ndarray, inputs: np.ndarray, outputs: np.nda
                          outputs_w=_words(outputs))
 
 
-#: a Resting that finds no fixed point (step: one tick of a batch)
 def no_resting(state: np.ndarray, inputs: np.ndarray, outputs: np.ndarray) -> Resting:
+    """A Resting that finds no fixed point: every ship is stepped (``step``: one tick of a
+    batch, where nothing is kept from tick to tick)."""
     return resting(state.shape[0], state, inputs, outputs, False)
 
 

@@ -1,0 +1,71 @@
+"""The block encoder's word stores (logs.encode_block._put_words: each eight-byte number stored
+as a whole word, shifted across the buffer's words where a field begins off a word boundary)
+give exactly the bytes of the byte-by-byte path, for fleets whose fields begin at every offset
+mod 8, keyframes and in-between ticks, with and without keys."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from touchdown import scenarios
+from touchdown.logs import encode_block as eb
+from touchdown.logs.header import KEYFRAME_ONLY
+from touchdown.proto import touchdown_pb2 as pb
+from touchdown.sim.scenario import parse_text
+from touchdown.sim.run import run_blocks
+
+
+def _encode(enc, block, keys, little, first_keyframe):
+    k, n = block.states.shape
+    keys64 = (np.zeros((n, 1), np.uint64) if keys is None else
+              np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64).reshape(n, 1))
+    views = [np.ascontiguousarray(a).view(np.uint8).reshape(k, n, a.dtype.itemsize)
+             for a in (block.states, block.outputs, block.inputs)]
+    ticks = np.arange(block.first_tick, block.first_tick + k, dtype=np.int64)
+    t_s = ticks * enc.dt_s
+    t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
+    out = np.zeros((k * enc._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
+    offsets = np.empty(k + 1, np.int64)
+    assert eb._encode_ticks(*views, keys64, enc.table, ticks, t_s, t_bytes, enc.keyframe_interval,
+                            enc.keyframe_phase, first_keyframe, out, offsets, little) >= 0
+    return out[:offsets[-1]].tobytes(), offsets
+
+
+@pytest.mark.skipif(not eb.LITTLE, reason="word stores are the little-endian path")
+def test_word_stores_give_the_bytes_of_byte_stores():
+    scn = parse_text(scenarios.text("fleet"), "fleet", {"duration": 1.0})
+    blocks = list(run_blocks(scn, max_ticks=4))
+    seen_offsets = set()
+    for interval in (1, 3):
+        enc = eb.BlockEncoder(scn.params.sim.dt_s, KEYFRAME_ONLY, interval)
+        for block in blocks:
+            n = block.states.shape[1]
+            for m in range(1, n + 1):  # fewer ships: fields begin elsewhere (mod 8)
+                part = type(block)(block.first_tick, block.states[:, :m], block.outputs[:, :m],
+                                   block.inputs[:, :m], [], block.ship_ids[:m])
+                for keys in (np.arange(m, dtype=np.int64) * 1_000_003, None):
+                    for first in (False, True):
+                        words, o1 = _encode(enc, part, keys, True, first)
+                        bytewise, o2 = _encode(enc, part, keys, False, first)
+                        assert (o1 == o2).all() and words == bytewise, (interval, m, first)
+                        seen_offsets.update(int(x) % 8 for x in o1)
+                # and the public encoder's bytes are protobuf's TickBatch (a spot check)
+                data, offsets = enc.encode(part.first_tick, part.states, part.outputs,
+                                           part.inputs, np.arange(m))
+                msg = pb.TickBatch()
+                msg.ParseFromString(data[offsets[0]:offsets[1]].tobytes())
+                assert msg.SerializeToString() == data[offsets[0]:offsets[1]].tobytes()
+                assert msg.ship_count == m
+
+
+def test_put_words_keeps_the_bytes_around_it():
+    """Numbers written at each offset mod 8 leave the bytes before and after them as they were."""
+    rng = np.random.default_rng(7)
+    words = rng.integers(0, 2**63, size=(5, 3), dtype=np.int64).view(np.uint64)
+    for o in range(16):
+        out = rng.integers(0, 256, size=112, dtype=np.uint8)
+        want = out.copy()
+        want[o:o + 5 * 2 * 8] = words[:, 1:3].astype("<u8").view(np.uint8).ravel()
+        end = eb._put_words(out.view(np.uint64), o, words, 0, 5, 1, 2)
+        assert end == o + 5 * 2 * 8
+        assert (out == want).all(), o
