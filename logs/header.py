@@ -82,6 +82,11 @@ def tick_arrays(rec: TickRecord, keys: np.ndarray | None = None) -> dict[str, np
 #: a ship's event message a few of them: thousands a second when a fleet touches down)
 _SURFACE = {int(x): x for x in SurfaceState}
 _TOPIC = {int(x): x.topic for x in EventKind}
+#: each state's seed string (``SurfaceState.seed_string``, a property of a property)
+SEED_STRINGS = {x: x.seed_string for x in SurfaceState}
+#: each state's label (``SurfaceState.label``)
+LABELS = {x: x.label for x in SurfaceState}
+_FLYING = SurfaceState.FLYING
 
 
 def surface_state(value) -> SurfaceState:
@@ -114,12 +119,12 @@ def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: in
     wx, wy, wz = row["omega_body_radps"].tolist()
     return pb.ShipState(
         ship_id=ship_id, player_id=player_id,
-        landed_body_name="" if st is SurfaceState.FLYING else body,
+        landed_body_name="" if st is _FLYING else body,
         position_m={"x": px, "y": py, "z": pz}, velocity_mps={"x": vx, "y": vy, "z": vz},
         attitude={"w": q0, "x": q1, "y": q2, "z": q3},
         omega_body_radps={"x": wx, "y": wy, "z": wz},
         mass_kg=float(row["mass_kg"]), fuel_kg=float(row["fuel_kg"]), state=int(st),
-        tilt_deg=tilt, surface_contact_state=st.seed_string)
+        tilt_deg=tilt, surface_contact_state=SEED_STRINGS[st])
 
 
 def _ship_state_message_fields(ship_id: str, player_id: str, body: str, rec_state, i: int

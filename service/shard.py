@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.proto import service_pb2 as spb
-from touchdown.logs.header import surface_state
+from touchdown.logs.header import LABELS, SEED_STRINGS, surface_state
 from touchdown.logs.redis_stream import entry_fields
 from touchdown.service.autopilot import AutolandOutcome, autoland_commands
 from touchdown.service.commands import Rejected, Request
@@ -244,7 +244,7 @@ class Shard:
         ids = self.world.ship_ids
         players = self.world.params.ships.player_id
         states = self.world.state.rows["surface_state"]
-        return {ids[i]: ship_hash(SurfaceState(int(states[i])), self.body, tick, players[i],
+        return {ids[i]: ship_hash(surface_state(states[i]), self.body, tick, players[i],
                                   self.index) for i in rows}
 
     @staticmethod
@@ -275,6 +275,6 @@ _no_phase = _NoPhases()
 def ship_hash(state: SurfaceState, body: str, tick: int, player_id: str, shard: int) -> dict:
     """A ship's hash (SPEC.md section 5): its state, the seed's surface_contact_state and
     landed_body_name, the tick they hold at."""
-    return {"state": state.label, "surface_contact_state": state.seed_string,
+    return {"state": LABELS[state], "surface_contact_state": SEED_STRINGS[state],
             "landed_body_name": "" if state is SurfaceState.FLYING else body,
             "tick": str(tick), "player_id": player_id, "shard": str(shard)}

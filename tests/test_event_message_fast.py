@@ -63,3 +63,12 @@ def test_surface_state_look_up_is_the_enum():
         pass
     else:  # pragma: no cover
         raise AssertionError("a state outside the enum must raise ValueError, as SurfaceState()")
+
+
+def test_ship_hash_names_the_state_as_the_enum_does():
+    from touchdown.service.shard import ship_hash
+    for x in SurfaceState:
+        h = ship_hash(x, "Luna", 7, "player-1", 2)
+        assert h == {"state": x.label, "surface_contact_state": x.seed_string,
+                     "landed_body_name": "" if x is SurfaceState.FLYING else "Luna",
+                     "tick": "7", "player_id": "player-1", "shard": "2"}
