@@ -1684,7 +1684,6 @@ def vertical_flight(here, fb, s, log):
     tick's end, not at the release too.)"""
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
-    om = fb.craft.body_omega_radps
     fb = with_hold(fb, NO_HOLD)
     m, ft0 = s.motion, s.footing
     ground0 = ground_at(fb, 0.0)
@@ -1766,20 +1765,9 @@ def vertical_flight(here, fb, s, log):
         if sample:
             run = settle_sample(cfg, sp, s, ground, run, t_seen, dt)
         stop = tr.stop
-    surf = s.surface_state
-    ft = s.footing
     if stop:
-        # pinned during the tick: carried with the body to the tick's end, moving as pinned
-        pin = s.pin
-        p = rotate_z(pin.pos_bf_m, cos1, sin1)
-        q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
-        v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
-                             pin.rate_radps if surf == TIPPED else 0.0)
-        s = with_motion(s, surf, Motion(p, v, q, w))
-        ce_end = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb, dt),
-                            Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
-    if surf != CONTACT and not (surf == TIPPED and not stop):  # no foot holds
-        s = with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
+        s, ce_end = pinned_at_end(fb, s, cos1, sin1, dt)
+    s = unheld(s, stop)
     return Flight(s, Report(0.0, abs(ce_end.normal_n), peak_t, 0.0 + guard_j),
                   run if sample and s.surface_state == CONTACT else NO_RUN)
 
@@ -1893,6 +1881,36 @@ def coarse_tick(cfg, fb, s, ce, h):
     return True
 
 
+@kernel
+def pinned_at_end(fb, s, cos1, sin1, dt):
+    """A ship pinned during the tick (crashed, tipped to the pivot model, or at rest on its hull):
+    carried with the body to the tick's end (the body's angles ``cos1``, ``sin1`` there), moving
+    as pinned; its state and its contact evaluated there."""
+    surf = s.surface_state
+    ft = s.footing
+    pin = s.pin
+    p = rotate_z(pin.pos_bf_m, cos1, sin1)
+    q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
+    v, w = pinned_motion(fb.craft.body_omega_radps, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
+                         pin.rate_radps if surf == TIPPED else 0.0)
+    s = with_motion(s, surf, Motion(p, v, q, w))
+    ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb, dt),
+                    Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
+    return s, ce
+
+
+@kernel
+def unheld(s, pinned_now):
+    """The ship at its tick's end with no foot's static friction carried where no foot holds:
+    not in contact, unless tipped and moving by the full model (``pinned_now``: pinned within
+    the tick)."""
+    surf = s.surface_state
+    ft = s.footing
+    if surf != CONTACT and not (surf == TIPPED and not pinned_now):
+        return with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
+    return s
+
+
 @separate
 def free_flight(here, fb, s, n_sub, carry, coarse, log):
     """Advance a free ship near the ground (``fb.craft.touching``; one clear of it takes
@@ -1916,7 +1934,6 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     the scene's ``coarse_substeps`` instead of ``n_sub`` (sim.coarse_substep)."""
     cfg, sp, cos1, sin1 = here.cfg, here.sp, here.turn.cos1, here.turn.sin1
     dt = cfg.dt_s
-    om = fb.craft.body_omega_radps
     m = s.motion
     friction_n = 0.0
     peak = 0.0
@@ -2040,19 +2057,8 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
             pinned_now = True
             break
     fb_k = with_hold(fb, carried)
-    surf = s.surface_state
-    ft = s.footing
     if pinned_now:
-        # pinned during the tick: carried with the body to the tick's end, moving as pinned
-        pin = s.pin
-        p = rotate_z(pin.pos_bf_m, cos1, sin1)
-        q = quat_mul(quat_z(cos1, sin1), pin.quat_bf)
-        v, w = pinned_motion(om, p, q, rotate_z(pin.pivot_bf_m, cos1, sin1),
-                             pin.rate_radps if surf == TIPPED else 0.0)
-        s = with_motion(s, surf, Motion(p, v, q, w))
-        ce = contact_at(with_feet(fb_k, ENGAGE_AT_GROUND, ft.sliding), ground_at(fb_k, dt),
-                        Motion(p, v, q, w), ft.absorbing, ENGAGE_AT_GROUND)
-    if surf != CONTACT and not (surf == TIPPED and not pinned_now):  # no foot holds
-        s = with_footing(s, with_friction(ft, ft.sliding, NO_HOLD))
+        s, ce = pinned_at_end(fb_k, s, cos1, sin1, dt)
+    s = unheld(s, pinned_now)
     return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
                   run if sample and s.surface_state == CONTACT else NO_RUN)
