@@ -12,6 +12,7 @@ from typing import Sequence
 import redis
 
 from touchdown.logs import LogError
+from touchdown.logs.header import LABELS
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.enums import SurfaceState
 
@@ -24,12 +25,9 @@ def _instant(ev: pb.TransitionEvent) -> float:
     return ev.t_event_s if ev.HasField("t_event_s") else ev.t_s
 
 
-#: the states' labels by number (an enum's call costs a microsecond or two)
-_LABELS = {int(x): x.label for x in SurfaceState}
-
-
 def _label(value: int) -> str:
-    got = _LABELS.get(value)
+    """``SurfaceState(value).label`` by a look-up (an IntEnum member hashes as its number)."""
+    got = LABELS.get(value)
     return got if got is not None else SurfaceState(value).label
 
 
