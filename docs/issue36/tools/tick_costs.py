@@ -1,6 +1,7 @@
 """What each tick of envelope touchdowns costs, tick by tick (issue 36, session 10).
 
-    python tick_costs.py [STRIDE]        # cases 0, STRIDE, 2 STRIDE, ... of the 300 (default 15)
+    python tick_costs.py [STRIDE [COSTS.pkl]]   # cases 0, STRIDE, 2 STRIDE, ... of the 300 (default
+                                                # 15); COSTS.pkl: {(case, tick): us} for strike_join.py
 
 The step is a pure function of state and inputs: each tick of a case is restarted from its
 recorded state in a batch of 100 copies of the ship (sim.step.step, one call) and timed, least of
@@ -63,3 +64,7 @@ for (state, sliding), (n, us) in sorted(groups.items(), key=lambda kv: -kv[1][1]
 print("the dearest ticks: us, case, tick, (state, sliding), speed m/s")
 for t in sorted(ticks, reverse=True)[:40]:
     print(f"{t[0]:8.1f} {t[1]:4d} {t[2]:4d} {t[3]} {t[4]:.3f}")
+if len(sys.argv) > 2:
+    import pickle
+    with open(sys.argv[2], "wb") as f:
+        pickle.dump({(c, int(tk)): us for us, c, tk, key, sp in ticks}, f)
