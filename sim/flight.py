@@ -22,7 +22,7 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import RK4, advance, exponential, rk4_held
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -566,8 +566,11 @@ def to_event(cfg, fb, roles, h, start, ev):
     # an absorbed foot's force jumps to zero where it leaves the ground (c x' is not zero
     # there): kept pressing through the trials, so that no stage of a trial ending just past
     # its release (EVENT_TOL_M) loses its pull (rk4's last stage, a sixth of the piece's pull:
-    # MODEL-NOTES 52); a foot about to press kept from pressing likewise
-    off = ev.release if absorbing else NO_SLIP
+    # MODEL-NOTES 52); a foot about to press kept from pressing likewise. Not with the
+    # exponential method (sim.flow_release): its flow lets go at the release itself, and a pull
+    # kept on past it reached its closing kick as a damper's pull after the release (MODEL-NOTES 66)
+    off = (ev.release if absorbing and not (cfg.flow_release and fb.craft.method == EXPONENTIAL)
+           else NO_SLIP)
     held_off = (NEVER if on[0] else (ALWAYS if off[0] else engage[0]),
                 NEVER if on[1] else (ALWAYS if off[1] else engage[1]),
                 NEVER if on[2] else (ALWAYS if off[2] else engage[2]),
