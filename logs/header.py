@@ -111,10 +111,14 @@ def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: in
     st = surface_state(row["surface_state"])
     p = row["pos_m"]
     q0, q1, q2, q3 = row["quat"].tolist()
-    r_hat = p / math.sqrt(float(p @ p))
+    px, py, pz = p.tolist()
+    # r_hat divided element by element in Python (IEEE division, correctly rounded: the bits of
+    # numpy's p / norm), then an array: numpy's division of the record's unaligned view took
+    # 6 us of the message's 22 (the dot products stay numpy's, on the same kinds of arrays)
+    norm = math.sqrt(float(p @ p))
+    r_hat = np.array((px / norm, py / norm, pz / norm))
     ez = np.array([2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), 1 - 2 * (q1 ** 2 + q2 ** 2)])
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
-    px, py, pz = p.tolist()
     vx, vy, vz = row["vel_mps"].tolist()
     wx, wy, wz = row["omega_body_radps"].tolist()
     return pb.ShipState(

@@ -239,6 +239,25 @@ if ARGV[4] ~= '-1' then redis.call('SET', KEYS[5], ARGV[4]) end
 return added
 """)
 
+#: Ships' hashes, many in one call (a single Redis; a cluster's ship keys are in many slots):
+#: KEYS the ships' hashes; ARGV the number of fields F, their F names, then each ship's F values
+#: in order. The same HSETs as one command a ship, at a third of the client's work and half the
+#: round trip's (a fleet touching down writes hundreds of hashes a tick; a new shard every ship's).
+HASHES = """
+local nf = tonumber(ARGV[1])
+local j = 2 + nf
+local args = {}
+for i = 1, #KEYS do
+  for f = 1, nf do
+    args[2 * f - 1] = ARGV[1 + f]
+    args[2 * f] = ARGV[j]
+    j = j + 1
+  end
+  redis.call('HSET', KEYS[i], unpack(args, 1, 2 * nf))
+end
+return #KEYS
+"""
+
 #: The requests a tick applies, journaled before the tick applies them, with their command
 #: entries acknowledged, then the command stream trimmed below its oldest unacknowledged entry
 #: (acknowledged commands only): KEYS owner, epoch, journal, the shard's commands, the last

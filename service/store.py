@@ -37,6 +37,9 @@ _KINDS = {"OutOfMemoryError": "OOM", "NoPermissionError": "NOPERM", "ReadOnlyErr
           "BusyLoadingError": "LOADING", "NoScriptError": "NOSCRIPT"}
 
 PUBLISH_CHUNK = 500  # entries a PUBLISH script takes at most
+#: ships' hashes a HASHES script writes at most (a single Redis): a call of 1,000 takes Redis a
+#: few milliseconds, in which it answers nobody else
+HASHES_CHUNK = 1000
 
 
 def refusal_kind(exc: BaseException, text: str) -> str:
@@ -435,11 +438,7 @@ class ShardStore:
                 self._script("RESULTS", [keys.shard_results(k)],
                              [f"{tick}-1", results_maxlen, tick, payload], client=pipe)
                 plan.append(("results", k, 0, -1))
-            for sid, fields in w.hashes.items():
-                if fields is None:
-                    pipe.delete(keys.ship(sid))
-                else:
-                    pipe.hset(keys.ship(sid), mapping=fields)
+            for _ in range(self._hashes(w.hashes, pipe)):
                 plan.append(("hash", k, 0, -1))
             if w.specs:
                 pipe.hset(keys.shard(k, "specs"), mapping=w.specs)
@@ -533,11 +532,47 @@ class ShardStore:
             pipe.hset(self.keys.shard(k, "specs"), mapping=specs)
         if params:
             pipe.hset(self.keys.shard(k, "params"), mapping=params)
-        for sid, fields in hashes.items():
-            if fields is not None:
-                pipe.hset(self.keys.ship(sid), mapping=fields)
+        self._hashes({sid: f for sid, f in hashes.items() if f is not None}, pipe)
         pipe.execute()
         return 1
+
+    def _hashes(self, hashes: dict, pipe) -> int:
+        """Queue the writes of ships' hashes (ship id -> its fields, or None: the ship left,
+        its hash deleted) on ``pipe``; returns how many commands were queued. A single Redis
+        takes them HASHES_CHUNK at a time, by field names in common (HASHES, one script call:
+        the same HSETs, without a command's packing and reply a ship); a cluster, whose ship
+        keys are in many slots, one HSET or DEL a ship."""
+        ship = self.keys.ship
+        if self.cluster:
+            for sid, fields in hashes.items():
+                if fields is None:
+                    pipe.delete(ship(sid))
+                else:
+                    pipe.hset(ship(sid), mapping=fields)
+            return len(hashes)
+        groups: dict[tuple, tuple[list, list]] = {}
+        gone: list[str] = []
+        for sid, fields in hashes.items():
+            if fields is None:
+                gone.append(ship(sid))
+                continue
+            names = tuple(fields)
+            group = groups.get(names)
+            if group is None:
+                group = groups[names] = ([], [])
+            group[0].append(ship(sid))
+            group[1].extend(fields.values())
+        queued = 0
+        for i in range(0, len(gone), HASHES_CHUNK):
+            pipe.delete(*gone[i:i + HASHES_CHUNK])
+            queued += 1
+        for names, (keys, values) in groups.items():
+            nf = len(names)
+            for i in range(0, len(keys), HASHES_CHUNK):
+                self._script("HASHES", keys[i:i + HASHES_CHUNK],
+                             [nf, *names, *values[i * nf:(i + HASHES_CHUNK) * nf]], client=pipe)
+                queued += 1
+        return queued
 
     # -- a take-over ------------------------------------------------------------------------------
     def load(self, k: int) -> Loaded:
