@@ -117,7 +117,10 @@ class ServeConfig:
     log_min_free_bytes: int = 64 << 20  # the log pauses below this much free disk
     keyframe_every: int = 10
     #: the flight log's zstd level (logs.encode): a fast one, the log's largest cost at scale
-    log_zstd_level: int | None = -3
+    #: (zstd is about half of the writers' CPU, which shares the worker's core with the tick).
+    #: -8: a quarter less CPU than -3 for 7% more bytes (a 12,500-ship shard's tick chunks:
+    #: 0.69 against 0.87 ns a byte, ratio 2.57 against 2.76); the same ``zstd`` chunks
+    log_zstd_level: int | None = -8
     worker_id: str = ""
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
