@@ -22,7 +22,7 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import RK4, advance, exponential, rk4_held
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -566,8 +566,11 @@ def to_event(cfg, fb, roles, h, start, ev):
     # an absorbed foot's force jumps to zero where it leaves the ground (c x' is not zero
     # there): kept pressing through the trials, so that no stage of a trial ending just past
     # its release (EVENT_TOL_M) loses its pull (rk4's last stage, a sixth of the piece's pull:
-    # MODEL-NOTES 52); a foot about to press kept from pressing likewise
-    off = ev.release if absorbing else NO_SLIP
+    # MODEL-NOTES 52); a foot about to press kept from pressing likewise. Not with the
+    # exponential method (sim.flow_release): its flow lets go at the release itself, and a pull
+    # kept on past it reached its closing kick as a damper's pull after the release (MODEL-NOTES 66)
+    off = (ev.release if absorbing and not (cfg.flow_release and fb.craft.method == EXPONENTIAL)
+           else NO_SLIP)
     held_off = (NEVER if on[0] else (ALWAYS if off[0] else engage[0]),
                 NEVER if on[1] else (ALWAYS if off[1] else engage[1]),
                 NEVER if on[2] else (ALWAYS if off[2] else engage[2]),
@@ -1598,7 +1601,8 @@ def fly_clear(cfg, fb, s):
         v, w, removed = gd.v, gd.w, gd.removed_j
     s = with_footing(with_motion(s, s.surface_state, Motion(res.p, v, res.q, w)),
                      with_friction(ft, ft.sliding, NO_HOLD))
-    return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed), NO_RUN)  # as free_flight sums it
+    return Flight(s, Report(0.0, 0.0, 0.0, 0.0 + removed, math.nan),  # as free_flight sums it
+                  NO_RUN)
 
 
 #: Most pieces a purely vertical ship's tick is cut into (:func:`vertical_flight`): a flight to
@@ -1768,7 +1772,8 @@ def vertical_flight(here, fb, s, log):
     if stop:
         s, ce_end = pinned_at_end(fb, s, cos1, sin1, dt)
     s = unheld(s, stop)
-    return Flight(s, Report(0.0, abs(ce_end.normal_n), peak_t, 0.0 + guard_j),
+    return Flight(s, Report(0.0, abs(ce_end.normal_n), peak_t, 0.0 + guard_j,
+                            lowest_of(ce_end)),
                   run if sample and s.surface_state == CONTACT else NO_RUN)
 
 
@@ -1882,6 +1887,17 @@ def coarse_tick(cfg, fb, s, ce, h):
 
 
 @kernel
+def lowest_of(ce):
+    """The deepest foot's penetration from an evaluation ``ce`` at the ship's state at its tick's
+    end (sim.contact.lowest_foot_penetration of the same feet: the same bits; its feet are
+    evaluate's, sim.contact.feet's numbers), NaN for a ship whose feet were not looked for."""
+    pen = ce.pen_m
+    if not ce.touching:
+        return math.nan
+    return fmax(fmax(fmax(pen[0], pen[1]), pen[2]), pen[3])
+
+
+@kernel
 def pinned_at_end(fb, s, cos1, sin1, dt):
     """A ship pinned during the tick (crashed, tipped to the pivot model, or at rest on its hull):
     carried with the body to the tick's end (the body's angles ``cos1``, ``sin1`` there), moving
@@ -1953,7 +1969,8 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     memo = memo_of(fb0, ce, 0.0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     memo_here = True  # memo was evaluated at s.motion itself (nothing has moved the ship since)
     v_rad = dot(m.v, unit(m.p))
-    e_ref = (energy_ref(ship_energy(fb, ground0, m.p, m.v, m.q, m.w)) if cfg.energy_guard
+    # (the feet's penetrations the evaluation at m has: sim.energy.mechanical's bits)
+    e_ref = (energy_ref(ship_energy_at(fb, ground0, m, ce.pen_m)) if cfg.energy_guard
              else EnergyRef(0.0, 0.0, 0.0))
     carried = fb.grip.hold_w  # the friction the FreeBody carries (with_hold)
     ft0 = s.footing
@@ -2060,5 +2077,5 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     if pinned_now:
         s, ce = pinned_at_end(fb_k, s, cos1, sin1, dt)
     s = unheld(s, pinned_now)
-    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j),
+    return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j, lowest_of(ce)),
                   run if sample and s.surface_state == CONTACT else NO_RUN)

@@ -34,8 +34,8 @@ from touchdown.sim.integrators import EXPONENTIAL, HYBRID, RK4, sub_method
 from touchdown.sim.pivot import pinned_motion, pivot_step
 from touchdown.sim.rest import rest_pose, settle_margin
 from touchdown.sim.ship import (CONTACT, CRASHED, Commands, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED,
-    HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, Pin, RADIAL_NORMAL, REST_LANDED, TIPPED,
-    emit, fresh_footing, load, scene_ground, store, with_footing, with_friction, with_mass,
+    HOLD_OFF, HOLD_RADIAL, LANDED, NO_HOLD, NO_REPORT, Pin, RADIAL_NORMAL, REST_LANDED, Report,
+    TIPPED, emit, fresh_footing, load, scene_ground, store, with_footing, with_friction, with_mass,
     with_motion, with_pin, with_settle, with_state)
 from touchdown.sim.vec import (cross, dot, fmax, fmin, mul, norm, quat_axis_z, quat_mul,
     quat_rotate, quat_rotate_inv, scale, sub, unit)
@@ -230,6 +230,15 @@ def free_body(here, s, cmd, touching, method):
 
 
 @kernel
+def unturned(cfg, cos1, sin1):
+    """A body that does not turn, at its tick's end angle (``cos1``, ``sin1``) of zero: the ground
+    there (sim.ship.scene_ground) is the free flight's (sim.dynamics.ground_at), field for field,
+    so what the flight evaluated on its ground at the tick's end holds for the phases after it."""
+    return (cfg.omega_radps == 0.0 and cos1 == 1.0 and sin1 == 0.0
+            and math.copysign(1.0, sin1) > 0.0)
+
+
+@kernel
 def settle(here, s, cmd, run, log):
     """Contact -> landed once tilt, angular and linear speeds have stayed under their thresholds
     for ``settle_time`` (SEED-NOTES 3: the bottom of a bounce, where v_radial = 0, never lands),
@@ -240,7 +249,12 @@ def settle(here, s, cmd, run, log):
     (MODEL-NOTES 20). ``run`` (a :class:`SettleRun`): the samples at every sub-step's end of the
     tick (MODEL-NOTES 47), where there were; otherwise the tick's ends alone."""
     cfg, cos1, sin1 = here.cfg, here.turn.cos1, here.turn.sin1
-    margin = settle_margin(here, s)
+    # a sampled run's last sample is margin_on of this very state at the tick's end (the free
+    # flight samples its last sub-step's end after its transitions, and hands the run on only
+    # where the ship is in contact there, unpinned); on a body that does not turn the ground it
+    # sampled on (sim.dynamics.ground_at) is the one settle_margin builds, field for field
+    margin = (run.margin if run.sampled and unturned(cfg, cos1, sin1)
+              else settle_margin(here, s))
     # a ship whose engine or RCS the player fires is not at rest (MODEL-NOTES 45)
     driven = cfg.landed_model == REST_LANDED and cmd.driven
     ok = s.surface_state == CONTACT and margin > 0.0 and not driven
@@ -365,8 +379,12 @@ def observe(here, s, cmd, report, out):
     the free-flight phase's ``report`` (free ships) or are the weight (landed, tipped)."""
     cfg, terrain, sp, cos1, sin1 = here.cfg, here.terrain, here.sp, here.turn.cos1, here.turn.sin1
     om = cfg.omega_radps
-    ground = scene_ground(cfg, terrain, cos1, sin1)
-    pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+    # (the flight's evaluation at the tick's end has it, where its ground is this one)
+    if unturned(cfg, cos1, sin1) and not math.isnan(report.lowest_m):
+        pen = report.lowest_m
+    else:
+        pen = lowest_foot_penetration(scene_ground(cfg, terrain, cos1, sin1), s.motion.p,
+                                      s.motion.q, sp.leg_radius_m, sp.com_height_m)
     r_hat = unit(s.motion.p)
     v_rel = sub(s.motion.v, surface_velocity(om, s.motion.p))
     v_rad = dot(v_rel, r_hat)
@@ -439,6 +457,9 @@ def step_ship(here, rec, inp, out, log):
         s, report = fl.ship, fl.report
         if fine:
             s = settle(here, s, cmd, fl.run, log)
+            if s.surface_state != fl.ship.surface_state:  # landed, at its rest pose
+                report = Report(report.friction_n, report.normal_n, report.peak_penetration_m,
+                                report.guard_j, math.nan)
     else:
         s = pinned(here, s, cmd, log)
     s = burn(here, s, cmd)

@@ -73,11 +73,11 @@ def springs_energy(k_leg, ft, e0_j):
 
 
 @kernel
-def stable_at_rest(cfg, sp, s, ground):
+def stable_at_rest(cfg, sp, s, ft):
     """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
     kinetic energy relative to the surface is below the barrier over every edge of its footprint.
     The barrier over the edge of feet i, j is the potential at the saddle the ship passes to topple
-    over it, less the potential now:
+    over it, less the potential now (``ft``: the feet at the ship's pose, sim.contact.feet):
 
         B = m g (z_s - z) + k_i (x_s,i^2 + x_s,j^2) / 2 - sum_feet k_i x_k^2 / 2,
 
@@ -90,11 +90,9 @@ def stable_at_rest(cfg, sp, s, ground):
     left. The seed's "stable" (an energy test, SEED-NOTES 3)."""
     m = s.mass_kg
     p, q = s.motion.p, s.motion.q
-    a, h = sp.leg_radius_m, sp.com_height_m
-    if not a > 0.0:  # four feet at one point: no edge holds anything
+    if not sp.leg_radius_m > 0.0:  # four feet at one point: no edge holds anything
         return False
     k_leg = 0.25 * sp.stiffness_per_kg * m
-    ft = feet(ground, p, q, a, h)
     g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, p)
     g_mag = norm(g)
     up = (-g[0] / g_mag, -g[1] / g_mag, -g[2] / g_mag)
@@ -214,14 +212,14 @@ def rest_pose(cfg, sp, m_kg, p, q, ground):
 
 
 @kernel
-def feet_still(cfg, sp, s, ground, up_ground):
+def feet_still(cfg, sp, s, ft, ground, up_ground):
     """The margin of a ship's feet being at rest (> 0: they are): every pressing foot slipping
     slower than SETTLE_SLIP_MPS (as a fraction of it), and the footprint able to hold
     the weight by static friction, the effective gravity's part along the ground under the centre
     of mass within mu_s of its part into it (-1 where it is not: a ship on a slope steeper than
-    atan(mu_s) is never at rest, however slowly it starts to slide)."""
+    atan(mu_s) is never at rest, however slowly it starts to slide). ``ft``: the feet at the
+    ship's pose on ``ground`` (sim.contact.feet)."""
     m = s.motion
-    ft = feet(ground, m.p, m.q, sp.leg_radius_m, sp.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     worst = 0.0
     for i in range(4):
@@ -281,9 +279,13 @@ def margin_on(cfg, sp, s, ground):
                                        or s.footing.sliding[2] or s.footing.sliding[3])
     if not over_footprint(cfg, sp, s.motion.p, s.motion.q) or slides:
         return fmin(m, -1.0)
-    if coulomb and rest:
-        m = fmin(m, feet_still(cfg, sp, s, ground, up_ground))
-    # at rest, but with the energy to pass an edge of its footprint: not stable (MODEL-NOTES 45)
-    if rest and m > 0.0 and not stable_at_rest(cfg, sp, s, ground):
-        return fmin(m, -1.0)
+    if rest and (coulomb or m > 0.0):
+        # the feet where they stand, looked up once for both tests
+        ft = feet(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+        if coulomb:
+            m = fmin(m, feet_still(cfg, sp, s, ft, ground, up_ground))
+        # at rest, but with the energy to pass an edge of its footprint: not stable
+        # (MODEL-NOTES 45)
+        if m > 0.0 and not stable_at_rest(cfg, sp, s, ft):
+            return fmin(m, -1.0)
     return m

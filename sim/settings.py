@@ -235,6 +235,12 @@ SETTINGS: tuple[Setting, ...] = (
           "own: the spring-damper's exact flow, the feet's onset the root of the ballistic "
           "flow, no friction solve (sim.flight.vertical_flight); false: free_flight's general "
           "pieces and friction, the session-16 main's, bit for bit (MODEL-NOTES 65)"),
+    S("sim.flow_release", "bool", True, dest="sim.flow_release", scene="flow_release",
+      doc="with the exponential method, an absorbed foot's release located inside a step "
+          "(sim.flight.to_event) is the spring-damper flow's own: the trials keep no pull on past "
+          "it; false: the pull kept on through them as rk4's stages need, which the flow's "
+          "closing kick took as a damper's pull after the release (a liftoff under thrust 25% "
+          "slow), the session-17 main's bits (MODEL-NOTES 66)"),
     S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
       scene="coarse_when_clear",
       doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "

@@ -4,6 +4,7 @@ fuel, :class:`Footing`, :class:`Pin`) and stored back, the commands actually app
 (:class:`EventLog`, :func:`emit`). Shared by every phase (sim.phases, sim.flight, sim.rest)."""
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -228,10 +229,13 @@ class Report(NamedTuple):
     normal_n: float  # the normal force at the end
     peak_penetration_m: float  # the deepest penetration of any sub-step
     guard_j: float  # what the passivity guard removed
+    #: the deepest foot's penetration at the tick's end, from the contact evaluated there on the
+    #: ground at the tick's end angle (sim.contact.lowest_foot_penetration's bits); NaN: none was
+    lowest_m: float
 
 
 #: a tick without flight (pinned ships; a state at rest)
-NO_REPORT = Report(0.0, 0.0, 0.0, 0.0)
+NO_REPORT = Report(0.0, 0.0, 0.0, 0.0, math.nan)
 
 
 class Turn(NamedTuple):
