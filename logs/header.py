@@ -107,7 +107,13 @@ def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: in
     rows = getattr(rec_state, "rows", None)
     if rows is None:
         return _ship_state_message_fields(ship_id, player_id, body, rec_state, i)
-    row = rows[i]
+    return pb.ShipState(**_ship_state_fields(ship_id, player_id, body, rows[i]))
+
+
+def _ship_state_fields(ship_id: str, player_id: str, body: str, row) -> dict:
+    """ship_state_message's fields (the sub-messages as dicts) from the ship's record row: a
+    TransitionEvent given them makes its ``ship`` at once, where a ShipState made first is
+    copied into it (1.3 us of an event's 16)."""
     st = surface_state(row["surface_state"])
     p = row["pos_m"]
     q0, q1, q2, q3 = row["quat"].tolist()
@@ -121,7 +127,7 @@ def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: in
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
     vx, vy, vz = row["vel_mps"].tolist()
     wx, wy, wz = row["omega_body_radps"].tolist()
-    return pb.ShipState(
+    return dict(
         ship_id=ship_id, player_id=player_id,
         landed_body_name="" if st is _FLYING else body,
         position_m={"x": px, "y": py, "z": pz}, velocity_mps={"x": vx, "y": vy, "z": vz},
@@ -158,11 +164,14 @@ def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
     ship_id = ev.ship_id
     player_id = ships.players[ships.key(ship_id)]
     topic = _TOPIC.get(int(ev.kind))
+    rows = getattr(state, "rows", None)
+    ship = (ship_state_message(ship_id, player_id, body, state, ev.ship) if rows is None else
+            _ship_state_fields(ship_id, player_id, body, rows[ev.ship]))
     return pb.TransitionEvent(
         event=EventKind(ev.kind).topic if topic is None else topic, tick=ev.tick,
         t_s=ev.tick * dt_s, ship_id=ship_id,
         player_id=player_id, body=body, from_state=ev.from_state, to_state=ev.to_state,
-        ship=ship_state_message(ship_id, player_id, body, state, ev.ship),
+        ship=ship,
         v_radial_mps=ev.v_radial_mps, t_event_s=ev.t_event_s)
 
 

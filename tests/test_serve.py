@@ -160,6 +160,35 @@ def test_events_arrive_with_the_seeds_fields_in_order_and_logs_verify(service):
     assert phases == {0: 0, 1: 5}
 
 
+def test_the_flush_behind_the_tick_publishes_what_the_flush_in_the_tick_does(redis_url,  # noqa: F811,E501
+                                                                              tmp_path):
+    """flush_behind (the default: the flush's round trip on a thread, its replies taken at the
+    next loop's start) and the flush waited for in the tick: the same entries, numbered the
+    same, and the same ships' hashes (written by HASHES scripts)."""
+    got = []
+    for behind in (True, False):
+        prefix = _prefix()
+        try:
+            cfg = ServeConfig(url=redis_url, prefix=prefix, log_dir=tmp_path / f"flight{behind}",
+                              rate_hz=0.0, shards=2, scenario=FLEET, source="fleet", ticks=200,
+                              flush_behind=behind)
+            w = Worker(cfg, say=lambda line: None)
+            w.run()
+            assert w._flushing is None  # the last flush's replies taken at the stop
+            events = [{k: v for k, v in e.items()} for e in _events(redis_url, f"{prefix}:ships")]
+            client = redis.Redis.from_url(redis_url)
+            hashes = {sid: _fields(client.hgetall(f"{prefix}:ship:{sid}"))
+                      for sid in FLEET.params.ships.ship_id}
+            client.close()
+            got.append((events, hashes))
+        finally:
+            _cleanup(redis_url, prefix)
+    (ev_a, h_a), (ev_b, h_b) = got
+    assert len([e for e in ev_a if e["event"].startswith(b"ship.")]) > 5
+    assert sorted(ev_a, key=lambda e: e["seq"]) == sorted(ev_b, key=lambda e: e["seq"])
+    assert h_a == h_b and all(h_a.values())
+
+
 def test_a_command_changes_the_ship_at_the_tick_recorded(service):
     """A throttle command is applied at the tick the service reads it and recorded there: the
     flight log's command record and the ship's inputs from the next tick on say the same."""

@@ -190,10 +190,11 @@ def test_checkpoints_pack_later_and_the_last_versions_still_read():
 
 # -- the flight log --------------------------------------------------------------------------
 def test_a_fast_zstd_log_holds_the_same_records_and_verifies(tmp_path):
-    """The same world logged at the library's level and at zstd -3 (encoded on the writer's
-    thread either way): the same tick records, the chunks zstd, and each verifies."""
+    """The same world logged at the library's level, at zstd -3 and at the service's level
+    (encoded on the writer's thread either way): the same tick records, the chunks zstd, and
+    each verifies."""
     paths = []
-    for level in (None, -3):
+    for level in (None, -3, ServeConfig().log_zstd_level):
         world = _fleet_world(300)
         d = tmp_path / f"level{level}"
         log = RotatingLog(d, world, prefix="f", keyframe_interval=10, open_ended=True,
@@ -204,12 +205,13 @@ def test_a_fast_zstd_log_holds_the_same_records_and_verifies(tmp_path):
         log.close()
         assert len(log.files) == 1
         paths.append(log.files[0])
-    with LogReader(paths[0]) as a, LogReader(paths[1]) as b:
-        ta, tb = list(a.ticks()), list(b.ticks())
-        assert [t.tick for t in ta] == [t.tick for t in tb] == list(range(0, 41))
-        for x, y in zip(ta, tb):
-            assert x.arrays.keys() == y.arrays.keys()
-            assert all(np.array_equal(x.arrays[f], y.arrays[f]) for f in x.arrays)
+    for other in paths[1:]:
+        with LogReader(paths[0]) as a, LogReader(other) as b:
+            ta, tb = list(a.ticks()), list(b.ticks())
+            assert [t.tick for t in ta] == [t.tick for t in tb] == list(range(0, 41))
+            for x, y in zip(ta, tb):
+                assert x.arrays.keys() == y.arrays.keys()
+                assert all(np.array_equal(x.arrays[f], y.arrays[f]) for f in x.arrays)
     for p in paths:
         res = verify(str(p))
         assert res.divergence is None and res.ticks_compared > 0, res
