@@ -399,7 +399,10 @@ def test_a_full_then_read_only_log_disk_pauses_the_log_and_the_ships_go_on(redis
         subprocess.run(["mount", "-o", "remount,bind,ro", str(flight)], check=True)
         _wait(lambda: w.err().count("paused") >= 2, 30, "the log to pause on a read-only dir")
         subprocess.run(["umount", str(flight)], check=True)
-        _wait(lambda: w.err().count("resumed") >= 2, 30, "the log to resume again")
+        try:
+            _wait(lambda: w.err().count("resumed") >= 2, 30, "the log to resume again")
+        except AssertionError as exc:  # what the worker said, to tell a slow machine from a fault
+            raise AssertionError(f"{exc}; the worker said:\n{w.err()[-3000:]}") from None
         time.sleep(0.5)
         assert w.term() == 0
         err = w.err()
