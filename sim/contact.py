@@ -213,11 +213,25 @@ def feet(ground, pos_m, quat, leg_radius_m, com_height_m):
 
 
 @kernel
+def depth(ground, point):
+    """:func:`under`'s penetration x = R + h - |p| alone (the same bits; the push's direction,
+    three divisions, not formed)."""
+    r = norm(point)
+    if ground.terrain.level:
+        return ground.radius_m + ground.terrain.base_height_m - r
+    east, north = site_coords(ground, point)
+    h = height_and_slope(ground, east, north)[0]
+    return ground.radius_m + h - r
+
+
+@kernel
 def lowest_foot_penetration(ground, pos_m, quat, leg_radius_m, com_height_m):
     """Penetration of the deepest foot (negative: height of the lowest foot above its ground); the
-    same number as :func:`evaluate`'s ``max_penetration_m``, without the forces."""
-    pen = feet(ground, pos_m, quat, leg_radius_m, com_height_m).pen_m
-    return fmax(fmax(fmax(pen[0], pen[1]), pen[2]), pen[3])
+    same number as :func:`evaluate`'s ``max_penetration_m``, without the forces (:func:`feet`'s
+    positions and penetrations, without the directions it returns too)."""
+    p0, p1, p2, p3 = foot_positions_w(pos_m, foot_offsets_w(quat, leg_radius_m, com_height_m))
+    return fmax(fmax(fmax(depth(ground, p0), depth(ground, p1)), depth(ground, p2)),
+                depth(ground, p3))
 
 
 @kernel

@@ -15,8 +15,8 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
-from touchdown.sim.dynamics import (Holding, Motion, contact_at, contact_inline, derivatives_held,
-    ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Craft, FreeBody, Holding, Motion, contact_at, contact_inline,
+    derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
@@ -150,21 +150,40 @@ class Aligned(NamedTuple):
 
 
 @kernel
-def align_at_touchdown(fb, ground, p, v, q, w):
+def _lowest(pen):
+    """The deepest of four penetrations (sim.contact.lowest_foot_penetration's order)."""
+    return fmax(fmax(fmax(pen[0], pen[1]), pen[2]), pen[3])
+
+
+@kernel
+def align_at_touchdown(fb, ground, m, pen_m):
     """The seed's Flying -> Contact rule: attitude snapped to local up and rotation stopped
     (relative to the surface); then the ship moves out along local up so that its deepest foot
     is no deeper than before the snap: turning must not bury the feet (MODEL-NOTES 11). The snap
     must not make energy either (MODEL-NOTES 24): a ship that it would raise (tilted past
     2 atan(a / h), 74 degrees for the default lander) pays for the lift out of its descent speed;
-    a ship too slow to pay is not stood up and touches down as it is."""
+    a ship too slow to pay is not stood up and touches down as it is.
+
+    ``pen_m``: the feet's penetrations at the motion ``m`` on ``ground``, from a contact
+    evaluation there (sim.contact.evaluate: sim.contact.feet's bits), so that they are not looked
+    up again; the snapped pose's feet are looked up once, for its deepest foot and its springs'
+    energy both (a ship not moved out, p1 = p + 0 r_hat, has its feet where they were at p: a
+    position equal to p's, the same |foot|, the same penetrations)."""
+    p, v, q, w = m
+    cr = fb.craft
     r_hat = unit(p)
     q1 = align_to_surface(q, r_hat)
-    w1 = body_spin_in_body_frame(fb.craft.body_omega_radps, q1)
-    pen0 = lowest_foot_penetration(ground, p, q, fb.craft.leg_radius_m, fb.craft.com_height_m)
-    pen1 = lowest_foot_penetration(ground, p, q1, fb.craft.leg_radius_m, fb.craft.com_height_m)
-    p1 = add(p, scale(r_hat, fmax(pen1 - pen0, 0.0)))
-    cost = (total(ship_energy(fb, ground, p1, v, q1, w1))
-            - total(ship_energy(fb, ground, p, v, q, w)))
+    w1 = body_spin_in_body_frame(cr.body_omega_radps, q1)
+    pen_start = pen_m if cr.touching else feet(ground, p, q, cr.leg_radius_m,
+                                                cr.com_height_m).pen_m
+    pen0 = _lowest(pen_start)
+    pen_snap = feet(ground, p, q1, cr.leg_radius_m, cr.com_height_m).pen_m
+    pen1 = _lowest(pen_snap)
+    lift = fmax(pen1 - pen0, 0.0)
+    p1 = add(p, scale(r_hat, lift))
+    e1 = (ship_energy_at(fb, ground, Motion(p1, v, q1, w1), pen_snap) if lift == 0.0
+          else ship_energy(fb, ground, p1, v, q1, w1))
+    cost = total(e1) - total(ship_energy_at(fb, ground, m, pen_start))
     v_rad = dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
     spare = v_rad * v_rad - 2.0 * cost / fb.craft.mass_kg
     pays = cost > 0.0 and v_rad < 0.0 and spare >= 0.0
@@ -876,14 +895,17 @@ class Touchdown(NamedTuple):
 
 
 @kernel
-def touchdown(cfg, fb, ground, p, v, q, w):
+def touchdown(cfg, fb, ground, m, pen_m):
     """An impact slower than bounce_speed is taken by the absorbers from its first instant
-    (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18)."""
+    (SEED-NOTES 1); the seed's alignment (align_on_touchdown) happens here (MODEL-NOTES 18).
+    ``m``: the ship's motion at the touchdown; ``pen_m``: its feet's penetrations there
+    (:func:`align_at_touchdown`)."""
+    p, v, q, w = m
     r_hat = unit(p)
     impact = -dot(sub(v, surface_velocity(fb.craft.body_omega_radps, p)), r_hat)
     aligned = False
     if cfg.align_on_touchdown:
-        al = align_at_touchdown(fb, ground, p, v, q, w)
+        al = align_at_touchdown(fb, ground, m, pen_m)
         p, v, q, w, aligned = al.p, al.v, al.q, al.w, al.aligned
     return Touchdown(p, v, q, w, impact, impact < cfg.bounce_speed_mps, aligned)
 
@@ -1033,7 +1055,7 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
     engage, reach = at_ground(ce_y, engage, _a_down(fb, m.p, m.q, unit(m.p)))
     if reach and s.surface_state == FLYING:
         # the first foot is at the ground: the seed's touchdown, here and now
-        td = touchdown(cfg, fb, ground_y, m.p, m.v, m.q, m.w)
+        td = touchdown(cfg, fb, ground_y, m, ce_y.pen_m)
         m = Motion(td.p, td.v, td.q, td.w)
         touched = True
         aligned = td.aligned
@@ -1052,7 +1074,8 @@ def piece_start(cfg, fb, ps, onset_now, here, log):
             return PieceStart(s, t_abs, engage, drag, ce_y, carried, aligned, e_ref, True,
                               no_memo(m))
         if cfg.energy_guard and aligned:  # the snap never adds energy; measure from after it
-            e_ref = energy_ref(ship_energy(fb, ground_y, m.p, m.v, m.q, m.w))
+            # (ce_y's penetrations are at m on ground_y: sim.energy.mechanical's bits)
+            e_ref = energy_ref(ship_energy_at(fb, ground_y, m, ce_y.pen_m))
     if per_foot(cfg):  # a foot meets the ground sliding or holding
         fresh = (engage[0] > was[0] or onset_now[0], engage[1] > was[1] or onset_now[1],
                  engage[2] > was[2] or onset_now[2], engage[3] > was[3] or onset_now[3])
@@ -1507,13 +1530,14 @@ def in_flight_transitions(cfg, fb, ground, end, start, pieces, log):
     if touch_ok:
         ft = fresh_footing(impact < cfg.bounce_speed_mps)
         if cfg.align_on_touchdown:
-            al = align_at_touchdown(fb, ground, p, v, q, w)
+            # (the end's evaluation ``ce`` is at m's pose on this ground)
+            al = align_at_touchdown(fb, ground, m, ce.pen_m)
             p, v, q, w = al.p, al.v, al.q, al.w
             aligned = al.aligned
             ce = contact_at(with_feet(fb, ENGAGE_AT_GROUND, ft.sliding), ground, Motion(p, v, q,
                             w), ft.absorbing, ENGAGE_AT_GROUND)
             if cfg.energy_guard and al.aligned:  # the snap never adds energy; from after it
-                e_ref = energy_ref(ship_energy(fb, ground, p, v, q, w))
+                e_ref = energy_ref(ship_energy_at(fb, ground, Motion(p, v, q, w), ce.pen_m))
         cos_tilt = dot(quat_axis_z(q), r_hat)
     entered, then = CONTACT, CONTACT
     if touch:
@@ -1669,6 +1693,25 @@ def _none_presses(ce, engage):
 NEVER4 = (NEVER, NEVER, NEVER, NEVER)
 
 
+@constructor
+def pressing_none(fb):
+    """``fb`` as a ship known to be clear of the ground (``Craft.touching`` False: its contact
+    evaluations are sim.contact.no_contact's), for a flight of :func:`vertical_flight` in which no
+    foot can press at its end: the feet the ballistic flow keeps VERTICAL_CLEAR_M above the
+    ground, or kept from pressing (NEVER4) up to the onset. There every foot's force is exactly
+    0.0 (sim.contact.foot_force: a foot that does not engage), so the evaluation's sums of force
+    and torque are +0.0 (each starts at 0.0 and adds signed zeros) and its feet's forces 0.0, as
+    no_contact's: the method's step (its closing kick, the feet's impulses) and the energies
+    (no foot in the ground at the flight's start, none pressing at its end: no spring stores
+    anything) are the same bits without it."""
+    cr = fb.craft
+    return FreeBody(Craft(cr.mass_kg, cr.inertia_kgm2, cr.thrust_n, cr.rcs_torque_body_nm,
+                          cr.leg_radius_m, cr.com_height_m, cr.k_npm, cr.c_nspm,
+                          cr.c_absorb_nspm, cr.gm_m3ps2, cr.body_radius_m,
+                          cr.body_omega_radps, cr.terrain, cr.radial, cr.cos0, cr.sin0, False,
+                          cr.linear_model, cr.method, cr.mu_k), fb.grip)
+
+
 @separate
 def vertical_flight(here, fb, s, log):
     """A purely vertical ship near the ground (sim.phases.purely_vertical, with the exponential
@@ -1695,8 +1738,9 @@ def vertical_flight(here, fb, s, log):
     ce = contact_inline(with_feet(fb, engage, ft0.sliding), ground0, m, ft0.absorbing, engage)
     if (s.surface_state == FLYING and _none_presses(ce, engage)
             and vertical_onset_at(fb, ce, m, dt, -VERTICAL_CLEAR_M) == math.inf):
-        # its feet stay clear of the ground through the tick: a flight clear of it
-        return fly_clear(cfg, fb, s)
+        # its feet stay clear of the ground through the tick: a flight clear of it (none looked
+        # up: every foot starts more than VERTICAL_CLEAR_M above it and presses nowhere)
+        return fly_clear(cfg, pressing_none(fb), s)
     memo = memo_of(with_feet(fb, engage, ft0.sliding), ce, 0.0, m, ft0.absorbing, engage)
     # (the feet's penetrations the evaluation has: sim.energy.mechanical's bits)
     e_ref = (energy_ref(ship_energy_at(fb, ground0, m, ce.pen_m)) if cfg.energy_guard
@@ -1729,7 +1773,8 @@ def vertical_flight(here, fb, s, log):
             tau = vertical_onset(fb, ce, s.motion, rem)
         if tau < rem and tau > 0.0:
             # the flight to the feet's onset, the feet kept from pressing up to it
-            st = exponential(with_feet(fb, NEVER4, ft.sliding), tau, s.motion, ce,
+            # (no foot presses at its end: pressing_none's evaluation there, not looked up)
+            st = exponential(with_feet(pressing_none(fb), NEVER4, ft.sliding), tau, s.motion, ce,
                              ft.absorbing, t_in)
         else:
             tau = rem

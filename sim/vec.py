@@ -156,6 +156,11 @@ MAX_HALVINGS = 60
 @kernel
 def cos_sinc(x):
     """(cos x, sin(x)/x) from polynomials and double-angle steps: IEEE +, * only."""
+    if x == 0.0:
+        # what the series give there, exactly (each Horner step c y2 + k is k at y2 = 0, down to
+        # the constant terms 1 and 1): the turn about a long axis a ship does not spin about
+        # (sim.rotation.axis_flow at theta = 0, every step of a ship that only rocks or bounces)
+        return 1.0, 1.0
     x = abs(x)
     halvings = 0
     y = x
