@@ -1893,7 +1893,8 @@ def coarse_tick(cfg, fb, s, ce, h):
       COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
     - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
       penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
-      (|x'| + COARSE_MARGIN_MPS) h;
+      (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot may release
+      within it (its release is located there, as in the finer sub-steps: MODEL-NOTES 68);
     - every sliding foot that presses slips faster than COARSE_SLIP_STEPS h (mu_k N_i / m_eff,i +
       g): it cannot stop, nor its friction turn stiff, within the sub-step."""
     cr = fb.craft
@@ -1914,7 +1915,9 @@ def coarse_tick(cfg, fb, s, ce, h):
         reach = (abs(rate) + COARSE_MARGIN_MPS) * h
         if x > 0.0 and (absorbing or ce.foot_force_n[i] > 0.0):
             gap = x if absorbing else x + c_over_k * rate
-            if not gap > reach:
+            # (a pressing foot's release is located inside the sub-step, as in the finer ones:
+            # sim.coarse_release, MODEL-NOTES 68)
+            if not (gap > reach or cfg.coarse_release):
                 return False
             if ft.sliding[i]:
                 s0 = ce.slip_w[i]
