@@ -1893,9 +1893,10 @@ def coarse_tick(cfg, fb, s, ce, h):
       COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
     - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
       penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
-      (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot may release
-      within it where another pressing foot is that far from its own release (the release is
-      located there, as in the finer sub-steps, and the ship stays carried: MODEL-NOTES 68);
+      (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot whose force
+      still pushes may be nearer its release where another pressing foot is that far from its
+      own (the release is located inside the sub-step, as in the finer ones, and the ship stays
+      carried: MODEL-NOTES 68);
     - every sliding foot that presses slips faster than COARSE_SLIP_STEPS h (mu_k N_i / m_eff,i +
       g): it cannot stop, nor its friction turn stiff, within the sub-step."""
     cr = fb.craft
@@ -1920,9 +1921,9 @@ def coarse_tick(cfg, fb, s, ce, h):
             gap = x if absorbing else x + c_over_k * rate
             if gap > reach:
                 carried = True
-            elif cfg.coarse_release:
-                # its release is located inside the sub-step, as in the finer ones, where
-                # another foot carries the ship through it (MODEL-NOTES 68)
+            elif cfg.coarse_release and ce.foot_force_n[i] > 0.0:
+                # a foot that still pushes: its release is located inside the sub-step, as in
+                # the finer ones, where another foot carries the ship through it (MODEL-NOTES 68)
                 releasing = True
             else:
                 return False
