@@ -31,11 +31,14 @@ def _label(value: int) -> str:
     return got if got is not None else SurfaceState(value).label
 
 
-def entry_fields(ev: pb.TransitionEvent) -> dict[str, str | bytes]:
+def entry_fields(ev: pb.TransitionEvent, data: bytes | None = None) -> dict[str, str | bytes]:
+    """The stream entry of ``ev``; ``data``: its serialized bytes where the caller has them (the
+    log's writer serialized it already)."""
     return {"event": ev.event, "ship_id": ev.ship_id, "player_id": ev.player_id, "body": ev.body,
             "tick": str(ev.tick), "t_event": repr(_instant(ev)),
             "from_state": _label(ev.from_state),
-            "to_state": _label(ev.to_state), "proto": ev.SerializeToString()}
+            "to_state": _label(ev.to_state),
+            "proto": ev.SerializeToString() if data is None else data}
 
 
 def _cluster_enabled(client: redis.Redis) -> bool:

@@ -128,10 +128,15 @@ class Shard:
         with phase("step"):
             blocks = list(self.world.blocks(t + 1))
         waits = getattr(self.log, "waits", None)
+        serialized = getattr(self.log, "write_block_serialized", None)
         for block in blocks:
             before = waits() if waits else None
             with phase("log"):
-                msgs = self.log.write_block(block)
+                if serialized is not None:  # (each event serialized once: the log's bytes)
+                    msgs, datas = serialized(block)
+                else:
+                    msgs = self.log.write_block(block)
+                    datas = [None] * len(msgs)
             if before:  # within "log": the writer's queue full, and rotations (wall seconds)
                 for name, was, now in zip(("log_queue_full", "log_rotation"), before, waits()):
                     if now > was:
@@ -149,8 +154,8 @@ class Shard:
                 self._emit(out, {"event": RETIRED, "ship_id": r.ship_id,
                                  "player_id": self._player(r.ship_id), "body": self.body,
                                  "tick": str(block.first_tick)})
-            for m in msgs:
-                fields = entry_fields(m)
+            for m, data in zip(msgs, datas):
+                fields = entry_fields(m, data)
                 self._emit(out, fields)
                 out.hashes[m.ship_id] = ship_hash(surface_state(m.to_state), self.body, m.tick,
                                                   m.player_id, self.index)
