@@ -15,14 +15,16 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (ContactEval, FrictionForce, Legs, feet, foot_offsets_w,
     foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
-from touchdown.sim.dynamics import (Craft, FreeBody, Holding, Motion, contact_at, contact_inline,
-    derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Craft, FreeBody, Holding, Motion, contact_at, contact_forces,
+    contact_forces_inline, contact_geometry, contact_inline, derivatives_held, ground_at,
+    ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, rk4_held
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, exponential_end, \
+    rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -407,13 +409,36 @@ def memo_at(memo, here, fb, t_s, m, absorbing, engage):
 
 
 @kernel
+def posed_at(memo, t_s, m):
+    """Whether ``memo``'s evaluation looked the feet up at ``m``'s pose (position and attitude)
+    at the instant ``t_s``: its geometry (sim.contact.ContactGeometry, a function of these, the
+    legs and the ground at that instant alone) is then the feet of an evaluation there. (The
+    same FreeBody's craft: every memo is made and asked with free_flight's own.)"""
+    return (memo.valid and memo.ce.touching and memo.t_s == t_s and _same3(memo.motion.p, m.p)
+            and _same4(memo.motion.q, m.q))
+
+
+@kernel
+def contact_posed(memo, fb, t_s, m, absorbing, engage):
+    """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)`` evaluated here, inline
+    (sim.dynamics.contact_inline: no call with ~80 arguments, no ContactEval passed back), on
+    ``memo``'s feet where it was evaluated at the same pose and instant (:func:`posed_at`: the
+    forces phase alone, the same bits), else on feet looked up here."""
+    if not fb.craft.touching:
+        return no_contact(m.p)
+    ground = ground_at(fb, t_s)
+    geo = memo.ce.geometry if posed_at(memo, t_s, m) else contact_geometry(fb, ground, m)
+    return contact_forces_inline(fb, ground, geo, m, absorbing, engage)
+
+
+@kernel
 def contact_memo(memo, here, fb, t_s, m, absorbing, engage):
     """``contact_at(fb, ground_at(fb, t_s), m, absorbing, engage)``: ``memo``'s if it was
-    evaluated at exactly these (:func:`memo_at`), else evaluated here, inline
-    (sim.dynamics.contact_inline: no call with ~80 arguments, no ContactEval passed back)."""
+    evaluated at exactly these (:func:`memo_at`), else evaluated here (:func:`contact_posed`:
+    on memo's feet where it was at the same pose)."""
     if memo_at(memo, here, fb, t_s, m, absorbing, engage):
         return memo.ce
-    return contact_inline(fb, ground_at(fb, t_s), m, absorbing, engage)
+    return contact_posed(memo, fb, t_s, m, absorbing, engage)
 
 
 class FootEvents(NamedTuple):
@@ -1452,7 +1477,7 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
                and _same4(memo.engage, ENGAGE_AT_GROUND) and _same4(memo.kinetic, ft.sliding))
     else:
         hit = memo_at(memo, False, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
-    ce = memo.ce if hit else contact_inline(fb_now, ground, m, ft.absorbing, ENGAGE_AT_GROUND)
+    ce = memo.ce if hit else contact_posed(memo, fb_now, t_end, m, ft.absorbing, ENGAGE_AT_GROUND)
     if not cfg.energy_guard:
         return SubStepEnd(s, ce, e_ref, 0.0,
                           memo_of(fb_now, ce, t_end, m, ft.absorbing, ENGAGE_AT_GROUND))
@@ -1461,9 +1486,9 @@ def guard_substep(cfg, fb, s, e_ref, pieces, start, memo):
     airborne = not pieces.touched and start.pen_m < 0.0 and ce.max_penetration_m < 0.0
     gd = passivity_guard(fb, ground, m, e_ref, is_passive(fb), airborne, ce.pen_m)
     s = with_motion(s, s.surface_state, Motion(m.p, gd.v, m.q, gd.w))
-    if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled
-        ce = contact_at(fb_now, ground, Motion(m.p, gd.v, m.q, gd.w), ft.absorbing,
-                        ENGAGE_AT_GROUND)
+    if gd.removed_j > 0.0:  # the dampers' forces follow the velocities it scaled (the feet stay)
+        ce = contact_forces(fb_now, ground, ce.geometry, Motion(m.p, gd.v, m.q, gd.w),
+                            ft.absorbing, ENGAGE_AT_GROUND)
     return SubStepEnd(s, ce, gd.ref, gd.removed_j,
                       memo_of(fb_now, ce, t_end, s.motion, ft.absorbing, ENGAGE_AT_GROUND))
 
@@ -1757,6 +1782,7 @@ def vertical_flight(here, fb, s, log):
     aligned = False
     peak = -math.inf
     stop = False
+    end_memo = no_memo(m)  # the last step's contact at its end (exponential_end)
     for k in range(MAX_VERTICAL_PIECES):
         ps = PieceStart(s, t_in, engage, s.footing.sliding, ce, NO_HOLD, aligned, e_ref, False,
                         memo)
@@ -1778,8 +1804,11 @@ def vertical_flight(here, fb, s, log):
                              ft.absorbing, t_in)
         else:
             tau = rem
-            st = exponential(with_feet(fb, engage, ft.sliding), rem, s.motion, ce,
-                             ft.absorbing, t_in)
+            fb_step = with_feet(fb, engage, ft.sliding)
+            se = exponential_end(fb_step, rem, s.motion, ce, ft.absorbing, t_in)
+            st = se.stepped
+            # its contact at the end: the guard's there, or its feet (contact_posed)
+            end_memo = memo_of(fb_step, se.ce, t_in + rem, se.motion, ft.absorbing, engage)
         j = st.foot_impulse_ns
         touched = touched or j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
         peak = fmax(peak, st.peak_penetration_m)
@@ -1803,7 +1832,7 @@ def vertical_flight(here, fb, s, log):
     ce_end = ce
     if not stop:
         pieces = Pieces(touched, True, peak, 0.0, aligned, NO_SLIP, False)
-        end = guard_substep(cfg, fb, s, e_ref, pieces, start, no_memo(s.motion))
+        end = guard_substep(cfg, fb, s, e_ref, pieces, start, end_memo)
         guard_j = end.removed_j
         m = end.ship.motion
         peak_t = fmax(0.0, substep_peak(fb, start, pieces, end.ce.max_penetration_m,

@@ -17,9 +17,9 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_inline, \
-    derivatives, derivatives_held, ground_at, torque_body
+from touchdown.sim.contact import ContactEval, no_contact
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_forces, \
+    contact_inline, derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -293,8 +293,9 @@ def velocity_verlet(fb, h, motion, ce, absorbing, t0):
     ce1 = contact_at(fb, ground1, Motion(p1, v_half, q1, w_pre), absorbing, fb.grip.engage_m)
     v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
-    if pressed(ce1):  # the dampers at the end, at the end's velocities (see _damped_end)
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
+    if pressed(ce1):  # the dampers at the end, at the end's velocities (the feet where they are)
+        ce1 = contact_forces(fb, ground1, ce1.geometry, Motion(p1, v1, q1, w1), absorbing,
+                             fb.grip.engage_m)
         v1 = add(v_half, scale(acceleration(fb, ce1, p1, q1), 0.5 * h))
         w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     return Stepped(p1, v1, q1, w1, foot_impulses_2(h, ce, ce1), -math.inf, False)
@@ -310,8 +311,17 @@ class Released(NamedTuple):
     v_released_mps: float  # x' when it let go
 
 
+class SteppedEnd(NamedTuple):
+    """A step, and the last contact evaluation it made at its end (the feet there, for the
+    evaluations after it at the same pose: sim.flight.contact_posed)."""
+
+    stepped: Stepped
+    ce: ContactEval  # at the end's pose, at the instant t0 + h
+    motion: Motion  # the motion it was evaluated at (the end's velocities, or the drift's)
+
+
 @kernel
-def exponential(fb, h, motion, ce, absorbing, t0):
+def exponential_end(fb, h, motion, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the direction the touching feet push at the step's start (the local vertical on level
@@ -335,7 +345,7 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     for an upright ship bouncing on level ground, at any step: the bounce needs no sub-steps at
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
-    sim.stability)."""
+    sim.stability). Returns a :class:`SteppedEnd`: the step, and the contact at its end."""
     p, v, q, w = motion
     n_hat = ce.axis
     m = fb.craft.mass_kg
@@ -362,19 +372,27 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.grip.engage_m)
+    m1 = Motion(p1, v_pre, q1, w_pre)
+    ce1 = contact_at(fb, ground1, m1, absorbing, fb.grip.engage_m)
     a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
     v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
     w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
     if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
+        m1 = Motion(p1, v1, q1, w1)
+        ce1 = contact_forces(fb, ground1, ce1.geometry, m1, absorbing, fb.grip.engage_m)
         a1 = acceleration(fb, ce1, p1, q1)
         v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
         w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
-    return Stepped(p1, v1, q1, w1,
-                   exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg, model_end_n),
-                   peak, True)
+    return SteppedEnd(Stepped(p1, v1, q1, w1,
+                              exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg,
+                                                  model_end_n), peak, True), ce1, m1)
+
+
+@kernel
+def exponential(fb, h, motion, ce, absorbing, t0):
+    """:func:`exponential_end`'s step alone."""
+    return exponential_end(fb, h, motion, ce, absorbing, t0).stepped
 
 
 @kernel
