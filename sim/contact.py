@@ -250,10 +250,11 @@ class ContactGeometry(NamedTuple):
     depends on the ship's position p and attitude q (and on its legs and the ground at that
     instant) but on no velocity and on no foot's role (the style of MJX's and brax's pipelines:
     kinematics, then the forces from them). Two evaluations at one pose and instant differ only
-    in their forces phase (:func:`forces`): the ends of a step whose closing kick is evaluated
-    twice (sim.integrators.exponential), a sub-step's end before and after the passivity guard or
-    the friction impulses (sim.flight.contact_posed) share one geometry, the same bits by
-    construction (each number is formed by the same operations on the same operands)."""
+    in their forces phase (:func:`forces`): the two of the exponential step's closing kick
+    (sim.integrators.closing_kick) share one geometry, the same bits by construction (each number
+    is formed by the same operations on the same operands). It is not kept in the ContactEval:
+    55 numbers more in every evaluation passed to or returned from a compiled call cost about as
+    many instructions as looking the feet up again (callgrind, session 14)."""
 
     offset_w: tuple  # r_i: each foot from the centre of mass, inertial
     pos_w: tuple  # p + r_i
@@ -292,9 +293,6 @@ class ContactEval(NamedTuple):
     #: each foot's friction plane normal (:func:`friction_normal`), for the held feet's friction
     #: (sim.dynamics.held_friction) at the same state
     normal_w: tuple
-    #: the feet at this pose it was evaluated on (pen_m, push_norm and normal_w above are its):
-    #: another evaluation at the same pose and instant takes it (sim.dynamics.contact_forces)
-    geometry: ContactGeometry
 
 
 class FrictionForce(NamedTuple):
@@ -463,7 +461,7 @@ def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_for
                   friction_force)
 
 
-# (a kernel, inlined into its callers, sim.dynamics.contact_inline and contact_forces_inline,
+# (a kernel, inlined into its caller, sim.dynamics.contact_forces, inlined into contact_inline,
 # themselves inlined into the integrators' stages and into sim.dynamics.contact_at: its
 # ContactEval is then built where it is used, not copied there from a call's; 4.2% of a
 # touchdown's instructions, session 4)
@@ -533,18 +531,14 @@ def forces(ground, geo, motion, spring, engage_m, linear_model, friction_force):
                                          ff[2].pen_rate_mps, ff[3].pen_rate_mps),
                        (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
-                       damp, load, load_rate, lowest_gamma, normals, geo)
+                       damp, load, load_rate, lowest_gamma, normals)
 
 
 @kernel
 def no_contact(pos_m):
-    """The evaluation of a ship known to be clear of the ground for the whole step (no feet
-    looked up: its geometry is no pose's)."""
+    """The evaluation of a ship known to be clear of the ground for the whole step."""
     z = (0.0, 0.0, 0.0)
     far = (-math.inf, -math.inf, -math.inf, -math.inf)
-    up = unit(pos_m)
     return ContactEval(False, far, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
                        (0.0, 0.0, 0.0, 0.0), z, z, 0.0, (z, z, z, z), 0.0, -math.inf,
-                       pos_m, up, 0.0, 0.0, 0.0, 0.0, 1.0, (z, z, z, z),
-                       ContactGeometry((z, z, z, z), (z, z, z, z), far, (z, z, z, z),
-                                       (0.0, 0.0, 0.0, 0.0), (z, z, z, z), up))
+                       pos_m, unit(pos_m), 0.0, 0.0, 0.0, 0.0, 1.0, (z, z, z, z))

@@ -144,7 +144,7 @@ def contact_inline(fb, ground, motion, absorbing, engage_m):
     passed back from a call with ~80 arguments (the same arithmetic: the same bits)."""
     if not fb.craft.touching:
         return no_contact(motion.p)
-    return contact_forces_inline(fb, ground, contact_geometry(fb, ground, motion), motion,
+    return contact_forces(fb, ground, contact_geometry(fb, ground, motion), motion,
                                  absorbing, engage_m)
 
 
@@ -157,11 +157,11 @@ def contact_geometry(fb, ground, motion):
 
 
 @kernel
-def contact_forces_inline(fb, ground, geo, motion, absorbing, engage_m):
+def contact_forces(fb, ground, geo, motion, absorbing, engage_m):
     """The ground's action at ``motion`` on feet at ``geo`` (:func:`contact_geometry` at the same
     pose on ``ground``): sim.contact.forces with ``fb``'s springs and friction, the absorbers'
     dampers while ``absorbing``; no contact's for a ship known to be clear of the ground.
-    contact_forces_inline(fb, ground, contact_geometry(fb, ground, m), m, ...) is
+    contact_forces(fb, ground, contact_geometry(fb, ground, m), m, ...) is
     :func:`contact_inline`'s evaluation (sim.contact.evaluate), step for step."""
     cr, g = fb.craft, fb.grip
     if not cr.touching:
@@ -178,14 +178,6 @@ def contact_at(fb, ground, motion, absorbing, engage_m):
     sim.contact.evaluate): :func:`contact_inline` as a function of its own, for the free-flight
     loop's many callers."""
     return contact_inline(fb, ground, motion, absorbing, engage_m)
-
-
-@separate
-def contact_forces(fb, ground, geo, motion, absorbing, engage_m):
-    """:func:`contact_forces_inline` as a function of its own: the ground's action at ``motion``
-    on feet already looked up at its pose (``geo``: another evaluation's at the same pose and
-    instant, ``ce.geometry``), the forces phase alone."""
-    return contact_forces_inline(fb, ground, geo, motion, absorbing, engage_m)
 
 
 @kernel
