@@ -35,8 +35,8 @@ from pathlib import Path
 from typing import Callable
 
 from touchdown.logs.encode import ShipTables
-from touchdown.logs.header import world_header_later
-from touchdown.logs.writer import QUEUE_BLOCKS, FinishedOrGone, LogWriter
+from touchdown.logs.header import ShipTable, world_header_later
+from touchdown.logs.writer import QUEUE_BLOCKS, FinishedOrGone, LogWriter, Runner
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.world import Block, World
 
@@ -51,7 +51,8 @@ class RotatingLog(FinishedOrGone):
     replaced, e.g. rebuilt from a checkpoint). ``name``: the logs' scenario name (default: the
     scene's); ``open_ended``: the run has no set end (a live service: each file's end is its
     summary's last tick); ``keyframe_phase``: each file's keyframes after its first fall on ticks
-    = phase (mod ``keyframe_interval``); ``queue``: each writer's (LogWriter's). The first block
+    = phase (mod ``keyframe_interval``); ``queue``: each writer's (LogWriter's); ``tables``: the
+    headers' cache of the ships' tables (logs.encode.ShipTables), given some already. The first block
     must be the world's own tick (``world.first_block()``, which the driver loop writes first);
     the first file starts there.
 
@@ -64,7 +65,8 @@ class RotatingLog(FinishedOrGone):
                  name: str | None = None, source: str = "", open_ended: bool = False,
                  description: str = "", chunk_size: int | None = None,
                  flush_every_ticks: int = 200, zstd_level: int | None = None,
-                 keyframe_phase: int = 0, queue: tuple[int, int | None] = (QUEUE_BLOCKS, None)):
+                 keyframe_phase: int = 0, queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
+                 tables: ShipTables | None = None):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -87,7 +89,8 @@ class RotatingLog(FinishedOrGone):
         self.files: list[Path] = []
         self.writer: LogWriter | None = None
         # ship id -> its resolved table (world_header), and its JSON
-        self._tables: dict[str, dict] = ShipTables()
+        # (``tables``: some given, as logs.header.header_table makes them)
+        self._tables: dict[str, dict] = ShipTables() if tables is None else tables
         self.event_count = 0
         self._closed = False
         #: files closed by a rotation, being finished on their writers' threads
@@ -95,12 +98,19 @@ class RotatingLog(FinishedOrGone):
         #: wall seconds write_block spent waiting for a writer's queue, and in rotations
         self.waited_s = 0.0
         self.rotating_s = 0.0
+        #: the thread that runs every file's writer, one after the other (made with the first)
+        self.runner: Runner | None = None
 
     # -- the sink --------------------------------------------------------------------------------
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
         """Append a block (as LogWriter.write_block: returns its events as messages); then, if
         the file is past ``max_bytes`` and the world is at the block's last tick, close it and
         begin the next at that tick."""
+        return self.write_block_serialized(block)[0]
+
+    def write_block_serialized(self, block: Block
+                               ) -> tuple[list[pb.TransitionEvent], list[bytes]]:
+        """write_block, with each event message's bytes (LogWriter.write_block_serialized)."""
         if self._closed:
             raise ValueError("write_block on a closed RotatingLog")
         self._reap()
@@ -111,10 +121,10 @@ class RotatingLog(FinishedOrGone):
                                  f"{world.tick} (world.first_block()), not ticks "
                                  f"{block.first_tick}..{block.last_tick}")
             self._open(world, block)
-            return []
+            return [], []
         writer = self.writer
         waited = writer.waited_s
-        msgs = writer.write_block(block)
+        msgs, datas = writer.write_block_serialized(block)
         self.waited_s += writer.waited_s - waited
         self.event_count += len(msgs)
         if writer.size >= self.max_bytes and block.last_tick > writer.header.start_tick:
@@ -123,7 +133,7 @@ class RotatingLog(FinishedOrGone):
                 t0 = time.perf_counter()
                 self._rotate(world, block)
                 self.rotating_s += time.perf_counter() - t0
-        return msgs
+        return msgs, datas
 
     def flush(self, wait: bool = True) -> "threading.Event | AllSet":
         """Every block written so far in the files (LogWriter.flush, and the files a rotation
@@ -169,20 +179,31 @@ class RotatingLog(FinishedOrGone):
                     self.files.pop()
                     raise
         finally:
-            self._reap(wait=True)
+            try:
+                self._reap(wait=True)
+            finally:
+                self._stop_runner()
+
+    def _stop_runner(self) -> None:
+        """The writers' thread ends once every file given to it is done."""
+        if self.runner is not None:
+            self.runner.stop()
 
     def abandon(self) -> None:
         """Drop the file being written (no half-written file); the finished ones stay."""
         if self._closed:
             return
         self._closed = True
-        if self.writer is not None:
-            self.writer.abandon()
-            self.files.pop()
         try:
-            self._reap(wait=True)
-        except OSError:
-            pass  # that file is gone; abandoning says nothing more
+            if self.writer is not None:
+                self.writer.abandon()
+                self.files.pop()
+            try:
+                self._reap(wait=True)
+            except OSError:
+                pass  # that file is gone; abandoning says nothing more
+        finally:
+            self._stop_runner()
 
     @property
     def last_tick(self) -> int:
@@ -197,10 +218,14 @@ class RotatingLog(FinishedOrGone):
             keyframe_phase=self.keyframe_phase)
         path = self._path(world.tick)
         self.directory.mkdir(parents=True, exist_ok=True)
+        if self.runner is None:
+            self.runner = Runner()
+        # the header's ships from the world's own lists (the header holds the same strings)
+        ships = ShipTable(world.ship_ids, world.params.ships.player_id)
         writer = LogWriter(path, header, chunk_size=self.chunk_size,
                            flush_every_ticks=self.flush_every_ticks,
                            zstd_level=self.zstd_level, resolved_json=json_of,
-                           queue=self.queue)
+                           queue=self.queue, runner=self.runner, ships=ships)
         try:
             writer.write_block(first)
         except BaseException:

@@ -59,21 +59,26 @@ def events_of(world: World, block: Block) -> list:
             for ev in block.events]
 
 
+def _serialized(msgs: list) -> tuple[list, list[bytes]]:
+    return msgs, [m.SerializeToString() for m in msgs]
+
+
 class ServiceLog:
     def __init__(self, directory: Path, world: Callable[[], World], say: Callable[[str], None],
                  *, prefix: str, keyframe_interval: int, max_bytes: int, name: str, source: str,
                  keyframe_phase: int = 0,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
                  retry_s: float = 2.0, zstd_level: int | None = None,
-                 first_bytes: int | None = None):
+                 first_bytes: int | None = None, tables=None):
         self.directory = Path(directory)
         self._world = world
         self.say = say
         self.opts = dict(prefix=prefix, keyframe_interval=keyframe_interval, max_bytes=max_bytes,
                          name=name, source=source, open_ended=True, zstd_level=zstd_level,
                          keyframe_phase=keyframe_phase,
-                         queue=(LIVE_QUEUE_BLOCKS, QUEUE_BYTES))  # a starved writer catches up
-        self._niced = None  # the writer whose thread was last given a lower priority
+                         queue=(LIVE_QUEUE_BLOCKS, QUEUE_BYTES),  # a starved writer catches up
+                         tables=tables)  # the headers' ship tables, some known (RotatingLog)
+        self._niced = None  # the writers' thread last given a lower priority (native id)
         # the first file's bound (the shards' files staggered: their rotations, each a header
         # of every ship's table and a keyframe, fall on different ticks)
         self.first_bytes = first_bytes
@@ -95,30 +100,35 @@ class ServiceLog:
         self._begin(None)
 
     def write_block(self, block: Block) -> list:
+        return self.write_block_serialized(block)[0]
+
+    def write_block_serialized(self, block: Block) -> tuple[list, list[bytes]]:
+        """write_block's event messages and each one's bytes (serialized once: the log's, or,
+        while the log is paused, here)."""
         world = self._world()
         if self.log is None:
             if time.monotonic() >= self._next_try:
                 self._begin(block.first_tick)
-            return events_of(world, block)
+            return _serialized(events_of(world, block))
         if not self._space_ok():
             self._pause(block.first_tick, f"less than {self.min_free_bytes / 2**20:.0f} MiB free "
                                           f"on the log disk")
-            return events_of(world, block)
+            return _serialized(events_of(world, block))
         files = len(self.log.files)
         try:
-            msgs = self.log.write_block(block)
+            msgs, datas = self.log.write_block_serialized(block)
         except OSError as exc:
             self._pause(block.first_tick, _oserror(exc))
-            return events_of(world, block)
+            return _serialized(events_of(world, block))
         if len(self.log.files) != files:
             self.log.max_bytes = self.opts["max_bytes"]
             self._retain()
-        if self.log.writer is not self._niced:  # a new file: a new writer's thread
-            self._niced = self.log.writer
-            thread = getattr(self._niced, "_thread", None)
-            if thread is not None:
-                lower_priority(thread.native_id)
-        return msgs
+        thread = getattr(self.log.writer, "_thread", None)
+        native = getattr(thread, "native_id", None)
+        if native is not None and native != self._niced:  # a new writers' thread
+            self._niced = native
+            lower_priority(native)
+        return msgs, datas
 
     def flush(self, wait: bool = True) -> threading.Event:
         if self.log is not None:
@@ -271,6 +281,8 @@ def _detach(log: RotatingLog) -> None:
     holds no tick (its header, written on the writer's thread, failed) is removed."""
     w = log.writer
     log._closed = True
+    if log.runner is not None:
+        log.runner.stop()  # (ends once the drains given to it are done)
     if w is None:
         return
     w._closed = True

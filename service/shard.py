@@ -22,7 +22,7 @@ import numpy as np
 
 from touchdown.proto import service_pb2 as spb
 from touchdown.logs.header import LABELS, SEED_STRINGS, surface_state
-from touchdown.logs.redis_stream import entry_fields
+from touchdown.logs.redis_stream import event_entry
 from touchdown.service.autopilot import AutolandOutcome, autoland_commands
 from touchdown.service.commands import Rejected, Request
 from touchdown.service.kinds import KINDS, apply
@@ -128,10 +128,15 @@ class Shard:
         with phase("step"):
             blocks = list(self.world.blocks(t + 1))
         waits = getattr(self.log, "waits", None)
+        serialized = getattr(self.log, "write_block_serialized", None)
         for block in blocks:
             before = waits() if waits else None
             with phase("log"):
-                msgs = self.log.write_block(block)
+                if serialized is not None:  # (each event serialized once: the log's bytes)
+                    msgs, datas = serialized(block)
+                else:
+                    msgs = self.log.write_block(block)
+                    datas = [m.SerializeToString() for m in msgs]
             if before:  # within "log": the writer's queue full, and rotations (wall seconds)
                 for name, was, now in zip(("log_queue_full", "log_rotation"), before, waits()):
                     if now > was:
@@ -149,11 +154,13 @@ class Shard:
                 self._emit(out, {"event": RETIRED, "ship_id": r.ship_id,
                                  "player_id": self._player(r.ship_id), "body": self.body,
                                  "tick": str(block.first_tick)})
-            for m in msgs:
-                fields = entry_fields(m)
-                self._emit(out, fields)
-                out.hashes[m.ship_id] = ship_hash(surface_state(m.to_state), self.body, m.tick,
-                                                  m.player_id, self.index)
+            # (the log's messages are the block's events, in order: their entries and hashes
+            # made from the events' own numbers, not read back out of each message)
+            for ev, m, data in zip(block.events, msgs, datas):
+                player = m.player_id
+                self._emit(out, event_entry(ev, player, m.body, data))
+                out.hashes[ev.ship_id] = ship_hash(surface_state(ev.to_state), self.body,
+                                                   int(ev.tick), player, self.index)
         return out
 
     # -- requests ---------------------------------------------------------------------------

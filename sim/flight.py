@@ -1948,7 +1948,10 @@ def coarse_tick(cfg, fb, s, ce, h):
       COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
     - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
       penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
-      (|x'| + COARSE_MARGIN_MPS) h;
+      (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot whose force
+      still pushes may be nearer its release where another pressing foot is that far from its
+      own (the release is located inside the sub-step, as in the finer ones, and the ship stays
+      carried: MODEL-NOTES 68);
     - every sliding foot that presses slips faster than COARSE_SLIP_STEPS h (mu_k N_i / m_eff,i +
       g): it cannot stop, nor its friction turn stiff, within the sub-step."""
     cr = fb.craft
@@ -1963,13 +1966,21 @@ def coarse_tick(cfg, fb, s, ce, h):
     absorbing = ft.absorbing
     c_over_k = (cr.c_absorb_nspm if absorbing else cr.c_nspm) / cr.k_npm
     g = cr.gm_m3ps2 / dot(s.motion.p, s.motion.p)
+    releasing = False  # a pressing foot near its release (sim.coarse_release)
+    carried = False  # a pressing foot far from its release
     for i in range(4):
         x = ce.pen_m[i]
         rate = ce.pen_rate_mps[i]
         reach = (abs(rate) + COARSE_MARGIN_MPS) * h
         if x > 0.0 and (absorbing or ce.foot_force_n[i] > 0.0):
             gap = x if absorbing else x + c_over_k * rate
-            if not gap > reach:
+            if gap > reach:
+                carried = True
+            elif cfg.coarse_release and ce.foot_force_n[i] > 0.0:
+                # a foot that still pushes: its release is located inside the sub-step, as in
+                # the finer ones, where another foot carries the ship through it (MODEL-NOTES 68)
+                releasing = True
+            else:
                 return False
             if ft.sliding[i]:
                 s0 = ce.slip_w[i]
@@ -1983,7 +1994,7 @@ def coarse_tick(cfg, fb, s, ce, h):
                     return False
         elif not -x > reach:
             return False
-    return True
+    return carried or not releasing
 
 
 @kernel

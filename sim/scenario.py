@@ -266,6 +266,17 @@ def parse(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Sc
         raise ScenarioError(source, "(structure)", "arrays or tables nested too deeply") from None
 
 
+def resolve(doc: dict, source: str) -> dict:
+    """``parse(doc, source).resolved`` (every key checked, every default filled in) without
+    building the scenario (its parameters, initial states and timeline): a log's header
+    resolves the tables of every ship present, a quarter of parse's time (12,500 ships: 0.3 s
+    against 1.2 s)."""
+    try:
+        return _checked(doc, source, None)[0]
+    except RecursionError:
+        raise ScenarioError(source, "(structure)", "arrays or tables nested too deeply") from None
+
+
 def parse_params(doc: dict, source: str, overrides: dict[str, Any] | None = None) -> Params:
     """The parameters :func:`parse` gives (its ships of tick 0), by the same checks and messages,
     without placing the ships: the placing is compiled (sim.placement), and a tool that reads a

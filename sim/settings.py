@@ -241,6 +241,13 @@ SETTINGS: tuple[Setting, ...] = (
           "it; false: the pull kept on through them as rk4's stages need, which the flow's "
           "closing kick took as a damper's pull after the release (a liftoff under thrust 25% "
           "slow), the session-17 main's bits (MODEL-NOTES 66)"),
+    S("sim.coarse_release", "bool", True, dest="sim.coarse_release", scene="coarse_release",
+      doc="a quiet contact tick's coarse sub-step (sim.coarse_substep) is not refused for a "
+          "pressing foot near its release whose force still pushes, where another pressing "
+          "foot is far from its own: the release is located inside the sub-step (sim.flight."
+          "to_event), as in the finer ones; a clear foot near its onset still refuses it; "
+          "false: every pressing foot's gap over (|x'| + 0.2 m/s) h, the session-18 main's "
+          "bits (MODEL-NOTES 68)"),
     S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
       scene="coarse_when_clear",
       doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "

@@ -307,3 +307,48 @@ def test_an_impact_converges_with_its_sub_step():
     assert E.distance_m(sim) == pytest.approx(E.distance_m(ref), rel=0.01)
     seed = E.run_sim(sc, 0.05, sim={"stiff_substep": 0.0})
     assert E.distance_m(seed) > 1.1 * E.distance_m(ref)
+
+
+#: Envelope case 173 of ``touchdown sweep`` (300 samples, seed 1): 3.35 m/s down and 1.29 m/s
+#: downhill onto the envelope's 6 degree slope, tilted 4.8 degrees.
+STIFF_STOP_BESIDE_A_HOLDING_PAIR = {
+    "name": "envelope case 173", "duration": 1.5,
+    "body": {"name": "Luna", "terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}},
+    "ships": [{"id": "case-173", "initial": {
+        "altitude": 0.5, "vertical_speed": -3.352788713814329,
+        "horizontal_speed": 1.2935869676664309, "heading_deg": 90.0,
+        "tilt_deg": 4.8033557425369}}]}
+
+
+@pytest.mark.slow
+def test_a_stiff_foots_stop_beside_a_holding_pair_follows_the_reference():
+    """At tick 7 of envelope case 173 foot 0 slides at 0.67 mm/s under 67 kN (its own friction
+    would stop it within 55 us) while feet 1 and 3 hold at 0.7 of their cones. In the reference
+    foot 0 stops, and the pair breaks away. The model restarted there and the reference from
+    the same state run 0.5 s: the reference moves 437 mm, and the model ends 0.28 mm and 0.8 mm/s
+    from it because it steps down to the stiff foot's stop (MODEL-NOTES 58, sim.flight.
+    at_transition). Without that refinement, or with any of the narrower rules tried in
+    docs/issue36/session14-fast42d.txt, the stiff foot's 1 ms pieces keep all three feet
+    sliding and it ends 36.5 mm and 112 mm/s off."""
+    from touchdown.bench.reference3d import Ground3, Lander3, Law, MOON_R, Start3, solve3
+    from touchdown.sim.run import run
+    from touchdown.sim.scenario import parse
+
+    params = parse(STIFF_STOP_BESIDE_A_HOLDING_PAIR, "case 173")
+    records = list(run(params))
+    k = next(i for i, r in enumerate(records) if r.tick == 7)
+    n_ticks = 10
+    start, end = records[k].state.rows[0], records[k + n_ticks].state.rows[0]
+    assert list(start["sliding"]) == [1, 0, 0, 0] and bool(start["absorbing"])
+    centre_m = np.array([MOON_R, 0.0, 0.0])
+    y0 = np.concatenate([np.array(start["pos_m"]) - centre_m, start["vel_mps"], start["quat"],
+                         start["omega_body_radps"]])
+    span_s = n_ticks * params.params.sim.dt_s
+    ref = solve3(Lander3(), Ground3(slope_deg=6.0, slope_azimuth_deg=90.0),
+                 Start3(state="contact", vertical_speed_mps=0.0), span_s, law=Law(),
+                 method="LSODA", y0=y0, stop_at_tipped=False).y(span_s)
+    pos_ref_m, vel_ref_mps = ref[0:3] + centre_m, ref[3:6]
+    way_m = np.linalg.norm(pos_ref_m - np.array(start["pos_m"]))
+    assert way_m == pytest.approx(0.437, abs=0.002)
+    assert np.linalg.norm(np.array(end["pos_m"]) - pos_ref_m) < 0.01 * way_m
+    assert np.linalg.norm(np.array(end["vel_mps"]) - vel_ref_mps) < 0.01

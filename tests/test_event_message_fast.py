@@ -7,7 +7,7 @@ import numpy as np
 
 from touchdown.bench.speed import fleet_doc
 from touchdown.logs import header as H
-from touchdown.logs.redis_stream import entry_fields
+from touchdown.logs.redis_stream import entry_fields, event_entry
 from touchdown.sim.enums import EventKind, SurfaceState
 from touchdown.sim.scenario import parse
 from touchdown.sim.state import State
@@ -49,6 +49,9 @@ def test_event_messages_and_entries_as_before():
             assert fields["from_state"] == SurfaceState(m.from_state).label
             assert fields["to_state"] == SurfaceState(m.to_state).label
             assert fields["proto"] == m.SerializeToString()
+            # the service's entry, made from the event's own numbers: the same fields
+            data = m.SerializeToString()
+            assert event_entry(ev, m.player_id, m.body, data) == entry_fields(m, data)
             count += 1
     assert count > 20  # the fleet's arriving ships touch down
 

@@ -405,6 +405,34 @@ def test_coarse_contact_sub_steps_follow_the_fine_ones(initial, body):
     assert np.any(pos[0.05] != pos[0.0])
 
 
+@pytest.mark.parametrize("initial, changes", [
+    # bench/states.py's sliding row: its side feet press 8-10 mm, pushing, near no release
+    # (16 of its first 40 ticks now take the coarse sub-step)
+    ({"state": "contact", "altitude": -0.01625, "horizontal_speed": 3.0}, True),
+    # the same sliding downhill on the envelope's slope (no tick takes the new sub-step)
+    ({"state": "contact", "altitude": -0.01625, "horizontal_speed": 3.0, "heading_deg": 90.0},
+     False),
+])
+def test_coarse_sub_steps_with_a_release_follow_the_fine_ones(initial, changes):
+    """sim.coarse_release (MODEL-NOTES 68): a quiet contact tick's coarse sub-step is no longer
+    refused for a pressing foot near its release (the release is located inside it). Against
+    max_substep's sub-steps throughout: the same transitions on the same ticks, each at its
+    instant to 1e-4 s, the centre of mass within 1 mm at every tick; against the setting false,
+    within the same 1 mm, and not the same bits where a tick took the new coarse sub-step."""
+    body = {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}} if initial.get(
+        "heading_deg") else {}
+    runs = {k: records(scene(initial, body=body, duration=4.0, sim=sim)) for k, sim in (
+        ("new", {}), ("old", {"coarse_release": False}), ("fine", {"coarse_substep": 0.0}))}
+    ev = {k: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[k]
+              for e in r.events] for k in runs}
+    assert [(k, n) for k, n, _ in ev["new"]] == [(k, n) for k, n, _ in ev["fine"]]
+    assert [t for _, _, t in ev["new"]] == pytest.approx([t for _, _, t in ev["fine"]], abs=1e-4)
+    pos = {k: np.array([r.state.rows[0]["pos_m"] for r in runs[k]]) for k in runs}
+    assert np.max(np.linalg.norm(pos["new"] - pos["fine"], axis=1)) <= 1e-3
+    assert np.max(np.linalg.norm(pos["new"] - pos["old"], axis=1)) <= 1e-3
+    assert np.any(pos["new"] != pos["old"]) == changes
+
+
 @pytest.mark.parametrize("ratio, turning", [(0.5 * (1.0 - 1e-9), False), (0.5 * (1.0 + 1e-9), True)])
 def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, turning):
     """Outside an impact, a foot coming to a stop takes note 51's half-approach pieces only where

@@ -1,0 +1,50 @@
+"""A flight log's header tables made from a scenario's resolved tables (logs.header.header_table,
+as the live service seeds its logs' caches) are the tables the header resolves itself, byte for
+byte; and sim.scenario.resolve is parse's resolved document."""
+from __future__ import annotations
+
+import glob
+import json
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from touchdown.bench.speed import fleet_doc
+from touchdown.logs.encode import ShipTables
+from touchdown.logs.header import header_table, record_bytes, world_header, world_header_later
+from touchdown.sim.scenario import parse, resolve
+from touchdown.sim.world import World
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMED = {"name": "timed", "duration": 2.0, "ships": [
+    {"id": "a", "spawn_t": 0.5, "retire_t": 1.5, "initial": {"altitude": 3.0},
+     "inputs": [{"t": 0.6, "throttle": 0.5}]},
+    {"id": "b", "player_id": "p", "mass": 9000.0, "fuel_mass": 1000.0,
+     "initial": {"state": "landed", "north": 4.0}},
+    {"id": "c", "inertia": [3.0e4, 3.0e4, 2.0e4], "retire_t": 1.0,
+     "initial": {"altitude": 5.0, "vertical_speed": -2.0, "tilt_deg": 4.0}}]}
+
+
+def _docs() -> list[dict]:
+    docs = [fleet_doc(120, 60.0), TIMED]
+    for f in sorted(glob.glob(str(ROOT / "scenarios" / "*.toml"))):
+        docs.append(tomllib.loads(Path(f).read_text()))
+    return docs
+
+
+@pytest.mark.parametrize("doc", _docs(), ids=lambda d: str(d.get("name", "?")))
+def test_header_tables_from_resolved_tables_are_the_headers_own(doc):
+    scn = parse(doc, "x")
+    assert json.dumps(resolve(doc, "x"), sort_keys=True) == json.dumps(scn.resolved,
+                                                                       sort_keys=True)
+    world = World.of(scn)
+    for _ in world.blocks(world.tick + 12):  # (ships joined and left: the fleet of tick 12)
+        pass
+    seeded = ShipTables({sid: header_table(world.known[sid]) for sid in world.ship_ids})
+    a = world_header(world, "n", "s", 10, True, tables=seeded)
+    b = world_header(world, "n", "s", 10, True, tables={})
+    assert a.SerializeToString() == b.SerializeToString()
+    later, json_of = world_header_later(world, "n", "s", 10, True, tables=ShipTables(
+        {sid: header_table(world.known[sid]) for sid in world.ship_ids}))
+    assert record_bytes(later, json_of()) == b.SerializeToString()
