@@ -245,6 +245,26 @@ def lowest_foot(ground, pos_m, quat, leg_radius_m, com_height_m):
     return ft.pen_m[best], ft.pos_w[best]
 
 
+class ContactGeometry(NamedTuple):
+    """The feet at one pose: the geometry phase of a contact evaluation, everything in it that
+    depends on the ship's position p and attitude q (and on its legs and the ground at that
+    instant) but on no velocity and on no foot's role (the style of MJX's and brax's pipelines:
+    kinematics, then the forces from them). Two evaluations at one pose and instant differ only
+    in their forces phase (:func:`forces`): the two of the exponential step's closing kick
+    (sim.integrators.closing_kick) share one geometry, the same bits by construction (each number
+    is formed by the same operations on the same operands). It is not kept in the ContactEval:
+    55 numbers more in every evaluation passed to or returned from a compiled call cost about as
+    many instructions as looking the feet up again (callgrind, session 14)."""
+
+    offset_w: tuple  # r_i: each foot from the centre of mass, inertial
+    pos_w: tuple  # p + r_i
+    pen_m: tuple  # x_i = R + h - |p + r_i| (negative: height above the ground)
+    push_w: tuple  # g_i = -grad x_i, the direction the ground pushes foot i
+    push_norm: tuple  # |g_i|: sec(slope), 1 on level ground
+    normal_w: tuple  # n_i, each foot's friction plane normal (:func:`friction_normal`)
+    up_w: tuple  # unit(p): the centre of mass's local vertical
+
+
 class ContactEval(NamedTuple):
     """The ground's action on a ship at one instant."""
 
@@ -351,20 +371,21 @@ def foot_force(spring, v_foot, pen, push, engage_m, n_hat, linear_model):
 
 
 @kernel
-def spring_axis(ground, pos_m, ft, engage_m):
+def spring_axis(ground, up, ft, engage_m):
     """The direction along which the feet that touch push: the centre of mass's radial on level
     ground (or with the seed's radial normal), else the mean of their pushes g_i (on a uniform
     slope, the slope's normal exactly). The exact method solves the springs along it, so a force
     that acts along it is integrated by one rule whole, not by one rule along the radial and
-    another across it (which gave a spring on a 39 degree slope a 0.6% pull along the slope)."""
+    another across it (which gave a spring on a 39 degree slope a 0.6% pull along the slope).
+    ``up``: the centre of mass's local vertical, unit(p); ``ft``: the feet (their pen_m, push_w)."""
     if ground.terrain.level or ground.radial:
-        return unit(pos_m)
+        return up
     s = (0.0, 0.0, 0.0)
     for i in range(4):
         if ft.pen_m[i] > -engage_m[i]:
             s = add(s, ft.push_w[i])
     if not dot(s, s) > 0.0:
-        return unit(pos_m)
+        return up
     return unit(s)
 
 
@@ -389,14 +410,37 @@ def in_plane(v, n):
     return sub(v, scale(n, dot(v, n)))
 
 
-# (a kernel, inlined into its one caller, sim.dynamics.contact_inline, itself inlined into the
-# integrators' stages and into sim.dynamics.contact_at: its ContactEval is then built where it is
-# used, not copied there from a call's; 4.2% of a touchdown's instructions, session 4)
+@kernel
+def geometry(ground, pos_m, quat, legs):
+    """The :class:`ContactGeometry` of a ship at ``pos_m``, turned by ``quat``, on its ``legs``:
+    the feet (:func:`feet`'s numbers), each foot's friction plane normal
+    n_i = unit(g_i - r_hat_i + up) (:func:`friction_normal`, its radial r_hat_i from
+    :func:`under_up` without normalising the foot's position again; on level ground, or with the
+    seed's radial normal, g_i is r_hat_i and every n_i is unit(up)), and |g_i|."""
+    off = foot_offsets_w(quat, legs.leg_radius_m, legs.com_height_m)
+    f0, f1, f2, f3 = (add(pos_m, off[0]), add(pos_m, off[1]), add(pos_m, off[2]),
+                      add(pos_m, off[3]))
+    x0, g0, u0 = under_up(ground, f0)
+    x1, g1, u1 = under_up(ground, f1)
+    x2, g2, u2 = under_up(ground, f2)
+    x3, g3, u3 = under_up(ground, f3)
+    up = unit(pos_m)
+    n0 = unit(add(sub(g0, u0), up))
+    if ground.terrain.level or ground.radial:  # g_i is u_i: every foot's normal is unit(up)'s
+        normals = (n0, n0, n0, n0)
+    else:
+        normals = (n0, unit(add(sub(g1, u1), up)), unit(add(sub(g2, u2), up)),
+                   unit(add(sub(g3, u3), up)))
+    return ContactGeometry(off, (f0, f1, f2, f3), (x0, x1, x2, x3), (g0, g1, g2, g3),
+                           (norm(g0), norm(g1), norm(g2), norm(g3)), normals, up)
+
+
 @kernel
 def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_force):
     """Normal force, its moment, and penetration (see the module docstring) of a ship in
     ``motion`` (p, v, q, w_b: sim.dynamics.Motion) on its ``legs``, their ``dampers`` (a
-    :class:`Dampers`: the absorbers' while absorbing).
+    :class:`Dampers`: the absorbers' while absorbing): the feet at its pose (:func:`geometry`),
+    then the ground's action on them at its velocities (:func:`forces`).
 
     ``engage_m``: foot i counts as touching from ``x_i > -engage_m[i]`` (0 as a rule; a foot that
     has just reached the ground gets a micrometre, so that rounding cannot leave out the damper's
@@ -411,44 +455,44 @@ def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_for
     pressing foot that is not kinetic; in its friction plane), so that a ship held on its feet
     feels its friction throughout the step: the impulse after it only corrects it
     (sim.friction.coulomb)."""
-    pos_m, vel_mps, quat, w_b = motion
-    mu_k, kinetic, hold_w, drag_dir = friction_force
     c_nspm, absorbing = dampers
+    return forces(ground, geometry(ground, motion.p, motion.q, legs), motion,
+                  Spring(0.25 * legs.k_npm, 0.25 * c_nspm, absorbing), engage_m, linear_model,
+                  friction_force)
+
+
+# (a kernel, inlined into its caller, sim.dynamics.contact_forces, inlined into contact_inline,
+# themselves inlined into the integrators' stages and into sim.dynamics.contact_at: its
+# ContactEval is then built where it is used, not copied there from a call's; 4.2% of a
+# touchdown's instructions, session 4)
+@kernel
+def forces(ground, geo, motion, spring, engage_m, linear_model, friction_force):
+    """The forces phase of an evaluation (:func:`evaluate`): the ground's action on feet at
+    ``geo`` (a :class:`ContactGeometry`, at ``motion``'s pose and instant) moving at ``motion``'s
+    velocities: each foot's rate x_i' = -g_i . u_i (u_i = v + w x r_i - Omega z x foot, its
+    velocity over the ground), its ``spring``'s force F_i = k_i x_i + c_i x_i' (clamped at 0
+    unless bilateral), the sliding feet's kinetic friction and the holding feet's carried static
+    friction (``friction_force``), their sum and moment about the centre of mass."""
+    vel_mps, quat, w_b = motion.v, motion.q, motion.w
+    mu_k, kinetic, hold_w, drag_dir = friction_force
     omega_w = quat_rotate(quat, w_b)
-    spring = Spring(0.25 * legs.k_npm, 0.25 * c_nspm, absorbing)
-    # the feet (:func:`feet`'s numbers), with each foot's radial: its friction plane's normal
-    # (:func:`friction_normal`) from it, without normalising the foot's position again
-    off = foot_offsets_w(quat, legs.leg_radius_m, legs.com_height_m)
-    f0, f1, f2, f3 = (add(pos_m, off[0]), add(pos_m, off[1]), add(pos_m, off[2]),
-                      add(pos_m, off[3]))
-    x0, g0, u0 = under_up(ground, f0)
-    x1, g1, u1 = under_up(ground, f1)
-    x2, g2, u2 = under_up(ground, f2)
-    x3, g3, u3 = under_up(ground, f3)
-    ft = Feet(off, (f0, f1, f2, f3), (x0, x1, x2, x3), (g0, g1, g2, g3))
-    up = unit(pos_m)
-    n0 = unit(add(sub(g0, u0), up))
-    if ground.terrain.level or ground.radial:  # g_i is u_i: every foot's normal is unit(up)'s
-        normals = (n0, n0, n0, n0)
-    else:
-        normals = (n0, unit(add(sub(g1, u1), up)), unit(add(sub(g2, u2), up)),
-                   unit(add(sub(g3, u3), up)))
-    n_hat = spring_axis(ground, pos_m, ft, engage_m) if linear_model else unit(pos_m)
-    v_feet = (foot_velocity(ground, vel_mps, omega_w, ft.offset_w[0], ft.pos_w[0]),
-              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[1], ft.pos_w[1]),
-              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[2], ft.pos_w[2]),
-              foot_velocity(ground, vel_mps, omega_w, ft.offset_w[3], ft.pos_w[3]))
-    ff = (foot_force(spring, v_feet[0], ft.pen_m[0], ft.push_w[0], engage_m[0], n_hat,
+    normals = geo.normal_w
+    n_hat = spring_axis(ground, geo.up_w, geo, engage_m) if linear_model else geo.up_w
+    v_feet = (foot_velocity(ground, vel_mps, omega_w, geo.offset_w[0], geo.pos_w[0]),
+              foot_velocity(ground, vel_mps, omega_w, geo.offset_w[1], geo.pos_w[1]),
+              foot_velocity(ground, vel_mps, omega_w, geo.offset_w[2], geo.pos_w[2]),
+              foot_velocity(ground, vel_mps, omega_w, geo.offset_w[3], geo.pos_w[3]))
+    ff = (foot_force(spring, v_feet[0], geo.pen_m[0], geo.push_w[0], engage_m[0], n_hat,
                      linear_model),
-          foot_force(spring, v_feet[1], ft.pen_m[1], ft.push_w[1], engage_m[1], n_hat,
+          foot_force(spring, v_feet[1], geo.pen_m[1], geo.push_w[1], engage_m[1], n_hat,
                      linear_model),
-          foot_force(spring, v_feet[2], ft.pen_m[2], ft.push_w[2], engage_m[2], n_hat,
+          foot_force(spring, v_feet[2], geo.pen_m[2], geo.push_w[2], engage_m[2], n_hat,
                      linear_model),
-          foot_force(spring, v_feet[3], ft.pen_m[3], ft.push_w[3], engage_m[3], n_hat,
+          foot_force(spring, v_feet[3], geo.pen_m[3], geo.push_w[3], engage_m[3], n_hat,
                      linear_model))
     force = (0.0, 0.0, 0.0)
     torque = (0.0, 0.0, 0.0)
-    g = (norm(ft.push_w[0]), norm(ft.push_w[1]), norm(ft.push_w[2]), norm(ft.push_w[3]))
+    g = geo.push_norm
     normal = 0.0
     max_pen = -math.inf
     lowest = (0.0, 0.0, 0.0)
@@ -463,7 +507,7 @@ def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_for
         damp += f.damping_nspm
         load += f.spring_load_n
         load_rate += f.spring_load_rate_nps
-        f_vec = scale(ft.push_w[i], f.force_n)
+        f_vec = scale(geo.push_w[i], f.force_n)
         speed = norm(slips[i])
         fixed = drag_dir[i]
         along = fixed[0] != 0.0 or fixed[1] != 0.0 or fixed[2] != 0.0
@@ -477,14 +521,14 @@ def evaluate(ground, motion, legs, dampers, engage_m, linear_model, friction_for
             f_vec = add(f_vec, held)
             friction += norm(held)
         force = add(force, f_vec)
-        torque = add(torque, cross(ft.offset_w[i], f_vec))
+        torque = add(torque, cross(geo.offset_w[i], f_vec))
         normal += f.force_n * g[i]
-        if ft.pen_m[i] > max_pen:
-            lowest = ft.pos_w[i]
-            max_pen = ft.pen_m[i]
-            lowest_gamma = dot(ft.push_w[i], n_hat)
-    return ContactEval(True, ft.pen_m, (ff[0].pen_rate_mps, ff[1].pen_rate_mps,
-                                        ff[2].pen_rate_mps, ff[3].pen_rate_mps),
+        if geo.pen_m[i] > max_pen:
+            lowest = geo.pos_w[i]
+            max_pen = geo.pen_m[i]
+            lowest_gamma = dot(geo.push_w[i], n_hat)
+    return ContactEval(True, geo.pen_m, (ff[0].pen_rate_mps, ff[1].pen_rate_mps,
+                                         ff[2].pen_rate_mps, ff[3].pen_rate_mps),
                        (ff[0].force_n, ff[1].force_n, ff[2].force_n, ff[3].force_n), g,
                        force, torque, normal, slips, friction, max_pen, lowest, n_hat, stiff,
                        damp, load, load_rate, lowest_gamma, normals)

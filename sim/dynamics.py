@@ -21,8 +21,8 @@ from typing import NamedTuple
 import numpy as np
 
 from touchdown.sim.compiled import constructor, kernel, separate
-from touchdown.sim.contact import (Dampers, FrictionForce, Ground, Legs, evaluate, foot_offsets_w,
-    no_contact)
+from touchdown.sim.contact import (FrictionForce, Ground, Legs, Spring, foot_offsets_w, forces,
+    geometry, no_contact)
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
 from touchdown.sim.vec import (add, body_axes, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
@@ -144,10 +144,32 @@ def contact_inline(fb, ground, motion, absorbing, engage_m):
     passed back from a call with ~80 arguments (the same arithmetic: the same bits)."""
     if not fb.craft.touching:
         return no_contact(motion.p)
+    return contact_forces(fb, ground, contact_geometry(fb, ground, motion), motion,
+                                 absorbing, engage_m)
+
+
+@kernel
+def contact_geometry(fb, ground, motion):
+    """The feet of ``fb`` at ``motion``'s pose on ``ground`` (sim.contact.geometry: its position
+    and attitude alone), which every evaluation at that pose and instant shares."""
+    cr = fb.craft
+    return geometry(ground, motion.p, motion.q, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm))
+
+
+@kernel
+def contact_forces(fb, ground, geo, motion, absorbing, engage_m):
+    """The ground's action at ``motion`` on feet at ``geo`` (:func:`contact_geometry` at the same
+    pose on ``ground``): sim.contact.forces with ``fb``'s springs and friction, the absorbers'
+    dampers while ``absorbing``; no contact's for a ship known to be clear of the ground.
+    contact_forces(fb, ground, contact_geometry(fb, ground, m), m, ...) is
+    :func:`contact_inline`'s evaluation (sim.contact.evaluate), step for step."""
     cr, g = fb.craft, fb.grip
-    return evaluate(ground, motion, Legs(cr.leg_radius_m, cr.com_height_m, cr.k_npm),
-                    Dampers(cr.c_absorb_nspm if absorbing else cr.c_nspm, absorbing), engage_m,
-                    cr.linear_model, FrictionForce(cr.mu_k, g.kinetic, g.hold_w, g.drag_dir))
+    if not cr.touching:
+        return no_contact(motion.p)
+    c_nspm = cr.c_absorb_nspm if absorbing else cr.c_nspm
+    return forces(ground, geo, motion, Spring(0.25 * cr.k_npm, 0.25 * c_nspm, absorbing),
+                  engage_m, cr.linear_model, FrictionForce(cr.mu_k, g.kinetic, g.hold_w,
+                                                           g.drag_dir))
 
 
 @separate

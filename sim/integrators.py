@@ -17,9 +17,10 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.contact import no_contact
-from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_inline, \
-    derivatives, derivatives_held, ground_at, torque_body
+from touchdown.sim.contact import ContactEval, no_contact
+from touchdown.sim.dynamics import NO_HELD, Held, Holding, Motion, acceleration, contact_at, \
+    contact_forces, contact_geometry, contact_inline, derivatives, derivatives_held, ground_at, \
+    torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -229,16 +230,55 @@ class SteppedHeld(NamedTuple):
     held_impulse_w: tuple
 
 
+class HeldStart(NamedTuple):
+    """The held feet of an :func:`rk4_held` step, and its first stage where it was already formed:
+    the derivatives with their static friction at the step's start (sim.dynamics.derivatives_held
+    at the start's state and contact, with these held feet), which do not depend on the step's
+    length: the trial steps that locate an event all start there (sim.flight.to_event), and a
+    piece's slip rates ask for the same (sim.flight.slip_rates)."""
+
+    holding: Holding
+    formed: bool  # False: k1 and f1 are not formed (zeros)
+    k1: tuple  # (p', v', q', w_b') at the start
+    f1: Held  # the held feet's static friction there
+
+
+@kernel
+def held_start(fb, ground, ce, motion, holding):
+    """The :class:`HeldStart` of a step from ``motion`` (``ce``: its contact, ``ground``: the
+    ground there), its first stage formed."""
+    k1, f1 = derivatives_held(fb, ground, ce, motion, holding)
+    return HeldStart(holding, True, k1, f1)
+
+
+@kernel
+def unformed(holding):
+    """A :class:`HeldStart` whose first stage :func:`rk4_held` forms itself."""
+    z = (0.0, 0.0, 0.0)
+    return HeldStart(holding, False, (z, z, (0.0, 0.0, 0.0, 0.0), z), NO_HELD)
+
+
+#: no first stage formed, no foot held (sim.flight.NO_RATES's)
+NO_FIRST = HeldStart(Holding((False, False, False, False), 0.0), False,
+                     ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+                     NO_HELD)
+
+
 @separate
-def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
-    """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
-    inside the step as the force of
+def rk4_held(fb, h, motion, ce, absorbing, t0, start):
+    """:func:`rk4` with the static friction of the feet of ``start.holding`` (a :class:`HeldStart`;
+    sim.dynamics.Holding) inside the step as the force of
     their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
     friction then follows the ship's motion at the method's order, where a force carried from the
-    last step and corrected by an impulse after this one was first order in the step."""
+    last step and corrected by an impulse after this one was first order in the step. The first
+    stage is ``start``'s where it was formed (the same bits: :func:`held_start`)."""
     y = motion
     p, v, q, w = motion
-    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
+    holding = start.holding
+    if start.formed:
+        k1, f1 = start.k1, start.f1
+    else:
+        k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
     k2, f2, c2 = _rk4_stage_held(fb, 0.5 * h, y, k1, absorbing, t0, holding)
     k3, f3, c3 = _rk4_stage_held(fb, 0.5 * h, y, k2, absorbing, t0, holding)
     k4, f4, c4 = _rk4_stage_held(fb, h, y, k3, absorbing, t0, holding)
@@ -310,8 +350,66 @@ class Released(NamedTuple):
     v_released_mps: float  # x' when it let go
 
 
+class SteppedEnd(NamedTuple):
+    """A step, and the last contact evaluation it made at its end (for the evaluations after it
+    at the same state: sim.flight.vertical_flight's guard)."""
+
+    stepped: Stepped
+    ce: ContactEval  # at the end's pose, at the instant t0 + h
+    motion: Motion  # the motion it was evaluated at (the end's velocities, or the drift's)
+
+
+class Kick(NamedTuple):
+    """The exponential step's closing half kick (:func:`closing_kick`)."""
+
+    l_pre: tuple  # the body-frame angular momentum after the drift (before the kick)
+    n_hat: tuple  # the spring axis
+    a_n: float  # the flow's acceleration along it at the step's end (the model's force)
+    h: float  # the step
+
+
 @kernel
-def exponential(fb, h, motion, ce, absorbing, t0):
+def _kicked(fb, ce1, m_pre, kick):
+    """(v1, w1): :func:`closing_kick`'s half kick from the contact ``ce1`` at the step's end."""
+    p1, v_pre, q1, _ = m_pre
+    l_pre, n_hat, a_n, h = kick
+    a1 = acceleration(fb, ce1, p1, q1)
+    return (add(v_pre, scale(sub(a1, scale(n_hat, a_n)), 0.5 * h)),
+            div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2))
+
+
+@separate
+def closing_kick(fb, ground1, m_pre, kick, absorbing):
+    """The exponential step's end: the contact at the drift's end ``m_pre`` = (p1, v_pre, q1,
+    w_pre) on ``ground1``, and the closing half kick from it, across n and along n the residual
+    between the true force and the flow's model (``kick``: a :class:`Kick`),
+
+        v1 = v_pre + (a1 - n a_n) h / 2,   L1 = L_pre + tau1 h / 2;
+
+    where a foot presses there, the dampers' forces (and torque) at the end's own rates: the kick
+    again from the contact at (p1, v1, q1, w1), as in velocity_verlet. Both evaluations are at
+    one pose and instant: the feet are looked up once (sim.dynamics.contact_geometry), the forces
+    phase taken twice (the same bits as two whole evaluations). Returns (v1, w1, the last
+    contact evaluated, the motion it was evaluated at)."""
+    p1, v_pre, q1, w_pre = m_pre
+    if not fb.craft.touching:
+        ce1 = no_contact(p1)
+        v1, w1 = _kicked(fb, ce1, m_pre, kick)
+        return v1, w1, ce1, m_pre
+    engage = fb.grip.engage_m
+    geo = contact_geometry(fb, ground1, m_pre)
+    ce1 = contact_forces(fb, ground1, geo, m_pre, absorbing, engage)
+    v1, w1 = _kicked(fb, ce1, m_pre, kick)
+    if not pressed(ce1):
+        return v1, w1, ce1, m_pre
+    m1 = Motion(p1, v1, q1, w1)
+    ce1 = contact_forces(fb, ground1, geo, m1, absorbing, engage)
+    v1, w1 = _kicked(fb, ce1, m_pre, kick)
+    return v1, w1, ce1, m1
+
+
+@kernel
+def exponential_end(fb, h, motion, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the direction the touching feet push at the step's start (the local vertical on level
@@ -335,7 +433,7 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     for an upright ship bouncing on level ground, at any step: the bounce needs no sub-steps at
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
-    sim.stability)."""
+    sim.stability). Returns a :class:`SteppedEnd`: the step, and the contact at its end."""
     p, v, q, w = motion
     n_hat = ce.axis
     m = fb.craft.mass_kg
@@ -361,20 +459,18 @@ def exponential(fb, h, motion, ce, absorbing, t0):
     v_across = sub(v_half, scale(n_hat, v_n0))
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
-    ground1 = ground_at(fb, t0 + h)
-    ce1 = contact_at(fb, ground1, Motion(p1, v_pre, q1, w_pre), absorbing, fb.grip.engage_m)
-    a1 = acceleration(fb, ce1, p1, q1)
     # closing kick: across n, and along n the residual between the true force and the model's
-    v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-    w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
-    if pressed(ce1):  # the dampers' torque at the end's own rates, as in velocity_verlet
-        ce1 = contact_at(fb, ground1, Motion(p1, v1, q1, w1), absorbing, fb.grip.engage_m)
-        a1 = acceleration(fb, ce1, p1, q1)
-        v1 = add(v_pre, scale(sub(a1, scale(n_hat, rel.a_mps2)), 0.5 * h))
-        w1 = div(add(l_pre, scale(torque_body(fb, ce1, q1), 0.5 * h)), fb.craft.inertia_kgm2)
-    return Stepped(p1, v1, q1, w1,
-                   exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg, model_end_n),
-                   peak, True)
+    v1, w1, ce1, m1 = closing_kick(fb, ground_at(fb, t0 + h), Motion(p1, v_pre, q1, w_pre),
+                                   Kick(l_pre, n_hat, rel.a_mps2, h), absorbing)
+    return SteppedEnd(Stepped(p1, v1, q1, w1,
+                              exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg,
+                                                  model_end_n), peak, True), ce1, m1)
+
+
+@kernel
+def exponential(fb, h, motion, ce, absorbing, t0):
+    """:func:`exponential_end`'s step alone."""
+    return exponential_end(fb, h, motion, ce, absorbing, t0).stepped
 
 
 @kernel

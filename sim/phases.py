@@ -114,16 +114,22 @@ def near_ground(here, s, cmd):
 
 @kernel
 def clear_tick(here, s, cmd):
+    """:func:`clear_tick_of` the ship as :func:`free_body` builds it (for a caller without it)."""
+    return clear_tick_of(here, s, free_body(here, s, cmd, False, here.cfg.method))
+
+
+@kernel
+def clear_tick_of(here, s, fb):
     """A flying ship that near_ground keeps near the ground but whose feet cannot reach it within
     the tick (sim.flight.feet_clear over dt from its lowest foot's height: a bound on every
     foot's speed and acceleration relative to the ground, however the ship turns; on a plane
     slope, as feet_clear bounds no bump's steepness): it flies the tick in one step, as a ship
     far above does (``sim.clear_tick``; MODEL-NOTES 63). near_ground's test is the centre of
-    mass's, with a metre's margin; this one is the feet's own."""
+    mass's, with a metre's margin; this one is the feet's own. ``fb``: the ship this tick
+    (:func:`free_body`; its craft's constants, and its ground at the tick's start)."""
     cfg, sp = here.cfg, here.sp
     if not cfg.clear_tick or here.terrain.n_bumps != 0 or s.surface_state != FLYING:
         return False
-    fb = free_body(here, s, cmd, False, cfg.method)
     ground = ground_at(fb, 0.0)
     pen = lowest_foot_penetration(ground, s.motion.p, s.motion.q, sp.leg_radius_m,
                                   sp.com_height_m)
@@ -227,6 +233,21 @@ def free_body(here, s, cmd, touching, method):
                   method == EXPONENTIAL, method,
                   cfg.friction_kinetic if per_foot(cfg) else 0.0)
     return FreeBody(craft, Grip(ENGAGE_AT_GROUND, s.footing.sliding, s.footing.hold_w, NO_HOLD))
+
+
+@constructor
+def stepped_by(fb, touching, method):
+    """``fb`` (:func:`free_body`) as the tick steps it: near the ground (``touching``: its
+    contact looked up) or known clear of it, by ``method`` (sim.integrators.sub_method's), which
+    fits the pressing feet's linear model where it is the exponential one. The craft is built
+    once a tick; what the tick's path decides (sim.phases.near_ground, :func:`clear_tick_of`,
+    :func:`purely_vertical`) sets these three of its fields."""
+    cr = fb.craft
+    return FreeBody(Craft(cr.mass_kg, cr.inertia_kgm2, cr.thrust_n, cr.rcs_torque_body_nm,
+                          cr.leg_radius_m, cr.com_height_m, cr.k_npm, cr.c_nspm,
+                          cr.c_absorb_nspm, cr.gm_m3ps2, cr.body_radius_m,
+                          cr.body_omega_radps, cr.terrain, cr.radial, cr.cos0, cr.sin0, touching,
+                          method == EXPONENTIAL, method, cr.mu_k), fb.grip)
 
 
 @kernel
@@ -429,8 +450,10 @@ def step_ship(here, rec, inp, out, log):
     moving_tipped = (s.surface_state == TIPPED and cfg.tipped_model == FULL_TIPPED
                      and not (on_hull(cfg, s) and not rcs_fires(cmd)))
     if s.surface_state == FLYING or s.surface_state == CONTACT or moving_tipped:
+        # the ship this tick (its touching and method are set once the path is chosen, below)
+        fb = free_body(here, s, cmd, False, cfg.method)
         fine = (s.surface_state != FLYING
-                or (near_ground(here, s, cmd) and not clear_tick(here, s, cmd)))
+                or (near_ground(here, s, cmd) and not clear_tick_of(here, s, fb)))
         exact_one = (fine and cfg.vertical_one_step
                      and (cfg.method == EXPONENTIAL or cfg.method == HYBRID)
                      and purely_vertical(here, s, cmd))
@@ -439,7 +462,7 @@ def step_ship(here, rec, inp, out, log):
         if strikes and cfg.impact_substeps > n_sub:
             n_sub = cfg.impact_substeps
         method = sub_method(cfg.method, fine and not exact_one)
-        fb = free_body(here, s, cmd, fine, method)
+        fb = stepped_by(fb, fine, method)
         # an impact's static friction changes too fast to be carried over: impulses alone; with
         # rk4 the holding feet's friction is inside the step (substep), nothing is carried
         held_inside = method == RK4 and per_foot(cfg)
