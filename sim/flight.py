@@ -22,8 +22,8 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import EXPONENTIAL, NO_FIRST, RK4, HeldStart, advance, exponential, \
-    exponential_end, held_start, rk4_held, unformed
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, exponential_end, \
+    rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -246,52 +246,11 @@ class FootRoles(NamedTuple):
 
 class StepFrom(NamedTuple):
     """Where a step of the method starts: its instant, the ship's motion there, and the contact
-    evaluated there (with the feet's roles the step is taken with); and the first stage of an
-    rk4_held step from there where it is already formed (sim.integrators.HeldStart: every step
-    from here with the same held feet shares it)."""
+    evaluated there (with the feet's roles the step is taken with)."""
 
     t_s: float  # from the tick's start
     motion: Motion
     ce: ContactEval
-    first: HeldStart
-
-
-@kernel
-def held_inside(cfg, fb, sliding, ce):
-    """(whether, holding): a step from the contact ``ce`` takes the static friction of the feet
-    that hold inside it (sim.integrators.rk4_held: with the rk4 method and the per-foot law, where
-    some foot presses that does not slide, MODEL-NOTES 46), and those feet (every foot not
-    ``sliding``; sim.dynamics.Holding). No holding foot pressing at the start: none will inside,
-    a foot's touch ending the piece."""
-    f0 = ce.foot_force_n
-    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
-               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
-    held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-    return (fb.craft.method == RK4 and holding and per_foot(cfg),
-            Holding(held, cfg.friction_static))
-
-
-@kernel
-def first_stage(start, holding):
-    """The :class:`sim.integrators.HeldStart` of an rk4_held step from ``start`` with ``holding``:
-    ``start.first`` where it was formed with the same held feet (and so from the same state and
-    contact: a StepFrom's first stage is formed with its own), else one the step forms itself."""
-    first = start.first
-    if first.formed and _same4(first.holding.feet, holding.feet):
-        return first
-    return unformed(holding)
-
-
-@kernel
-def with_first_stage(cfg, fb, sliding, start):
-    """``start`` with its first stage formed (sim.integrators.held_start) where the steps from it
-    take the holding feet's friction inside (:func:`held_inside`) and it was not formed already:
-    the trial steps of :func:`to_event` then share it."""
-    inside, holding = held_inside(cfg, fb, sliding, start.ce)
-    if not inside or first_stage(start, holding).formed:
-        return start
-    return StepFrom(start.t_s, start.motion, start.ce,
-                    held_start(fb, ground_at(fb, start.t_s), start.ce, start.motion, holding))
 
 
 @separate
@@ -301,17 +260,20 @@ def substep(cfg, fb, roles, h, start):
     (``start.ce`` evaluated so); then Coulomb's impulses at the other pressing feet (or the seed's
     law), spread over the step, and a held footprint kept where the ground carried it."""
     engage, sliding, dragged, absorbing = roles
-    t_start, motion, ce_start = start.t_s, start.motion, start.ce
+    t_start, motion, ce_start = start
     p, v, q, w = motion
     z4 = (False, False, False, False)
     body = with_feet(fb, engage, dragged)
     carried = fb.grip.hold_w
-    inside, holding = held_inside(cfg, fb, sliding, ce_start)
-    if inside:
+    f0 = ce_start.foot_force_n
+    holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
+               or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    if fb.craft.method == RK4 and holding and per_foot(cfg):
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
-                      first_stage(start, holding))
+                      Holding(held, cfg.friction_static))
         res = rh.stepped
         hi = rh.held_impulse_w
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
@@ -619,7 +581,6 @@ def to_event(cfg, fb, roles, h, start, ev):
     zero)."""
     engage, sliding, dragged, absorbing = roles
     t0 = start.t_s
-    start = with_first_stage(cfg, fb, sliding, start)  # (every trial step starts there)
     on = ev.onset
     # an absorbed foot's force jumps to zero where it leaves the ground (c x' is not zero
     # there): kept pressing through the trials, so that no stage of a trial ending just past
@@ -733,9 +694,6 @@ class SlipRates(NamedTuple):
     rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
     own: tuple  # mu_k N_i / m_eff,i, m/s^2
     across: tuple  # |ds_i/dt - (d|s_i|/dt) s_hat_i|, m/s^2: what turns the slip
-    #: the derivatives they come from (the feet that do not slide held): the first stage of an
-    #: rk4_held step from the same state and contact with the same held feet (substep)
-    first: HeldStart
 
 
 @kernel
@@ -748,8 +706,7 @@ def slip_rates(cfg, fb, ground, ce, m):
     (its direction turns within a fraction of the step)."""
     kin = fb.grip.kinetic
     held = (not kin[0], not kin[1], not kin[2], not kin[3])
-    first = held_start(fb, ground, ce, m, Holding(held, cfg.friction_static))
-    d = first.k1
+    d, _ = derivatives_held(fb, ground, ce, m, Holding(held, cfg.friction_static))
     off = foot_offsets_w(m.q, fb.craft.leg_radius_m, fb.craft.com_height_m)
     omega_w = quat_rotate(m.q, m.w)
     alpha_w = quat_rotate(m.q, d[3])
@@ -782,12 +739,12 @@ def slip_rates(cfg, fb, ground, ce, m):
                 own if i == 2 else owns[2], own if i == 3 else owns[3])
         acrosses = (across if i == 0 else acrosses[0], across if i == 1 else acrosses[1],
                     across if i == 2 else acrosses[2], across if i == 3 else acrosses[3])
-    return SlipRates(speeds, rates, owns, acrosses, first)
+    return SlipRates(speeds, rates, owns, acrosses)
 
 
 #: no foot slips
 NO_RATES = SlipRates((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
-                     (0.0, 0.0, 0.0, 0.0), NO_FIRST)
+                     (0.0, 0.0, 0.0, 0.0))
 
 
 @kernel
@@ -1181,15 +1138,11 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
     whole = rem
     sr = NO_RATES
     rated = False  # sr is the sliding feet's at the piece's start
-    # the first stage of the rk4_held steps from (t_abs, m, ce_y), while ce_y is slip_rates' (a
-    # StepFrom's: substep takes it where the held feet are the same)
-    first = NO_FIRST
     if (fine_s > 0.0 and rem > fine_s * (1.0 + 1e-9) and fb.craft.mu_k > 0.0
             and (drag[0] or drag[1] or drag[2] or drag[3])):
         body = with_feet(fb, engage, drag)
         sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
         rated = True
-        first = sr.first
         t_stop = stiff_feet(cfg, body, start, sr, PIECE_REACH * rem, stiff, fine.floor_s)
         if t_stop < math.inf:
             # Coulomb's law is stiff at such a foot: its impulse after the step is first order
@@ -1217,7 +1170,6 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         if not rated:
             sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
             rated = True
-            first = sr.first
         may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
         if may_split:
             may = with_stopping(drag, may, stiff, sr)
@@ -1225,9 +1177,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             drag = may
             ce_y = contact_at(with_feet(fb, engage, drag), ground_at(fb, t_abs), m, ft.absorbing,
                               engage)
-            first = NO_FIRST
     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                 StepFrom(t_abs, m, ce_y, first))
+                 StepFrom(t_abs, m, ce_y))
     t_e = t_abs + rem
     memo = start.memo
     # the memo is at st's end with the feet's roles of now (with_feet(fb, engage, drag)): the
@@ -1256,9 +1207,8 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
             drag = near
             body = with_feet(fb, engage, drag)
             ce_y = contact_at(body, ground_at(fb, t_abs), m, ft.absorbing, engage)
-            first = NO_FIRST
             st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                         StepFrom(t_abs, m, ce_y, first))
+                         StepFrom(t_abs, m, ce_y))
             m_e = Motion(st.p, st.v, st.q, st.w)
             # (the memo's kinetic feet are the old drag: it cannot serve)
             ce_e = contact_at(body, ground_at(fb, t_e), m_e, ft.absorbing, engage)
@@ -1279,13 +1229,13 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 if (half > 0.05 * fine_s and (fine.floor_s == 0.0 or turns(stop, sr))
                         and rem > half * (1.0 + 1e-9)):
                     st = substep(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), half,
-                                 StepFrom(t_abs, m, ce_y, first))
+                                 StepFrom(t_abs, m, ce_y))
                     return PieceStep(st, half, True, NO_SLIP, NO_SLIP, NO_SLIP, NO_SLIP, memo,
                                      False, True)
             if stop.any:
                 pc = to_event(cfg, with_drag_dir(fb, stop.stop_dir),
                               FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                              StepFrom(t_abs, m, ce_y, first), stop)
+                              StepFrom(t_abs, m, ce_y), stop)
                 if pc.found and pc.tau_s < rem:
                     stuck_now, slid_on = holds(cfg, body, t_abs + pc.tau_s, pc.step, ft, stop)
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, stuck_now, slid_on,
@@ -1322,7 +1272,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 brk = FootEvents(NO_SLIP, NO_SLIP, NO_SLIP, NO_HOLD, (0.0, 0.0, 0.0, 0.0),
                                  cfg.friction_static, True)
                 pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                              StepFrom(t_abs, m, ce_y, first), brk)
+                              StepFrom(t_abs, m, ce_y), brk)
                 if pc.found and pc.tau_s < rem:
                     return PieceStep(pc.step, pc.tau_s, True, NO_SLIP, NO_SLIP, NO_SLIP,
                                      pressing_held(body, t_abs + pc.tau_s, pc.step, ft, held),
@@ -1335,7 +1285,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         ev = foot_events(ce_y, ce_e, ft.absorbing, engage)
         if ev.any:
             pc = to_event(cfg, fb, FootRoles(engage, ft.sliding, drag, ft.absorbing), rem,
-                          StepFrom(t_abs, m, ce_y, first), ev)
+                          StepFrom(t_abs, m, ce_y), ev)
             if pc.found and pc.tau_s < rem:
                 return PieceStep(pc.step, pc.tau_s, True, ev.onset, NO_SLIP, NO_SLIP, NO_SLIP,
                                  memo, False, False)

@@ -18,9 +18,8 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import ContactEval, no_contact
-from touchdown.sim.dynamics import NO_HELD, Held, Holding, Motion, acceleration, contact_at, \
-    contact_forces, contact_geometry, contact_inline, derivatives, derivatives_held, ground_at, \
-    torque_body
+from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_forces, \
+    contact_geometry, contact_inline, derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
 from touchdown.sim.rotation import free_rotation
@@ -230,55 +229,16 @@ class SteppedHeld(NamedTuple):
     held_impulse_w: tuple
 
 
-class HeldStart(NamedTuple):
-    """The held feet of an :func:`rk4_held` step, and its first stage where it was already formed:
-    the derivatives with their static friction at the step's start (sim.dynamics.derivatives_held
-    at the start's state and contact, with these held feet), which do not depend on the step's
-    length: the trial steps that locate an event all start there (sim.flight.to_event), and a
-    piece's slip rates ask for the same (sim.flight.slip_rates)."""
-
-    holding: Holding
-    formed: bool  # False: k1 and f1 are not formed (zeros)
-    k1: tuple  # (p', v', q', w_b') at the start
-    f1: Held  # the held feet's static friction there
-
-
-@kernel
-def held_start(fb, ground, ce, motion, holding):
-    """The :class:`HeldStart` of a step from ``motion`` (``ce``: its contact, ``ground``: the
-    ground there), its first stage formed."""
-    k1, f1 = derivatives_held(fb, ground, ce, motion, holding)
-    return HeldStart(holding, True, k1, f1)
-
-
-@kernel
-def unformed(holding):
-    """A :class:`HeldStart` whose first stage :func:`rk4_held` forms itself."""
-    z = (0.0, 0.0, 0.0)
-    return HeldStart(holding, False, (z, z, (0.0, 0.0, 0.0, 0.0), z), NO_HELD)
-
-
-#: no first stage formed, no foot held (sim.flight.NO_RATES's)
-NO_FIRST = HeldStart(Holding((False, False, False, False), 0.0), False,
-                     ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
-                     NO_HELD)
-
-
 @separate
-def rk4_held(fb, h, motion, ce, absorbing, t0, start):
-    """:func:`rk4` with the static friction of the feet of ``start.holding`` (a :class:`HeldStart`;
-    sim.dynamics.Holding) inside the step as the force of
+def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
+    """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
+    inside the step as the force of
     their constraint (sim.dynamics.held_friction, MODEL-NOTES 46), at every stage: a held foot's
     friction then follows the ship's motion at the method's order, where a force carried from the
-    last step and corrected by an impulse after this one was first order in the step. The first
-    stage is ``start``'s where it was formed (the same bits: :func:`held_start`)."""
+    last step and corrected by an impulse after this one was first order in the step."""
     y = motion
     p, v, q, w = motion
-    holding = start.holding
-    if start.formed:
-        k1, f1 = start.k1, start.f1
-    else:
-        k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
     k2, f2, c2 = _rk4_stage_held(fb, 0.5 * h, y, k1, absorbing, t0, holding)
     k3, f3, c3 = _rk4_stage_held(fb, 0.5 * h, y, k2, absorbing, t0, holding)
     k4, f4, c4 = _rk4_stage_held(fb, h, y, k3, absorbing, t0, holding)

@@ -24,7 +24,6 @@ from touchdown.sim.dynamics import Motion, contact_at, ground_at, with_feet
 from touchdown.sim.flight import (DRAG_REACH, MICRO_SLIP_MPS, NEAR_CONE, NO_RATES,
                                   TRANSITION_PIECE, TURN_REACH, EnergyRef, FootEvents, PieceStart,
                                   SlipRates, _stop_time, at_transition, no_memo, stiff_feet, turns)
-from touchdown.sim.integrators import NO_FIRST
 from touchdown.sim.settings import Integrator
 from touchdown.sim.ship import ENGAGE_AT_GROUND, NO_HOLD, NO_SLIP, Footing, Ship
 from touchdown.sim.phases import clear_tick, commands, free_body, near_ground, purely_vertical
@@ -444,7 +443,7 @@ def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, 
     stop = FootEvents((False,) * 4, (False,) * 4, (False, True, False, False),
                       (z, (1.0, 0.0, 0.0), z, z), (0.0, 0.2, 0.0, 0.0), 0.0, True)
     sr = SlipRates((0.3, 0.2, 0.0, 0.0), (1.0, -3.0, 0.0, 0.0), (2.0, 4.0, 0.0, 0.0),
-                   (50.0, 3.0 * ratio, 0.0, 0.0), NO_FIRST)
+                   (50.0, 3.0 * ratio, 0.0, 0.0))
     assert turns(stop, sr) is turning
 
 
