@@ -268,10 +268,11 @@ def substep(cfg, fb, roles, h, start):
     f0 = ce_start.foot_force_n
     holding = ((f0[0] > 0.0 and not sliding[0]) or (f0[1] > 0.0 and not sliding[1])
                or (f0[2] > 0.0 and not sliding[2]) or (f0[3] > 0.0 and not sliding[3]))
+    # (no holding foot presses at the start: none will inside, a foot's touch ending the piece)
     if fb.craft.method == RK4 and holding and per_foot(cfg):
-        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
+        held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
         rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
                       Holding(held, cfg.friction_static))
         res = rh.stepped
