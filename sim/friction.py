@@ -968,7 +968,7 @@ def _dragged_only(law, rigid, stepped, end, j_n, normals, sliding):
                     (z, z, z, z))
 
 
-@separate
+@kernel
 def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     """Coulomb friction at each pressing foot (module docstring) of a ship of mass m and principal
     inertia I (``rigid``, a :class:`Rigid`), after a step of length h (``stepped``: its end state and each foot's normal impulse

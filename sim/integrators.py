@@ -229,7 +229,7 @@ class SteppedHeld(NamedTuple):
     held_impulse_w: tuple
 
 
-@separate
+@kernel
 def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
     """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
     inside the step as the force of
