@@ -22,8 +22,8 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, exponential_end, \
-    rk4_held
+from touchdown.sim.integrators import EXPONENTIAL, RK4, EndEval, advance, exponential, \
+    exponential_end, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -1781,11 +1781,13 @@ def vertical_flight(here, fb, s, log):
         else:
             tau = rem
             fb_step = with_feet(fb, engage, ft.sliding)
-            se = exponential_end(fb_step, rem, s.motion, ce, ft.absorbing, t_in)
+            # its contact at the end, at the final motion with the guard's engage thresholds,
+            # evaluated on the closing kick's geometry where the step ends at the guard's instant
+            se = exponential_end(fb_step, rem, s.motion, ce, ft.absorbing, t_in,
+                                 EndEval(t_in + rem == dt, ENGAGE_AT_GROUND))
             st = se.stepped
-            # its contact at the end: the guard's there where the dampers were evaluated at the
-            # end's velocities (a foot pressing) with the guard's feet' roles
-            end_memo = memo_of(fb_step, se.ce, t_in + rem, se.motion, ft.absorbing, engage)
+            # the guard's evaluation where it was made at its state, instant and feet' roles
+            end_memo = memo_of(fb_step, se.ce, t_in + rem, se.motion, ft.absorbing, se.engage)
         j = st.foot_impulse_ns
         touched = touched or j[0] != 0.0 or j[1] != 0.0 or j[2] != 0.0 or j[3] != 0.0
         peak = fmax(peak, st.peak_penetration_m)

@@ -319,6 +319,29 @@ class SteppedEnd(NamedTuple):
     stepped: Stepped
     ce: ContactEval  # at the end's pose, at the instant t0 + h
     motion: Motion  # the motion it was evaluated at (the end's velocities, or the drift's)
+    engage: tuple  # the engage thresholds it was evaluated with
+
+
+class EndEval(NamedTuple):
+    """Whether :func:`closing_kick` also evaluates the contact at the step's final motion (its
+    pose, the closing kick's velocities), and with which engage thresholds: the evaluation a
+    caller makes next at that state (sim.flight.vertical_flight's guard), made on the kick's
+    geometry instead of looking the feet up again."""
+
+    wanted: bool
+    engage: tuple
+
+
+class KickedEnd(NamedTuple):
+    """:func:`closing_kick`'s results."""
+
+    v: tuple  # v1
+    w: tuple  # w1
+    kick_force_w: tuple  # the force_w of the evaluation the kick was taken from
+    kick_foot_force_n: tuple  # and its feet's forces
+    ce: ContactEval  # the last contact evaluated at the end (EndEval's where wanted)
+    motion: Motion  # the motion it was evaluated at
+    engage: tuple  # the engage thresholds it was evaluated with
 
 
 class Kick(NamedTuple):
@@ -341,7 +364,7 @@ def _kicked(fb, ce1, m_pre, kick):
 
 
 @separate
-def closing_kick(fb, ground1, m_pre, kick, absorbing):
+def closing_kick(fb, ground1, m_pre, kick, absorbing, end):
     """The exponential step's end: the contact at the drift's end ``m_pre`` = (p1, v_pre, q1,
     w_pre) on ``ground1``, and the closing half kick from it, across n and along n the residual
     between the true force and the flow's model (``kick``: a :class:`Kick`),
@@ -354,24 +377,31 @@ def closing_kick(fb, ground1, m_pre, kick, absorbing):
     phase taken twice (the same bits as two whole evaluations). Returns (v1, w1, the last
     contact evaluated, the motion it was evaluated at)."""
     p1, v_pre, q1, w_pre = m_pre
+    engage = fb.grip.engage_m
     if not fb.craft.touching:
         ce1 = no_contact(p1)
         v1, w1 = _kicked(fb, ce1, m_pre, kick)
-        return v1, w1, ce1, m_pre
-    engage = fb.grip.engage_m
+        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m_pre, engage)
     geo = contact_geometry(fb, ground1, m_pre)
     ce1 = contact_forces(fb, ground1, geo, m_pre, absorbing, engage)
     v1, w1 = _kicked(fb, ce1, m_pre, kick)
-    if not pressed(ce1):
-        return v1, w1, ce1, m_pre
-    m1 = Motion(p1, v1, q1, w1)
-    ce1 = contact_forces(fb, ground1, geo, m1, absorbing, engage)
-    v1, w1 = _kicked(fb, ce1, m_pre, kick)
-    return v1, w1, ce1, m1
+    m1 = m_pre
+    if pressed(ce1):
+        m1 = Motion(p1, v1, q1, w1)
+        ce1 = contact_forces(fb, ground1, geo, m1, absorbing, engage)
+        v1, w1 = _kicked(fb, ce1, m_pre, kick)
+    if not end.wanted:
+        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m1, engage)
+    # the contact at the step's final motion, on the same geometry: the evaluation the caller
+    # would make there next (the same bits as a whole evaluation)
+    m_end = Motion(p1, v1, q1, w1)
+    return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n,
+                     contact_forces(fb, ground1, geo, m_end, absorbing, end.engage), m_end,
+                     end.engage)
 
 
 @kernel
-def exponential_end(fb, h, motion, ce, absorbing, t0):
+def exponential_end(fb, h, motion, ce, absorbing, t0, end):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the direction the touching feet push at the step's start (the local vertical on level
@@ -395,7 +425,8 @@ def exponential_end(fb, h, motion, ce, absorbing, t0):
     for an upright ship bouncing on level ground, at any step: the bounce needs no sub-steps at
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
-    sim.stability). Returns a :class:`SteppedEnd`: the step, and the contact at its end."""
+    sim.stability). Returns a :class:`SteppedEnd`: the step, and the contact at its end (``end``,
+    an :class:`EndEval`: at its final motion, where wanted)."""
     p, v, q, w = motion
     n_hat = ce.axis
     m = fb.craft.mass_kg
@@ -422,17 +453,34 @@ def exponential_end(fb, h, motion, ce, absorbing, t0):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     # closing kick: across n, and along n the residual between the true force and the model's
-    v1, w1, ce1, m1 = closing_kick(fb, ground_at(fb, t0 + h), Motion(p1, v_pre, q1, w_pre),
-                                   Kick(l_pre, n_hat, rel.a_mps2, h), absorbing)
-    return SteppedEnd(Stepped(p1, v1, q1, w1,
-                              exact_foot_impulses(ce, ce1, n_hat, h, m * impulse_per_kg,
-                                                  model_end_n), peak, True), ce1, m1)
+    ke = closing_kick(fb, ground_at(fb, t0 + h), Motion(p1, v_pre, q1, w_pre),
+                      Kick(l_pre, n_hat, rel.a_mps2, h), absorbing, end)
+    return SteppedEnd(Stepped(p1, ke.v, q1, ke.w,
+                              exact_foot_impulses(ce, with_forces(ke.ce, ke.kick_force_w,
+                                                                  ke.kick_foot_force_n),
+                                                  n_hat, h, m * impulse_per_kg, model_end_n),
+                              peak, True), ke.ce, ke.motion, ke.engage)
+
+
+@kernel
+def with_forces(ce, force_w, foot_force_n):
+    """``ce`` with the total force and the feet's forces of another evaluation at the same pose
+    (what :func:`exact_foot_impulses` reads of the closing kick's evaluation, with the pose's
+    ``touching`` and ``push_norm``)."""
+    return ContactEval(ce.touching, ce.pen_m, ce.pen_rate_mps, foot_force_n, ce.push_norm, force_w,
+                       ce.torque_w, ce.normal_n, ce.slip_w, ce.friction_n, ce.max_penetration_m,
+                       ce.lowest_foot_w, ce.axis, ce.stiffness_npm, ce.damping_nspm,
+                       ce.spring_load_n, ce.spring_load_rate_nps, ce.lowest_gamma, ce.normal_w)
+
+
+#: no evaluation at the step's final motion (:class:`EndEval`)
+NO_END_EVAL = EndEval(False, (0.0, 0.0, 0.0, 0.0))
 
 
 @kernel
 def exponential(fb, h, motion, ce, absorbing, t0):
     """:func:`exponential_end`'s step alone."""
-    return exponential_end(fb, h, motion, ce, absorbing, t0).stepped
+    return exponential_end(fb, h, motion, ce, absorbing, t0, NO_END_EVAL).stepped
 
 
 @kernel
