@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from touchdown.sim.compiled import kernel, separate
+from touchdown.sim.compiled import kernel
 from touchdown.sim.constants import MAX_BUMPS
 from touchdown.sim.vec import add, body_axes, cross, dot, fmax, norm, quat_rotate, scale, sub, \
     unit
@@ -200,7 +200,9 @@ def foot_positions_w(pos_m, offset_w):
             add(pos_m, offset_w[3]))
 
 
-@separate
+# (inlined where it is called, not a call of its own: its FeetOn passed back through memory cost
+# more than its 4.6 kB of code at each of its eleven sites; session15-glue)
+@kernel
 def feet(ground, pos_m, quat, leg_radius_m, com_height_m):
     """Where the feet are, how deep, and which way the ground would push them."""
     off = foot_offsets_w(quat, leg_radius_m, com_height_m)

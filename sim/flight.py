@@ -1991,7 +1991,10 @@ def unheld(s, pinned_now):
     return s
 
 
-@separate
+# (inlined into its one caller, sim.phases.step_ship, itself inlined into the loop over ticks:
+# no call passing the scene, the FreeBody and the Ship by value and the Flight back through
+# memory; session15-glue)
+@kernel
 def free_flight(here, fb, s, n_sub, carry, coarse, log):
     """Advance a free ship near the ground (``fb.craft.touching``; one clear of it takes
     :func:`fly_clear`) by one tick in ``n_sub`` equal sub-steps, each in three stages:

@@ -51,7 +51,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from touchdown.sim.compiled import kernel, separate, stack_zeros
+from touchdown.sim.compiled import kernel, stack_zeros
 from touchdown.sim.constants import SEED_STICK_SPEED_MPS
 from touchdown.sim.contact import foot_velocity, surface_velocity
 from touchdown.sim.settings import FrictionModel
@@ -968,7 +968,9 @@ def _dragged_only(law, rigid, stepped, end, j_n, normals, sliding):
                     (z, z, z, z))
 
 
-@separate
+# (inlined into its one caller, sim.flight.substep: no call passing the step and the feet by
+# value; session15-glue)
+@kernel
 def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     """Coulomb friction at each pressing foot (module docstring) of a ship of mass m and principal
     inertia I (``rigid``, a :class:`Rigid`), after a step of length h (``stepped``: its end state and each foot's normal impulse

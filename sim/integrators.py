@@ -229,7 +229,9 @@ class SteppedHeld(NamedTuple):
     held_impulse_w: tuple
 
 
-@separate
+# (inlined into its one caller, sim.flight.substep: no call passing a ContactEval and a FreeBody
+# by value; session15-glue)
+@kernel
 def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
     """:func:`rk4` with the static friction of the feet of ``holding`` (sim.dynamics.Holding)
     inside the step as the force of
