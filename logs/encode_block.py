@@ -212,11 +212,15 @@ class BlockEncoder:
         return 31 + sum(12 + n * count * wire for _, _, count, _, wire, *_ in self.table.tolist())
 
     def encode(self, first_tick: int, states: np.ndarray, outputs: np.ndarray,
-               inputs: np.ndarray, keys: np.ndarray | None = None, first_keyframe: bool = False
-               ) -> tuple[np.ndarray, np.ndarray]:
+               inputs: np.ndarray, keys: np.ndarray | None = None, first_keyframe: bool = False,
+               room: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """(bytes, offsets): tick ``first_tick + k`` is ``bytes[offsets[k]:offsets[k + 1]]``.
         ``keys``: the ships' keys (N,), for a table with them; ``first_keyframe``: the block's
-        first tick is a keyframe whatever its number."""
+        first tick is a keyframe whatever its number. ``room``: bytes left free before the
+        first tick (a multiple of 8; logs.writer puts a record's head there), so offsets[0] is
+        ``room``; the ticks' bytes are the same."""
+        if room % 8:
+            raise ValueError(f"room {room}: a multiple of 8")
         k, n = states.shape
         keys64 = np.zeros((n, 1), np.uint64) if keys is None else \
             np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64).reshape(n, 1)
@@ -226,12 +230,15 @@ class BlockEncoder:
         t_s = ticks * self.dt_s
         t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
         # whole words, and one spare: _put_words reads and writes the word a field's numbers end in
-        out = np.empty((k * self._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
+        buf = np.empty(room + (k * self._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
+        out = buf[room:]  # (8-byte aligned, as buf: the kernel reads and writes it as words)
         offsets = np.empty(k + 1, np.int64)
         if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
                          self.keyframe_phase, first_keyframe, out, offsets, LITTLE) < 0:
             raise ValueError("a one-byte field holds a value outside 0..127")
-        return out, offsets
+        if room:
+            offsets += room
+        return buf, offsets
 
 
 __all__ = ["BlockEncoder", "SOURCES"]

@@ -14,7 +14,11 @@ import time
 from pathlib import Path
 from typing import Callable
 
+import struct
+
+import mcap.writer
 import numpy as np
+from mcap.records import ChunkIndex
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
@@ -40,6 +44,17 @@ QUEUE_BLOCKS = 4
 #: holding up the tick
 QUEUE_BYTES = 128 << 20
 LIVE_QUEUE_BLOCKS = 64
+
+#: a Message record's head (opcode, length, channel, sequence, log and publish time), and a
+#: Message Index record of one message (opcode, length, channel, bytes of its entries, time,
+#: offset): the same layout
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")
+#: a zstd Chunk record's head (opcode, length, message start and end time, uncompressed size and
+#: CRC, "zstd" as a prefixed string, the compressed records' length)
+_CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
+#: bytes the encoder leaves before a block's first tick, for its Message record's head
+#: (_MESSAGE_HEAD.size, rounded up to whole words)
+_ROOM = 32
 
 
 class _BlockQueue:
@@ -198,6 +213,7 @@ class LogWriter(FinishedOrGone):
         self._dt_ns = int(round(header.dt_s * 1e9))
         keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
+        self._chunk_size = chunk_size
         self._zstd_level = zstd_level  # the chunks' (logs.encode; None: the library's, 3)
         chunk_level(zstd_level)  # (the header's chunk is compressed on this thread)
         self._stream = open(self.partial, "wb")
@@ -285,7 +301,8 @@ class LogWriter(FinishedOrGone):
                 block, keys, first_keyframe, events, inputs = item
                 data, offsets = self._encoder.encode(block.first_tick, block.states,
                                                      block.outputs, block.inputs, keys,
-                                                     first_keyframe=first_keyframe)
+                                                     first_keyframe=first_keyframe,
+                                                     room=_ROOM)
                 self._write_encoded(block.first_tick, data, offsets, events, inputs)
                 if first_keyframe:  # on disk at once: a file begun is never one without a tick
                     self._mcap.flush()
@@ -308,7 +325,10 @@ class LogWriter(FinishedOrGone):
             while j < len(inputs) and inputs[j][1] <= tick:
                 self._put(*inputs[j])
                 j += 1
-            self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
+            if k == 0 and offsets[1] - offsets[0] >= self._chunk_size:
+                self._put_chunk(TOPIC_TICKS, tick, data, int(offsets[0]), int(offsets[1]))
+            else:
+                self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
             for m in events.get(tick, ()):
                 self._put(TOPIC_EVENTS, tick, m)
             if self._flush_every and tick % self._flush_every == 0:
@@ -331,6 +351,61 @@ class LogWriter(FinishedOrGone):
         self._mcap.add_message(self._channels[topic], log_time=t_ns, data=data,
                                publish_time=t_ns, sequence=self._seq[topic])
         self._seq[topic] += 1
+
+    def _put_chunk(self, topic: str, tick: int, data: np.ndarray, start: int, end: int) -> None:
+        """The message ``data[start:end]`` as a chunk of its own (a tick record over the chunk
+        size: the library would have closed the chunk right after it), compressed and checked
+        where it lies: the library copies each message into its chunk's buffer, the buffer
+        again, and the compressed chunk into a record, megabytes a tick at scale, each copy
+        holding the GIL the tick waits for. The record's head goes in the ``_ROOM`` bytes the
+        encoder left before it. The chunk, its message index and the summary's entries are
+        those the library writes for a chunk of one message (the same compression, level and
+        CRCs): every MCAP reader reads it as any other. The messages before it are a chunk of
+        their own, first, so the file stays in log-time order."""
+        w = self._mcap
+        builder = w._Writer__chunk_builder
+        if (start < _MESSAGE_HEAD.size or not w._Writer__enable_crcs
+                or (builder.num_messages == 0 and builder.count)):
+            # (not as this writer makes them: schemas or channels waiting without a message)
+            self._put(topic, tick, memoryview(data)[start:end])
+            return
+        w._Writer__finalize_chunk()
+        w._Writer__flush()
+        channel = self._channels[topic]
+        t_ns = tick * self._dt_ns
+        head = start - _MESSAGE_HEAD.size
+        data[head:start] = np.frombuffer(_MESSAGE_HEAD.pack(
+            0x05, 22 + end - start, channel, self._seq[topic], t_ns, t_ns), np.uint8)
+        self._seq[topic] += 1
+        record = memoryview(data)[head:end]
+        size = end - head
+        crc32 = mcap.writer.zlib.crc32  # (logs.encode's: zlib-ng's)
+        crc = crc32(record)
+        packed = mcap.writer.zstandard.compress(record)  # (logs.encode's: the writer's level)
+        chunk_head = _CHUNK_HEAD.pack(0x06, 44 + len(packed), t_ns, t_ns, size, crc, 4, b"zstd",
+                                      len(packed))
+        index = _MESSAGE_HEAD.pack(0x07, 22, channel, 16, t_ns, 0)
+        stream = self._stream
+        chunk_at = stream.tell()
+        stream.write(chunk_head)
+        stream.write(packed)
+        stream.write(index)
+        if w._Writer__enable_data_crcs:
+            w._Writer__data_section_crc = crc32(index, crc32(packed, crc32(
+                chunk_head, w._Writer__data_section_crc)))
+        stats = w._Writer__statistics
+        stats.message_start_time = (t_ns if stats.message_count == 0
+                                    else min(t_ns, stats.message_start_time))
+        stats.message_end_time = max(t_ns, stats.message_end_time)
+        stats.channel_message_counts[channel] += 1
+        stats.message_count += 1
+        stats.chunk_count += 1
+        w._Writer__chunk_indices.append(ChunkIndex(
+            message_start_time=t_ns, message_end_time=t_ns, chunk_start_offset=chunk_at,
+            chunk_length=len(chunk_head) + len(packed),
+            message_index_offsets={channel: chunk_at + len(chunk_head) + len(packed)},
+            message_index_length=len(index), compression="zstd", compressed_size=len(packed),
+            uncompressed_size=size))
 
     def write_block(self, block: Block) -> list[pb.TransitionEvent]:
         """Append a block of ticks (sim.world.Block): its joins and leaves, its commands, its

@@ -70,6 +70,16 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.redis)
 
 
+def pytest_collection_finish(session):
+    """A serial run (no xdist: CI's) starts the compile-bound work of the selected tests on the
+    core it leaves idle (tests/background.py)."""
+    config = session.config
+    if hasattr(config, "workerinput") or getattr(config.option, "numprocesses", None):
+        return
+    import background
+    background.start([item.nodeid for item in session.items])
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     """In CI a test that needs Redis and skipped (whatever skipped it) is a failure: CI must run

@@ -13,6 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 from click.testing import CliRunner
 
+import background
+
 from touchdown.cli import main
 from touchdown.logs.export import event_rows, tick_rows
 from touchdown.logs.reader import LogReader
@@ -50,9 +52,22 @@ def sweep_of(vary=VARY, samples=None, seed=0):
     return Sweep.of(base_doc(), "env.toml", parse_vary(vary, samples is not None), samples, seed)
 
 
+@background.job("test_sweep.py::test_the_table_has_spec_6_columns_and_every_outcome_kind")
+def _compile_the_sweeps_kernels() -> None:
+    """The sweep's kernels into the cache (a sweep of 2 cases of BASE in a subprocess), ahead of
+    this file's first table in a serial run (tests/background.py)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="touchdown-sweep-warm-") as tmp:
+        (Path(tmp) / "env.toml").write_text(BASE)
+        subprocess.run([sys.executable, "-c", "from touchdown.cli import main; main()", "sweep",
+                        "env.toml", "--vary", "ships.initial.horizontal_speed=0:6", "--samples", "2", "--workers", "1",
+                        "-o", "warm.parquet"], cwd=tmp, capture_output=True, timeout=1800)
+
+
 @pytest.fixture(scope="module")
 def whole():
     """The grid's table, in this process, one chunk."""
+    background.wait(_compile_the_sweeps_kernels)
     return run(sweep_of(), workers=1, chunk_cases=10_000).table()
 
 
