@@ -171,6 +171,24 @@ class Feet(NamedTuple):
     push_w: tuple  # g = -grad x, the direction the ground pushes
 
 
+_Z3 = (0.0, 0.0, 0.0)
+#: a Feet that holds nothing (:class:`KnownFeet`'s when not known)
+NO_FEET = Feet((_Z3, _Z3, _Z3, _Z3), (_Z3, _Z3, _Z3, _Z3), (0.0, 0.0, 0.0, 0.0),
+               (_Z3, _Z3, _Z3, _Z3))
+
+
+class KnownFeet(NamedTuple):
+    """The feet at a state where a caller has them already (a geometry's at the same pose and
+    ground: :func:`feet_of`), or not (``known`` False: look them up)."""
+
+    known: bool
+    feet: Feet
+
+
+#: feet not known: looked up where asked
+FEET_UNKNOWN = KnownFeet(False, NO_FEET)
+
+
 class Legs(NamedTuple):
     """A ship's four landing legs as the ground meets them: each foot ``leg_radius_m`` from the
     long axis and ``com_height_m`` below the centre of mass (:func:`foot_offsets_w`), on a spring
@@ -435,6 +453,14 @@ def geometry(ground, pos_m, quat, legs):
                    unit(add(sub(g3, u3), up)))
     return ContactGeometry(off, (f0, f1, f2, f3), (x0, x1, x2, x3), (g0, g1, g2, g3),
                            (norm(g0), norm(g1), norm(g2), norm(g3)), normals, up)
+
+
+@kernel
+def feet_of(geo):
+    """:func:`feet`'s numbers from a :class:`ContactGeometry` at the same pose and ground (its
+    offsets, positions, penetrations and pushes are formed by the same operations: the same
+    bits)."""
+    return Feet(geo.offset_w, geo.pos_w, geo.pen_m, geo.push_w)
 
 
 @kernel

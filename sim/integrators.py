@@ -17,7 +17,7 @@ import math
 from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
-from touchdown.sim.contact import ContactEval, no_contact
+from touchdown.sim.contact import NO_FEET, ContactEval, Feet, feet_of, no_contact
 from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, contact_forces, \
     contact_geometry, contact_inline, derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
@@ -320,6 +320,7 @@ class SteppedEnd(NamedTuple):
     ce: ContactEval  # at the end's pose, at the instant t0 + h
     motion: Motion  # the motion it was evaluated at (the end's velocities, or the drift's)
     engage: tuple  # the engage thresholds it was evaluated with
+    feet: Feet  # the feet at the end's pose (sim.contact.feet's numbers; NO_FEET if clear)
 
 
 class EndEval(NamedTuple):
@@ -342,6 +343,7 @@ class KickedEnd(NamedTuple):
     ce: ContactEval  # the last contact evaluated at the end (EndEval's where wanted)
     motion: Motion  # the motion it was evaluated at
     engage: tuple  # the engage thresholds it was evaluated with
+    feet: Feet  # the feet at the end's pose (its geometry's; NO_FEET if clear of the ground)
 
 
 class Kick(NamedTuple):
@@ -379,9 +381,7 @@ def closing_kick(fb, ground1, m_pre, kick, absorbing, end):
     p1, v_pre, q1, w_pre = m_pre
     engage = fb.grip.engage_m
     if not fb.craft.touching:
-        ce1 = no_contact(p1)
-        v1, w1 = _kicked(fb, ce1, m_pre, kick)
-        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m_pre, engage)
+        return clear_kick(fb, m_pre, kick)
     geo = contact_geometry(fb, ground1, m_pre)
     ce1 = contact_forces(fb, ground1, geo, m_pre, absorbing, engage)
     v1, w1 = _kicked(fb, ce1, m_pre, kick)
@@ -391,13 +391,24 @@ def closing_kick(fb, ground1, m_pre, kick, absorbing, end):
         ce1 = contact_forces(fb, ground1, geo, m1, absorbing, engage)
         v1, w1 = _kicked(fb, ce1, m_pre, kick)
     if not end.wanted:
-        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m1, engage)
+        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m1, engage, feet_of(geo))
     # the contact at the step's final motion, on the same geometry: the evaluation the caller
     # would make there next (the same bits as a whole evaluation)
     m_end = Motion(p1, v1, q1, w1)
     return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n,
                      contact_forces(fb, ground1, geo, m_end, absorbing, end.engage), m_end,
-                     end.engage)
+                     end.engage, feet_of(geo))
+
+
+@kernel
+def clear_kick(fb, m_pre, kick):
+    """:func:`closing_kick` of a ship known to be clear of the ground (``fb.craft.touching``
+    False: no contact evaluated, no_contact's at the drift's end), inlined where it is called:
+    a flying ship's step pays no call that passes the FreeBody and the results through memory."""
+    ce1 = no_contact(m_pre.p)
+    v1, w1 = _kicked(fb, ce1, m_pre, kick)
+    return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m_pre, fb.grip.engage_m,
+                     NO_FEET)
 
 
 @kernel
@@ -453,13 +464,16 @@ def exponential_end(fb, h, motion, ce, absorbing, t0, end):
     p1 = add(add(p, scale(n_hat, rel.x_m)), scale(v_across, h))
     v_pre = add(v_across, scale(n_hat, rel.v_mps))
     # closing kick: across n, and along n the residual between the true force and the model's
-    ke = closing_kick(fb, ground_at(fb, t0 + h), Motion(p1, v_pre, q1, w_pre),
-                      Kick(l_pre, n_hat, rel.a_mps2, h), absorbing, end)
+    m_pre, kick = Motion(p1, v_pre, q1, w_pre), Kick(l_pre, n_hat, rel.a_mps2, h)
+    if fb.craft.touching:
+        ke = closing_kick(fb, ground_at(fb, t0 + h), m_pre, kick, absorbing, end)
+    else:
+        ke = clear_kick(fb, m_pre, kick)
     return SteppedEnd(Stepped(p1, ke.v, q1, ke.w,
                               exact_foot_impulses(ce, with_forces(ke.ce, ke.kick_force_w,
                                                                   ke.kick_foot_force_n),
                                                   n_hat, h, m * impulse_per_kg, model_end_n),
-                              peak, True), ke.ce, ke.motion, ke.engage)
+                              peak, True), ke.ce, ke.motion, ke.engage, ke.feet)
 
 
 @kernel

@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel
 from touchdown.sim.constants import SETTLE_SLIP_MPS
-from touchdown.sim.contact import feet, foot_slip, foot_velocity, under
+from touchdown.sim.contact import FEET_UNKNOWN, feet, foot_slip, foot_velocity, under
 from touchdown.sim.frames import (body_spin_in_body_frame, effective_gravity, inertia,
     surface_velocity)
 from touchdown.sim.friction import per_foot
@@ -33,9 +33,17 @@ NO_RUN = SettleRun(False, -1.0, 0.0)
 def settle_sample(cfg, sp, s, ground, run, t_prev, t_now):
     """``run`` with a sample at ``t_now`` (the last was at ``t_prev``): where the thresholds'
     smallest margin crosses zero between them, linearly."""
+    return settle_sample_on(cfg, sp, s, ground, run, (t_prev, t_now), FEET_UNKNOWN)
+
+
+@kernel
+def settle_sample_on(cfg, sp, s, ground, run, span, known):
+    """:func:`settle_sample` between the instants ``span`` (t_prev, t_now), with the feet at the
+    ship's pose on ``ground`` where ``known`` (sim.contact.KnownFeet) has them."""
+    t_prev, t_now = span
     if s.surface_state != CONTACT:
         return SettleRun(True, -1.0, t_now)
-    m = margin_on(cfg, sp, s, ground)
+    m = margin_known(cfg, sp, s, ground, known)
     if not m > 0.0:
         return SettleRun(True, m, t_now)
     if run.margin > 0.0:
@@ -73,6 +81,13 @@ def springs_energy(k_leg, ft, e0_j):
 
 
 @kernel
+def _saddle_sag(m, g_mag, up, k_leg, g_i):
+    """x_s = m g (up . g_i) / (2 k_i |g_i|^2): a foot's sag where it and one other carry the weight
+    along their pushes (:func:`stable_at_rest`)."""
+    return m * g_mag * dot(up, g_i) / (2.0 * k_leg * dot(g_i, g_i))
+
+
+@kernel
 def stable_at_rest(cfg, sp, s, ft):
     """The ship has too little energy to leave the equilibrium it rests in (MODEL-NOTES 45): its
     kinetic energy relative to the surface is below the barrier over every edge of its footprint.
@@ -102,6 +117,11 @@ def stable_at_rest(cfg, sp, s, ft):
     i_b = inertia((sp.inertia0_kgm2[0], sp.inertia0_kgm2[1], sp.inertia0_kgm2[2]), sp.mass0_kg, m)
     kinetic = 0.5 * m * dot(v_rel, v_rel) + 0.5 * dot(w_rel, mul(i_b, w_rel))
     stored = springs_energy(k_leg, ft, 0.0)
+    # each foot's sag at a saddle it carries (the same for both edges it spans)
+    sag = (_saddle_sag(m, g_mag, up, k_leg, ft.push_w[0]),
+           _saddle_sag(m, g_mag, up, k_leg, ft.push_w[1]),
+           _saddle_sag(m, g_mag, up, k_leg, ft.push_w[2]),
+           _saddle_sag(m, g_mag, up, k_leg, ft.push_w[3]))
     least = math.inf
     for i in range(4):
         j = (i + 1) % 4  # feet 0, 1, 2, 3 go round the footprint: i, i + 1 span an edge
@@ -109,9 +129,7 @@ def stable_at_rest(cfg, sp, s, ft):
         line = unit(sub(p_j, p_i))
         r = sub(p, p_i)
         arm = norm(sub(r, scale(line, dot(r, line))))
-        g_i, g_j = ft.push_w[i], ft.push_w[j]
-        x_i = m * g_mag * dot(up, g_i) / (2.0 * k_leg * dot(g_i, g_i))
-        x_j = m * g_mag * dot(up, g_j) / (2.0 * k_leg * dot(g_j, g_j))
+        x_i, x_j = sag[i], sag[j]
         sink = 0.5 * ((x_i - ft.pen_m[i]) + (x_j - ft.pen_m[j]))
         mid = scale(add(p_i, p_j), 0.5)
         lu = dot(line, up)
@@ -254,6 +272,13 @@ def margin_on(cfg, sp, s, ground):
     model's: the terrain's, or radial with ``contact.surface_normal = "radial"``), so a ship
     standing square on a slope lands; on level ground it is local vertical, the seed's
     (MODEL-NOTES 44). The tipped angle and the reported tilt stay measured from local vertical."""
+    return margin_known(cfg, sp, s, ground, FEET_UNKNOWN)
+
+
+@kernel
+def margin_known(cfg, sp, s, ground, known):
+    """:func:`margin_on`, with the feet at the ship's pose on ``ground`` where ``known``
+    (sim.contact.KnownFeet) has them (looked up otherwise)."""
     om = cfg.omega_radps
     r_hat = unit(s.motion.p)
     up_ground = unit(under(ground, s.motion.p)[1])
@@ -281,7 +306,8 @@ def margin_on(cfg, sp, s, ground):
         return fmin(m, -1.0)
     if rest and (coulomb or m > 0.0):
         # the feet where they stand, looked up once for both tests
-        ft = feet(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m)
+        ft = (known.feet if known.known
+              else feet(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m))
         if coulomb:
             m = fmin(m, feet_still(cfg, sp, s, ft, ground, up_ground))
         # at rest, but with the energy to pass an edge of its footprint: not stable

@@ -151,6 +151,9 @@ _SINC = (1.0, -1.0 / 6, 1.0 / 120, -1.0 / 5040, 1.0 / 362880, -1.0 / 39916800, 1
          -1.0 / 1307674368000)
 #: fixed bound: 2^60 rad covers any finite rotation a tick can produce
 MAX_HALVINGS = 60
+#: rad, 2^-27: below it cos x and sin(x)/x are 1.0 to the last bit (x^2 / 2 < 2^-55), which
+#: :func:`cos_sinc` returns without summing its series
+TINY_ANGLE = 2.0 ** -27
 
 
 @kernel
@@ -160,6 +163,11 @@ def cos_sinc(x):
         # what the series give there, exactly (each Horner step c y2 + k is k at y2 = 0, down to
         # the constant terms 1 and 1): the turn about a long axis a ship does not spin about
         # (sim.rotation.axis_flow at theta = 0, every step of a ship that only rocks or bounces)
+        return 1.0, 1.0
+    if abs(x) < TINY_ANGLE:
+        # what the series give there too, exactly: in the last Horner step c1 y2 + 1 (c1 = -1/2
+        # + y2 / 24 - ..., -1/6 + ... for sin(x)/x) the term c1 y2 is under 2^-55 and rounds away
+        # (a rounding-level spin's turn, ~1e-10 rad a step: a bouncing upright ship's)
         return 1.0, 1.0
     x = abs(x)
     halvings = 0
