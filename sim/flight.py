@@ -22,7 +22,7 @@ from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import EXPONENTIAL, NO_END_EVAL, RK4, advance, exponential, \
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, \
     exponential_end, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on
@@ -1783,10 +1783,10 @@ def vertical_flight(here, fb, s, log):
         else:
             tau = rem
             fb_step = with_feet(fb, engage, ft.sliding)
-            # (its contact at the final motion is not asked of the closing kick, EndEval: a
-            # third forces phase in closing_kick cost more instructions than the guard's own
-            # evaluation, callgrind, session 15)
-            se = exponential_end(fb_step, rem, s.motion, ce, ft.absorbing, t_in, NO_END_EVAL)
+            # (its contact at the final motion is not asked of the closing kick: a third forces
+            # phase there cost more instructions than the guard's own evaluation, callgrind,
+            # session 15, docs/issue36/session15-bounce.txt)
+            se = exponential_end(fb_step, rem, s.motion, ce, ft.absorbing, t_in)
             st = se.stepped
             # the guard's evaluation where it was made at its state, instant and feet' roles
             end_memo = memo_of(fb_step, se.ce, t_in + rem, se.motion, ft.absorbing, se.engage)

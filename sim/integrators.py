@@ -323,16 +323,6 @@ class SteppedEnd(NamedTuple):
     feet: Feet  # the feet at the end's pose (sim.contact.feet's numbers; NO_FEET if clear)
 
 
-class EndEval(NamedTuple):
-    """Whether :func:`closing_kick` also evaluates the contact at the step's final motion (its
-    pose, the closing kick's velocities), and with which engage thresholds: the evaluation a
-    caller makes next at that state (sim.flight.vertical_flight's guard), made on the kick's
-    geometry instead of looking the feet up again."""
-
-    wanted: bool
-    engage: tuple
-
-
 class KickedEnd(NamedTuple):
     """:func:`closing_kick`'s results."""
 
@@ -340,7 +330,7 @@ class KickedEnd(NamedTuple):
     w: tuple  # w1
     kick_force_w: tuple  # the force_w of the evaluation the kick was taken from
     kick_foot_force_n: tuple  # and its feet's forces
-    ce: ContactEval  # the last contact evaluated at the end (EndEval's where wanted)
+    ce: ContactEval  # the last contact evaluated at the end
     motion: Motion  # the motion it was evaluated at
     engage: tuple  # the engage thresholds it was evaluated with
     feet: Feet  # the feet at the end's pose (its geometry's; NO_FEET if clear of the ground)
@@ -366,7 +356,7 @@ def _kicked(fb, ce1, m_pre, kick):
 
 
 @separate
-def closing_kick(fb, ground1, m_pre, kick, absorbing, end):
+def closing_kick(fb, ground1, m_pre, kick, absorbing):
     """The exponential step's end: the contact at the drift's end ``m_pre`` = (p1, v_pre, q1,
     w_pre) on ``ground1``, and the closing half kick from it, across n and along n the residual
     between the true force and the flow's model (``kick``: a :class:`Kick`),
@@ -390,14 +380,7 @@ def closing_kick(fb, ground1, m_pre, kick, absorbing, end):
         m1 = Motion(p1, v1, q1, w1)
         ce1 = contact_forces(fb, ground1, geo, m1, absorbing, engage)
         v1, w1 = _kicked(fb, ce1, m_pre, kick)
-    if not end.wanted:
-        return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m1, engage, feet_of(geo))
-    # the contact at the step's final motion, on the same geometry: the evaluation the caller
-    # would make there next (the same bits as a whole evaluation)
-    m_end = Motion(p1, v1, q1, w1)
-    return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n,
-                     contact_forces(fb, ground1, geo, m_end, absorbing, end.engage), m_end,
-                     end.engage, feet_of(geo))
+    return KickedEnd(v1, w1, ce1.force_w, ce1.foot_force_n, ce1, m1, engage, feet_of(geo))
 
 
 @kernel
@@ -412,7 +395,7 @@ def clear_kick(fb, m_pre, kick):
 
 
 @kernel
-def exponential_end(fb, h, motion, ce, absorbing, t0, end):
+def exponential_end(fb, h, motion, ce, absorbing, t0):
     """Exact flow of the contact's spring-damper, split (Strang) with a kick of everything else.
 
     Along n, the direction the touching feet push at the step's start (the local vertical on level
@@ -436,8 +419,8 @@ def exponential_end(fb, h, motion, ce, absorbing, t0, end):
     for an upright ship bouncing on level ground, at any step: the bounce needs no sub-steps at
     all. Stability: the flow is unconditionally stable (|e^{-zeta w h}| < 1), so the only step
     limit left is that of the kicks on the rocking modes (velocity Verlet's, on w_rock; see
-    sim.stability). Returns a :class:`SteppedEnd`: the step, and the contact at its end (``end``,
-    an :class:`EndEval`: at its final motion, where wanted)."""
+    sim.stability). Returns a :class:`SteppedEnd`: the step, and the last contact it evaluated
+    at its end."""
     p, v, q, w = motion
     n_hat = ce.axis
     m = fb.craft.mass_kg
@@ -466,7 +449,7 @@ def exponential_end(fb, h, motion, ce, absorbing, t0, end):
     # closing kick: across n, and along n the residual between the true force and the model's
     m_pre, kick = Motion(p1, v_pre, q1, w_pre), Kick(l_pre, n_hat, rel.a_mps2, h)
     if fb.craft.touching:
-        ke = closing_kick(fb, ground_at(fb, t0 + h), m_pre, kick, absorbing, end)
+        ke = closing_kick(fb, ground_at(fb, t0 + h), m_pre, kick, absorbing)
     else:
         ke = clear_kick(fb, m_pre, kick)
     return SteppedEnd(Stepped(p1, ke.v, q1, ke.w,
@@ -487,14 +470,10 @@ def with_forces(ce, force_w, foot_force_n):
                        ce.spring_load_n, ce.spring_load_rate_nps, ce.lowest_gamma, ce.normal_w)
 
 
-#: no evaluation at the step's final motion (:class:`EndEval`)
-NO_END_EVAL = EndEval(False, (0.0, 0.0, 0.0, 0.0))
-
-
 @kernel
 def exponential(fb, h, motion, ce, absorbing, t0):
     """:func:`exponential_end`'s step alone."""
-    return exponential_end(fb, h, motion, ce, absorbing, t0, NO_END_EVAL).stepped
+    return exponential_end(fb, h, motion, ce, absorbing, t0).stepped
 
 
 @kernel
