@@ -9,12 +9,11 @@ from __future__ import annotations
 import collections
 import json
 import os
+import struct
 import threading
 import time
 from pathlib import Path
 from typing import Callable
-
-import struct
 
 import mcap.writer
 import numpy as np

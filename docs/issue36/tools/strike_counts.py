@@ -8,6 +8,9 @@ interior-point method), contact evaluations; counted by wrapping the uncompiled 
     docs/issue35/tools/uncompiled/make.sh /tmp/plain
     TD_PY=1 PYTHONPATH=/tmp/plain.pkg python strike_counts.py [STRIDE [PER.pkl]]
 
+OVR='{"KEY": VALUE, ...}' in the environment sets sim keys of the envelope scene (session 15,
+strike: e.g. OVR='{"stiff_carry": true, "impact_stiff_substep": 0.003}' with session15-stiff-carry.patch).
+
 PER.pkl keeps each (case, tick)'s key and counts for strike_join.py, which joins them with
 tick_costs.py's per-tick CPU times."""
 import collections, sys, tomllib
@@ -61,7 +64,7 @@ wrap(fl, "contact_inline", "c_inl")
 wrap(fl, "contact_at", "c_at")
 wrap(ph, "striking", "strk_asked", strike_post)
 stride = int(sys.argv[1]) if len(sys.argv) > 1 else 30
-doc = tomllib.loads(scenarios.text("envelope"))
+doc = tomllib.loads(scenarios.text("envelope")); import os, json; doc.setdefault("sim", {}).update(json.loads(os.environ.get("OVR", "{}")))
 axes = [Axis("ships.initial.vertical_speed", -12.0, -1.0), Axis("ships.initial.horizontal_speed", 0.0, 6.0), Axis("ships.initial.tilt_deg", 0.0, 15.0)]
 sw = Sweep.of(doc, "envelope", axes, samples=300, seed=1)
 groups = collections.defaultdict(collections.Counter)
