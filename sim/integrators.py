@@ -261,6 +261,103 @@ def rk4_held(fb, h, motion, ce, absorbing, t0, holding):
                             _held_impulse(h, a[3], b[3], c[3], d[3])))
 
 
+#: sim.settings.StrikeMethod's codes (Craft.strike_method): rk4, and the cheaper ones
+STRIKE_RK4, STRIKE_MIDPOINT, STRIKE_HEUN, STRIKE_RK3 = 0, 1, 2, 3
+
+
+@kernel
+def _low_weights(form):
+    """(c2, c3, b1, b2, b3) of a two- or three-stage explicit method whose stage i starts from
+    the step's start plus c_i h k_(i-1) (each stage from the last one's derivatives alone, as
+    rk4's): the midpoint rule (b2 = 1), Heun's trapezoid (c2 = 1, b = 1/2, 1/2) and Ralston's
+    third-order method (c = 1/2, 3/4; b = 2/9, 1/3, 4/9; no third stage where c3 = 0)."""
+    if form == STRIKE_MIDPOINT:
+        return 0.5, 0.0, 0.0, 1.0, 0.0
+    if form == STRIKE_HEUN:
+        return 1.0, 0.0, 0.5, 0.5, 0.0
+    return 0.5, 0.75, 2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0
+
+
+@kernel
+def _low_combine(a, b1, b2, b3, w1, w2, w3, h):
+    return add(a, scale(add(add(scale(b1, w1), scale(b2, w2)), scale(b3, w3)), h))
+
+
+@kernel
+def _low_quat(q, k1, k2, k3, w1, w2, w3, h):
+    q_sum = (w1 * k1[2][0] + w2 * k2[2][0] + w3 * k3[2][0],
+             w1 * k1[2][1] + w2 * k2[2][1] + w3 * k3[2][1],
+             w1 * k1[2][2] + w2 * k2[2][2] + w3 * k3[2][2],
+             w1 * k1[2][3] + w2 * k2[2][3] + w3 * k3[2][3])
+    return quat_normalize(quat_add_scaled(q, q_sum, h))
+
+
+@kernel
+def _low_impulses(h, c1, c2, c3, w1, w2, w3):
+    """Each foot's normal impulse by the method's weights on its evaluations."""
+    if not c1.touching:
+        return (0.0, 0.0, 0.0, 0.0)
+    fa, ga = _pressing(c1)
+    fb, gb = _pressing(c2)
+    fc, gc = _pressing(c3)
+    return (h * (0.0 + w1 * fa[0] * ga[0] + w2 * fb[0] * gb[0] + w3 * fc[0] * gc[0]),
+            h * (0.0 + w1 * fa[1] * ga[1] + w2 * fb[1] * gb[1] + w3 * fc[1] * gc[1]),
+            h * (0.0 + w1 * fa[2] * ga[2] + w2 * fb[2] * gb[2] + w3 * fc[2] * gc[2]),
+            h * (0.0 + w1 * fa[3] * ga[3] + w2 * fb[3] * gb[3] + w3 * fc[3] * gc[3]))
+
+
+@kernel
+def _low_held(h, a, b, c, w1, w2, w3):
+    """A held foot's static friction impulse over the step by the method's weights."""
+    return (h * (w1 * a[0] + w2 * b[0] + w3 * c[0]), h * (w1 * a[1] + w2 * b[1] + w3 * c[1]),
+            h * (w1 * a[2] + w2 * b[2] + w3 * c[2]))
+
+
+@kernel
+def rk_low_held(fb, h, motion, ce, absorbing, t0, holding):
+    """:func:`rk4_held`'s step by the cheaper method ``fb.craft.strike_method`` codes
+    (:func:`_low_weights`: two or three stages instead of four; sim.strike_method,
+    MODEL-NOTES 69), the feet of ``holding`` held by their constraint's force at every stage
+    as rk4_held holds them; no foot held where ``holding`` holds none."""
+    y = motion
+    p, v, q, w = motion
+    c2f, c3f, w1, w2, w3 = _low_weights(fb.craft.strike_method)
+    k1, f1 = derivatives_held(fb, ground_at(fb, t0), ce, motion, holding)
+    k2, f2, c2 = _rk4_stage_held(fb, c2f * h, y, k1, absorbing, t0, holding)
+    k3, f3, c3 = k2, f2, c2
+    if c3f > 0.0:
+        k3, f3, c3 = _rk4_stage_held(fb, c3f * h, y, k2, absorbing, t0, holding)
+    st = Stepped(_low_combine(p, k1[0], k2[0], k3[0], w1, w2, w3, h),
+                 _low_combine(v, k1[1], k2[1], k3[1], w1, w2, w3, h),
+                 _low_quat(q, k1, k2, k3, w1, w2, w3, h),
+                 _low_combine(w, k1[3], k2[3], k3[3], w1, w2, w3, h),
+                 _low_impulses(h, ce, c2, c3, w1, w2, w3), -math.inf, False)
+    a, b, c = f1.feet_w, f2.feet_w, f3.feet_w
+    return SteppedHeld(st, (_low_held(h, a[0], b[0], c[0], w1, w2, w3),
+                            _low_held(h, a[1], b[1], c[1], w1, w2, w3),
+                            _low_held(h, a[2], b[2], c[2], w1, w2, w3),
+                            _low_held(h, a[3], b[3], c[3], w1, w2, w3)))
+
+
+@kernel
+def rk_low(fb, h, motion, ce, absorbing, t0):
+    """:func:`rk4`'s step by the cheaper method ``fb.craft.strike_method`` codes (no foot held
+    inside it)."""
+    y = motion
+    p, v, q, w = motion
+    c2f, c3f, w1, w2, w3 = _low_weights(fb.craft.strike_method)
+    k1 = derivatives(fb, ce, p, v, q, w)
+    k2, c2 = _rk4_stage(fb, c2f * h, y, k1, absorbing, t0)
+    k3, c3 = k2, c2
+    if c3f > 0.0:
+        k3, c3 = _rk4_stage(fb, c3f * h, y, k2, absorbing, t0)
+    return Stepped(_low_combine(p, k1[0], k2[0], k3[0], w1, w2, w3, h),
+                   _low_combine(v, k1[1], k2[1], k3[1], w1, w2, w3, h),
+                   _low_quat(q, k1, k2, k3, w1, w2, w3, h),
+                   _low_combine(w, k1[3], k2[3], k3[3], w1, w2, w3, h),
+                   _low_impulses(h, ce, c2, c3, w1, w2, w3), -math.inf, False)
+
+
 @kernel
 def _turn(fb, q, w, tau_b, h):
     """The rotation's kick and drift: a half kick of the external torque, then the exact
