@@ -279,12 +279,14 @@ def _low_weights(form):
 
 
 @kernel
-def _low_combine(a, b1, b2, b3, w1, w2, w3, h):
-    return add(a, scale(add(add(scale(b1, w1), scale(b2, w2)), scale(b3, w3)), h))
+def _low_combine(a, b1, b2, b3, wt, h):
+    """a + h (w1 b1 + w2 b2 + w3 b3), ``wt`` = (w1, w2, w3)."""
+    return add(a, scale(add(add(scale(b1, wt[0]), scale(b2, wt[1])), scale(b3, wt[2])), h))
 
 
 @kernel
-def _low_quat(q, k1, k2, k3, w1, w2, w3, h):
+def _low_quat(q, k1, k2, k3, wt, h):
+    w1, w2, w3 = wt
     q_sum = (w1 * k1[2][0] + w2 * k2[2][0] + w3 * k3[2][0],
              w1 * k1[2][1] + w2 * k2[2][1] + w3 * k3[2][1],
              w1 * k1[2][2] + w2 * k2[2][2] + w3 * k3[2][2],
@@ -327,10 +329,10 @@ def rk_low_held(fb, h, motion, ce, absorbing, t0, holding):
     k3, f3, c3 = k2, f2, c2
     if c3f > 0.0:
         k3, f3, c3 = _rk4_stage_held(fb, c3f * h, y, k2, absorbing, t0, holding)
-    st = Stepped(_low_combine(p, k1[0], k2[0], k3[0], w1, w2, w3, h),
-                 _low_combine(v, k1[1], k2[1], k3[1], w1, w2, w3, h),
-                 _low_quat(q, k1, k2, k3, w1, w2, w3, h),
-                 _low_combine(w, k1[3], k2[3], k3[3], w1, w2, w3, h),
+    st = Stepped(_low_combine(p, k1[0], k2[0], k3[0], (w1, w2, w3), h),
+                 _low_combine(v, k1[1], k2[1], k3[1], (w1, w2, w3), h),
+                 _low_quat(q, k1, k2, k3, (w1, w2, w3), h),
+                 _low_combine(w, k1[3], k2[3], k3[3], (w1, w2, w3), h),
                  _low_impulses(h, ce, c2, c3, w1, w2, w3), -math.inf, False)
     a, b, c = f1.feet_w, f2.feet_w, f3.feet_w
     return SteppedHeld(st, (_low_held(h, a[0], b[0], c[0], w1, w2, w3),
@@ -351,10 +353,10 @@ def rk_low(fb, h, motion, ce, absorbing, t0):
     k3, c3 = k2, c2
     if c3f > 0.0:
         k3, c3 = _rk4_stage(fb, c3f * h, y, k2, absorbing, t0)
-    return Stepped(_low_combine(p, k1[0], k2[0], k3[0], w1, w2, w3, h),
-                   _low_combine(v, k1[1], k2[1], k3[1], w1, w2, w3, h),
-                   _low_quat(q, k1, k2, k3, w1, w2, w3, h),
-                   _low_combine(w, k1[3], k2[3], k3[3], w1, w2, w3, h),
+    return Stepped(_low_combine(p, k1[0], k2[0], k3[0], (w1, w2, w3), h),
+                   _low_combine(v, k1[1], k2[1], k3[1], (w1, w2, w3), h),
+                   _low_quat(q, k1, k2, k3, (w1, w2, w3), h),
+                   _low_combine(w, k1[3], k2[3], k3[3], (w1, w2, w3), h),
                    _low_impulses(h, ce, c2, c3, w1, w2, w3), -math.inf, False)
 
 
