@@ -65,9 +65,6 @@ class Craft(NamedTuple):
     method: int
     #: kinetic friction (0 under the seed's law, which acts after the step)
     mu_k: float
-    #: where ``method`` is rk4, the method of these steps instead (sim.settings.StrikeMethod's
-    #: code; 0: rk4 itself): set for an impact's steps alone (sim.strike_scope; MODEL-NOTES 69)
-    strike_method: int
 
 
 class Grip(NamedTuple):
@@ -106,18 +103,6 @@ def with_hold(fb, hold_w):
     """``fb`` with the holding feet's friction ``hold_w`` carried in."""
     g = fb.grip
     return FreeBody(fb.craft, Grip(g.engage_m, g.kinetic, hold_w, g.drag_dir))
-
-
-@constructor
-def with_strike(fb, strike_method):
-    """``fb`` stepped by ``strike_method`` where its method is rk4 (Craft.strike_method)."""
-    cr = fb.craft
-    return FreeBody(Craft(cr.mass_kg, cr.inertia_kgm2, cr.thrust_n, cr.rcs_torque_body_nm,
-                          cr.leg_radius_m, cr.com_height_m, cr.k_npm, cr.c_nspm,
-                          cr.c_absorb_nspm, cr.gm_m3ps2, cr.body_radius_m,
-                          cr.body_omega_radps, cr.terrain, cr.radial, cr.cos0, cr.sin0,
-                          cr.touching, cr.linear_model, cr.method, cr.mu_k, strike_method),
-                    fb.grip)
 
 
 @constructor

@@ -16,15 +16,14 @@ from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (FEET_UNKNOWN, ContactEval, FrictionForce, KnownFeet, Legs,
     feet, foot_offsets_w, foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
 from touchdown.sim.dynamics import (Craft, FreeBody, Holding, Motion, contact_at, contact_inline,
-    derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold,
-    with_strike)
+    derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
 from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_of, per_foot,
     seed, spread_over_step)
-from touchdown.sim.integrators import EXPONENTIAL, RK4, STRIKE_RK4, advance, exponential, \
-    exponential_end, rk4_held, rk_low, rk_low_held
+from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, \
+    exponential_end, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
 from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
@@ -274,18 +273,12 @@ def substep(cfg, fb, roles, h, start):
         # the holding feet's static friction inside the step, as their constraint's force
         # (MODEL-NOTES 46); what it gave them is what the impulses after the step start from
         held = (not sliding[0], not sliding[1], not sliding[2], not sliding[3])
-        if fb.craft.strike_method != STRIKE_RK4:  # (an impact's steps: MODEL-NOTES 69)
-            rh = rk_low_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
-                             Holding(held, cfg.friction_static))
-        else:
-            rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
-                          Holding(held, cfg.friction_static))
+        rh = rk4_held(with_hold(body, NO_HOLD), h, motion, ce_start, absorbing, t_start,
+                      Holding(held, cfg.friction_static))
         res = rh.stepped
         hi = rh.held_impulse_w
         carried = (scale(hi[0], 1.0 / h), scale(hi[1], 1.0 / h), scale(hi[2], 1.0 / h),
                    scale(hi[3], 1.0 / h))
-    elif fb.craft.method == RK4 and fb.craft.strike_method != STRIKE_RK4:
-        res = rk_low(body, h, motion, ce_start, absorbing, t_start)
     else:
         res = advance(fb.craft.method, body, h, motion, ce_start, absorbing, t_start)
     j = res.foot_impulse_ns
@@ -326,10 +319,6 @@ def _a_down(fb, p, q, r_hat):
 #: Most contact events one sub-step is split at: a foot starting to press (its onset) or ceasing
 #: to (its release), each located and stepped to.
 MAX_PIECES = 8
-
-
-#: sim.settings.StrikeScope's codes: where sim.strike_method steps
-STRIKE_PIECES, STRIKE_TICKS = 0, 1
 
 
 #: Most pieces a sub-step is cut into where Coulomb's law is stiff (sim.stiff_substep), beside
@@ -1171,9 +1160,6 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
                 piece = fmax(TRANSITION_PIECE * fine_s, t_stop)
             if rem > piece * (1.0 + 1e-9):
                 rem = rem / math.ceil(rem / piece - 1e-9)
-            if fine.floor_s == 0.0 and cfg.strike_scope == STRIKE_PIECES:
-                # an impact's stiff pieces, by sim.strike_method (MODEL-NOTES 69)
-                fb = with_strike(fb, cfg.strike_method)
     if fb.craft.mu_k > 0.0 and (drag[0] or drag[1] or drag[2] or drag[3]):
         # the dragged feet that the step's end cannot make dragged are taken off before it:
         # their friction could stop them within STIFF_REACH of it at their load here alone (the
@@ -1725,8 +1711,7 @@ def pressing_none(fb):
                           cr.leg_radius_m, cr.com_height_m, cr.k_npm, cr.c_nspm,
                           cr.c_absorb_nspm, cr.gm_m3ps2, cr.body_radius_m,
                           cr.body_omega_radps, cr.terrain, cr.radial, cr.cos0, cr.sin0, False,
-                          cr.linear_model, cr.method, cr.mu_k, cr.strike_method),
-                    fb.grip)
+                          cr.linear_model, cr.method, cr.mu_k), fb.grip)
 
 
 @separate
@@ -2072,8 +2057,6 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     # the feet their friction would stop within the shortest piece (a rocking ship's micro-slips)
     impact = cfg.impact_substeps > 0 and n_sub >= cfg.impact_substeps
     fine = Fine(cfg.stiff_substep_s, 0.0 if impact else cfg.stiff_substep_s)
-    if impact and cfg.strike_scope == STRIKE_TICKS:  # (sim.strike_method, MODEL-NOTES 69)
-        fb = with_strike(fb, cfg.strike_method)
     # a flying ship clear of the ground for a max_substep takes it whole (sim.coarse_when_clear):
     # r_clear of the impact's sub-steps; on a plane (clear_within bounds no bump's steepness)
     r_clear = 1

@@ -231,7 +231,7 @@ def free_body(here, s, cmd, touching, method):
                   cfg.body_radius_m, cfg.omega_radps, terrain,
                   cfg.surface_normal == RADIAL_NORMAL, cos0, sin0, touching,
                   method == EXPONENTIAL, method,
-                  cfg.friction_kinetic if per_foot(cfg) else 0.0, 0)
+                  cfg.friction_kinetic if per_foot(cfg) else 0.0)
     return FreeBody(craft, Grip(ENGAGE_AT_GROUND, s.footing.sliding, s.footing.hold_w, NO_HOLD))
 
 
@@ -247,8 +247,7 @@ def stepped_by(fb, touching, method):
                           cr.leg_radius_m, cr.com_height_m, cr.k_npm, cr.c_nspm,
                           cr.c_absorb_nspm, cr.gm_m3ps2, cr.body_radius_m,
                           cr.body_omega_radps, cr.terrain, cr.radial, cr.cos0, cr.sin0, touching,
-                          method == EXPONENTIAL, method, cr.mu_k, cr.strike_method),
-                    fb.grip)
+                          method == EXPONENTIAL, method, cr.mu_k), fb.grip)
 
 
 @kernel

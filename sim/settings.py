@@ -39,27 +39,6 @@ class _Labelled(IntEnum):
         return tuple(m.label for m in cls)
 
 
-class StrikeMethod(_Labelled):
-    """``sim.strike_method``: the method of an impact's pieces (``sim.strike_scope``) where the
-    hybrid method takes rk4 (MODEL-NOTES 69): rk4 itself, the explicit midpoint rule, Heun's
-    trapezoid, or Ralston's third-order method; each with the holding feet's static friction
-    inside its stages as rk4's (sim.integrators.rk_low_held)."""
-
-    RK4 = 0
-    MIDPOINT = 1
-    HEUN = 2
-    RK3 = 3
-
-
-class StrikeScope(_Labelled):
-    """``sim.strike_scope``: where ``sim.strike_method`` steps: the pieces an impact's sub-steps
-    are cut into where Coulomb's law is stiff (sim.stiff_substep), or every step of an impact's
-    tick."""
-
-    PIECES = 0
-    TICKS = 1
-
-
 class FrictionModel(_Labelled):
     """``contact.friction_model``: Coulomb's law at each foot (MODEL-NOTES 38), or the seed's
     velocity reset at the centre of mass (sim.friction.seed)."""
@@ -246,15 +225,6 @@ SETTINGS: tuple[Setting, ...] = (
           "stop the foot within the sub-step while the ship's turning keeps it slipping: "
           "sim.flight.stiff_feet; outside an impact's sub-steps only for feet it would take "
           "this or longer to stop; 0: the sub-step whole, 0.8's behaviour)"),
-    S("sim.strike_method", "str", "rk4", choices=StrikeMethod, dest="sim.strike_method",
-      scene="strike_method",
-      doc="the method of an impact's steps where rk4 would take them (sim.strike_scope): rk4; "
-          "midpoint or heun (two stages, second order) or rk3 (Ralston's, three stages), the "
-          "holding feet's friction inside their stages as rk4's (MODEL-NOTES 69)"),
-    S("sim.strike_scope", "str", "pieces", choices=StrikeScope, dest="sim.strike_scope",
-      scene="strike_scope",
-      doc="where sim.strike_method steps: the stiff pieces of an impact's sub-steps "
-          "(sim.stiff_substep), or every step of an impact's tick (MODEL-NOTES 69)"),
     S("sim.on_unstable", "str", "substep", choices=OnUnstable,
       doc="an unstable method and step: sub-step further, refuse, or run as asked"),
     S("sim.vertical_one_step", "bool", True, dest="sim.vertical_one_step",
