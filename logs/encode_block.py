@@ -72,26 +72,63 @@ def _put_words(out64, o, words, i0, i1, w0, count):
     (after its key and length), so each word of the wire straddles two of the buffer's words at
     a shift of ``o % 8`` bytes: word q takes the last number's high bytes and the next one's low
     bytes (a funnel shift), and the bytes before ``o`` and after the last number are kept as
-    they were. The same bytes as storing each number byte by byte, with one store per word."""
+    they were. The same bytes as storing each number byte by byte, with one store per word.
+    A field of one, three or four numbers a ship (all but the keyframe's 12-number one) has a
+    loop of its own, unrolled: the general loop's inner loop over ``count`` cost about a fifth
+    of the encoder's time (176-180 -> 129-143 ns a ship-tick at 15,000 ships, loaded)."""
     q = o >> 3
     r = o & 7
     n_words = (i1 - i0) * count
     if r == 0:
-        for i in range(i0, i1):
-            for j in range(count):
-                out64[q] = words[i, w0 + j]
+        if count == 1:
+            for i in range(i0, i1):
+                out64[q] = words[i, w0]
                 q += 1
+        else:
+            for i in range(i0, i1):
+                for j in range(count):
+                    out64[q] = words[i, w0 + j]
+                    q += 1
         return o + 8 * n_words
     up = np.uint64(8 * r)
     down = np.uint64(64 - 8 * r)
     below = (np.uint64(1) << up) - np.uint64(1)  # the bytes of word q before byte o
     carry = out64[q] & below
-    for i in range(i0, i1):
-        for j in range(count):
-            w = words[i, w0 + j]
+    if count == 1:
+        for i in range(i0, i1):
+            w = words[i, w0]
             out64[q] = carry | (w << up)
             carry = w >> down
             q += 1
+    elif count == 3:
+        for i in range(i0, i1):
+            a = words[i, w0]
+            b = words[i, w0 + 1]
+            c = words[i, w0 + 2]
+            out64[q] = carry | (a << up)
+            out64[q + 1] = (a >> down) | (b << up)
+            out64[q + 2] = (b >> down) | (c << up)
+            carry = c >> down
+            q += 3
+    elif count == 4:
+        for i in range(i0, i1):
+            a = words[i, w0]
+            b = words[i, w0 + 1]
+            c = words[i, w0 + 2]
+            d = words[i, w0 + 3]
+            out64[q] = carry | (a << up)
+            out64[q + 1] = (a >> down) | (b << up)
+            out64[q + 2] = (b >> down) | (c << up)
+            out64[q + 3] = (c >> down) | (d << up)
+            carry = d >> down
+            q += 4
+    else:
+        for i in range(i0, i1):
+            for j in range(count):
+                w = words[i, w0 + j]
+                out64[q] = carry | (w << up)
+                carry = w >> down
+                q += 1
     out64[q] = (out64[q] & ~below) | carry
     return o + 8 * n_words
 
