@@ -102,15 +102,15 @@ def _copy_words(src, dst):
 
 
 @separate
-def step_ships(recs, state, inputs, outputs, turn, events, count):
+def step_ships(recs, state, inputs, outputs, turn, log):
     """Every ship's tick, one after another (``turn``: the body's angles, a :class:`Turn`):
     ``state`` is updated in place, ``outputs`` written, and the transitions appended to
-    ``events`` (``count[0]`` of them; sim.ship.emit)."""
+    ``log.events`` (``log.count[0]`` of them; sim.ship.emit), ship i's as the i-th of these;
+    ``log.kept``: the ships' scratch rows (sim.ship.EventLog; of no columns: none kept)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
-    kept = np.zeros((state.shape[0], KEPT_WORDS))  # (one tick: nothing to carry)
     for i in range(state.shape[0]):
         step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], outputs[i],
-                  EventLog(events, count, i, kept))
+                  EventLog(log.events, log.count, i, log.kept))
 
 
 @kernel
