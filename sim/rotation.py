@@ -54,6 +54,10 @@ def _composition() -> tuple[tuple[int, float], ...]:
 AXIS_FLOWS = _composition()
 FLOW_AXES = tuple(axis for axis, _ in AXIS_FLOWS)
 FLOW_FRACTIONS = tuple(frac for _, frac in AXIS_FLOWS)
+#: the largest |fraction| of the step an axis flow takes (the middle z flow's, |w0| ~ 1.70)
+MAX_FRACTION = max(abs(f) for f in FLOW_FRACTIONS)
+# (tiny_rotation writes the 13 flows out in this order)
+assert FLOW_AXES == (0, 1, 2, 1, 0, 1, 2, 1, 0, 1, 2, 1, 0)
 
 
 @kernel
@@ -157,3 +161,57 @@ def free_rotation(q, l_b, inertia, h):
             else:
                 q, l_b = axis_flow(q, l_b, coef[axis], axis, FLOW_FRACTIONS[k] * h)
     return quat_normalize(q), l_b
+
+
+@kernel
+def _tiny_flow(q, l_b, coef, axis, t):
+    """One of free_rotation's axis flows (coefficient ``coef`` on ``axis``, for time t) known
+    to be tiny (:func:`rotation_step`): skipped where the coefficient is zero, as there."""
+    if coef == 0.0:
+        return q, l_b
+    theta = coef * l_b[axis] * t
+    return tiny_axis_flow(q, l_b, axis, 0.5 * theta)
+
+
+@kernel
+def tiny_rotation(q, l_b, coef, i_ref, h):
+    """:func:`free_rotation` of a turn known to be tiny throughout (:func:`rotation_step`),
+    written out flow by flow (FLOW_AXES' order): the same operations on the same operands, with
+    no loop over the flows, no branch on their axes and no test of each angle."""
+    q = tiny_turn(q, scale(l_b, h / i_ref))
+    q, l_b = _tiny_flow(q, l_b, coef[0], 0, FLOW_FRACTIONS[0] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[1] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[2], 2, FLOW_FRACTIONS[2] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[3] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[0], 0, FLOW_FRACTIONS[4] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[5] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[2], 2, FLOW_FRACTIONS[6] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[7] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[0], 0, FLOW_FRACTIONS[8] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[9] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[2], 2, FLOW_FRACTIONS[10] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[1], 1, FLOW_FRACTIONS[11] * h)
+    q, l_b = _tiny_flow(q, l_b, coef[0], 0, FLOW_FRACTIONS[12] * h)
+    return quat_normalize(q), l_b
+
+
+@kernel
+def rotation_step(q, l_b, inertia, h):
+    """:func:`free_rotation`, inlined where it is called for a turn known to be tiny throughout
+    (a ship that does not spin, or turns at rounding's rate: every flying tick of an upright
+    bounce, every tick far above of a ship at rest in attitude), else that call. Tiny: every
+    component of the Casimir turn's rotation vector under TINY_COMPONENT (tiny_turn's condition),
+    and every axis flow's half angle under TINY_ANGLE, which sum|c_i| |L|_1 MAX_FRACTION |h| <
+    TINY_ANGLE bounds with a factor 2 to spare (|L|_1 grows by at most 1 + 2|s_half| < 1 + 2^-26
+    a tiny flow; theta's two roundings). The same bits either way (tests/test_rotation_tiny.py)."""
+    i_ref = median_moment(inertia)
+    coef = (1.0 / inertia[0] - 1.0 / i_ref, 1.0 / inertia[1] - 1.0 / i_ref,
+            1.0 / inertia[2] - 1.0 / i_ref)
+    phi = scale(l_b, h / i_ref)
+    c_1 = abs(coef[0]) + abs(coef[1]) + abs(coef[2])  # (>= max |c_i|; nan stays nan)
+    l_1 = abs(l_b[0]) + abs(l_b[1]) + abs(l_b[2])
+    if (abs(phi[0]) < TINY_COMPONENT and abs(phi[1]) < TINY_COMPONENT
+            and abs(phi[2]) < TINY_COMPONENT
+            and c_1 * l_1 * (MAX_FRACTION * abs(h)) < TINY_ANGLE):
+        return tiny_rotation(q, l_b, coef, i_ref, h)
+    return free_rotation(q, l_b, inertia, h)

@@ -6,7 +6,7 @@ import numpy as np
 
 from touchdown.sim.compiled import entry
 from touchdown.sim.rotation import (FLOW_AXES, FLOW_FRACTIONS, axis_flow, free_rotation,
-    median_moment)
+    median_moment, rotation_step)
 from touchdown.sim.vec import quat_from_rotvec, quat_mul, quat_normalize, scale
 
 
@@ -36,6 +36,18 @@ def _full_rotations(qs, ls, inertias, hs, q_out, l_out):
 def _rotations(qs, ls, inertias, hs, q_out, l_out):
     for n in range(qs.shape[0]):
         q, l_b = free_rotation((qs[n, 0], qs[n, 1], qs[n, 2], qs[n, 3]),
+                               (ls[n, 0], ls[n, 1], ls[n, 2]),
+                               (inertias[n, 0], inertias[n, 1], inertias[n, 2]), hs[n])
+        for j in range(4):
+            q_out[n, j] = q[j]
+        for j in range(3):
+            l_out[n, j] = l_b[j]
+
+
+@entry
+def _steps(qs, ls, inertias, hs, q_out, l_out):
+    for n in range(qs.shape[0]):
+        q, l_b = rotation_step((qs[n, 0], qs[n, 1], qs[n, 2], qs[n, 3]),
                                (ls[n, 0], ls[n, 1], ls[n, 2]),
                                (inertias[n, 0], inertias[n, 1], inertias[n, 2]), hs[n])
         for j in range(4):
@@ -87,12 +99,19 @@ def _run(fn, qs, ls, inertias, hs):
 def test_tiny_turns_are_the_full_flow_bit_for_bit():
     qs, ls, inertias, hs = _inputs(400_000, 36)
     q_full, l_full = _run(_full_rotations, qs, ls, inertias, hs)
-    q_new, l_new = _run(_rotations, qs, ls, inertias, hs)
-    assert np.array_equal(q_full.view(np.uint64), q_new.view(np.uint64))
-    assert np.array_equal(l_full.view(np.uint64), l_new.view(np.uint64))
+    for fn in (_rotations, _steps):  # free_rotation, and rotation_step's dispatch
+        q_new, l_new = _run(fn, qs, ls, inertias, hs)
+        assert np.array_equal(q_full.view(np.uint64), q_new.view(np.uint64))
+        assert np.array_equal(l_full.view(np.uint64), l_new.view(np.uint64))
     # the inputs reach both sides: zero signs that the flows change, and ordinary turns
     assert np.any(np.signbit(q_full) != np.signbit(qs) & (q_full == 0.0))
     assert np.any(np.abs(l_full - ls) > 0.0)
+    # and both of rotation_step's ways: tiny throughout, and not
+    c = 1.0 / inertias - 1.0 / np.median(inertias, axis=1)[:, None]
+    bound = np.abs(c).sum(axis=1) * np.abs(ls).sum(axis=1) * 1.7024143839193155 * hs
+    tiny = (bound < 2.0 ** -27) & np.all(np.abs(ls * (hs / np.median(inertias, axis=1))[:, None])
+                                         < 2.0 ** -28, axis=1)
+    assert 0.2 < tiny.mean() < 0.8
 
 
 def test_zero_spin_upright_every_sign():
@@ -111,6 +130,7 @@ def test_zero_spin_upright_every_sign():
     inertias = np.concatenate([inertias, inertias])
     hs = np.repeat([0.05, 0.05 / 16], 4 * len(rows))
     q_full, l_full = _run(_full_rotations, qs, ls, inertias, hs)
-    q_new, l_new = _run(_rotations, qs, ls, inertias, hs)
-    assert np.array_equal(q_full.view(np.uint64), q_new.view(np.uint64))
-    assert np.array_equal(l_full.view(np.uint64), l_new.view(np.uint64))
+    for fn in (_rotations, _steps):
+        q_new, l_new = _run(fn, qs, ls, inertias, hs)
+        assert np.array_equal(q_full.view(np.uint64), q_new.view(np.uint64))
+        assert np.array_equal(l_full.view(np.uint64), l_new.view(np.uint64))
