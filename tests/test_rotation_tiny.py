@@ -7,7 +7,8 @@ import numpy as np
 from touchdown.sim.compiled import entry
 from touchdown.sim.rotation import (FLOW_AXES, FLOW_FRACTIONS, axis_flow, free_rotation,
     median_moment, rotation_step)
-from touchdown.sim.vec import quat_from_rotvec, quat_mul, quat_normalize, scale
+from touchdown.sim.vec import (quat_from_rotvec, quat_mul, quat_normalize, quat_rotate_inv,
+    quat_rotate_inv_of, scale)
 
 
 @entry
@@ -134,3 +135,39 @@ def test_zero_spin_upright_every_sign():
         q_new, l_new = _run(fn, qs, ls, inertias, hs)
         assert np.array_equal(q_full.view(np.uint64), q_new.view(np.uint64))
         assert np.array_equal(l_full.view(np.uint64), l_new.view(np.uint64))
+
+
+@entry
+def _rotated(qs, vs, out, out_of):
+    for n in range(qs.shape[0]):
+        q = (qs[n, 0], qs[n, 1], qs[n, 2], qs[n, 3])
+        v = (vs[n, 0], vs[n, 1], vs[n, 2])
+        a = quat_rotate_inv(q, v)
+        b = quat_rotate_inv_of(q, v)
+        for j in range(3):
+            out[n, j] = a[j]
+            out_of[n, j] = b[j]
+
+
+def test_rotated_zero_vector():
+    """sim.vec.quat_rotate_inv_of: quat_rotate_inv bit for bit for every finite attitude (+0 and
+    -0 components, denormals, unnormalised), whatever the vector's zeros' signs; nan where it
+    gives nan for a non-finite one."""
+    rng = np.random.default_rng(7)
+    n = 200_000
+    qs = _signed(rng, (n, 4), [0.0, 0.0, 5e-324, 1e-300, 1e-10, 0.5, 1.0, 1e10, 1e300])
+    bad = rng.random(n) < 0.05
+    qs[bad, rng.integers(0, 4, size=int(bad.sum()))] = rng.choice([np.inf, -np.inf, np.nan],
+                                                                   size=int(bad.sum()))
+    vs = np.where(rng.random((n, 3)) < 0.5, 0.0, -0.0)
+    vs[rng.random(n) < 0.3] = 0.0  # all +0: the way without products
+    vs[rng.random(n) < 0.1] = _signed(rng, (1, 3), [1.0, 1e-300])
+    out, out_of = np.empty_like(vs), np.empty_like(vs)
+    _rotated(qs, vs, out, out_of)
+    finite = np.all(np.isfinite(qs), axis=1)
+    assert np.array_equal(out[finite].view(np.uint64), out_of[finite].view(np.uint64))
+    assert np.array_equal(np.isnan(out), np.isnan(out_of))
+    num = ~np.isnan(out)
+    assert np.array_equal(out[num].view(np.uint64), out_of[num].view(np.uint64))
+    allpos = np.all((vs == 0.0) & ~np.signbit(vs), axis=1)
+    assert allpos.sum() > 0.25 * n and np.any(~finite & allpos)
