@@ -136,8 +136,8 @@ def tiny_turn(q, phi):
 TINY_COMPONENT = 2.0 ** -28
 
 
-@separate
-def free_rotation(q, l_b, inertia, h):
+@kernel
+def rotation_flows(q, l_b, inertia, h):
     """Attitude and body-frame angular momentum after a torque-free step of length h. Exact for an
     axisymmetric body; fourth order otherwise (module docstring). An axis flow whose coefficient
     is zero is the identity and is skipped. A turn too small for cos_sinc's series (a ship that
@@ -195,11 +195,13 @@ def tiny_rotation(q, l_b, coef, i_ref, h):
     return quat_normalize(q), l_b
 
 
-@kernel
+@separate
 def rotation_step(q, l_b, inertia, h):
-    """:func:`free_rotation`, inlined where it is called for a turn known to be tiny throughout
-    (a ship that does not spin, or turns at rounding's rate: every flying tick of an upright
-    bounce, every tick far above of a ship at rest in attitude), else that call. Tiny: every
+    """:func:`free_rotation`, written out flow by flow (:func:`tiny_rotation`) for a turn known to
+    be tiny throughout (a ship that does not spin, or turns at rounding's rate: every flying tick
+    of an upright bounce, every tick far above of a ship at rest in attitude), else its loop. (A
+    call of its own, as free_rotation was: inlined at the integrators' sites, the 13 flows made
+    LLVM's SROA on step_ticks run for minutes.) Tiny: every
     component of the Casimir turn's rotation vector under TINY_COMPONENT (tiny_turn's condition),
     and every axis flow's half angle under TINY_ANGLE, which sum|c_i| |L|_1 MAX_FRACTION |h| <
     TINY_ANGLE bounds with a factor 2 to spare (|L|_1 grows by at most 1 + 2|s_half| < 1 + 2^-26
@@ -214,4 +216,11 @@ def rotation_step(q, l_b, inertia, h):
             and abs(phi[2]) < TINY_COMPONENT
             and c_1 * l_1 * (MAX_FRACTION * abs(h)) < TINY_ANGLE):
         return tiny_rotation(q, l_b, coef, i_ref, h)
-    return free_rotation(q, l_b, inertia, h)
+    return rotation_flows(q, l_b, inertia, h)
+
+
+@separate
+def free_rotation(q, l_b, inertia, h):
+    """:func:`rotation_flows` as a call of its own (the loop over the flows, each tiny one by
+    tiny_axis_flow); the integrators call :func:`rotation_step`."""
+    return rotation_flows(q, l_b, inertia, h)
