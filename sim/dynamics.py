@@ -26,7 +26,7 @@ from touchdown.sim.contact import (FrictionForce, Ground, Legs, Spring, foot_off
 from touchdown.sim.friction import tangent_basis
 from touchdown.sim.frames import turned
 from touchdown.sim.vec import (add, body_axes, cos_sinc, cross, div, dot, mul, norm, quat_axis_z,
-    quat_derivative, quat_rotate, quat_rotate_inv, scale, sub, unit)
+    quat_derivative, quat_rotate, quat_rotate_inv, quat_rotate_inv_of, scale, sub, unit)
 
 
 class Motion(NamedTuple):
@@ -194,7 +194,7 @@ def acceleration(fb, ce, p, q):
 @kernel
 def torque_body(fb, ce, q):
     """External torque in the body frame: the ground's, and the RCS's."""
-    return add(quat_rotate_inv(q, ce.torque_w), fb.craft.rcs_torque_body_nm)
+    return add(quat_rotate_inv_of(q, ce.torque_w), fb.craft.rcs_torque_body_nm)
 
 
 @kernel

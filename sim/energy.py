@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.contact import feet, surface_velocity
-from touchdown.sim.vec import dot, mul, norm, quat_rotate_inv, sub
+from touchdown.sim.vec import dot, mul, norm, quat_rotate_inv_of, sub
 
 
 class Energy(NamedTuple):
@@ -82,7 +82,7 @@ def mechanical_at(body, mass_kg, inertia_kgm2, k_npm, motion, ground, pen_m):
     the springs of the legs (k / 4 each) store k x^2 / 8 at each foot in the ground."""
     gm_m3ps2, radius_m, spin_radps = body
     p, v, q, w_b = motion
-    spin_b = quat_rotate_inv(q, (0.0, 0.0, spin_radps))
+    spin_b = quat_rotate_inv_of(q, (0.0, 0.0, spin_radps))
     v_rel = sub(v, surface_velocity(ground, p))
     w_rel = sub(w_b, spin_b)
     r = norm(p)

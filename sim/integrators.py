@@ -22,7 +22,7 @@ from touchdown.sim.dynamics import Holding, Motion, acceleration, contact_at, co
     contact_geometry, contact_inline, derivatives, derivatives_held, ground_at, torque_body
 from touchdown.sim.exact import (Flow, Functional, bracketed_root, first_crossing, flow_at,
     flow_start, value_and_rate)
-from touchdown.sim.rotation import free_rotation
+from touchdown.sim.rotation import rotation_step
 from touchdown.sim.settings import Integrator
 from touchdown.sim.vec import add, div, dot, fmax, mul, norm, quat_add_scaled, quat_integrate, \
     quat_normalize, scale, sub
@@ -267,7 +267,7 @@ def _turn(fb, q, w, tau_b, h):
     torque-free flow (sim.rotation). Returns the new attitude and the body-frame angular momentum
     before the closing half kick."""
     l_half = add(mul(fb.craft.inertia_kgm2, w), scale(tau_b, 0.5 * h))
-    return free_rotation(q, l_half, fb.craft.inertia_kgm2, h)
+    return rotation_step(q, l_half, fb.craft.inertia_kgm2, h)
 
 
 @kernel

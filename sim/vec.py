@@ -97,6 +97,25 @@ def quat_rotate_inv(q, v):
 
 
 @kernel
+def positive_zero(x):
+    """x is +0.0 (not -0.0)."""
+    return x == 0.0 and math.copysign(1.0, x) > 0.0
+
+
+@kernel
+def quat_rotate_inv_of(q, v):
+    """:func:`quat_rotate_inv`, for v = (+0.0, +0.0, +0.0) (a ship clear of the ground's contact
+    torque, a body that does not spin) without its products: each component it gives is then
+    (+0 + t q_w) + c with t and c sums of signed zeros for a finite q, and +0 + (+-0) is +0 under
+    round to nearest, so it gives (+0, +0, +0); for a q with an infinite or nan component, nan
+    in every component (inf * 0), as (q - q) sums it here (tests/test_rotation_tiny.py)."""
+    if positive_zero(v[0]) and positive_zero(v[1]) and positive_zero(v[2]):
+        z = ((q[0] - q[0]) + (q[1] - q[1])) + ((q[2] - q[2]) + (q[3] - q[3]))
+        return (z, z, z)
+    return quat_rotate_inv(q, v)
+
+
+@kernel
 def quat_axis_z(q):
     """The body z axis (the long axis) in the inertial frame: q (0,0,1) q*."""
     w, x, y, z = q
