@@ -15,8 +15,8 @@ from typing import NamedTuple
 from touchdown.sim.compiled import constructor, kernel, separate
 from touchdown.sim.contact import (FEET_UNKNOWN, ContactEval, FrictionForce, KnownFeet, Legs,
     feet, foot_offsets_w, foot_positions_w, lowest_foot_penetration, no_contact, rise_rate)
-from touchdown.sim.dynamics import (Craft, FreeBody, Grip, Holding, Motion, contact_at,
-    contact_inline, derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
+from touchdown.sim.dynamics import (Craft, FreeBody, Holding, Motion, contact_at, contact_inline,
+    derivatives_held, ground_at, ground_turn, held_friction, with_drag_dir, with_feet, with_hold)
 from touchdown.sim.energy import mechanical, mechanical_at, rotation, total, translation
 from touchdown.sim.frames import (Body, body_spin_in_body_frame, pin_pose, quat_z, rotate_z,
     surface_velocity, turned)
@@ -415,164 +415,6 @@ def contact_memo(memo, here, fb, t_s, m, absorbing, engage):
     if memo_at(memo, here, fb, t_s, m, absorbing, engage):
         return memo.ce
     return contact_inline(fb, ground_at(fb, t_s), m, absorbing, engage)
-
-
-# -- the contact a tick ends on, kept for the next tick's start ----------------------------------
-# The last contact a ship's tick evaluated (its last sub-step's end, the guard's: a Memo) is kept
-# per ship in a scratch row (EventLog.kept, sim.step.Resting.contact): the inputs it was evaluated
-# from, word for word, and its ContactEval. The next tick's first evaluation (free_flight's, at
-# the tick's start) takes it where every one of those inputs is the same bits; anything else (a
-# command, a transition, a settle, a restored snapshot, a fresh row) misses and evaluates: the
-# result is the evaluation's bits either way. The row is scratch: no state, log or replay holds it.
-
-#: words of the inputs an evaluation depends on: the motion (13), absorbing, engage (4), the
-#: grip's kinetic (4), hold_w (12) and drag_dir (12), the craft's touching, leg radius, com height,
-#: k, c, c_absorb, linear_model, mu_k (8), the ground's radius, angle (2), spin and radial (5);
-#: the terrain's record is the scene's (the row is carried only while the params are the same)
-KEPT_KEY_WORDS = 59
-
-#: words of a ContactEval
-KEPT_CE_WORDS = 61
-
-#: a row: [0] 1.0 where written, the inputs (KEPT_KEY_WORDS), the ContactEval, and scratch for the
-#: inputs asked for (KEPT_KEY_WORDS)
-KEPT_AT_KEY = 1
-KEPT_AT_CE = KEPT_AT_KEY + KEPT_KEY_WORDS
-KEPT_AT_PROBE = KEPT_AT_CE + KEPT_CE_WORDS
-KEPT_WORDS = KEPT_AT_PROBE + KEPT_KEY_WORDS
-
-
-@kernel
-def _put3(row, j, a):
-    row[j] = a[0]
-    row[j + 1] = a[1]
-    row[j + 2] = a[2]
-    return j + 3
-
-
-@kernel
-def _put4(row, j, a):
-    row[j] = a[0]
-    row[j + 1] = a[1]
-    row[j + 2] = a[2]
-    row[j + 3] = a[3]
-    return j + 4
-
-
-@kernel
-def _put_vecs(row, j, a):
-    return _put3(row, _put3(row, _put3(row, _put3(row, j, a[0]), a[1]), a[2]), a[3])
-
-
-@kernel
-def _get3(row, j):
-    return (row[j], row[j + 1], row[j + 2])
-
-
-@kernel
-def _get4(row, j):
-    return (row[j], row[j + 1], row[j + 2], row[j + 3])
-
-
-@kernel
-def _get_vecs(row, j):
-    return (_get3(row, j), _get3(row, j + 3), _get3(row, j + 6), _get3(row, j + 9))
-
-
-@kernel
-def _put_key(row, j, fb, ground, m, absorbing, engage):
-    """The inputs of ``contact_inline(fb, ground, m, absorbing, engage)`` into ``row`` from j."""
-    cr, g = fb.craft, fb.grip
-    j = _put3(row, _put4(row, _put3(row, _put3(row, j, m.p), m.v), m.q), m.w)
-    row[j] = 1.0 if absorbing else 0.0
-    j = _put4(row, _put4(row, j + 1, engage), g.kinetic)
-    j = _put_vecs(row, _put_vecs(row, j, g.hold_w), g.drag_dir)
-    row[j] = 1.0 if cr.touching else 0.0
-    row[j + 1] = cr.leg_radius_m
-    row[j + 2] = cr.com_height_m
-    row[j + 3] = cr.k_npm
-    row[j + 4] = cr.c_nspm
-    row[j + 5] = cr.c_absorb_nspm
-    row[j + 6] = 1.0 if cr.linear_model else 0.0
-    row[j + 7] = cr.mu_k
-    row[j + 8] = ground.radius_m
-    row[j + 9] = ground.cos_theta
-    row[j + 10] = ground.sin_theta
-    row[j + 11] = ground.spin_radps
-    row[j + 12] = 1.0 if ground.radial else 0.0
-
-
-@kernel
-def _put_ce(row, j, ce):
-    row[j] = 1.0 if ce.touching else 0.0
-    j = _put4(row, _put4(row, _put4(row, _put4(row, j + 1, ce.pen_m), ce.pen_rate_mps),
-                         ce.foot_force_n), ce.push_norm)
-    j = _put3(row, _put3(row, j, ce.force_w), ce.torque_w)
-    row[j] = ce.normal_n
-    j = _put_vecs(row, j + 1, ce.slip_w)
-    row[j] = ce.friction_n
-    row[j + 1] = ce.max_penetration_m
-    j = _put3(row, _put3(row, j + 2, ce.lowest_foot_w), ce.axis)
-    row[j] = ce.stiffness_npm
-    row[j + 1] = ce.damping_nspm
-    row[j + 2] = ce.spring_load_n
-    row[j + 3] = ce.spring_load_rate_nps
-    row[j + 4] = ce.lowest_gamma
-    _put_vecs(row, j + 5, ce.normal_w)
-
-
-@kernel
-def _get_ce(row, j):
-    return ContactEval(row[j] != 0.0, _get4(row, j + 1), _get4(row, j + 5), _get4(row, j + 9),
-                       _get4(row, j + 13), _get3(row, j + 17), _get3(row, j + 20), row[j + 23],
-                       _get_vecs(row, j + 24), row[j + 36], row[j + 37], _get3(row, j + 38),
-                       _get3(row, j + 41), row[j + 44], row[j + 45], row[j + 46], row[j + 47],
-                       row[j + 48], _get_vecs(row, j + 49))
-
-
-@kernel
-def _same_bits(a, b):
-    """a and b are the same float64, bit for bit (a NaN never is: a miss)."""
-    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
-
-
-@kernel
-def kept_contact_at(log, fb, ground, m, absorbing, engage):
-    """Whether the ship's kept row (``log.kept``, :func:`keep_contact`) holds
-    ``contact_inline(fb, ground, m, absorbing, engage)``: evaluated from these inputs, bit for
-    bit."""
-    kept = log.kept
-    i = log.ship
-    if kept.shape[1] < KEPT_WORDS or kept[i, 0] != 1.0:
-        return False
-    row = kept[i]
-    _put_key(row, KEPT_AT_PROBE, fb, ground, m, absorbing, engage)
-    for j in range(KEPT_KEY_WORDS):
-        if not _same_bits(row[KEPT_AT_KEY + j], row[KEPT_AT_PROBE + j]):
-            return False
-    return True
-
-
-@kernel
-def kept_contact(log):
-    """The ContactEval of the ship's kept row (where :func:`kept_contact_at` found it)."""
-    return _get_ce(log.kept[log.ship], KEPT_AT_CE)
-
-
-@kernel
-def keep_contact(log, fb, memo):
-    """``memo`` (evaluated with free_flight's ``fb``: its craft and drag_dir) into the ship's
-    kept row."""
-    kept = log.kept
-    if kept.shape[1] < KEPT_WORDS or not memo.valid:
-        return
-    row = kept[log.ship]
-    g = fb.grip
-    fb_m = FreeBody(fb.craft, Grip(memo.engage, memo.kinetic, memo.hold_w, g.drag_dir))
-    _put_key(row, KEPT_AT_KEY, fb_m, ground_at(fb, memo.t_s), memo.motion, memo.absorbing,
-             memo.engage)
-    _put_ce(row, KEPT_AT_CE, memo.ce)
-    row[0] = 1.0
 
 
 class FootEvents(NamedTuple):
@@ -2191,12 +2033,7 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     # it (contact_memo) instead of evaluating the same state again; the fields used before
     # that (penetrations, their rates, the feet's forces and slips) do not depend on it
     fb0 = with_hold(fb, s.footing.hold_w if carry else NO_HOLD)
-    # (the contact the ship's last tick ended on, where it was evaluated from these very inputs:
-    # the same bits, kept_contact_at)
-    if kept_contact_at(log, fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND):
-        ce = kept_contact(log)
-    else:
-        ce = contact_inline(fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
+    ce = contact_inline(fb0, ground0, m, s.footing.absorbing, ENGAGE_AT_GROUND)
     # a ship in contact where nothing the finer sub-steps resolve can happen takes the coarse
     # ones (sim.coarse_substep, MODEL-NOTES 57)
     if coarse and coarse_tick(cfg, fb, s, ce, dt / cfg.coarse_substeps):
@@ -2312,8 +2149,6 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
     fb_k = with_hold(fb, carried)
     if pinned_now:
         s, ce = pinned_at_end(fb_k, s, cos1, sin1, dt)
-    else:  # the last sub-step's end: the next tick's start asks for it where nothing moved it
-        keep_contact(log, fb, memo)
     s = unheld(s, pinned_now)
     return Flight(s, Report(friction_n, abs(ce.normal_n), peak, guard_j, lowest_of(ce)),
                   run if sample and s.surface_state == CONTACT else NO_RUN)

@@ -185,15 +185,11 @@ def store(s, rec):
 
 class EventLog(NamedTuple):
     """Where a ship's transitions go: ``events`` (sim.state.TRANSITION_DTYPE), ``count[0]`` of
-    them so far, and the ship's index in its batch; and the batch's scratch rows ``kept``
-    (ships, sim.flight.KEPT_WORDS; float64), the contact each ship's last tick ended on
-    (sim.flight.keep_contact: asked for again only where its inputs are the same bits, so a
-    fresh or zero row, or one of no columns, only misses)."""
+    them so far, and the ship's index in its batch."""
 
     events: np.ndarray
     count: np.ndarray
     ship: int
-    kept: np.ndarray
 
 
 @kernel

@@ -19,7 +19,6 @@ from touchdown.sim.compiled import entry, kernel, separate
 from touchdown.sim.enums import SurfaceState, TRANSITION_EVENTS
 from touchdown.sim.frames import body_rotation
 from touchdown.sim.params import Params
-from touchdown.sim.flight import KEPT_WORDS
 from touchdown.sim.phases import observe, step_ship
 from touchdown.sim.ship import (CRASHED, LANDED, NO_COMMANDS, NO_REPORT, TIPPED, Commands, EventLog,
     Here, Turn, load)
@@ -56,9 +55,6 @@ class Resting(NamedTuple):
     fix_inputs_w: np.ndarray  # ... the inputs it stepped with ...
     fix_outputs_w: np.ndarray  # ... and its telemetry then
     before_w: np.ndarray  # (words,) scratch: a ship's state before its step
-    #: (ships, sim.flight.KEPT_WORDS) scratch: the contact each ship's last tick ended on
-    #: (sim.flight.keep_contact), carried with the fixed points (the same params)
-    contact: np.ndarray
 
 
 def _words(rows: np.ndarray) -> np.ndarray:
@@ -75,8 +71,7 @@ def resting(n_ships: int, state: np.ndarray, inputs: np.ndarray, outputs: np.nda
                        _words(outputs), np.zeros((n_ships, STATE_DTYPE.itemsize // 8), np.uint64),
                        np.zeros((n_ships, INPUTS_DTYPE.itemsize // 8), np.uint64),
                        np.zeros((n_ships, OUTPUTS_DTYPE.itemsize // 8), np.uint64),
-                       np.zeros(STATE_DTYPE.itemsize // 8, np.uint64),
-                       np.zeros((n_ships, KEPT_WORDS)))
+                       np.zeros(STATE_DTYPE.itemsize // 8, np.uint64))
     return kept._replace(on=on, state_w=_words(state), inputs_w=_words(inputs),
                          outputs_w=_words(outputs))
 
@@ -102,15 +97,14 @@ def _copy_words(src, dst):
 
 
 @separate
-def step_ships(recs, state, inputs, outputs, turn, log):
+def step_ships(recs, state, inputs, outputs, turn, events, count):
     """Every ship's tick, one after another (``turn``: the body's angles, a :class:`Turn`):
     ``state`` is updated in place, ``outputs`` written, and the transitions appended to
-    ``log.events`` (``log.count[0]`` of them; sim.ship.emit), ship i's as the i-th of these;
-    ``log.kept``: the ships' scratch rows (sim.ship.EventLog; of no columns: none kept)."""
+    ``events`` (``count[0]`` of them; sim.ship.emit)."""
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     for i in range(state.shape[0]):
         step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], outputs[i],
-                  EventLog(log.events, log.count, i, log.kept))
+                  EventLog(events, count, i))
 
 
 @kernel
@@ -179,7 +173,7 @@ def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
                 _copy_words(rest.state_w[i], rest.before_w)
             n_i = count[0]
             step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], out_k[i],
-                      EventLog(events, count, i, rest.contact))
+                      EventLog(events, count, i))
             fixed = (watch and count[0] == n_i
                      and _same_words(rest.state_w[i], rest.before_w))
             rest.fixed[i] = fixed

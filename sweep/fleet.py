@@ -25,8 +25,7 @@ from touchdown.sim.frames import Body, body_rotation
 from touchdown.sim.params import SCENE_DTYPE, Records
 from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
     concatenate)
-from touchdown.sim.flight import KEPT_WORDS
-from touchdown.sim.ship import CONTACT, EventLog, Turn, scene_ground
+from touchdown.sim.ship import CONTACT, Turn, scene_ground
 from touchdown.sim.step import apply_commands, observe_ships, step_ships
 from touchdown.sim.vec import quat_axis_z
 from touchdown.sweep.cases import Sweep
@@ -105,13 +104,12 @@ def _footprint_bf(p, q, h, c, s):
 @separate
 def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, commands,
                 next_command, first_tick, n_ticks, dt_s, outs, events, count, acc, raw, scratch,
-                still, last_command, frozen, kept):
+                still, last_command, frozen):
     """Ticks ``first_tick`` .. ``first_tick + n_ticks - 1`` of the fleet, each ship's by
     sim.phases.step_ship with its group's scene and terrain and its rotation group's body angle
     (``rot[r, k]``: (cos, sin) at the start of the k-th tick), reduced into ``acc``. Commands
     (sorted by tick, from ``next_command``) are applied before the tick they are for, as
-    sim.step.step_ticks applies them. ``kept``: each ship's scratch row (sim.ship.EventLog.kept).
-    Returns the index of the next command."""
+    sim.step.step_ticks applies them. Returns the index of the next command."""
     c = next_command
     for k in range(n_ticks):
         tick = first_tick + k
@@ -137,7 +135,7 @@ def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, c
             # on this one ship with its own scene
             step_ships(Records(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1]),
                        state[i:i + 1], inputs[i:i + 1], outs[i:i + 1], Turn(c0, s0, c1, s1),
-                       EventLog(events, count, 0, kept[i:i + 1]))
+                       events, count)
             a = acc[i]
             _fold_outputs(outs[i], a)
             if before == CONTACT and rec.surface_state == CONTACT:
@@ -287,8 +285,6 @@ class Fleet:
         if len(self.commands):
             np.maximum.at(last_command, self.commands["ship"], self.commands["tick"])
         frozen = np.zeros(n, bool)
-        # each ship's scratch row: the contact its last tick ended on (sim.flight.keep_contact)
-        kept = np.zeros((n, KEPT_WORDS))
         tick, c = 0, 0
         while tick < self.n_ticks:
             if stop is not None and stop():
@@ -298,7 +294,7 @@ class Fleet:
             c = sweep_ticks(self.scenes, self.terrains, self.group, self.rot_index, rot,
                             self.ships, self.state, self.inputs, self.commands, c, tick, k,
                             self.dt_s, outs, events, count, self.acc, raw, scratch, still,
-                            last_command, frozen, kept)
+                            last_command, frozen)
             tick += k
             if progress is not None:
                 progress(k * n)

@@ -118,7 +118,7 @@ def _settles(params, st, ticks=1):
     here, ship, _ = one_ship(params, st)
     events, count = np.zeros(4, TRANSITION_DTYPE), np.zeros(1, np.int64)
     for _ in range(ticks):
-        ship = settle(here, ship, IDLE, NO_RUN, EventLog(events, count, 0, np.zeros((1, 0))))
+        ship = settle(here, ship, IDLE, NO_RUN, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             return True
     return False
@@ -196,7 +196,7 @@ def test_the_landing_instant_is_where_the_thresholds_had_held_settle_time():
     for k in range(40):
         v = -speeds[min(k, 2)] * r_hat
         moved = ship._replace(motion=ship.motion._replace(v=(v[0], v[1], v[2])))
-        ship = settle(here, moved, IDLE, NO_RUN, EventLog(events, count, 0, np.zeros((1, 0))))
+        ship = settle(here, moved, IDLE, NO_RUN, EventLog(events, count, 0))
         if ship.surface_state == SurfaceState.LANDED:
             break
     began = 2 * dt + 0.5 * dt
