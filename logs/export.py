@@ -438,7 +438,7 @@ class _ArrowBlocks:
 #: columns: 77.7 MB (level 1: 67.6 MB, level -1: 72.3 MB; snappy, pyarrow's and DuckDB's own
 #: default, 105.5 MB; the log itself 123 MB), written in 0.22 CPU s (level 1: 0.34 s), and read
 #: back twice as fast as level 1's (pyarrow's read_table 0.11 s against 0.21 s; DuckDB the same
-#: way): the same codec, which every Parquet reader reads (README, "Logs at fleet scale")
+#: way): the same codec, which every Parquet reader reads (docs/SPEED.md, "Replay and the logs' commands")
 PARQUET_LEVEL = -4
 
 
