@@ -1383,8 +1383,9 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     drag, ce, q = start.drag, start.ce, start.ship.motion.q
     out = math.inf
     for i in range(4):
-        if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
-                and (stiff[i] or not slowing(sr, i))):
+        # (the rates' test first: a foot coming to a stop asks no _could_stop)
+        if (drag[i] and ce.foot_force_n[i] > 0.0 and (stiff[i] or not slowing(sr, i))
+                and _could_stop(cfg, fb, ce, ce, q, i, h)):
             t_stop = _stop_time(cfg, fb, ce, q, i)
             micro = floor_s > 0.0 and norm(ce.slip_w[i]) < MICRO_SLIP_MPS
             if t_stop >= floor_s and not micro:
