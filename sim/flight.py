@@ -25,7 +25,7 @@ from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_
 from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, \
     exponential_end, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
-from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on
+from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on, settle_sample_seen
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
     NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_footing, with_friction,
     with_motion, with_pin)
@@ -2162,7 +2162,8 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
         memo = end.memo
         memo_here = not tr.moved
         if sample:
-            run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
+            # (ce: the contact at s's state on this ground, the guard's or the transitions')
+            run = settle_sample_seen(cfg, sp, s, ground, run, (t_seen, t_end), ce)
             t_seen = t_end
         if tr.stop:
             pinned_now = True
