@@ -25,7 +25,7 @@ from touchdown.sim.friction import (FeetOn, Rigid, coulomb, hold_footprint, law_
 from touchdown.sim.integrators import EXPONENTIAL, RK4, advance, exponential, \
     exponential_end, rk4_held
 from touchdown.sim.pivot import pinned_motion, rate_from_momentum
-from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on
+from touchdown.sim.rest import NO_RUN, SettleRun, settle_sample, settle_sample_on, settle_sample_seen
 from touchdown.sim.ship import (CONTACT, CRASHED, ENGAGE_AT_GROUND, FLYING, FULL_TIPPED, NO_HOLD,
     NO_SLIP, Pin, Report, Ship, TIPPED, emit, fresh_footing, with_footing, with_friction,
     with_motion, with_pin)
@@ -687,6 +687,19 @@ def _could_stop(cfg, fb, ce0, ce1, q, i, h):
     return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * inv_m
 
 
+@kernel
+def _could_stop_rated(cfg, fb, sr, ce0, ce1, i, h):
+    """:func:`_could_stop` with foot i's |s| and 1 / m_eff taken from ``sr``, the
+    :class:`SlipRates` rated at ``ce0`` and the attitude asked (slip_rates forms them by the same
+    operations: the same bits, without the foot's offsets, its arm and the divisions again)."""
+    speed = sr.speed[i]
+    if not speed > cfg.stick_speed_mps:  # (stick >= 0: a foot that slips, inv_mass formed)
+        return True
+    drag = fb.craft.mu_k * fmax(ce0.foot_force_n[i] * ce0.push_norm[i],
+                          ce1.foot_force_n[i] * ce1.push_norm[i])
+    return (speed - cfg.stick_speed_mps) < DRAG_REACH * h * drag * sr.inv_mass[i]
+
+
 class SlipRates(NamedTuple):
     """Each foot's slip, how fast it changes along itself, and how fast its own kinetic friction
     alone would slow it (sim.flight.slip_rates)."""
@@ -695,6 +708,8 @@ class SlipRates(NamedTuple):
     rate: tuple  # d|s_i|/dt, m/s^2, from every force at once
     own: tuple  # mu_k N_i / m_eff,i, m/s^2
     across: tuple  # |ds_i/dt - (d|s_i|/dt) s_hat_i|, m/s^2: what turns the slip
+    #: 1 / m_eff,i along s_hat_i (:func:`_inv_mass_along`'s), 1/kg; 0 where the foot does not slip
+    inv_mass: tuple = (0.0, 0.0, 0.0, 0.0)
 
 
 @kernel
@@ -716,12 +731,14 @@ def slip_rates(cfg, fb, ground, ce, m):
     rates = (0.0, 0.0, 0.0, 0.0)
     owns = (0.0, 0.0, 0.0, 0.0)
     acrosses = (0.0, 0.0, 0.0, 0.0)
+    inv_ms = (0.0, 0.0, 0.0, 0.0)
     for i in range(4):
         s0 = ce.slip_w[i]
         speed = norm(s0)
         rate = 0.0
         own = 0.0
         across = 0.0
+        inv_m = 0.0
         if speed > 0.0:
             s_hat = unit(s0)
             r = off[i]
@@ -740,12 +757,14 @@ def slip_rates(cfg, fb, ground, ce, m):
                 own if i == 2 else owns[2], own if i == 3 else owns[3])
         acrosses = (across if i == 0 else acrosses[0], across if i == 1 else acrosses[1],
                     across if i == 2 else acrosses[2], across if i == 3 else acrosses[3])
-    return SlipRates(speeds, rates, owns, acrosses)
+        inv_ms = (inv_m if i == 0 else inv_ms[0], inv_m if i == 1 else inv_ms[1],
+                  inv_m if i == 2 else inv_ms[2], inv_m if i == 3 else inv_ms[3])
+    return SlipRates(speeds, rates, owns, acrosses, inv_ms)
 
 
 #: no foot slips
 NO_RATES = SlipRates((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0),
-                     (0.0, 0.0, 0.0, 0.0))
+                     (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
 
 
 @kernel
@@ -816,13 +835,14 @@ def _turned_any(stop, ce0, ce1):
 
 
 @kernel
-def dragged_feet(cfg, fb, sliding, ce0, ce1, q, h):
+def dragged_feet(cfg, fb, sliding, sr, ce0, ce1, h):
     """The sliding feet dragged by their friction as a force over a step of h: those that could
-    not stop within it (:func:`_could_stop`; none under the seed's law)."""
+    not stop within it (:func:`_could_stop`, its slip's terms from ``sr``, the
+    :class:`SlipRates` at ``ce0``: :func:`_could_stop_rated`; none under the seed's law)."""
     out = (False, False, False, False)
     if fb.craft.mu_k > 0.0:
         for i in range(4):
-            d = sliding[i] and not _could_stop(cfg, fb, ce0, ce1, q, i, h)
+            d = sliding[i] and not _could_stop_rated(cfg, fb, sr, ce0, ce1, i, h)
             out = (out[0] or (d and i == 0), out[1] or (d and i == 1),
                    out[2] or (d and i == 2), out[3] or (d and i == 3))
     return out
@@ -1171,7 +1191,7 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         if not rated:
             sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
             rated = True
-        may = dragged_feet(cfg, body, drag, ce_y, ce_y, m.q, STIFF_REACH * rem)
+        may = dragged_feet(cfg, body, drag, sr, ce_y, ce_y, STIFF_REACH * rem)
         if may_split:
             may = with_stopping(drag, may, stiff, sr)
         if may[0] != drag[0] or may[1] != drag[1] or may[2] != drag[2] or may[3] != drag[3]:
@@ -1199,9 +1219,9 @@ def step_piece(cfg, fb, start, rem, may_split, stiff, fine):
         # a foot whose slip the ship's turning keeps up is dragged too while the direction of
         # its drag, which turns with its slip at a rate of its friction's deceleration over its
         # slip, stays within what the method's stages follow (STIFF_REACH of the step)
-        near = dragged_feet(cfg, body, drag, ce_y, ce_e, m.q, STIFF_REACH * rem)
-        if not rated:
-            sr = slip_rates(cfg, body, ground_at(fb, t_abs), ce_y, m)
+        # (sr: rated above, at ce_y's slips and loads, which a re-evaluation with another drag
+        # leaves as they are: the feet's springs and velocities, not their friction)
+        near = dragged_feet(cfg, body, drag, sr, ce_y, ce_e, STIFF_REACH * rem)
         if may_split:  # of those, the ones coming to a stop are dragged, and their stop located
             near = with_stopping(drag, near, stiff, sr)
         if near[0] != drag[0] or near[1] != drag[1] or near[2] != drag[2] or near[3] != drag[3]:
@@ -1363,8 +1383,9 @@ def stiff_feet(cfg, fb, start, sr, h, stiff, floor_s):
     drag, ce, q = start.drag, start.ce, start.ship.motion.q
     out = math.inf
     for i in range(4):
-        if (drag[i] and ce.foot_force_n[i] > 0.0 and _could_stop(cfg, fb, ce, ce, q, i, h)
-                and (stiff[i] or not slowing(sr, i))):
+        # (the rates' test first: a foot coming to a stop asks no _could_stop)
+        if (drag[i] and ce.foot_force_n[i] > 0.0 and (stiff[i] or not slowing(sr, i))
+                and _could_stop(cfg, fb, ce, ce, q, i, h)):
             t_stop = _stop_time(cfg, fb, ce, q, i)
             micro = floor_s > 0.0 and norm(ce.slip_w[i]) < MICRO_SLIP_MPS
             if t_stop >= floor_s and not micro:
@@ -2141,7 +2162,8 @@ def free_flight(here, fb, s, n_sub, carry, coarse, log):
         memo = end.memo
         memo_here = not tr.moved
         if sample:
-            run = settle_sample(cfg, sp, s, ground, run, t_seen, t_end)
+            # (ce: the contact at s's state on this ground, the guard's or the transitions')
+            run = settle_sample_seen(cfg, sp, s, ground, run, (t_seen, t_end), ce)
             t_seen = t_end
         if tr.stop:
             pinned_now = True

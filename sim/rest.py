@@ -37,13 +37,29 @@ def settle_sample(cfg, sp, s, ground, run, t_prev, t_now):
 
 
 @kernel
+def settle_sample_seen(cfg, sp, s, ground, run, span, ce):
+    """:func:`settle_sample_on` with ``ce``, the contact evaluated at the ship's state on
+    ``ground`` (:func:`margin_seen`: the same bits)."""
+    t_prev, t_now = span
+    if s.surface_state != CONTACT:
+        return SettleRun(True, -1.0, t_now)
+    return _sampled(run, margin_seen(cfg, sp, s, ground, ce), span)
+
+
+@kernel
 def settle_sample_on(cfg, sp, s, ground, run, span, known):
     """:func:`settle_sample` between the instants ``span`` (t_prev, t_now), with the feet at the
     ship's pose on ``ground`` where ``known`` (sim.contact.KnownFeet) has them."""
     t_prev, t_now = span
     if s.surface_state != CONTACT:
         return SettleRun(True, -1.0, t_now)
-    m = margin_known(cfg, sp, s, ground, known)
+    return _sampled(run, margin_known(cfg, sp, s, ground, known), span)
+
+
+@kernel
+def _sampled(run, m, span):
+    """``run`` with the sample m (the margin at span's end, span = (t_prev, t_now))."""
+    t_prev, t_now = span
     if not m > 0.0:
         return SettleRun(True, m, t_now)
     if run.margin > 0.0:
@@ -245,6 +261,26 @@ def feet_still(cfg, sp, s, ft, ground, up_ground):
             u = foot_velocity(ground, m.v, omega_w, ft.offset_w[i], ft.pos_w[i])
             slip = foot_slip(m.p, u, ft.pos_w[i], ft.push_w[i])
             worst = fmax(worst, dot(slip, slip))
+    return _still_margin(cfg, s, worst, up_ground)
+
+
+@kernel
+def feet_still_seen(cfg, s, ce, up_ground):
+    """:func:`feet_still` from ``ce``, the contact evaluated at the ship's state on the ground:
+    its penetrations and slips are the feet's and foot_slip's (sim.contact.forces forms them by
+    the same operations: the same bits), so no foot is looked up."""
+    worst = 0.0
+    for i in range(4):
+        if ce.pen_m[i] > 0.0:
+            slip = ce.slip_w[i]
+            worst = fmax(worst, dot(slip, slip))
+    return _still_margin(cfg, s, worst, up_ground)
+
+
+@kernel
+def _still_margin(cfg, s, worst, up_ground):
+    """:func:`feet_still`'s margin from the largest squared slip of a pressing foot, m^2/s^2."""
+    m = s.motion
     g = effective_gravity(cfg.gm_m3ps2, cfg.omega2, m.p)
     g_n = dot(g, up_ground)
     g_t = sub(g, scale(up_ground, g_n))
@@ -279,6 +315,41 @@ def margin_on(cfg, sp, s, ground):
 def margin_known(cfg, sp, s, ground, known):
     """:func:`margin_on`, with the feet at the ship's pose on ``ground`` where ``known``
     (sim.contact.KnownFeet) has them (looked up otherwise)."""
+    m, up_ground, decided = _margin_motion(cfg, sp, s, ground)
+    if decided:
+        return m
+    # the feet where they stand, looked up once for both tests
+    ft = (known.feet if known.known
+          else feet(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m))
+    if per_foot(cfg):
+        m = fmin(m, feet_still(cfg, sp, s, ft, ground, up_ground))
+    # at rest, but with the energy to pass an edge of its footprint: not stable (MODEL-NOTES 45)
+    if m > 0.0 and not stable_at_rest(cfg, sp, s, ft):
+        return fmin(m, -1.0)
+    return m
+
+
+@kernel
+def margin_seen(cfg, sp, s, ground, ce):
+    """:func:`margin_known` with ``ce``, the contact evaluated at the ship's state on ``ground``:
+    the feet's slips read from it (:func:`feet_still_seen`), the feet looked up only where the
+    energy test asks for them (the same bits)."""
+    m, up_ground, decided = _margin_motion(cfg, sp, s, ground)
+    if decided:
+        return m
+    if per_foot(cfg):
+        m = fmin(m, feet_still_seen(cfg, s, ce, up_ground))
+    if m > 0.0 and not stable_at_rest(cfg, sp, s, feet(ground, s.motion.p, s.motion.q,
+                                                          sp.leg_radius_m, sp.com_height_m)):
+        return fmin(m, -1.0)
+    return m
+
+
+@kernel
+def _margin_motion(cfg, sp, s, ground):
+    """:func:`margin_known`'s margins of the motion, the tilt and the footprint: (the margin so
+    far, the ground's up under the centre of mass, whether it is the margin: the feet's tests are
+    not asked)."""
     om = cfg.omega_radps
     r_hat = unit(s.motion.p)
     up_ground = unit(under(ground, s.motion.p)[1])
@@ -303,15 +374,5 @@ def margin_known(cfg, sp, s, ground, known):
     slides = coulomb and not rest and (s.footing.sliding[0] or s.footing.sliding[1]
                                        or s.footing.sliding[2] or s.footing.sliding[3])
     if not over_footprint(cfg, sp, s.motion.p, s.motion.q) or slides:
-        return fmin(m, -1.0)
-    if rest and (coulomb or m > 0.0):
-        # the feet where they stand, looked up once for both tests
-        ft = (known.feet if known.known
-              else feet(ground, s.motion.p, s.motion.q, sp.leg_radius_m, sp.com_height_m))
-        if coulomb:
-            m = fmin(m, feet_still(cfg, sp, s, ft, ground, up_ground))
-        # at rest, but with the energy to pass an edge of its footprint: not stable
-        # (MODEL-NOTES 45)
-        if m > 0.0 and not stable_at_rest(cfg, sp, s, ft):
-            return fmin(m, -1.0)
-    return m
+        return fmin(m, -1.0), up_ground, True
+    return m, up_ground, not (rest and (coulomb or m > 0.0))
