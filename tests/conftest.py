@@ -70,6 +70,21 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.redis)
 
 
+def pytest_sessionstart(session):
+    """Under xdist (the README's `pytest -n 2`) the controller compiles the kernels once, before
+    the workers start (tests/warmup.py)."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    import warmup
+    warmup.before_workers(config)
+
+
+def pytest_unconfigure(config):
+    import warmup
+    warmup.cleanup(config)
+
+
 def pytest_collection_finish(session):
     """A serial run (no xdist: CI's) starts the compile-bound work of the selected tests on the
     core it leaves idle (tests/background.py)."""
