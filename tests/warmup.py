@@ -13,8 +13,8 @@ before it starts the workers, runs those cold compiles at once, one a core, in s
 - ``touchdown warm`` with NUMBA_CPU_NAME=generic into a cache of its own beside the project's
   (kept: a later run loads it), which the generic-CPU test then uses.
 
-Each runs only when its test may be among the selected ones (its file among the arguments, its
-``slow`` marker not excluded by -m: the controller does not collect); else, if the project's
+Each runs only when its test may be among the selected ones (its file among the arguments, neither
+-m nor -k excluding it: the controller does not collect); else, if the project's
 cache lacks the step, a plain ``touchdown warm`` fills it. The workers find what was done in
 the environment (``TOUCHDOWN_SUITE_WARM``, JSON); a test where it is missing does its own work
 (a serial run: tests/background.py, or the file run alone).
@@ -57,12 +57,18 @@ def done() -> dict:
     return json.loads(text) if text else {}
 
 
-def _may_run(config, filename: str, markers: set[str]) -> bool:
-    """Whether a test of ``filename`` with ``markers`` may be selected: its file (or a folder
-    holding it) among the arguments, or no arguments (testpaths), and -m not excluding it."""
+def _may_run(config, filename: str, test: str, markers: set[str]) -> bool:
+    """Whether the test ``test`` of ``filename`` with ``markers`` may be selected: its file (or a
+    folder holding it) among the arguments, or no arguments (testpaths), -m not excluding it and
+    -k not excluding it (pytest's own matching: a case-insensitive part of the file's, the test's
+    or a marker's name)."""
     from _pytest.mark.expression import Expression
-    markexpr = config.option.markexpr
+    markexpr, keywordexpr = config.option.markexpr, config.option.keyword
     if markexpr and not Expression.compile(markexpr).evaluate(lambda m: m in markers):
+        return False
+    names = [filename, test, "tests", *markers]
+    if keywordexpr and not Expression.compile(keywordexpr).evaluate(
+            lambda k: any(k.lower() in n.lower() for n in names)):
         return False
     args = [a.split("::")[0] for a in config.args] or ["tests"]
     target = (TESTS / filename).resolve()
@@ -116,12 +122,14 @@ def before_workers(config) -> None:
     project = _project_cache()
     info: dict = {}
     procs = {}
-    if _may_run(config, "test_compile_once.py", {"slow"}):
+    if _may_run(config, "test_compile_once.py",
+                "test_after_touchdown_warm_a_record_a_replay_and_serve_compile_nothing", {"slow"}):
         info["empty_cache"] = str(base / "empty")
         procs["empty"] = _warm(dict(os.environ, NUMBA_CACHE_DIR=info["empty_cache"]))
     elif not any(project.rglob("step.step_ticks-*.nbi")):
         procs["project"] = _warm(dict(os.environ))
-    if _may_run(config, "test_determinism.py", {"slow"}):
+    if _may_run(config, "test_determinism.py",
+                "test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits", {"slow"}):
         # beside the project's cache, kept: a later run loads it (stale versions are pruned)
         info["generic_cache"] = str(project.parent / "generic")
         env = dict(os.environ, NUMBA_CPU_NAME="generic", NUMBA_CACHE_DIR=info["generic_cache"])
