@@ -81,6 +81,11 @@ def pytest_sessionstart(session):
     warmup.before_workers(config)
 
 
+def pytest_terminal_summary(terminalreporter):
+    import warmup
+    warmup.summary(terminalreporter)
+
+
 def pytest_unconfigure(config):
     import warmup
     warmup.cleanup(config)
