@@ -4,8 +4,9 @@ read-only), the Redis fixture, and the suite's parts.
 The parts (markers registered in pyproject.toml):
 - ``redis``: needs a Redis server (the shared one on 127.0.0.1:6379 or private redis-servers);
 - ``slow``: long runs (chaos, clusters, logs at scale, property runs over many cases, sweeps).
-``pytest -n 2 -m "not redis and not slow"`` is the fast physics-and-logs part (README, "Test it"); plain
-``pytest`` (CI, .ci/run) runs all of it. A test that asks for ``redis_url`` is marked ``redis``
+``pytest -n 2 -m "not redis and not slow"`` is the fast physics-and-logs part (README, "Tests");
+``pytest -n 2`` (CI, .ci/run) runs all of it on both cores, the kernels compiled before the workers
+start (tests/warmup.py); plain ``pytest`` runs all of it in one process (tests/background.py). A test that asks for ``redis_url`` is marked ``redis``
 here, whatever its file says.
 
 A missing Redis fails in CI (CI=true, set by .ci/run; a ``redis`` test that skips there fails,
@@ -68,6 +69,26 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "redis_url" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.redis)
+
+
+def pytest_sessionstart(session):
+    """Under xdist (the README's `pytest -n 2`) the controller compiles the kernels once, before
+    the workers start (tests/warmup.py)."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    import warmup
+    warmup.before_workers(config)
+
+
+def pytest_terminal_summary(terminalreporter):
+    import warmup
+    warmup.summary(terminalreporter)
+
+
+def pytest_unconfigure(config):
+    import warmup
+    warmup.cleanup(config)
 
 
 def pytest_collection_finish(session):

@@ -176,8 +176,11 @@ def test_the_kernels_never_fuse_a_multiply_and_an_add():
 
 def _generic_env() -> dict:
     import os
+    import warmup
     env = dict(os.environ, NUMBA_CPU_NAME="generic")
     env.pop("NUMBA_CPU_FEATURES", None)
+    if "generic_cache" in warmup.done():  # compiled there before xdist's workers started
+        env["NUMBA_CACHE_DIR"] = warmup.done()["generic_cache"]
     return env
 
 
