@@ -1,6 +1,7 @@
-"""prf.py TREE: a profiling copy's kernels made calls of their own (sim.compiled.separate), so
-that callgrind (jit.sh) counts each one's instructions and calls; its code is not the shipped
-one (calls cost ~70% more a tick), so read it for shares and calls, not for totals."""
+"""separate.py TREEDIR: a profiling copy (edits TREEDIR in place: run it on a tree.sh copy): ~25
+kernels made calls of their own (sim.compiled.separate), so that callgrind (jit.sh) counts each
+one's instructions and calls; its code is not the shipped one (calls cost ~70% more a tick), so
+read it for shares and calls, not for totals."""
 import re, sys
 T = sys.argv[1]
 targets = {"flight.py": ["slip_rates", "dragged_feet", "stiff_feet", "guard_substep", "passivity_guard",

@@ -1,0 +1,44 @@
+"""workload.py ROW N: bench/states.py's row ROW (N ships, 40 ticks at dt 0.05), or ROW=env: the
+first N of bench/states.py's 300 envelope touchdowns (the sweep's loop). Runs it once warm
+(compiles or loads, symbol map written to $KPROF_OUT), then again with callgrind's
+instrumentation on (when under callgrind). Run from the measured tree's root (PYTHONPATH)."""
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import symmap  # noqa: E402
+
+symmap.install()
+row, n = sys.argv[1], int(sys.argv[2])
+if row == "env":
+    import tomllib
+    from touchdown import scenarios
+    from touchdown.sweep.cases import Axis, Sweep
+    from touchdown.sweep.fleet import run_part
+    doc = tomllib.loads(scenarios.text("envelope"))
+    axes = [Axis("ships.initial.vertical_speed", -12.0, -1.0),
+            Axis("ships.initial.horizontal_speed", 0.0, 6.0),
+            Axis("ships.initial.tilt_deg", 0.0, 15.0)]
+    sw = Sweep.of(doc, "envelope", axes, samples=300, seed=1)
+
+    def work():
+        run_part(sw, list(range(n)))
+else:
+    sys.path.insert(0, os.path.join(os.getcwd(), "bench"))
+    import states
+    from touchdown.sim.run import run_blocks
+    from touchdown.sim.scenario import parse
+    _label, ini, inputs = states.SCENES[int(row)]
+
+    def work():
+        scn = parse({"name": "cost", "duration": 40 * 0.05,
+                     "ships": states.ships_in_state(ini, inputs, n), "sim": {"dt": 0.05}},
+                    "bench")
+        for _b in run_blocks(scn):
+            pass
+work()
+if os.environ.get("KPROF_OUT"):
+    symmap.write(os.environ["KPROF_OUT"])
+symmap.callgrind(True)
+work()
+symmap.callgrind(False)

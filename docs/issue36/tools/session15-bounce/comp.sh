@@ -1,4 +1,0 @@
-#!/bin/bash
-tree=$1
-export NUMBA_CPU_NAME=znver3 NUMBA_CPU_FEATURES="$(cat /tmp/bounce/feat.txt)" PYTHONPATH=$tree.pkg PYTHONHASHSEED=0
-cd $tree && /work/wt-bounce/.venv/bin/python /tmp/bounce/ir_states.py 3 2 2 > /dev/null 2>&1; echo "compiled $tree $(date +%T)"
