@@ -77,3 +77,7 @@ TRANSITION_EVENTS: dict[tuple[SurfaceState, SurfaceState], EventKind] = {
     (S.LANDED, S.FLYING): EventKind.LIFTOFF,
 }
 del S
+#: TRANSITION_EVENTS in plain ints, (from, to) -> kind: what a block's transitions are turned into
+#: events by (sim.step.transitions), where building two enums a transition cost a third of it
+TRANSITION_KINDS: dict[tuple[int, int], int] = {(int(a), int(b)): int(k)
+                                                for (a, b), k in TRANSITION_EVENTS.items()}

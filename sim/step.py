@@ -16,7 +16,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from touchdown.sim.compiled import entry, kernel, separate
-from touchdown.sim.enums import SurfaceState, TRANSITION_EVENTS
+from touchdown.sim.enums import TRANSITION_KINDS
 from touchdown.sim.frames import body_rotation
 from touchdown.sim.params import Params
 from touchdown.sim.phases import observe, step_ship
@@ -238,9 +238,8 @@ def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
     out = []
     for e, tick in zip(events.tolist(), ticks.tolist()):
         ship, a, b, v, t_offset = e
-        kind = TRANSITION_EVENTS[(SurfaceState(a), SurfaceState(b))]
-        out.append(Event(tick, ship, int(kind), a, b, v, ship_ids[ship] if ship_ids else "",
-                         tick * dt_s - (dt_s - t_offset)))
+        out.append(Event(tick, ship, TRANSITION_KINDS[(a, b)], a, b, v,
+                         ship_ids[ship] if ship_ids else "", tick * dt_s - (dt_s - t_offset)))
     return out
 
 
