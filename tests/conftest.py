@@ -108,8 +108,14 @@ def pytest_collection_modifyitems(config, items):
     # whichever runs out takes half of what the other has left. Under `--dist load` the first
     # worker's first batch would hold them all; a serial run keeps the file order
     # (tests/background.py compiles for the tests it will come to).
-    if hasattr(config, "workerinput") and config.getoption("dist", "no") == "worksteal":
+    if getattr(config, "workerinput", {}).get("touchdown_dist") == "worksteal":
         _long_first(items)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    """xdist's controller, for each worker: the --dist mode (a worker's own is "no")."""
+    node.workerinput["touchdown_dist"] = node.config.getoption("dist")
 
 
 def pytest_sessionstart(session):
