@@ -65,57 +65,10 @@ def fleet_log_20s(tmp_path_factory) -> Path:
     return _record(tmp_path_factory.mktemp("scenes") / "fleet-20s.mcap", "fleet", "duration=20")
 
 
-#: The suite's longest tests, longest first (seconds of wall under `pytest -n 2`, session 22): under
-#: `--dist worksteal` (the README's command) they run first, so that the two workers end together
-#: (in the file order, the Redis service's tests and the sweep came last: one worker ran them
-#: for a minute while the other idled). Order only: every test runs, with the same checks. A file
-#: moves whole (the sweep's module fixture compiles its kernels once; its other tests share it), a
-#: test with all its parameters. Nothing needs to be here; a test missing from it only runs later.
-LONG_FIRST = (
-    "tests/test_sweep.py",  # its fixture compiles the sweep's kernels, 78-105 s
-    "tests/test_edges3d.py::test_3d_touchdowns_follow_the_reference_at_the_default_tick",  # 38-46
-    "tests/test_serve_chaos.py",  # 37, 15 and 12 s: Redis killed, paused, failed over
-    "tests/test_serve_cluster.py",  # 16-30 s each of two, 3-8 s the others
-    "tests/test_cli_contract.py::test_ctrl_c_leaves_a_finished_log_of_what_was_simulated",  # 17-36
-    "tests/test_edges.py::test_touchdowns_over_the_space_of_starts_end_as_the_reference_says",  # 17-30
-    "tests/test_hostile_input.py::test_a_fuzz_campaign_of_2000_files",  # 15-22
-    "tests/test_foxglove_live.py::test_foxglove_connects_to_a_running_service",  # 13-14
-    "tests/test_friction_law.py::test_a_point_mass_stops_exactly_when_its_momentum_fits",  # 7-14
-    "tests/test_serve_ops.py",  # 14 tests of 2-12 s, ~80 s
-    "tests/test_serve.py",  # 9 tests, ~30 s
-    "tests/test_edges3d.py::test_a_ship_turning_over_an_edge_is_not_pinned",  # 9-10 s at 0.1
-)
-
-
-def _long_first(items: list) -> None:
-    """``items`` reordered in place: those whose node id starts with an entry of LONG_FIRST
-    first, in its order, each group in the file order; then the rest in the file order."""
-    def rank(item) -> int:
-        nodeid = item.nodeid
-        for i, prefix in enumerate(LONG_FIRST):
-            if nodeid == prefix or nodeid.startswith(prefix + ("::" if prefix.endswith(".py") else "")):
-                return i
-        return len(LONG_FIRST)
-    items.sort(key=rank)  # stable: each group, and the rest, keep the file order
-
-
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "redis_url" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.redis)
-    # only under xdist's work stealing (every worker collects; the same order in each): its first
-    # worker starts on the long tests while the other takes the second half of the list, and
-    # whichever runs out takes half of what the other has left. Under `--dist load` the first
-    # worker's first batch would hold them all; a serial run keeps the file order
-    # (tests/background.py compiles for the tests it will come to).
-    if getattr(config, "workerinput", {}).get("touchdown_dist") == "worksteal":
-        _long_first(items)
-
-
-@pytest.hookimpl(optionalhook=True)
-def pytest_configure_node(node):
-    """xdist's controller, for each worker: the --dist mode (a worker's own is "no")."""
-    node.workerinput["touchdown_dist"] = node.config.getoption("dist")
 
 
 def pytest_sessionstart(session):
