@@ -22,16 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # In a fresh process (the suite's own may have called the kernels with other types): the
 # command line's record, then each compiled entry point's specializations, and the number of
 # kernels that compiled rather than loaded from the cache.
-_RUN = """
-import sys
-from numba.core import event
-compiled = []
-class Count(event.Listener):
-    def on_start(self, ev):
-        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-    def on_end(self, ev):
-        pass
-event.register("numba:compile", Count())
+_RUN = warmup.COUNT_COMPILES + """
 from touchdown.cli import main
 for args in ARGS:
     try:

@@ -34,8 +34,9 @@ ENV = "TOUCHDOWN_SUITE_WARM"
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
 
-# `touchdown warm` in a fresh process, counting the kernels that compiled (numba's events)
-_WARM = """
+#: The start of a script for a fresh process: the kernels that compile (rather than load from
+#: the cache) are listed in ``compiled`` (numba's events); tests/test_compile_once.py's too.
+COUNT_COMPILES = """
 from numba.core import event
 compiled = []
 class Count(event.Listener):
@@ -44,6 +45,10 @@ class Count(event.Listener):
     def on_end(self, ev):
         pass
 event.register("numba:compile", Count())
+"""
+
+# `touchdown warm` in a fresh process, counting the kernels that compiled
+_WARM = COUNT_COMPILES + """
 from touchdown.cli import main
 main(["warm"], standalone_mode=False)
 print("COMPILED", len(compiled))
