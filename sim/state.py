@@ -177,3 +177,20 @@ class Event:
     #: the first foot reached the ground, a liftoff where the last left it; a landing is decided
     #: at the tick's end, and happens there)
     t_event_s: float = 0.0
+
+
+_new_object, _set_attribute = object.__new__, object.__setattr__
+
+
+def event_of(tick: int, ship: int, kind: int, from_state: int, to_state: int,
+             v_radial_mps: float, ship_id: str, t_event_s: float) -> Event:
+    """``Event(tick, ship, ...)``, the same object field for field, built at a third of the cost:
+    a frozen dataclass's ``__init__`` sets each of its eight fields through
+    ``object.__setattr__``, and a tick of a thousand bouncing ships builds hundreds of events
+    (issue 36). tests/test_events_built.py holds it to the dataclass's fields."""
+    e = _new_object(Event)
+    _set_attribute(e, "__dict__", {
+        "tick": tick, "ship": ship, "kind": kind, "from_state": from_state,
+        "to_state": to_state, "v_radial_mps": v_radial_mps, "ship_id": ship_id,
+        "t_event_s": t_event_s})
+    return e

@@ -23,7 +23,7 @@ from touchdown.sim.phases import observe, step_ship
 from touchdown.sim.ship import (CRASHED, LANDED, NO_COMMANDS, NO_REPORT, TIPPED, Commands, EventLog,
     Here, Turn, load)
 from touchdown.sim.state import (Event, INPUTS_DTYPE, Inputs, OUTPUTS_DTYPE, Outputs, STATE_DTYPE,
-    State, TRANSITION_DTYPE)
+    State, TRANSITION_DTYPE, event_of)
 
 
 class Written(NamedTuple):
@@ -238,8 +238,8 @@ def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
     out = []
     for e, tick in zip(events.tolist(), ticks.tolist()):
         ship, a, b, v, t_offset = e
-        out.append(Event(tick, ship, TRANSITION_KINDS[(a, b)], a, b, v,
-                         ship_ids[ship] if ship_ids else "", tick * dt_s - (dt_s - t_offset)))
+        out.append(event_of(tick, ship, TRANSITION_KINDS[(a, b)], a, b, v,
+                            ship_ids[ship] if ship_ids else "", tick * dt_s - (dt_s - t_offset)))
     return out
 
 
