@@ -239,7 +239,8 @@ def transitions(events: np.ndarray, ticks: np.ndarray, dt_s: float,
     for e, tick in zip(events.tolist(), ticks.tolist()):
         ship, a, b, v, t_offset = e
         out.append(event_of(tick, ship, TRANSITION_KINDS[(a, b)], a, b, v,
-                            ship_ids[ship] if ship_ids else "", tick * dt_s - (dt_s - t_offset)))
+                            ship_id=ship_ids[ship] if ship_ids else "",
+                            t_event_s=tick * dt_s - (dt_s - t_offset)))
     return out
 
 

@@ -9,10 +9,11 @@ from touchdown.sim.step import transitions
 
 
 ARGS = (17, 3, 2, 1, 2, -1.25, "lander-4", 0.8375)
+NAMED = {"ship_id": ARGS[6], "t_event_s": ARGS[7]}
 
 
 def test_event_of_is_the_dataclass_field_for_field():
-    built, fast = Event(*ARGS), event_of(*ARGS)
+    built, fast = Event(*ARGS), event_of(*ARGS[:6], **NAMED)
     # every field set, none more (a field added to Event and not to event_of fails here)
     assert vars(fast) == vars(built) == dict(zip((f.name for f in dataclasses.fields(Event)), ARGS))
     assert type(fast) is Event and fast == built and hash(fast) == hash(built)
