@@ -66,6 +66,7 @@ from touchdown.logs.encode import ShipTables
 from touchdown.logs.header import header_table
 from touchdown.service.flightlog import ServiceLog, lower_priority
 from touchdown.service.leases import Leases
+from touchdown.service.memory import keep_freed_memory
 from touchdown.service.phases import GcTimer, Phases, SlowTicks
 from touchdown.service.report import Reporter
 from touchdown.service.telemetry import TelemetryEncoder
@@ -390,6 +391,7 @@ class Worker:
 
     def run(self) -> Stats:
         cfg = self.cfg
+        keep_freed_memory()  # each tick's blocks in pages already the process's (service.memory)
         self.warm()
         rate = (1.0 / self.dt_s) if cfg.rate_hz is None else cfg.rate_hz
         period = 1.0 / rate if rate > 0 else 0.0
