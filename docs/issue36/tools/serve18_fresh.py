@@ -15,7 +15,7 @@ from touchdown.sim.scenario import parse
 from touchdown.sim.world import World
 import touchdown.sim.world as WO
 ticks, depth = int(sys.argv[1]), int(sys.argv[2])
-doc = fleet_doc(30000, 3600.0); doc["sim"] = {"dt": 0.1}
+doc = fleet_doc(int(os.environ.get("SHIPS", "30000")), 3600.0); doc["sim"] = {"dt": 0.1}
 scn = parse(doc, "bench-serve")
 kt = [0]
 orig = WO.step_ticks

@@ -20,6 +20,8 @@ if os.environ.get("MALLOPT"):  # trim threshold, mmap threshold (bytes), at run 
 from touchdown.bench import serve as bs
 from touchdown.service import serve as sv
 from touchdown.service import phases as P
+if os.environ.get("KEEP") == "0":  # the worker as before service.memory: glibc's own trimming
+    sv.keep_freed_memory = lambda: False
 
 tid = threading.get_native_id()
 me = open(f"/proc/self/task/{tid}/schedstat", "rb", buffering=0)
@@ -142,7 +144,7 @@ def loop_once():
 
 w.loop_once = loop_once
 w.run()
-print(f"ships {n} loops {frm}..{loops} load={os.getloadavg()[0]:.1f}")
+print(f"ships {n} loops {frm}..{loops} load={os.getloadavg()[0]:.1f} KEEP={os.environ.get('KEEP')} RATE={os.environ.get('RATE')}")
 st = [x for x in rec if x["loop"] >= frm]
 st.sort(key=lambda x: -x["wall"])
 import statistics as S
