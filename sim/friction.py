@@ -258,12 +258,15 @@ CARRIED_RATE = 10.0
 #: there, along the pair's null direction); four feet's carried split is wrong or its first
 #: step throws the sticking feet out of their disks (3% settled: the try cost more than it saved)
 PAIRS_FEET = (2, 3)
-#: The active feet whose solve skips Gauss-Seidel (sim.sweep_three_feet false; MODEL-NOTES 69):
-#: over the 300 envelope touchdowns it gave up on 45.6 of a touchdown's 48.5 three-foot solves
-#: after 3.4 sweeps (and took 18.7 on each one it converged on): 207 of its 859 sweeps. Not four:
-#: their interior-point method from lam = 0 leaves the feet's internal forces (the Delassus
-#: matrix's null space: 8 slips, 6 freedoms) where its centring puts them, kN on four sticking
-#: feet that Gauss-Seidel ends with impulses of rounding's size (the same motion)
+#: The active feet whose solve skips Gauss-Seidel where each of them carries an impulse in
+#: (sim.sweep_three_feet false; MODEL-NOTES 69): over the 300 envelope touchdowns it gave up on
+#: 45.6 of a touchdown's 48.5 three-foot solves after 3.4 sweeps (and took 18.7 on each one it
+#: converged on): 207 of its 859 sweeps. Only where every foot carries one: the feet's internal
+#: forces (the Delassus matrix's null space; three or four feet of a ship upright have one) are
+#: left where the solve's start puts them, and the try starts a foot that carries none on its
+#: rim (from lam = 0, 10-1000 times Gauss-Seidel's impulses on three sticking feet, the same
+#: slips); not four feet: their interior-point method from lam = 0 leaves kN of internal force on
+#: four sticking feet that Gauss-Seidel holds with impulses of rounding's size
 SKIP_SWEEPS_FEET = 3
 #: A slipping foot's impulse is set this fraction of its radius: on its rim (to _residual's
 #: 1e-9), never outside it by a rounding.
@@ -878,18 +881,22 @@ def _solve_feet(a_mat, slip, radius, lam, active, try_pairs=True, sweep_three=Fa
     (sim.carried_try_pairs, MODEL-NOTES 64): the try is for two or three feet instead, to its
     last iteration (two feet slipping against each other by a hair, on their rims, are where
     Gauss-Seidel gives up on two; four feet's try settled 3%). ``sweep_three`` (sim.sweep_three_feet,
-    MODEL-NOTES 69): Gauss-Seidel first for three feet too; False: three feet skip it (it gives
-    up on 95% of them) and go to the try, accepted at its own tolerance (IPM_TOL_MPS). Returns 1
+    MODEL-NOTES 69): Gauss-Seidel first for three feet too; False: three feet that each carry an
+    impulse in skip it (it gives up on 95% of three-foot solves) and go to the try, accepted at
+    its own tolerance (IPM_TOL_MPS). Returns 1
     (Gauss-Seidel) or 2 (the others)."""
     n_active = 0
     for i in range(4):
         if active[i]:
             n_active += 1
     carried = stack_zeros((4, 2), np.float64)
+    every_carries = True  # every active foot carries an impulse in (the try's start is theirs)
     for i in range(4):
         carried[i, 0], carried[i, 1] = lam[i, 0], lam[i, 1]
-    if ((sweep_three or n_active != SKIP_SWEEPS_FEET)
-            and _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3)):
+        if active[i] and lam[i, 0] == 0.0 and lam[i, 1] == 0.0:
+            every_carries = False
+    skip = not sweep_three and n_active == SKIP_SWEEPS_FEET and every_carries
+    if not skip and _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
     if try_pairs:
         tried = PAIRS_FEET[0] <= n_active <= PAIRS_FEET[1]

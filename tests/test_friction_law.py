@@ -256,3 +256,58 @@ def test_two_feet_slipping_by_a_hair_settle_by_the_carried_try_to_the_interior_p
     # foot 1 ends on its rim, slipping by a hair (~8e-10 m/s) that no impulse in the disks takes out
     assert np.linalg.norm(lams[True][1]) >= radius[1] * (1.0 - 1e-9)
     assert 0.0 < np.linalg.norm(after[True][1]) < 1e-8
+
+
+
+def three_feet(rng, tilt_max):
+    """:func:`tilted_lander`'s problem for three of its feet, the ship tilted up to ``tilt_max``
+    (0: upright, where Gauss-Seidel converges; their Delassus matrix is singular all the same)."""
+    mass, inertia = 15000.0, np.array([6e4, 6e4, 4e4])
+    tilt, az = rng.uniform(0.0, tilt_max), rng.uniform(0.0, 2.0 * math.pi)
+    axis = np.array([math.cos(az), math.sin(az), 0.0])
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    rot = np.eye(3) + math.sin(tilt) * k + (1.0 - math.cos(tilt)) * k @ k
+    offsets = np.array([[2.5, 0.0, -1.6], [0.0, 2.5, -1.6], [-2.5, 0.0, -1.6]]) @ rot.T
+    jac = np.array([np.concatenate([t / math.sqrt(mass), np.cross(offsets[i], t) / np.sqrt(inertia)])
+                    for i in range(3) for t in np.eye(3)[:2]])
+    motion = rng.normal(0.0, 1.0, 6) * rng.choice([1e-2, 1e-1, 1.0])
+    a = np.zeros((4, 2, 4, 2))
+    a[:3, :, :3, :] = (jac @ jac.T).reshape(3, 2, 3, 2)
+    slip = np.zeros((4, 2))
+    slip[:3] = (jac @ motion).reshape(3, 2)
+    radius = np.zeros(4)
+    radius[:3] = rng.choice([0.4, 0.6, 1.0]) * rng.uniform(100.0, 5000.0, 3)
+    return a, slip, radius
+
+
+@pytest.mark.parametrize("tilt_max", [0.0, 0.3])
+def test_three_feet_that_carry_impulses_skip_the_sweeps_to_the_same_slips_and_impulses(tilt_max):
+    """sim.sweep_three_feet (MODEL-NOTES 69): three active feet that each carry an impulse in go
+    straight to the try from them, without Gauss-Seidel first; from impulses carried in near the
+    solution (5% off it, as the held step leaves them), every foot's slip after is within 1e-10
+    m/s of Gauss-Seidel-first's (which converges on these upright ships' problems and gives up on
+    the tilted ones), and the impulses' sum within 5% of it (the feet's internal forces, which
+    the slips do not fix, stay where the start has them). From none carried (lam = 0, where the
+    try would start the feet on their rims: 10-1000 times the impulses) both take Gauss-Seidel."""
+    rng = np.random.default_rng(69)
+    for _ in range(30):
+        a, slip, radius = three_feet(rng, tilt_max)
+        active = radius > 0.0
+        first = np.zeros((4, 2))
+        method = _solve_feet(a, slip, radius, first, active, True, True)
+        assert (method == 1) == (tilt_max == 0.0)
+        skipped = np.zeros((4, 2))
+        assert _solve_feet(a, slip, radius, skipped, active, True, False) == method
+        np.testing.assert_array_equal(skipped, first)  # none carried: the same solve, bit for bit
+        carried = first * (1.0 + 0.05 * rng.normal(size=(4, 2)))
+        carried *= np.minimum(1.0, 0.98 * radius / np.maximum(np.linalg.norm(carried, axis=1),
+                                                             1e-300))[:, None]
+        sums, after = [], []
+        for sweep_three in (True, False):
+            lam = carried.copy()
+            _solve_feet(a, slip, radius, lam, active, True, sweep_three)
+            assert np.all(np.linalg.norm(lam, axis=1) <= radius * (1.0 + 1e-12))
+            after.append(slip + np.einsum("iajb,jb->ia", a, lam))
+            sums.append(np.linalg.norm(lam, axis=1).sum())
+        assert np.abs(after[0] - after[1]).max() < 1e-10
+        assert abs(sums[1] - sums[0]) <= 0.05 * sums[0]
