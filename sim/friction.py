@@ -76,7 +76,7 @@ def per_foot(cfg):
 def law_of(cfg):
     """The scene's :class:`FrictionLaw`."""
     return FrictionLaw(cfg.friction_static, cfg.friction_kinetic, cfg.stick_speed_mps,
-                       cfg.carried_try_pairs, cfg.sweep_three_feet)
+                       cfg.carried_try_pairs)
 
 
 class FrictionLaw(NamedTuple):
@@ -91,9 +91,6 @@ class FrictionLaw(NamedTuple):
     #: its last iteration; False: for three or four, given up where its residual grows tenfold
     #: (sim.carried_try_pairs, MODEL-NOTES 64)
     try_pairs: bool
-    #: Gauss-Seidel first for three feet too (sim.sweep_three_feet, MODEL-NOTES 69); False: three
-    #: feet go straight to the try from the carried impulses (:func:`_solve_feet`)
-    sweep_three: bool
 
 
 @kernel
@@ -258,16 +255,6 @@ CARRIED_RATE = 10.0
 #: there, along the pair's null direction); four feet's carried split is wrong or its first
 #: step throws the sticking feet out of their disks (3% settled: the try cost more than it saved)
 PAIRS_FEET = (2, 3)
-#: The active feet whose solve skips Gauss-Seidel where each of them carries an impulse in
-#: (sim.sweep_three_feet false; MODEL-NOTES 69): over the 300 envelope touchdowns it gave up on
-#: 45.6 of a touchdown's 48.5 three-foot solves after 3.4 sweeps (and took 18.7 on each one it
-#: converged on): 207 of its 859 sweeps. Only where every foot carries one: the feet's internal
-#: forces (the Delassus matrix's null space; three or four feet of a ship upright have one) are
-#: left where the solve's start puts them, and the try starts a foot that carries none on its
-#: rim (from lam = 0, 10-1000 times Gauss-Seidel's impulses on three sticking feet, the same
-#: slips); not four feet: their interior-point method from lam = 0 leaves kN of internal force on
-#: four sticking feet that Gauss-Seidel holds with impulses of rounding's size
-SKIP_SWEEPS_FEET = 3
 #: A slipping foot's impulse is set this fraction of its radius: on its rim (to _residual's
 #: 1e-9), never outside it by a rounding.
 RIM = 1.0 - 1e-15
@@ -869,7 +856,7 @@ def _from_carried(a_mat, slip, radius, lam, active, rate):
 
 
 @kernel
-def _solve_feet(a_mat, slip, radius, lam, active, try_pairs=True, sweep_three=False):
+def _solve_feet(a_mat, slip, radius, lam, active, try_pairs=True):
     """The feet's friction impulses that take the most kinetic energy out of the ship, each in its
     own disk (maximum dissipation, with the normal impulses given): Gauss-Seidel, and where it
     does not converge within MAX_SWEEPS (or crawls: :func:`_gauss_seidel`), the interior-point
@@ -880,23 +867,16 @@ def _solve_feet(a_mat, slip, radius, lam, active, try_pairs=True, sweep_three=Fa
     ground, its feet sticking alike) its sweeps cost a fraction of the try. ``try_pairs``
     (sim.carried_try_pairs, MODEL-NOTES 64): the try is for two or three feet instead, to its
     last iteration (two feet slipping against each other by a hair, on their rims, are where
-    Gauss-Seidel gives up on two; four feet's try settled 3%). ``sweep_three`` (sim.sweep_three_feet,
-    MODEL-NOTES 69): Gauss-Seidel first for three feet too; False: three feet that each carry an
-    impulse in skip it (it gives up on 95% of three-foot solves) and go to the try, accepted at
-    its own tolerance (IPM_TOL_MPS). Returns 1
-    (Gauss-Seidel) or 2 (the others)."""
+    Gauss-Seidel gives up on two; four feet's try settled 3%). Returns 1 (Gauss-Seidel) or 2
+    (the others)."""
     n_active = 0
     for i in range(4):
         if active[i]:
             n_active += 1
     carried = stack_zeros((4, 2), np.float64)
-    every_carries = True  # every active foot carries an impulse in (the try's start is theirs)
     for i in range(4):
         carried[i, 0], carried[i, 1] = lam[i, 0], lam[i, 1]
-        if active[i] and lam[i, 0] == 0.0 and lam[i, 1] == 0.0:
-            every_carries = False
-    skip = not sweep_three and n_active == SKIP_SWEEPS_FEET and every_carries
-    if not skip and _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
+    if _gauss_seidel(a_mat, slip, radius, lam, active, n_active >= 3):
         return 1
     if try_pairs:
         tried = PAIRS_FEET[0] <= n_active <= PAIRS_FEET[1]
@@ -1091,7 +1071,7 @@ def coulomb(law, rigid, stepped, end, sliding, friction_force, h):
     for _ in range(MAX_ROUNDS):
         for i in range(4):
             radius[i] = (mu_k if kinetic[i] else mu_s) * j_n[i] if active[i] else 0.0
-        sweeps += _solve_feet(a_mat, slip, radius, lam, active, law.try_pairs, law.sweep_three)
+        sweeps += _solve_feet(a_mat, slip, radius, lam, active, law.try_pairs)
         # A held foot that the solve leaves slipping faster than the stick speed breaks away:
         # kinetic for the whole step. A full disk alone is not slipping: which of several
         # holding feet takes how much is not unique, and Gauss-Seidel fills the first ones first.

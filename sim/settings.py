@@ -274,11 +274,6 @@ SETTINGS: tuple[Setting, ...] = (
           "from the impulses carried in (sim.friction._from_carried) for two or three feet, to "
           "its last iteration; false: for three or four feet, given up where its residual grows "
           "tenfold in one (MODEL-NOTES 62's; MODEL-NOTES 64)"),
-    S("sim.sweep_three_feet", "bool", False, dest="sim.sweep_three_feet",
-      scene="sweep_three_feet",
-      doc="the feet's friction solve starts with Gauss-Seidel for three active feet too (the "
-          "session-18 main's bits); false: three feet that each carry an impulse in go straight "
-          "to the try from them (sim.friction._from_carried; MODEL-NOTES 69)"),
     S("sim.energy_guard", "bool", True, dest="sim.energy_guard", scene="energy_guard",
       doc="a passive ship's energy never rises over a sub-step (sim.flight.passivity_guard)"),
     # -- contact: the seed's Configuration table, and what SEED-NOTES adds
