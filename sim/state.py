@@ -184,10 +184,10 @@ _new_object, _set_attribute = object.__new__, object.__setattr__
 
 def event_of(tick: int, ship: int, kind: int, from_state: int, to_state: int,
              v_radial_mps: float, *, ship_id: str, t_event_s: float) -> Event:
-    """``Event(tick, ship, ...)``, the same object field for field, built at a third of the cost:
-    a frozen dataclass's ``__init__`` sets each of its eight fields through
-    ``object.__setattr__``, and a tick of a thousand bouncing ships builds hundreds of events
-    (issue 36). tests/test_events_built.py holds it to the dataclass's fields."""
+    """``Event(tick, ship, ...)``, the same object field for field, built at under half the cost
+    (0.73 against 1.67 µs, session 23): a frozen dataclass's ``__init__`` sets each of its eight
+    fields through ``object.__setattr__``, and a tick of a thousand bouncing ships builds about
+    fifty events (issue 36). tests/test_events_built.py holds it to the dataclass's fields."""
     e = _new_object(Event)
     _set_attribute(e, "__dict__", {
         "tick": tick, "ship": ship, "kind": kind, "from_state": from_state,
