@@ -115,6 +115,9 @@ def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib
               help="the first fleet tried (default 12,500)")
 @click.option("--max-late", type=click.IntRange(min=0), default=0, show_default=True,
               help="late ticks a kept fleet may have (a tick begun a whole period late)")
+@click.option("--retries", type=click.IntRange(min=0), default=1, show_default=True,
+              help="times a search trial not kept is run again before its size counts as too "
+                   "many (the confirmation still decides)")
 @click.option("--burst", "burst_spawns", type=click.IntRange(min=0), default=None,
               help="spawns sent at once to two idle workers at the end (default 50,000; "
                    "0: no burst)")
@@ -126,7 +129,7 @@ def fuzz(ctx: click.Context, quick: bool, files: int, seconds: float, memory_gib
 @click.option("--label", default="", help="a name for the workers measured, printed")
 def serve(quick: bool, redis_url: str, cluster: bool, private_redis: bool,
           redis_cpus: str | None, workers: str, seconds: float | None, confirm_seconds: float,
-          start: int | None, max_late: int, burst_spawns: int | None,
+          start: int | None, max_late: int, retries: int, burst_spawns: int | None,
           worker_python: str | None, worker_cwd: str | None, label: str) -> None:
     """The most ships one `touchdown serve` worker (and two) keeps at a 10 Hz tick in real time
     (tick p99 under 100 ms, no late tick; bisected, then confirmed by a 5-minute run), with
@@ -138,7 +141,7 @@ def serve(quick: bool, redis_url: str, cluster: bool, private_redis: bool,
                      confirm_s=confirm_seconds, start=start, workers=counts,
                      burst_spawns=burst_spawns, private_redis=private_redis,
                      redis_cpus=redis_cpus, worker_python=worker_python,
-                     worker_cwd=worker_cwd, max_late=max_late, label=label)
+                     worker_cwd=worker_cwd, max_late=max_late, label=label, retries=retries)
 
 
 @bench.command()

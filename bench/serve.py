@@ -14,9 +14,13 @@ A fleet is kept when, after the warm-up, the workers' tick p99 is under the 100 
 tick began a whole period late (``--max-late``, default 0). ``largest`` doubles the fleet with
 short trials until one is not kept, bisects to within about 3%, then confirms the size found with
 one long trial (``--confirm-seconds``, default 300: the issue's 5 minutes), stepping down 5% at a
-time while the confirmation fails. Each trial's line also gives the CPU the workers used (all
-their threads; ``process_time``) per ship-tick and where the loop's thread spent its CPU: read
-those beside the wall-clock figures on a shared machine.
+time while the confirmation fails. A short trial that is not kept is run again (``--retries``,
+default 1) before the search counts its size as too many: on a shared machine one late tick in
+20 s is as often a neighbour's burst as the fleet's size, and one such trial capped a search
+below what the same code kept in the next run (session 23: 49,218 against 50,781). The retry
+cannot keep a fleet that falls behind: the long confirmation still decides. Each trial's line
+also gives the CPU the workers used (all their threads; ``process_time``) per ship-tick and where
+the loop's thread spent its CPU: read those beside the wall-clock figures on a shared machine.
 
 Pinning (``os.sched_setaffinity``, as ``taskset`` does): worker w is pinned to CPU ``cpus[w]``
 of the bench's own CPUs; with ``--private-redis`` the bench starts its own redis-server (no
@@ -280,27 +284,45 @@ def _stalls(r: dict) -> str:
 
 
 def largest(url: str, workers: int, start: int, seconds: float, limit: int,
-            confirm_s: float = 0.0, precision: float = 0.03) -> tuple[int, list]:
-    """Double the fleet until a short trial falls behind, bisect to within ``precision``, then
-    (``confirm_s``) confirm the size found with one long trial, 5% less at a time while it
-    fails: the largest fleet kept."""
-    rows, good, bad = [], 0, None
+            confirm_s: float = 0.0, precision: float = 0.03, retries: int = 1
+            ) -> tuple[int, list]:
+    """The largest fleet ``workers`` keep (:func:`search`, each try a :func:`trial` on ``url``),
+    and every trial."""
+    rows = []
 
     def run(n: int, secs: float) -> bool:
         r = trial(url, n, secs, workers)
         rows.append(r)
         print(_line(r), flush=True)
         return r["keeps_up"]
+    return search(run, start, seconds, limit, confirm_s, precision, retries), rows
+
+
+def search(run, start: int, seconds: float, limit: int, confirm_s: float = 0.0,
+           precision: float = 0.03, retries: int = 1) -> int:
+    """Double the fleet from ``start`` until a short trial (``run(n, seconds)``: kept or not)
+    falls behind ``1 + retries`` times at one size, bisect to within ``precision``, then
+    (``confirm_s``) confirm the size found with one long trial, 5% less at a time while it
+    fails: the largest fleet kept (0: none)."""
+    good, bad = 0, None
+
+    def kept(n: int) -> bool:
+        for attempt in range(1 + retries):
+            if attempt:
+                print(f"  not kept: {n:,} ships again ({attempt} of {retries})", flush=True)
+            if run(n, seconds):
+                return True
+        return False
     n = start
     while n <= limit:
-        if not run(n, seconds):
+        if not kept(n):
             bad = n
             break
         good = n
         n *= 2
     while bad is not None and bad - good > max(good, start / 2) * precision:
         mid = (good + bad) // 2
-        if run(mid, seconds):
+        if kept(mid):
             good = mid
         else:
             bad = mid
@@ -312,7 +334,7 @@ def largest(url: str, workers: int, start: int, seconds: float, limit: int,
             good = int(good * 0.95)
         else:
             good = 0
-    return good, rows
+    return good
 
 
 def burst(url: str, n_spawns: int, shards: int = 4, lease_s: float = 2.0,
@@ -461,7 +483,8 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
          start: int | None = None, limit: int = 400_000, workers: tuple[int, ...] = (1, 2),
          burst_spawns: int | None = None, private_redis: bool = False,
          redis_cpus: str | None = None, worker_python: str | None = None,
-         worker_cwd: str | None = None, max_late: int = 0, label: str = "") -> dict:
+         worker_cwd: str | None = None, max_late: int = 0, label: str = "",
+         retries: int = 1) -> dict:
     """``cluster``: the same figures on a private Redis Cluster of three masters (no replicas,
     AOF with fsync every second as a deployment would run) started on free loopback ports for
     the bench, the workers on ``--redis-cluster``. ``private_redis``: on a redis-server of the
@@ -470,7 +493,7 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
     WORKER.update(python=worker_python or sys.executable, cwd=worker_cwd or str(ROOT),
                   max_late=max_late)
     opts = dict(quick=quick, seconds=seconds, confirm_s=confirm_s, start=start, limit=limit,
-                workers=workers, burst_spawns=burst_spawns, label=label)
+                workers=workers, burst_spawns=burst_spawns, label=label, retries=retries)
 
     def placer(pids):
         """For n workers: pin the bench's Redis processes apart from them (where a CPU is
@@ -511,7 +534,7 @@ def main(quick: bool = False, url: str = "redis://127.0.0.1:6379/0",
 
 def _main(url: str, where: str, place, quick: bool, seconds: float | None,
           confirm_s: float, start: int | None, limit: int, workers: tuple[int, ...],
-          burst_spawns: int | None, label: str) -> dict:
+          burst_spawns: int | None, label: str, retries: int) -> dict:
     print(f"machine: {machine()}; load average {os.getloadavg()[0]:.1f} at the start")
     who = (f"{WORKER['python']} {WORKER['cwd']}/cli.py serve"
            + (f" ({label})" if label else ""))
@@ -524,15 +547,15 @@ def _main(url: str, where: str, place, quick: bool, seconds: float | None,
     start = start or (1000 if quick else 12_500)
     limit = 4000 if quick else limit
     print(f"kept: tick p99 < {1e3 / RATE_HZ:.0f} ms and at most {WORKER['max_late']} late "
-          f"tick(s) after a {2:g} s warm-up; search trials {seconds:g} s, confirmation "
-          f"{confirm_s:g} s")
+          f"tick(s) after a {2:g} s warm-up; search trials {seconds:g} s (a size not kept is "
+          f"tried {retries} more time(s)), confirmation {confirm_s:g} s")
     t0 = time.perf_counter()
     kept: dict[int, int] = {}
     out: dict = {"kept": kept, "trials": {}}
     for n_workers in workers:
         print(f"{n_workers} worker(s) (one CPU each, {4 // n_workers} shards each); pinning: "
               f"{place(n_workers)}:")
-        n, rows = largest(url, n_workers, start, seconds, limit, confirm_s)
+        n, rows = largest(url, n_workers, start, seconds, limit, confirm_s, retries=retries)
         kept[n_workers] = n
         out["trials"][n_workers] = rows
         ratio = f" ({n / max(kept.get(1, 0), 1):.2f}x one worker)" if n_workers > 1 and \
