@@ -8,6 +8,7 @@ LIST.json: [[case, tick, path], ...] as quiet_counts.py writes it (path: strike 
 which of step_ship's ways the tick took at the start's bits). Each tick is stepped (sim.step.step)
 from its recorded state for COPIES copies of the ship in one batch."""
 import copy
+import os
 import json
 import sys
 import time
@@ -34,12 +35,17 @@ def ticks(listed, paths=None, copies=4):
         if paths is None or p in paths:
             want.setdefault(c, []).append((t, p))
     items = []
+    # $QUIET_RECORD_SIM (KEY=VALUE,...): sim settings of the recording run only (the ticks
+    # restarted from another tree's bits, e.g. coarse_held=2 for the start's)
+    rec_sim = dict(kv.split("=", 1) for kv in os.environ.get("QUIET_RECORD_SIM", "").split(",") if kv)
     for c, ts in sorted(want.items()):
         one = sw.case_doc(c)
+        rec_doc = copy.deepcopy(one)
+        rec_doc.setdefault("sim", {}).update({k: float(v) for k, v in rec_sim.items()})
         many = copy.deepcopy(one)
         many["ships"] = [dict(copy.deepcopy(one["ships"][0]), id=f"s{i}") for i in range(copies)]
         batch = parse(many, "batch")
-        recs = list(run(parse(one, "one")))
+        recs = list(run(parse(rec_doc, "one")))
         by = {r.tick: i for i, r in enumerate(recs)}
         for t, p in ts:
             r0, r1 = recs[by[t]], recs[by[t] + 1]
