@@ -1925,8 +1925,7 @@ def coarse_tick(cfg, fb, s, ce, h):
 
     - its rocking mode, w^2 = (k/2) a^2 / I_transverse, has w h under COARSE_WH;
     - it is not near rest: the settle thresholds' margin at the last tick's end is under
-      COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends), or
-      over ``cfg.coarse_held`` (sim.coarse_held: at rest already, the run of samples begun);
+      COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
     - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
       penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
       (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot whose force
@@ -1942,9 +1941,7 @@ def coarse_tick(cfg, fb, s, ce, h):
     # (and the four feet's bounce, w^2 = k / m, well inside rk4's stability)
     if not (w2 * h * h < COARSE_WH * COARSE_WH and cr.k_npm / cr.mass_kg * h * h < 1.0):
         return False
-    # (a ship already at rest by a margin of sim.coarse_held: its run of samples has begun, and
-    # what its sub-steps' ends resolve is only a dip under the thresholds; MODEL-NOTES 69)
-    if not (ft.settle_margin < COARSE_SETTLE_MARGIN or ft.settle_margin > cfg.coarse_held):
+    if not ft.settle_margin < COARSE_SETTLE_MARGIN:
         return False
     absorbing = ft.absorbing
     c_over_k = (cr.c_absorb_nspm if absorbing else cr.c_nspm) / cr.k_npm

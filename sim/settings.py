@@ -248,13 +248,6 @@ SETTINGS: tuple[Setting, ...] = (
           "to_event), as in the finer ones; a clear foot near its onset still refuses it; "
           "false: every pressing foot's gap over (|x'| + 0.2 m/s) h, the session-18 main's "
           "bits (MODEL-NOTES 68)"),
-    S("sim.coarse_held", "float", 0.25, "", -1.0, 2.0, dest="sim.coarse_held",
-      scene="coarse_held",
-      doc="a ship in contact whose settle thresholds' margin at the tick's start is above this "
-          "(each speed under its threshold by this fraction of it, the tilt and the feet "
-          "likewise: already at rest, its run of samples begun) takes the coarse sub-step "
-          "(sim.coarse_substep) though it is near rest, where the rest of sim.flight.coarse_tick "
-          "allows it; over 1: never, main fb6b644's bits (MODEL-NOTES 69)"),
     S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
       scene="coarse_when_clear",
       doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "

@@ -432,30 +432,6 @@ def test_coarse_sub_steps_with_a_release_follow_the_fine_ones(initial, changes):
     assert np.any(pos["new"] != pos["old"]) == changes
 
 
-def test_a_ship_at_rest_takes_the_coarse_sub_step():
-    """sim.coarse_held (MODEL-NOTES 69): a contact tick that starts with the settle thresholds
-    held by more than a quarter of each (the run of samples begun) takes the coarse sub-step. An
-    envelope touchdown (case 252 of the sweep's 300: the one whose landing a margin of 0 moved
-    0.4 s early, a dip under the thresholds inside a coarse tick unseen) lands on the same tick
-    as with the setting off and as with max_substep's sub-steps throughout, at the same instant
-    to 1 ms, on different bits."""
-    initial = {"altitude": 0.5, "vertical_speed": -4.189924582420963,
-               "horizontal_speed": 4.892093374164177, "heading_deg": 90.0,
-               "tilt_deg": 7.945431338442698}
-    body = {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}
-    runs = {k: records(scene(initial, body=body, duration=15.0, sim=sim)) for k, sim in (
-        ("new", {}), ("old", {"coarse_held": 2.0}), ("fine", {"coarse_substep": 0.0}))}
-    ev = {k: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[k]
-              for e in r.events] for k in runs}
-    assert ev["new"][-1][1] == "ship.landed"
-    for other in ("old", "fine"):
-        assert [(k, n) for k, n, _ in ev["new"]] == [(k, n) for k, n, _ in ev[other]]
-        assert [t for _, _, t in ev["new"]] == pytest.approx([t for _, _, t in ev[other]],
-                                                             abs=1e-3)
-    pos = {k: np.array([r.state.rows[0]["pos_m"] for r in runs[k]]) for k in runs}
-    assert np.any(pos["new"] != pos["old"])
-
-
 @pytest.mark.parametrize("ratio, turning", [(0.5 * (1.0 - 1e-9), False), (0.5 * (1.0 + 1e-9), True)])
 def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, turning):
     """Outside an impact, a foot coming to a stop takes note 51's half-approach pieces only where
