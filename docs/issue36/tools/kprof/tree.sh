@@ -8,7 +8,7 @@ if [ -d "$src" ]; then
     (cd "$src" && git ls-files -co --exclude-standard | grep -v '^\.venv' | tar cf - -T -) \
         | tar xf - -C "$dst"
 else
-    git -C "$(dirname "$0")" archive "$src" | tar x -C "$dst"
+    git -C "$(git -C "$(dirname "$0")" rev-parse --show-toplevel)" archive "$src" | tar x -C "$dst"
 fi
 ln -sfn "$dst" "$dst.pkg/touchdown"
 # $KPROF/TAG.py: the tree's interpreter, for bench/states.py --against and CPU-time runs
