@@ -1,13 +1,13 @@
 """What the suite's tests compile beyond ``touchdown warm``, compiled once before xdist's workers
 start (tests/warmup.py), in the process that has just run the warm.
 
-A worker that calls a kernel from Python (a test calling a phase or the friction solve, the sweep
-stepping its fleet, ``touchdown export`` filling its JSON lines) compiles that kernel's twin
-(sim.compiled._Inner): in a fresh worker that types every kernel it calls again (they are not
-cached on disk) and optimizes the whole, 5 to 20 s of CPU each, and the sweep's step about as much
-as a first compile. In the warm's process the kernels are typed already, so each twin costs only
-its own code; it goes into the project's cache (:func:`compile_them`'s ``cache``), where the
-workers load it. Each call below is one a test makes (the same helper, the same argument types):
+A worker that calls a kernel from Python (a test calling a phase or the friction solve,
+``touchdown export`` filling its JSON lines) compiles that kernel's twin (sim.compiled._Inner):
+in a fresh worker that types every kernel it calls again (they are not cached on disk), 5 to 20 s
+of CPU each (the friction solve's 18 s). In the warm's process the kernels are typed already, so
+each twin costs only its own code (the friction solve's 1.6 s); it goes into the project's cache
+(:func:`compile_them`'s ``cache``), where the workers load it. (Not the sweep's step: its twin is
+the whole step optimized again, 129 s of CPU even there, no cheaper than in a worker, measured.) Each call below is one a test makes (the same helper, the same argument types):
 a call whose types drift from the test's only leaves that test to compile its own, as before; a
 call that fails is named in the result and skipped (the test then fails where it does).
 """
@@ -19,13 +19,6 @@ import time
 from pathlib import Path
 
 TESTS = Path(__file__).resolve().parent
-
-
-def _sweep() -> None:
-    # test_sweep's kernels: its own warm-up sweep (two sampled cases), in this process
-    import test_sweep
-    from touchdown.sweep.run import run
-    run(test_sweep.sweep_of(("ships.initial.horizontal_speed=0:6",), samples=2), workers=1)
 
 
 def _friction() -> None:
@@ -67,7 +60,7 @@ def _export() -> None:
                 raise RuntimeError(f"{args[0]}: {r.output}")
 
 
-STEPS = {"sweep": _sweep, "friction": _friction, "settle": _settle, "export": _export}
+STEPS = {"friction": _friction, "settle": _settle, "export": _export}
 
 
 def compile_them(cache: str, steps: list[str]) -> dict:

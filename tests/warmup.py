@@ -10,9 +10,8 @@ before it starts the workers, runs those cold compiles at once, one a core, in s
 - ``touchdown warm`` into an empty cache of its own: the compile-once check's first half (it
   counts what compiled); its kernels are then copied into the project's cache (sim.compiled.
   cache_dir), where it lacks them, so the workers load them rather than each compiling them.
-  After its count the same process compiles, into the project's cache, what the tests would
-  compile beyond the warm (the sweep's kernels, the twins of the kernels tests call:
-  tests/suite_kernels.py), cheaply there: its kernels are typed already;
+  After its count the same process compiles, into the project's cache, the twins of the kernels
+  tests call from Python (tests/suite_kernels.py), cheaply there: its kernels are typed already;
 - ``touchdown warm`` with NUMBA_CPU_NAME=generic into a cache of its own beside the project's
   (kept: a later run loads it), which the generic-CPU test then uses.
 
@@ -122,14 +121,10 @@ def _finish(proc: subprocess.Popen, what: str, info: dict | None = None) -> int:
     return int(counts[-1])
 
 
-def _suite_kernels(config, project: Path) -> dict:
+def _suite_kernels(project: Path) -> dict:
     """The environment asking a warm's process to compile, into the project's cache, what the
-    selected tests would compile in the workers (tests/suite_kernels.py): the sweep's kernels only
-    where its tests may run."""
+    tests would compile in the workers (tests/suite_kernels.py)."""
     steps = ["friction", "settle", "export"]
-    if _may_run(config, "test_sweep.py", "test_the_table_has_spec_6_columns_and_every_outcome_kind",
-                {"slow"}):
-        steps.insert(0, "sweep")
     return {SUITE_KERNELS_ENV: json.dumps({"cache": str(project), "tests": str(TESTS),
                                            "steps": steps})}
 
@@ -161,9 +156,9 @@ def before_workers(config) -> None:
                 "test_after_touchdown_warm_a_record_a_replay_and_serve_compile_nothing", {"slow"}):
         info["empty_cache"] = str(base / "empty")
         procs["empty"] = _warm(dict(os.environ, NUMBA_CACHE_DIR=info["empty_cache"],
-                                    **_suite_kernels(config, project)))
+                                    **_suite_kernels(project)))
     elif not any(project.rglob("step.step_ticks-*.nbi")):
-        procs["project"] = _warm(dict(os.environ, **_suite_kernels(config, project)))
+        procs["project"] = _warm(dict(os.environ, **_suite_kernels(project)))
     if _may_run(config, "test_determinism.py",
                 "test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits", {"slow"}):
         # beside the project's cache, kept: a later run loads it (stale versions are pruned)
