@@ -6,10 +6,13 @@ A worker that calls a kernel from Python (a test calling a phase or the friction
 in a fresh worker that types every kernel it calls again (they are not cached on disk), 5 to 20 s
 of CPU each (the friction solve's 18 s). In the warm's process the kernels are typed already, so
 each twin costs only its own code (the friction solve's 1.6 s); it goes into the project's cache
-(:func:`compile_them`'s ``cache``), where the workers load it. (Not the sweep's step: its twin is
-the whole step optimized again, 129 s of CPU even there, no cheaper than in a worker, measured.) Each call below is one a test makes (the same helper, the same argument types):
-a call whose types drift from the test's only leaves that test to compile its own, as before; a
-call that fails is named in the result and skipped (the test then fails where it does).
+(:func:`compile_them`'s ``cache``), where the workers load it. Not the sweep's step: its twin is
+the whole step optimized again, 129 s of CPU even there (measured), which would only lengthen the
+warm-up (tests/test_sweep.py compiles it once under a lock instead).
+
+Each call below is one a test makes (the same helper, the same argument types): a call whose
+types drift from the test's only leaves that test to compile its own, as before; a call that
+fails is named in the result and skipped (the test then fails where it does).
 """
 from __future__ import annotations
 
