@@ -472,7 +472,7 @@ def _standing(here, s, inp, slip_mps, hold_of_cone):
     return fb, start, load_n
 
 
-@numba.njit
+@numba.njit(cache=True)  # in sim.compiled.cache_dir(), named after sim/'s sources
 def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
     """sim.flight.at_transition at :func:`_standing`'s start, foot 0 not slowing, asked for a
     piece of ``h_of_edge`` times the one in whose TRANSITION_PIECE its own kinetic friction would
@@ -485,7 +485,7 @@ def _at_transition_standing(here, s, inp, slip_mps, hold_of_cone, h_of_edge):
     return at_transition(here.cfg, fb, start, NO_RATES, h_s), load_n
 
 
-@numba.njit
+@numba.njit(cache=True)
 def _stiff_feet_standing(here, s, inp, slip_mps, floor_s):
     """sim.flight.stiff_feet at :func:`_standing`'s start, foot 0 sliding at ``slip_mps``, not
     slowing, over a 25 ms sub-step. Returns (the shortest stop time of the feet that take pieces,

@@ -65,9 +65,30 @@ def _compile_the_sweeps_kernels() -> None:
 
 
 @pytest.fixture(scope="module")
-def whole():
-    """The grid's table, in this process, one chunk."""
+def sweep_kernels():
+    """The sweep's kernels in the cache and loaded in this process, compiled by one process at a
+    time: under xdist two workers came to this file's sweeps together (the table's and
+    test_the_cli_summary_and_the_table's) and each compiled the same step, ~130 s of CPU each;
+    under an exclusive lock in the kernel cache the second waits for the first and loads them.
+    (A serial run: the background job has compiled them; the lock is uncontended.)"""
+    import fcntl
+
+    from touchdown.sim.compiled import cache_dir
     background.wait(_compile_the_sweeps_kernels)
+    warm = sweep_of(("ships.initial.horizontal_speed=0:6",), samples=2)
+    try:
+        lock = open(cache_dir() / ".sweep-kernels.lock", "w")
+    except OSError:  # no writable cache: numba compiles without caching anyway
+        run(warm, workers=1)
+        return
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        run(warm, workers=1)
+
+
+@pytest.fixture(scope="module")
+def whole(sweep_kernels):
+    """The grid's table, in this process, one chunk."""
     return run(sweep_of(), workers=1, chunk_cases=10_000).table()
 
 
@@ -191,7 +212,7 @@ def test_latin_hypercube_is_one_point_per_slice_and_repeatable():
     assert len(sw.groups(range(6))) == 6  # every sample its own slope: its own scene
 
 
-def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(monkeypatch):
+def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(sweep_kernels, monkeypatch):
     import touchdown.sweep.run as R
     sw = sweep_of()
     calls = []
@@ -225,7 +246,7 @@ def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(monkeypatc
     assert "missing 8 (interrupted)" in res.summary()
 
 
-def test_ctrl_c_writes_the_table_of_the_cases_done(tmp_path):
+def test_ctrl_c_writes_the_table_of_the_cases_done(sweep_kernels, tmp_path):
     scn = tmp_path / "long.toml"
     # a turning body: no ship comes to a fixed point, every tick of every case is stepped
     scn.write_text(BASE.replace("duration = 4.0", "duration = 300.0").replace(
@@ -262,7 +283,7 @@ def test_a_bad_axis_is_refused_in_one_line_naming_it(vary, says, tmp_path):
     assert not (tmp_path / "x.parquet").exists()
 
 
-def test_the_cli_summary_and_the_table(tmp_path):
+def test_the_cli_summary_and_the_table(sweep_kernels, tmp_path):
     scn = tmp_path / "env.toml"
     scn.write_text(BASE)
     out = tmp_path / "t.parquet"
@@ -312,7 +333,7 @@ tilt_deg = 30.0
     assert not (tmp_path / "x.parquet").exists()
 
 
-def test_every_column_of_the_table_carries_its_unit_and_description(tmp_path):
+def test_every_column_of_the_table_carries_its_unit_and_description(sweep_kernels, tmp_path):
     """As the export's Parquet does (issue 37): each field's metadata holds its unit and what
     it is; a varied key's unit is its scenario setting's (sim.settings)."""
     scn = tmp_path / "env.toml"

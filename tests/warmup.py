@@ -9,13 +9,16 @@ before it starts the workers, runs those cold compiles at once, one a core, in s
 
 - ``touchdown warm`` into an empty cache of its own: the compile-once check's first half (it
   counts what compiled); its kernels are then copied into the project's cache (sim.compiled.
-  cache_dir), where it lacks them, so the workers load them rather than each compiling them;
+  cache_dir), where it lacks them, so the workers load them rather than each compiling them.
+  After its count the same process compiles, into the project's cache, the twins of the kernels
+  tests call from Python (tests/suite_kernels.py), cheaply there: its kernels are typed already;
 - ``touchdown warm`` with NUMBA_CPU_NAME=generic into a cache of its own beside the project's
   (kept: a later run loads it), which the generic-CPU test then uses.
 
 Each runs only when its test may be among the selected ones (its file among the arguments, neither
 -m nor -k excluding it: the controller does not collect); else, if the project's
-cache lacks the step, a plain ``touchdown warm`` fills it. The workers find what was done in
+cache lacks the step, a plain ``touchdown warm`` fills it (and compiles tests/suite_kernels.py's
+kernels after it). The workers find what was done in
 the environment (``TOUCHDOWN_SUITE_WARM``, JSON); a test where it is missing does its own work
 (a serial run: tests/background.py, or the file run alone).
 """
@@ -47,12 +50,22 @@ class Count(event.Listener):
 event.register("numba:compile", Count())
 """
 
-# `touchdown warm` in a fresh process, counting the kernels that compiled
+# `touchdown warm` in a fresh process, counting the kernels that compiled; then, where the
+# controller asks (SUITE_KERNELS_ENV: the project's cache and the steps), what the tests compile
+# beyond the warm (tests/suite_kernels.py), in this process where the kernels are typed already
+SUITE_KERNELS_ENV = "TOUCHDOWN_SUITE_KERNELS"
 _WARM = COUNT_COMPILES + """
 from touchdown.cli import main
 main(["warm"], standalone_mode=False)
-print("COMPILED", len(compiled))
-"""
+print("COMPILED", len(compiled), flush=True)
+import json, os, sys
+ask = os.environ.get("%s")
+if ask:
+    ask = json.loads(ask)
+    sys.path.insert(0, ask["tests"])
+    import suite_kernels
+    print("SUITE_KERNELS", json.dumps(suite_kernels.compile_them(ask["cache"], ask["steps"])))
+""" % SUITE_KERNELS_ENV
 
 
 def done() -> dict:
@@ -96,12 +109,24 @@ def _warm(env: dict) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
-def _finish(proc: subprocess.Popen, what: str) -> int:
+def _finish(proc: subprocess.Popen, what: str, info: dict | None = None) -> int:
     out, _ = proc.communicate(timeout=3600)
     counts = [line.split()[1] for line in out.splitlines() if line.startswith("COMPILED ")]
     if proc.returncode != 0 or not counts:
         raise RuntimeError(f"{what} failed:\n{out}")
+    if info is not None:
+        for line in out.splitlines():
+            if line.startswith("SUITE_KERNELS "):
+                info["suite_kernels"] = json.loads(line.split(maxsplit=1)[1])
     return int(counts[-1])
+
+
+def _suite_kernels(project: Path) -> dict:
+    """The environment asking a warm's process to compile, into the project's cache, what the
+    tests would compile in the workers (tests/suite_kernels.py)."""
+    steps = ["friction", "settle", "export"]
+    return {SUITE_KERNELS_ENV: json.dumps({"cache": str(project), "tests": str(TESTS),
+                                           "steps": steps})}
 
 
 def _copy_missing(src: Path, dst: Path) -> int:
@@ -130,9 +155,10 @@ def before_workers(config) -> None:
     if _may_run(config, "test_compile_once.py",
                 "test_after_touchdown_warm_a_record_a_replay_and_serve_compile_nothing", {"slow"}):
         info["empty_cache"] = str(base / "empty")
-        procs["empty"] = _warm(dict(os.environ, NUMBA_CACHE_DIR=info["empty_cache"]))
+        procs["empty"] = _warm(dict(os.environ, NUMBA_CACHE_DIR=info["empty_cache"],
+                                    **_suite_kernels(project)))
     elif not any(project.rglob("step.step_ticks-*.nbi")):
-        procs["project"] = _warm(dict(os.environ))
+        procs["project"] = _warm(dict(os.environ, **_suite_kernels(project)))
     if _may_run(config, "test_determinism.py",
                 "test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits", {"slow"}):
         # beside the project's cache, kept: a later run loads it (stale versions are pruned)
@@ -140,7 +166,8 @@ def before_workers(config) -> None:
         env = dict(os.environ, NUMBA_CPU_NAME="generic", NUMBA_CACHE_DIR=info["generic_cache"])
         env.pop("NUMBA_CPU_FEATURES", None)
         procs["generic"] = _warm(env)
-    counts = {what: _finish(proc, f"touchdown warm ({what})") for what, proc in procs.items()}
+    counts = {what: _finish(proc, f"touchdown warm ({what})", info)
+              for what, proc in procs.items()}
     if "empty" in counts:
         info["warmed"] = counts["empty"]
         for kernels in Path(info["empty_cache"]).glob("touchdown-kernels-*"):
