@@ -246,6 +246,22 @@ def test_an_interrupted_sweep_keeps_the_cases_done_and_marks_the_rest(sweep_kern
     assert "missing 8 (interrupted)" in res.summary()
 
 
+def _wait_for_a_child(proc: subprocess.Popen, timeout_s: float) -> None:
+    """Until ``proc`` has a child process (Linux /proc: each process's parent id)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()[1]
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                ppid = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            if ppid == proc.pid:
+                return
+        time.sleep(0.1)
+    raise AssertionError(f"the sweep started no worker in {timeout_s:g} s")
+
+
 def test_ctrl_c_writes_the_table_of_the_cases_done(sweep_kernels, tmp_path):
     scn = tmp_path / "long.toml"
     # a turning body: no ship comes to a fixed point, every tick of every case is stepped
@@ -256,7 +272,10 @@ def test_ctrl_c_writes_the_table_of_the_cases_done(sweep_kernels, tmp_path):
                              "ships.initial.horizontal_speed=0:6:4000", "--workers", "2",
                              "-o", str(out)], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    time.sleep(5.0)
+    # the sweep takes Ctrl-C from before it starts its workers (sweep.run._Interrupt); wait for
+    # them, not a fixed time: at load 5-7 a 5 s sleep sent SIGINT before the handler was there
+    _wait_for_a_child(proc, timeout_s=120.0)
+    time.sleep(2.0)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
