@@ -238,7 +238,7 @@ def test_a_non_finite_number_is_refused_in_every_format(bounce, tmp_path):
 
 
 # -- the bounded reader ---------------------------------------------------------------------------
-def test_a_tick_record_larger_than_the_fleet_can_fill_is_refused_in_under_a_second(
+def test_a_tick_record_larger_than_the_fleet_can_fill_is_refused_in_under_a_cpu_second(
         bounce, tmp_path):
     def edit(topic, data):
         if topic == "/touchdown/ticks" and data[:2] == b"\x08\x01":
@@ -250,10 +250,12 @@ def test_a_tick_record_larger_than_the_fleet_can_fill_is_refused_in_under_a_seco
     assert bad.stat().st_size < 200_000
     from touchdown.replay.verify import verify
     for run in (lambda: verify(str(bad)), lambda: list(ex.tick_blocks(LogReader(bad)))):
-        t0 = time.perf_counter()
+        # this process's CPU, not the wall clock: at load 5-7 the wall clock bound failed
+        # (1.26-1.81 s) on a refusal that took a fraction of it
+        t0 = time.process_time()
         with pytest.raises(LogError, match="what a chunk of ticks of this log's 1 ship"):
             run()
-        assert time.perf_counter() - t0 < 1.0
+        assert time.process_time() - t0 < 1.0
 
 
 # -- damage said plainly ----------------------------------------------------------------------------
