@@ -66,10 +66,10 @@ def _export() -> None:
 STEPS = {"friction": _friction, "settle": _settle, "export": _export}
 
 
-def compile_them(cache: str, steps: list[str]) -> dict:
-    """Compile the kernels of ``steps`` (names in STEPS) into ``cache`` (the project's kernel
-    folder, sim.compiled.cache_dir()). Returns {step: seconds} and, under "failed", the steps
-    that raised."""
+def compile_them(cache: str, steps: tuple[str, ...] = tuple(STEPS)) -> dict:
+    """Compile the kernels of ``steps`` (names in STEPS, default all) into ``cache`` (the
+    project's kernel folder, sim.compiled.cache_dir()). Returns {step: seconds} and, under
+    "failed", the steps that raised."""
     import numba
     numba.config.CACHE_DIR = cache  # a twin's cache is placed when it is made (first call)
     if str(TESTS) not in sys.path:

@@ -51,7 +51,7 @@ event.register("numba:compile", Count())
 """
 
 # `touchdown warm` in a fresh process, counting the kernels that compiled; then, where the
-# controller asks (SUITE_KERNELS_ENV: the project's cache and the steps), what the tests compile
+# controller asks (SUITE_KERNELS_ENV: the project's cache and the tests folder), what the tests compile
 # beyond the warm (tests/suite_kernels.py), in this process where the kernels are typed already
 SUITE_KERNELS_ENV = "TOUCHDOWN_SUITE_KERNELS"
 _WARM = COUNT_COMPILES + """
@@ -64,7 +64,7 @@ if ask:
     ask = json.loads(ask)
     sys.path.insert(0, ask["tests"])
     import suite_kernels
-    print("SUITE_KERNELS", json.dumps(suite_kernels.compile_them(ask["cache"], ask["steps"])))
+    print("SUITE_KERNELS", json.dumps(suite_kernels.compile_them(ask["cache"])))
 """ % SUITE_KERNELS_ENV
 
 
@@ -124,9 +124,7 @@ def _finish(proc: subprocess.Popen, what: str, info: dict | None = None) -> int:
 def _suite_kernels(project: Path) -> dict:
     """The environment asking a warm's process to compile, into the project's cache, what the
     tests would compile in the workers (tests/suite_kernels.py)."""
-    steps = ["friction", "settle", "export"]
-    return {SUITE_KERNELS_ENV: json.dumps({"cache": str(project), "tests": str(TESTS),
-                                           "steps": steps})}
+    return {SUITE_KERNELS_ENV: json.dumps({"cache": str(project), "tests": str(TESTS)})}
 
 
 def _copy_missing(src: Path, dst: Path) -> int:
