@@ -310,7 +310,8 @@ def search(run: Callable[[int, float], bool], start: int, seconds: float, limit:
     def kept(n: int) -> bool:
         for attempt in range(1 + retries):
             if attempt:
-                print(f"  not kept: {n:,} ships again ({attempt} of {retries})", flush=True)
+                print(f"  not kept: {n:,} ships again ({attempt} of {retries})",
+                      flush=True)
             if run(n, seconds):
                 return True
         return False

@@ -51,8 +51,8 @@ event.register("numba:compile", Count())
 """
 
 # `touchdown warm` in a fresh process, counting the kernels that compiled; then, where the
-# controller asks (SUITE_KERNELS_ENV: the project's cache and the tests folder), what the tests compile
-# beyond the warm (tests/suite_kernels.py), in this process where the kernels are typed already
+# controller asks (SUITE_KERNELS_ENV: the project's cache and the tests folder), what the tests
+# compile beyond the warm (tests/suite_kernels.py), in this process where the kernels are typed
 SUITE_KERNELS_ENV = "TOUCHDOWN_SUITE_KERNELS"
 _WARM = COUNT_COMPILES + """
 from touchdown.cli import main
