@@ -299,8 +299,8 @@ def largest(url: str, workers: int, start: int, seconds: float, limit: int,
     return search(run, start, seconds, limit, confirm_s, precision, retries), rows
 
 
-def search(run: Callable[[int, float], bool], start: int, seconds: float, limit: int, confirm_s: float = 0.0,
-           precision: float = 0.03, retries: int = 1) -> int:
+def search(run: Callable[[int, float], bool], start: int, seconds: float, limit: int,
+           confirm_s: float = 0.0, precision: float = 0.03, retries: int = 1) -> int:
     """Double the fleet from ``start`` until a short trial (``run(n, seconds)``: kept or not)
     falls behind ``1 + retries`` times at one size, bisect to within ``precision``, then
     (``confirm_s``) confirm the size found with one long trial, 5% less at a time while it
