@@ -109,17 +109,26 @@ main.add_command(bench)  # one subcommand per benchmark, each with its own optio
 
 
 @main.command()
-def warm() -> None:
+@click.option("--sweep", "with_sweep", is_flag=True,
+              help="also the sweep's kernels (a compile of their own: minutes more)")
+def warm(with_sweep: bool) -> None:
     """Compile the physics kernels for this CPU now (or load them from the cache), so that the
     first record, replay or serve after an install starts at once: the README's install line
     runs it. It steps a two-ship shard of the built-in bounce scene with its flight log in a
     temporary folder (service.warm), which calls every kernel `record`, `replay` and `serve`
-    call; says how long it took and where the kernels are kept (sim.compiled.cache_dir)."""
+    call; with --sweep also two envelope cases through the sweep's loop (sweep.fleet.ready),
+    whose kernels are compiled apart; says how long it took and where the kernels are kept
+    (sim.compiled.cache_dir)."""
     from touchdown.service import warm as warming
     from touchdown.service.serve import default_scenario
     scn = default_scenario()
     seconds = warming.warm(scn.scene, scn.params.sim.dt_s, scn.params.body.name)
-    click.echo(f"touchdown warm: compiled code ready in {seconds:.1f} s; kernels in "
+    what = "compiled code"
+    if with_sweep:
+        from touchdown.sweep.fleet import ready
+        seconds += ready()
+        what = "compiled code, the sweep's too,"
+    click.echo(f"touchdown warm: {what} ready in {seconds:.1f} s; kernels in "
                f"{warming.where()}")
 
 

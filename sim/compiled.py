@@ -111,7 +111,8 @@ class _Inner(CPUDispatcher):
     tool calling a helper) runs a twin compiled with the wrapper, once, cached apart (its name
     ends in ``_py``); called as it is, numba would jump to a null entry point."""
 
-    def __call__(self, *args, **kws):
+    def twin(self) -> CPUDispatcher:
+        """The twin that calls from Python run: made on first use, compiled on its first call."""
         twin = self.__dict__.get("_twin")
         if twin is None:
             fn = self.py_func
@@ -121,7 +122,13 @@ class _Inner(CPUDispatcher):
             clone.__doc__ = fn.__doc__
             opts = {k: v for k, v in self.targetoptions.items() if k != "no_cpython_wrapper"}
             twin = self.__dict__["_twin"] = _dispatcher(clone, CPUDispatcher, **opts)
-            CALLED_FROM_PYTHON.add(f"{fn.__module__}.{fn.__qualname__}")
+        return twin
+
+    def __call__(self, *args, **kws):
+        twin = self.__dict__.get("_twin")
+        if twin is None:
+            twin = self.twin()
+            CALLED_FROM_PYTHON.add(f"{self.py_func.__module__}.{self.py_func.__qualname__}")
         return twin(*args, **kws)
 
 
@@ -186,6 +193,18 @@ def _dispatcher(fn: Callable, cls: type, **options) -> Callable:
     disp = cls(py_func=fn, locals={}, targetoptions=options)
     disp.enable_caching()
     return disp
+
+
+def in_cache(fn: Callable) -> bool:
+    """Whether kernel ``fn`` (an entry point, or a kernel called from Python: its twin) has code
+    in the on-disk cache for its source as it is now, so that its first call loads it rather
+    than compiles it (numba's index of the function's cached overloads; False where there is
+    none, or where numba's cache does not say)."""
+    disp = fn.twin() if isinstance(fn, _Inner) else fn
+    try:
+        return bool(disp._cache._cache_file._load_index())
+    except (AttributeError, OSError):
+        return False
 
 
 def kernel(fn: Callable) -> Callable:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import click
@@ -32,6 +33,7 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
         except ImportError:
             raise UserError("--chart needs matplotlib: pip install -e '.[chart]'") from None
     from touchdown.sweep.run import run
+    _compile_first()
     try:
         res = run(sw, workers=workers, scheduler=scheduler, progress=True)
     except ScenarioError as exc:  # values each valid alone, refused together (kinetic > static)
@@ -54,6 +56,24 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
                    f"{missing:,} are marked missing", err=True)
         return 130
     return 0
+
+
+def _compile_first(say=None) -> bool:
+    """Where the sweep's kernels are not in the cache (the first sweep after an install, or after
+    a change to sim/), compile them here, once, saying so on a terminal, before the workers start:
+    each worker would otherwise compile the same code silently, all at once (minutes of CPU and
+    ~0.9 GB of memory each), then load them. Returns whether it compiled."""
+    from touchdown.sweep.fleet import kernels_ready, ready
+    if kernels_ready():
+        return False
+    if say is None:
+        def say(text):
+            if sys.stderr.isatty():
+                click.echo(text, err=True)
+    say("touchdown sweep: compiling the sweep's kernels for this CPU (once after an install or "
+        "a change to sim/, a few minutes; `touchdown warm --sweep` does it ahead) ...")
+    ready()
+    return True
 
 
 def _record(sw: Sweep, case: int, output: str) -> int:

@@ -54,36 +54,22 @@ def sweep_of(vary=VARY, samples=None, seed=0):
 
 @background.job("test_sweep.py::test_the_table_has_spec_6_columns_and_every_outcome_kind")
 def _compile_the_sweeps_kernels() -> None:
-    """The sweep's kernels into the cache (a sweep of 2 cases of BASE in a subprocess), ahead of
-    this file's first table in a serial run (tests/background.py)."""
-    import tempfile
-    with tempfile.TemporaryDirectory(prefix="touchdown-sweep-warm-") as tmp:
-        (Path(tmp) / "env.toml").write_text(BASE)
-        subprocess.run([sys.executable, "-c", "from touchdown.cli import main; main()", "sweep",
-                        "env.toml", "--vary", "ships.initial.horizontal_speed=0:6", "--samples", "2", "--workers", "1",
-                        "-o", "warm.parquet"], cwd=tmp, capture_output=True, timeout=1800)
+    """The sweep's kernels into the cache (sweep.fleet.ready in a subprocess), ahead of this
+    file's first table in a serial run (tests/background.py)."""
+    subprocess.run([sys.executable, "-c", "from touchdown.sweep.fleet import ready; ready()"],
+                   capture_output=True, timeout=1800)
 
 
 @pytest.fixture(scope="module")
 def sweep_kernels():
-    """The sweep's kernels in the cache and loaded in this process, compiled by one process at a
-    time: under xdist two workers came to this file's sweeps together (the table's and
+    """The sweep's kernels in the cache and loaded in this process (sweep.fleet.ready): under
+    xdist two workers came to this file's sweeps together (the table's and
     test_the_cli_summary_and_the_table's) and each compiled the same step, ~130 s of CPU each;
-    under an exclusive lock in the kernel cache the second waits for the first and loads them.
+    ready's lock in the kernel cache has the second wait for the first and load them.
     (A serial run: the background job has compiled them; the lock is uncontended.)"""
-    import fcntl
-
-    from touchdown.sim.compiled import cache_dir
+    from touchdown.sweep.fleet import ready
     background.wait(_compile_the_sweeps_kernels)
-    warm = sweep_of(("ships.initial.horizontal_speed=0:6",), samples=2)
-    try:
-        lock = open(cache_dir() / ".sweep-kernels.lock", "w")
-    except OSError:  # no writable cache: numba compiles without caching anyway
-        run(warm, workers=1)
-        return
-    with lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        run(warm, workers=1)
+    ready()
 
 
 @pytest.fixture(scope="module")
@@ -372,3 +358,49 @@ def test_every_column_of_the_table_carries_its_unit_and_description(sweep_kernel
     import duckdb
     got = duckdb.sql(f"select count(*), count(outcome) from read_parquet('{out}')").fetchall()
     assert got == [(12, 12)]
+
+
+# -- the sweep's own compile --------------------------------------------------------------------
+def _in_fresh_process(script: str, **env) -> str:
+    import os
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       timeout=600, env={**os.environ, **env})
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+def test_warm_with_sweep_readies_the_sweeps_kernels_and_plain_warm_does_not(sweep_kernels):
+    """`touchdown warm --sweep` loads (here: the fixture put them in the cache) the kernels a
+    sweep calls, compiling nothing more, and says so; plain `warm` leaves them to the first
+    sweep. In a fresh process each time, counting what numba compiles and what is loaded."""
+    script = '''
+from numba.core import event
+compiled = []
+class Count(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+    def on_end(self, ev):
+        pass
+event.register("numba:compile", Count())
+from touchdown.cli import main
+main(["warm"{flag}], standalone_mode=False)
+from touchdown.sweep.fleet import SWEEP_KERNELS
+print("LOADED", sum(len(k.twin().overloads) for k in SWEEP_KERNELS), "COMPILED", len(compiled))
+'''
+    with_sweep = _in_fresh_process(script.replace("{flag}", ', "--sweep"'))
+    assert "the sweep's too" in with_sweep and "LOADED 3 COMPILED 0" in with_sweep, with_sweep
+    plain = _in_fresh_process(script.replace("{flag}", ""))
+    assert "the sweep's" not in plain and "LOADED 0 COMPILED 0" in plain, plain
+
+
+def test_a_sweep_compiles_its_kernels_first_only_where_the_cache_lacks_them(sweep_kernels,
+                                                                            tmp_path):
+    from touchdown.sweep.command import _compile_first
+    from touchdown.sweep.fleet import kernels_ready
+    said = []
+    assert kernels_ready() and _compile_first(said.append) is False and said == []
+    # an empty cache (NUMBA_CACHE_DIR): not ready, which the parent then compiles, saying so
+    # (not run here: minutes of CPU; the workers' own compile is what it replaces)
+    out = _in_fresh_process("from touchdown.sweep.fleet import kernels_ready; "
+                            "print('READY', kernels_ready())", NUMBA_CACHE_DIR=str(tmp_path))
+    assert "READY False" in out, out
