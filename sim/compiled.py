@@ -100,9 +100,6 @@ numba.config.CACHE_DIR = str(cache_dir())
 OPTIONS = dict(nopython=True, nogil=True, fastmath=False, error_model="numpy",
                no_cfunc_wrapper=True)
 
-#: the kernels that were called from Python and so compiled a twin (:class:`_Inner`)
-CALLED_FROM_PYTHON: set[str] = set()
-
 
 class _Inner(CPUDispatcher):
     """A kernel compiled without the CPython wrapper numba gives every function by default: the
@@ -126,10 +123,7 @@ class _Inner(CPUDispatcher):
 
     def __call__(self, *args, **kws):
         twin = self.__dict__.get("_twin")
-        if twin is None:
-            twin = self.twin()
-            CALLED_FROM_PYTHON.add(f"{self.py_func.__module__}.{self.py_func.__qualname__}")
-        return twin(*args, **kws)
+        return (self.twin() if twin is None else twin)(*args, **kws)
 
 
 class _LinkOnlyLibrary(JITCodeLibrary):
