@@ -1916,6 +1916,10 @@ COARSE_SLIP_STEPS = 4.0
 #: which a ship is near enough to rest for the landing instant's samples to want every sub-step
 COARSE_SETTLE_MARGIN = -1.0
 
+#: the settle thresholds' margin over which a ship whose thresholds have held for sim.coarse_held
+#: takes the coarse sub-step (MODEL-NOTES 69: a ship just over them may dip under inside it)
+COARSE_HELD_MARGIN = 0.25
+
 
 @kernel
 def coarse_tick(cfg, fb, s, ce, h):
@@ -1925,7 +1929,9 @@ def coarse_tick(cfg, fb, s, ce, h):
 
     - its rocking mode, w^2 = (k/2) a^2 / I_transverse, has w h under COARSE_WH;
     - it is not near rest: the settle thresholds' margin at the last tick's end is under
-      COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends);
+      COARSE_SETTLE_MARGIN (the landing instant is interpolated between sub-steps' ends), or
+      at rest already: with ``cfg.coarse_held_s`` over 0 (sim.coarse_held), the thresholds have
+      held for that long and hold by over COARSE_HELD_MARGIN of each (MODEL-NOTES 69);
     - no foot starts or stops pressing within it: a pressing foot's gap to its release (its
       penetration, or k x + c x' over k) and a clear foot's height above the ground are more than
       (|x'| + COARSE_MARGIN_MPS) h; with ``cfg.coarse_release`` a pressing foot whose force
@@ -1941,7 +1947,11 @@ def coarse_tick(cfg, fb, s, ce, h):
     # (and the four feet's bounce, w^2 = k / m, well inside rk4's stability)
     if not (w2 * h * h < COARSE_WH * COARSE_WH and cr.k_npm / cr.mass_kg * h * h < 1.0):
         return False
-    if not ft.settle_margin < COARSE_SETTLE_MARGIN:
+    # (a ship whose thresholds have held for sim.coarse_held already: the instant they began to
+    # hold is found, what its sub-steps' ends resolve is only a dip under them; MODEL-NOTES 69)
+    held = (cfg.coarse_held_s > 0.0 and ft.settle_ticks > 0
+            and ft.settle_for_s >= cfg.coarse_held_s and ft.settle_margin > COARSE_HELD_MARGIN)
+    if not (ft.settle_margin < COARSE_SETTLE_MARGIN or held):
         return False
     absorbing = ft.absorbing
     c_over_k = (cr.c_absorb_nspm if absorbing else cr.c_nspm) / cr.k_npm

@@ -248,6 +248,14 @@ SETTINGS: tuple[Setting, ...] = (
           "to_event), as in the finer ones; a clear foot near its onset still refuses it; "
           "false: every pressing foot's gap over (|x'| + 0.2 m/s) h, the session-18 main's "
           "bits (MODEL-NOTES 68)"),
+    S("sim.coarse_held", "float", 0.1, "s", 0.0, 1e3, dest="sim.coarse_held_s",
+      scene="coarse_held_s",
+      doc="a ship in contact whose settle thresholds have held for this long at the tick's "
+          "start (its run of samples begun: the instant they began to hold is found), and "
+          "hold there by over a quarter of each (sim.flight.COARSE_HELD_MARGIN), takes the "
+          "coarse sub-step (sim.coarse_substep) though it is near rest, where the rest of "
+          "sim.flight.coarse_tick allows it; 0: never, main's bits before it (the session-19 "
+          "main's; MODEL-NOTES 69)"),
     S("sim.coarse_when_clear", "bool", True, dest="sim.coarse_when_clear",
       scene="coarse_when_clear",
       doc="in a tick of impact sub-steps, a flying ship whose feet cannot reach the ground "

@@ -60,13 +60,14 @@ SCENES = {
 #: tick outputs only: positions and events the same), the tilted touchdown and the fleet; the
 #: carried-impulse try for two or three feet, MODEL-NOTES 64, the tilted touchdown, the slope and
 #: the fleet; a purely vertical ship's own path, MODEL-NOTES 65, the bounce and the fleet: the
-#: feet's onset at the ballistic flow's root, no friction solve)
+#: feet's onset at the ballistic flow's root, no friction solve; a ship at rest already taking the
+#: coarse contact sub-step, MODEL-NOTES 69, the tilted touchdown, the slope and the fleet)
 EXPECTED = {
     "bounce": "dc4bf9d1ecfa9ca66832db31fda03d1c1e1b65069e8c090a0410551f020f7982",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
-    "tilted": "91c34c06b0cfeaac766233986ae45f407c643d19e329de80abe859244af73e95",
-    "slope": "8f0bc54cb02ec9f90b8a8bca76407f77732346d9e38a4a01353646cb4935ca0f",
-    "fleet": "d25677f08decfd0fbd52912f6d1b964702668810f3d6ce0316d8cd0787b9de92",
+    "tilted": "427bcd61ac633c535e45b08adb1eb59a6b1e8bb2912a410cdd033621b09b660b",
+    "slope": "f2b6277eb7d2bdb74c8c6c98114687980b9c4937d4136b0bad2497b8f20ca5de",
+    "fleet": "81b6e926f44ea6e5d552148a5f86bad064aca40cefa0a16620449c3360708e4f",
 }
 
 

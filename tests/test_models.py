@@ -432,6 +432,41 @@ def test_coarse_sub_steps_with_a_release_follow_the_fine_ones(initial, changes):
     assert np.any(pos["new"] != pos["old"]) == changes
 
 
+@pytest.mark.parametrize("initial, duration", [
+    # case 252 of the envelope's 300: its margin sinks back to zero 0.37 s into its run of
+    # samples and dips under inside a tick (by the time held alone it landed 0.415 s early)
+    ({"altitude": 0.5, "vertical_speed": -4.189924582420963,
+      "horizontal_speed": 4.892093374164177, "heading_deg": 90.0,
+      "tilt_deg": 7.945431338442698}, 15.0),
+    # the envelope's base case: it rocks back through a threshold 0.2 s into its first run (by
+    # the margin alone its landing moved 2e-4 s from max_substep's sub-steps')
+    ({"altitude": 0.5, "vertical_speed": -2.0, "horizontal_speed": 1.0, "heading_deg": 90.0},
+     12.0),
+])
+def test_a_ship_at_rest_takes_the_coarse_sub_step(initial, duration):
+    """sim.coarse_held (MODEL-NOTES 69): a contact tick that starts with the settle thresholds
+    held for 0.1 s already, and by over a quarter of each, takes the coarse sub-step. Two
+    envelope touchdowns make the same transitions on the same ticks as with the setting off and
+    as with max_substep's sub-steps throughout, and land: each instant within 1e-4 s of the
+    setting off's (measured 3.9e-5) and no further from max_substep's than the setting off's
+    plus 1e-4 s (case 252's 1.0 ms is note 57's coarse sub-steps'), the centre of mass within
+    1 mm of max_substep's at every tick (note 57's); not the setting off's bits."""
+    body = {"terrain": {"slope_deg": 6.0, "slope_azimuth_deg": 90.0}}
+    runs = {k: records(scene(initial, body=body, duration=duration, sim=sim)) for k, sim in (
+        ("new", {}), ("old", {"coarse_held": 0.0}), ("fine", {"coarse_substep": 0.0}))}
+    ev = {k: [(r.tick, EventKind(e.kind).topic, float(e.t_event_s)) for r in runs[k]
+              for e in r.events] for k in runs}
+    assert ev["new"][-1][1] == "ship.landed"
+    t = {k: np.array([x for _, _, x in ev[k]]) for k in runs}
+    for other in ("old", "fine"):
+        assert [(k, n) for k, n, _ in ev["new"]] == [(k, n) for k, n, _ in ev[other]]
+    assert np.max(np.abs(t["new"] - t["old"])) <= 1e-4
+    assert np.max(np.abs(t["new"] - t["fine"])) <= np.max(np.abs(t["old"] - t["fine"])) + 1e-4
+    pos = {k: np.array([r.state.rows[0]["pos_m"] for r in runs[k]]) for k in runs}
+    assert np.max(np.linalg.norm(pos["new"] - pos["fine"], axis=1)) <= 1e-3
+    assert np.any(pos["new"] != pos["old"])
+
+
 @pytest.mark.parametrize("ratio, turning", [(0.5 * (1.0 - 1e-9), False), (0.5 * (1.0 + 1e-9), True)])
 def test_a_stopping_slip_that_turns_past_turn_reach_is_stepped_in_pieces(ratio, turning):
     """Outside an impact, a foot coming to a stop takes note 51's half-approach pieces only where
