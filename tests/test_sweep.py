@@ -14,6 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 import background
+import warmup
 
 from touchdown.cli import main
 from touchdown.logs.export import event_rows, tick_rows
@@ -373,15 +374,7 @@ def test_warm_with_sweep_readies_the_sweeps_kernels_and_plain_warm_does_not(swee
     """`touchdown warm --sweep` loads (here: the fixture put them in the cache) the kernels a
     sweep calls, compiling nothing more, and says so; plain `warm` leaves them to the first
     sweep. In a fresh process each time, counting what numba compiles and what is loaded."""
-    script = '''
-from numba.core import event
-compiled = []
-class Count(event.Listener):
-    def on_start(self, ev):
-        compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-    def on_end(self, ev):
-        pass
-event.register("numba:compile", Count())
+    script = warmup.COUNT_COMPILES + '''
 from touchdown.cli import main
 main(["warm"{flag}], standalone_mode=False)
 from touchdown.sweep.fleet import SWEEP_KERNELS
