@@ -60,18 +60,25 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
 
 def _compile_first(say=None) -> bool:
     """Where the sweep's kernels are not in the cache (the first sweep after an install, or after
-    a change to sim/), compile them here, once, saying so on a terminal, before the workers start:
-    each worker would otherwise compile the same code silently, all at once (minutes of CPU and
-    ~0.9 GB of memory each), then load them. Returns whether it compiled."""
+    a change to sim/), compile them here, once, before the workers start: each worker would
+    otherwise compile the same code silently, all at once (minutes of CPU and ~0.9 GB of memory
+    each), then load them. The command line's compile notice (sim.compiled.notify_compilation;
+    ``say``, default: a line on a terminal) then names the sweep's kernels and `warm --sweep`.
+    Returns whether they were missing."""
+    from touchdown.sim.compiled import notify_compilation
     from touchdown.sweep.fleet import kernels_ready, ready
     if kernels_ready():
         return False
-    if say is None:
-        def say(text):
-            if sys.stderr.isatty():
-                click.echo(text, err=True)
-    say("touchdown sweep: compiling the sweep's kernels for this CPU (once after an install or "
-        "a change to sim/, a few minutes; `touchdown warm --sweep` does it ahead) ...")
+
+    def notice(_text):
+        line = ("touchdown sweep: compiling the sweep's kernels for this CPU (once after an "
+                "install or a change to sim/, a few minutes; `touchdown warm --sweep` does it "
+                "ahead) ...")
+        if say is not None:
+            say(line)
+        elif sys.stderr.isatty():
+            click.echo(line, err=True)
+    notify_compilation(notice)
     ready()
     return True
 
