@@ -18,6 +18,7 @@ Needs the ``bench`` extra (``pip install -e '.[bench]'``), which installs mujoco
 from __future__ import annotations
 
 import math
+import tempfile
 import time
 
 import numpy as np
@@ -115,24 +116,39 @@ def mujoco_fleet(n_ships: int = 10_000, n_steps: int = 100, repeats: int = 3) ->
         lambda: rollout.rollout(model, data, x0, nstep=n_steps), repeats)
 
 
-def touchdown_one_lander(n_ticks: int = 100_000, repeats: int = 3) -> float:
-    """Ticks per CPU second of the built-in bounce stepped alone (no log)."""
-    from touchdown import scenarios
+def _runner(scn, log_dir: str | None):
+    """What is timed: the run stepped alone (its blocks made and dropped) or, with ``log_dir``,
+    recorded as ``touchdown record`` does (the full MCAP log: encoding, compression and writing,
+    on the writer's threads too, which process_time counts)."""
     from touchdown.sim.run import run_blocks
+    next(iter(run_blocks(scn, last_tick=1)))  # the kernels loaded before timing
+    if log_dir is None:
+        def go():
+            for _ in run_blocks(scn):
+                pass
+        return go
+    import os
+    from touchdown.service.driver import record
+
+    def go_logged():
+        record(scn, os.path.join(log_dir, "bench.mcap"), "bench")
+    return go_logged
+
+
+def touchdown_one_lander(n_ticks: int = 100_000, repeats: int = 3,
+                         log_dir: str | None = None) -> float:
+    """Ticks per CPU second of the built-in bounce, stepped alone or with its full log."""
+    from touchdown import scenarios
     from touchdown.sim.scenario import parse_text
 
     scn = parse_text(scenarios.text("bounce"), "bounce", {"duration": n_ticks * 0.05})
-    next(iter(run_blocks(scn, last_tick=1)))  # the kernels loaded before timing
-
-    def go():
-        for _ in run_blocks(scn):
-            pass
-    return n_ticks / _best(go, repeats)
+    return n_ticks / _best(_runner(scn, log_dir), repeats)
 
 
-def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 3) -> float:
-    """Ship-ticks per CPU second, ``n_ships`` landers arriving at 2-49 m/s from 0.5-30 m."""
-    from touchdown.sim.run import run_blocks
+def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 3,
+                    log_dir: str | None = None) -> float:
+    """Ship-ticks per CPU second, ``n_ships`` landers arriving at 2-49 m/s from 0.5-30 m,
+    stepped alone or with their full log."""
     from touchdown.sim.scenario import parse
 
     rng = np.random.default_rng(7)
@@ -141,12 +157,7 @@ def touchdown_fleet(n_ships: int = 10_000, n_ticks: int = 100, repeats: int = 3)
              for i, (h, v) in enumerate(zip(rng.uniform(0.5, 30.0, n_ships),
                                             rng.uniform(2.0, 49.0, n_ships)))]
     scn = parse({"name": "arrivals", "duration": n_ticks * 0.05, "ships": ships}, "bench")
-    next(iter(run_blocks(scn, last_tick=1)))
-
-    def go():
-        for _ in run_blocks(scn):
-            pass
-    return n_ships * n_ticks / _best(go, repeats)
+    return n_ships * n_ticks / _best(_runner(scn, log_dir), repeats)
 
 
 # -- the first bounce, against the closed form ------------------------------------------------------
@@ -218,14 +229,18 @@ def main(quick: bool = False) -> None:
     fleet, fleet_steps = (1_000, 20) if quick else (10_000, 100)
     # the same simulated time on both: five MuJoCo steps of 0.01 s per Touchdown tick of 0.05 s
     mj_one = mujoco_one_lander(one)
-    td_one = touchdown_one_lander(one // 5)
     mj_fleet = mujoco_fleet(fleet, fleet_steps)
-    td_fleet = touchdown_fleet(fleet, fleet_steps // 5)
-    print(f"MuJoCo {mujoco.__version__} beside Touchdown (CPU time, one thread; MuJoCo dt 0.01 s "
-          f"through mujoco.rollout, Touchdown's tick 0.05 s):")
-    print(f"  one lander:   MuJoCo {mj_one:>12,.0f} steps/s   Touchdown {td_one:>10,.0f} ticks/s"
-          f"   per step {td_one / mj_one:.4f}x   per simulated second "
-          f"{td_one * 0.05 / (mj_one * 0.01):.3f}x")
-    print(f"  {fleet:,} landers: MuJoCo {mj_fleet:>12,.0f} ship-steps/s   Touchdown "
-          f"{td_fleet:>10,.0f} ship-ticks/s   per step {td_fleet / mj_fleet:.3f}x   per simulated "
-          f"second {td_fleet * 0.05 / (mj_fleet * 0.01):.3f}x")
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [(label, touchdown_one_lander(one // 5, log_dir=d),
+                 touchdown_fleet(fleet, fleet_steps // 5, log_dir=d))
+                for label, d in (("stepping alone", None), ("with the full log", tmp))]
+    print(f"MuJoCo {mujoco.__version__} beside Touchdown (CPU time of every thread; MuJoCo dt "
+          f"0.01 s through mujoco.rollout on one thread, Touchdown's tick 0.05 s; Touchdown "
+          f"stepping alone, and recording its full MCAP log as `touchdown record` does):")
+    for label, td_one, td_fleet in runs:
+        print(f"  one lander, {label}: MuJoCo {mj_one:>12,.0f} steps/s   Touchdown "
+              f"{td_one:>10,.0f} ticks/s   per step {td_one / mj_one:.4f}x   per simulated "
+              f"second {td_one * 0.05 / (mj_one * 0.01):.3f}x")
+        print(f"  {fleet:,} landers, {label}: MuJoCo {mj_fleet:>12,.0f} ship-steps/s   "
+              f"Touchdown {td_fleet:>10,.0f} ship-ticks/s   per step {td_fleet / mj_fleet:.3f}x"
+              f"   per simulated second {td_fleet * 0.05 / (mj_fleet * 0.01):.3f}x")
