@@ -49,6 +49,9 @@ LIVE_QUEUE_BLOCKS = 64
 #: Message Index record of one message (opcode, length, channel, bytes of its entries, time,
 #: offset): the same layout
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
+#: the same head as a numpy record (packed: 31 bytes), for many messages at once
+_HEAD_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
+                        ("sequence", "<u4"), ("log_time", "<u8"), ("publish_time", "<u8")])
 #: a zstd Chunk record's head (opcode, length, message start and end time, uncompressed size and
 #: CRC, "zstd" as a prefixed string, the compressed records' length)
 _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
@@ -331,22 +334,96 @@ class LogWriter(FinishedOrGone):
         # joins, leaves and commands each just before its tick's record: the file's messages in
         # log-time order (a reader that streams it, Foxglove's among them, need not sort them)
         j = 0
-        view = memoryview(data)
-        for k in range(offsets.shape[0] - 1):
+        n = offsets.shape[0] - 1
+        every = self._flush_every
+        k = 0
+        while k < n:
             tick = first_tick + k
             while j < len(inputs) and inputs[j][1] <= tick:
                 self._put(*inputs[j])
                 j += 1
             if k == 0 and offsets[1] - offsets[0] >= self._chunk_size:
                 self._put_chunk(TOPIC_TICKS, tick, data, int(offsets[0]), int(offsets[1]))
-            else:
-                self._put(TOPIC_TICKS, tick, view[offsets[k]:offsets[k + 1]])
-            for m in events.get(tick, ()):
-                self._put(TOPIC_EVENTS, tick, m)
-            if self._flush_every and tick % self._flush_every == 0:
+                end = 1
+            else:  # the run of ticks up to the next that has events, a flush or inputs after it
+                end = k + 1
+                while end < n:
+                    last = first_tick + end - 1
+                    if last in events or (every and last % every == 0) or (
+                            j < len(inputs) and inputs[j][1] <= last + 1):
+                        break
+                    end += 1
+                self._put_ticks(first_tick, data, offsets, k, end)
+            last = first_tick + end - 1
+            for m in events.get(last, ()):
+                self._put(TOPIC_EVENTS, last, m)
+            if every and last % every == 0:
                 self._mcap.flush()  # bounds what a killed writer loses
+            k = end
         for rest in inputs[j:]:  # (none: a block's inputs are at its ticks)
             self._put(*rest)
+
+    def _put_ticks(self, first_tick: int, data: np.ndarray, offsets: np.ndarray, k0: int,
+                   k1: int) -> None:
+        """Ticks ``first_tick + k0 .. + k1 - 1`` (``data[offsets[k]:offsets[k + 1]]`` each) as
+        consecutive messages: what _put does for each, the same bytes, a chunk's worth of heads
+        packed at once (a log of a few ships is a message a tick, and its messages one by one
+        were most of its CPU)."""
+        w = self._mcap
+        builder = w._Writer__chunk_builder
+        if k1 - k0 < 4 or builder is None:
+            view = memoryview(data)
+            for k in range(k0, k1):
+                self._put(TOPIC_TICKS, first_tick + k, view[offsets[k]:offsets[k + 1]])
+            return
+        channel = self._channels[TOPIC_TICKS]
+        lengths = offsets[k0 + 1:k1 + 1] - offsets[k0:k1]
+        sizes = lengths + _MESSAGE_HEAD.size
+        times = (np.arange(first_tick + k0, first_tick + k1, dtype=np.int64)
+                 * np.int64(self._dt_ns))
+        stats = w._Writer__statistics
+        a = 0
+        while a < k1 - k0:
+            buf = builder.record_writer._buffer
+            at = buf.tell()
+            ends = at + np.cumsum(sizes[a:])
+            over = np.flatnonzero(ends > self._chunk_size)
+            b = a + (int(over[0]) + 1 if over.size else ends.size)  # ticks a..b-1 go in
+            m = b - a
+            starts = ends[:m] - sizes[a:b]  # each message's offset in the chunk's records
+            heads = np.empty(m, _HEAD_DTYPE)
+            heads["opcode"] = 0x05
+            heads["length"] = lengths[a:b] + (_MESSAGE_HEAD.size - 9)
+            heads["channel"] = channel
+            seq = self._seq[TOPIC_TICKS]
+            heads["sequence"] = np.arange(seq, seq + m)
+            heads["log_time"] = heads["publish_time"] = times[a:b]
+            records = np.empty(int(ends[m - 1] - at), np.uint8)
+            is_head = np.zeros(records.size, bool)
+            at_head = ((starts - at)[:, None] + np.arange(_MESSAGE_HEAD.size)).ravel()
+            is_head[at_head] = True
+            records[at_head] = heads.view(np.uint8)
+            records[~is_head] = data[offsets[k0 + a]:offsets[k0 + b]]
+            t0, t1 = int(times[a]), int(times[b - 1])
+            stats.message_start_time = t0 if stats.message_count == 0 else min(
+                t0, stats.message_start_time)
+            stats.message_end_time = max(t1, stats.message_end_time)
+            stats.channel_message_counts[channel] += m
+            stats.message_count += m
+            builder.message_start_time = t0 if builder.num_messages == 0 else min(
+                builder.message_start_time, t0)
+            builder.message_end_time = max(builder.message_end_time, t1)
+            index = builder.message_indices.get(channel)
+            if index is None:
+                index = builder.message_indices[channel] = _MessageIndex(channel_id=channel,
+                                                                         records=[])
+            index.records.extend(zip(times[a:b].tolist(), starts.tolist()))
+            builder.num_messages += m
+            self._seq[TOPIC_TICKS] = seq + m
+            buf.write(records)
+            if over.size:
+                w._Writer__finalize_chunk()
+            a = b
 
     def _check(self) -> None:
         if self._error is not None:

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from mcap.reader import NonSeekingReader, make_reader
 
 from touchdown.cli import main
-from touchdown.logs.header import scenario_message
+from touchdown.logs.header import TOPIC_TICKS, scenario_message
 from touchdown.logs.writer import LogWriter
 from touchdown.replay.verify import verify
 from touchdown.sim.scenario import parse
@@ -28,11 +28,12 @@ def _scenario(n_ships: int = 40):
     return parse({"name": "direct", "duration": 1.5, "ships": ships}, "direct")
 
 
-def _record(path: Path, chunk_size: int, blocks_of: int, n_ships: int = 40) -> None:
+def _record(path: Path, chunk_size: int, blocks_of: int, n_ships: int = 40,
+            flush_every: int = 7) -> None:
     scn = _scenario(n_ships)
     world = World.of(scn)
     with LogWriter(path, scenario_message(scn, "direct", keyframe_interval=10),
-                   chunk_size=chunk_size, zstd_level=-8, flush_every_ticks=7) as writer:
+                   chunk_size=chunk_size, zstd_level=-8, flush_every_ticks=flush_every) as writer:
         writer.write_block(world.first_block())
         t = 0
         while t < 30:
@@ -99,18 +100,26 @@ def _library_put(self, topic: str, tick: int, data) -> None:
     self._seq[topic] += 1
 
 
-@pytest.mark.parametrize("n_ships,chunk_size,blocks_of", [
-    (40, 1 << 20, 1), (40, 2048, 4), (40, 700, 30), (3, 1000, 30), (3, 2500, 7)])
+def _library_put_ticks(self, first_tick: int, data, offsets, k0: int, k1: int) -> None:
+    view = memoryview(data)
+    for k in range(k0, k1):
+        _library_put(self, TOPIC_TICKS, first_tick + k, view[offsets[k]:offsets[k + 1]])
+
+
+@pytest.mark.parametrize("n_ships,chunk_size,blocks_of,flush_every", [
+    (40, 1 << 20, 1, 7), (40, 2048, 4, 7), (40, 700, 30, 7), (3, 1000, 30, 7), (3, 2500, 7, 7),
+    (3, 1000, 30, 0), (3, 1 << 20, 30, 25), (1, 600, 30, 0)])
 def test_the_writers_messages_are_the_librarys_byte_for_byte(tmp_path, monkeypatch, n_ships,
-                                                             chunk_size, blocks_of):
+                                                             chunk_size, blocks_of, flush_every):
     """LogWriter._put packs each message itself (the library's add_message was nine tenths of a
     small fleet's log): the same file, byte for byte, as through the library, chunk breaks,
     message indexes, statistics and CRCs included (chunks of 700 bytes: a break every few
     ticks, 40 ships' records over it, which _put_chunk writes; 3 ships' a few hundred bytes)."""
     ours, theirs = tmp_path / "ours.mcap", tmp_path / "theirs.mcap"
-    _record(ours, chunk_size, blocks_of, n_ships)
+    _record(ours, chunk_size, blocks_of, n_ships, flush_every)
     with monkeypatch.context() as m:
         m.setattr(LogWriter, "_put", _library_put)
-        _record(theirs, chunk_size, blocks_of, n_ships)
+        m.setattr(LogWriter, "_put_ticks", _library_put_ticks)
+        _record(theirs, chunk_size, blocks_of, n_ships, flush_every)
     assert len(_messages(ours, seeking=False)) > 30
     assert ours.read_bytes() == theirs.read_bytes()
