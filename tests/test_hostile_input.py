@@ -189,6 +189,26 @@ def test_a_header_s_chunk_with_a_flipped_byte_is_reported_damaged_on_opening(
         LogReader(path)
 
 
+@pytest.mark.parametrize("framing", ["indexed", "walked"])
+def test_a_flipped_header_chunk_over_the_header_s_bound_is_damage_at_the_first_read(
+        bounce, tmp_path, framing):
+    """A header chunk over what the header's one ship fills (3 MiB: ships may join within it
+    from format 3) is checked once the fleet is known: opening reads the header only, the first
+    read of the log's records finds the flipped byte."""
+    import random
+
+    from touchdown.logs import LogError
+    scn = fuzz._scenario_msg_of(bounce.read_bytes())
+    first = bytearray(fuzz.header_chunk(scn, 3 << 20, random.Random(3)))
+    first[-10] ^= 0x01
+    path = tmp_path / "flipped.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing, first=bytes(first)))
+    for read in (lambda r: list(r.ticks()), lambda r: r.read_summary(),
+                 lambda r: list(r.raw("/touchdown/ticks"))):
+        with LogReader(path) as r, pytest.raises(LogError, match="CRC does not match|damaged"):
+            read(r)
+
+
 def test_the_read_limits_are_settings(bounce):
     env = {**os.environ, "TOUCHDOWN_MAX_CHUNK_MIB": "0.001"}
     r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(bounce), "--verify"],
