@@ -278,6 +278,9 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         comp = zstandard.ZstdCompressor(level=3).compress(rec)
         out.append((f"tick-100MiB-{tag}", _crafted_log(scn, _chunk(b"", "zstd", comp, len(rec)),
                                                         tag)))
+        # the header's own chunk declaring 200 MiB after it (sound: its size and CRC true)
+        out.append((f"header-200MiB-{tag}", _crafted_log(scn, _chunk(b""), tag,
+                                                          first=header_chunk(scn, 200 << 20))))
     return out
 
 

@@ -294,7 +294,7 @@ def _streamed_records(chunk: Chunk, where: str, limits: ReadLimits, channels: di
                         if length - 22 > held:
                             raise LogError(f"{where}: a header of {length - 22:,} bytes (limit "
                                            f"{held:,}); refusing it")
-                        m.data = bytes(take(length - 22, True))
+                        m.data = take(length - 22, True)  # (iter_messages: bytes)
                         yield m
                         return
                     length -= 22
