@@ -51,7 +51,9 @@ MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_RECORD = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
 _MIB = 1 << 20
 #: what a header read inflates of a chunk before the message it looks for (the schemas and
-#: channels a writer puts first: about 17 kB in a Touchdown log)
+#: channels a writer puts first: about 17 kB in a Touchdown log); a chunk declaring no more than
+#: this is read whole, as any other read reads it (and checked at once: a writer's first chunk,
+#: the header and its first tick, is a few tens of kB for a small fleet)
 HEADER_PREAMBLE_BYTES = 1 << 20
 #: the piece a header read inflates at a time
 _PIECE = 64 << 10
@@ -324,9 +326,10 @@ def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus,
                 buffers: ChunkBuffers | None, header: int, channels: dict[int, str], wanted
                 ) -> Iterator[Channel | Message]:
     """A chunk's channels and messages: all of them, decompressed within bounds and checked,
-    or for a header read (``header`` > 0) those up to its first wanted message
-    (_streamed_records; the chunk is left in ``status.unchecked``)."""
-    if not header:
+    or for a header read (``header`` > 0) of a chunk declaring more than HEADER_PREAMBLE_BYTES
+    those up to its first wanted message (_streamed_records; the chunk is left in
+    ``status.unchecked``)."""
+    if not header or chunk.uncompressed_size <= HEADER_PREAMBLE_BYTES:
         yield from _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits, chunk,
                                   status, offset)
         return

@@ -160,22 +160,24 @@ def test_a_bomb_in_the_header_s_chunk_is_not_inflated_to_read_the_header(bounce,
     assert "claims 209,7" in line and "this log's 1 ship(s) can hold" in line, line
 
 
-@pytest.mark.parametrize("compression", ["zstd", ""])
+@pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
 @pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
 def test_a_header_s_chunk_with_a_flipped_byte_is_reported_damaged_on_opening(
         bounce, tmp_path, framing, compression):
-    """The header is read from its chunk as a stream, stopping after it: the chunk is then read
-    in full (its CRC checked) within what a chunk of the log can hold. A byte flipped after the
-    header, where zstd stores random bytes as they are (the frame decodes, a byte of the
-    records differs), is found by the CRC."""
+    """The header is read from its chunk as a stream, stopping after it (a chunk over 1 MiB:
+    here 1.08 MiB, within the 1.26 MiB a chunk of the header's one ship may hold): the chunk is
+    then read in full (its CRC checked) within what a chunk of the log can hold. A byte flipped
+    after the header, where zstd stores random bytes as they are (the frame decodes, a byte of
+    the records differs), is found by the CRC. A smaller chunk (300 kB) is read whole at once."""
     import random
     import zlib
 
     from touchdown.logs import LogError
     scn = fuzz._scenario_msg_of(bounce.read_bytes())
     rng = random.Random(7)
-    if compression == "zstd":
-        first = bytearray(fuzz.header_chunk(scn, 300 << 10, rng))
+    if compression.startswith("zstd"):
+        after = (1 << 20) + (64 << 10) if compression == "zstd-streamed" else 300 << 10
+        first = bytearray(fuzz.header_chunk(scn, after, rng))
     else:
         records = fuzz._header_records(scn) + fuzz._rec(0x80, rng.randbytes(4096))
         first = bytearray(fuzz._chunk(records, crc=zlib.crc32(records)))
