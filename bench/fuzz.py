@@ -151,15 +151,22 @@ def _chunk_index(offset: int, chunk: bytes) -> bytes:
                                                                         uncompressed))
 
 
-def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str) -> bytes:
-    """A log holding our scenario record (in a chunk of its own), then a crafted chunk, framed as
-    a writer-killed file (``walked``: no footer), a finished file without a summary section
-    (``unindexed``), or a finished file whose summary indexes both chunks (``indexed``)."""
-    records = (_schema(1, "touchdown.v1.ScenarioRecord", _proto_descriptor())
-               + _schema(2, "touchdown.v1.TickBatch", _proto_descriptor())
-               + _channel(1, 1, "/touchdown/scenario") + _channel(2, 2, "/touchdown/ticks")
-               + _message(1, 0, scenario_msg))
-    first = _chunk(records)
+def _header_records(scenario_msg: bytes) -> bytes:
+    """A log's first records, as a writer puts them in its first chunk: schemas, channels, the
+    scenario record."""
+    return (_schema(1, "touchdown.v1.ScenarioRecord", _proto_descriptor())
+            + _schema(2, "touchdown.v1.TickBatch", _proto_descriptor())
+            + _channel(1, 1, "/touchdown/scenario") + _channel(2, 2, "/touchdown/ticks")
+            + _message(1, 0, scenario_msg))
+
+
+def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str,
+                 first: bytes | None = None) -> bytes:
+    """A log holding our scenario record (in a chunk of its own, or ``first``), then a crafted
+    chunk, framed as a writer-killed file (``walked``: no footer), a finished file without a
+    summary section (``unindexed``), or a finished file whose summary indexes both chunks
+    (``indexed``)."""
+    first = _chunk(_header_records(scenario_msg)) if first is None else first
     body = MAGIC + _header()
     offsets = (len(body), len(body) + len(first))
     body += first + extra_chunk + _data_end()
@@ -271,7 +278,42 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         comp = zstandard.ZstdCompressor(level=3).compress(rec)
         out.append((f"tick-100MiB-{tag}", _crafted_log(scn, _chunk(b"", "zstd", comp, len(rec)),
                                                         tag)))
+        # the header's own chunk declaring 200 MiB after it (sound: its size and CRC true)
+        out.append((f"header-200MiB-{tag}", _crafted_log(scn, _chunk(b""), tag,
+                                                          first=header_chunk(scn, 200 << 20))))
     return out
+
+
+def header_chunk(scenario_msg: bytes, after: int = 0, rng: random.Random | None = None
+                 ) -> bytes:
+    """A zstd chunk holding a log's header records (:func:`_header_records`) and then one record
+    of an unknown opcode (0x80: readers skip it) of ``after`` bytes: zeros (a few kB compressed,
+    compressed a MiB at a time), or with ``rng`` random bytes (zstd stores them as they are: a
+    byte flipped there changes a byte of the records, not the frame). Its size and CRC are
+    true: the chunk is sound, only big."""
+    import zlib
+
+    import zstandard
+    records = _header_records(scenario_msg) + _rec(0x80, b"", after)
+    comp = zstandard.ZstdCompressor(level=3).compressobj()
+    out = [comp.compress(records)]
+    crc = zlib.crc32(records)
+    left = after
+    while left:
+        n = min(left, 1 << 20)
+        piece = bytes(n) if rng is None else rng.randbytes(n)
+        crc = zlib.crc32(piece, crc)
+        out.append(comp.compress(piece))
+        left -= n
+    out.append(comp.flush())
+    return _chunk(b"", "zstd", b"".join(out), len(records) + after, crc)
+
+
+def header_bomb(seed: bytes, framing: str, mib: int = 200) -> bytes:
+    """A log (of ``framing``: _crafted_log's) whose first chunk, the one holding its header,
+    holds ``mib`` MiB of zeros after it (:func:`header_chunk`; about 30 kB on disk)."""
+    scn = _scenario_msg_of(seed)
+    return _crafted_log(scn, _chunk(b""), framing, first=header_chunk(scn, mib << 20))
 
 
 def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]:

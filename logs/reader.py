@@ -19,7 +19,8 @@ from touchdown.logs.decode import BlockDecoder, TickBlock, decode_tick
 from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
                          ShipTable, keyframe_due, tick_bytes_bound)
-from touchdown.logs.safe_read import ChunkBuffers, ReadLimits, ReadStatus, iter_messages
+from touchdown.logs.safe_read import (ChunkBuffers, ReadLimits, ReadStatus, chunk_at,
+                                      iter_messages)
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
 from touchdown.logs.structure import data_crc_matches
@@ -35,6 +36,12 @@ MAX_START_TICK = 1 << 53
 MIN_DT_S, MAX_DT_S = 1e-4, 1.0
 MAX_SHIPS = 10_000_000
 MAX_SCENARIO_CHARS = 64 << 20
+#: the most bytes a scenario record may hold: its scenario (resolved_json: every ship's table,
+#: each naming its ship and player), its ship_ids and player_ids (each id a few bytes more than
+#: in the JSON, which holds it too), and its short fields. What a log's header read holds (and
+#: inflates, with safe_read.HEADER_PREAMBLE_BYTES before it) of its chunk, whatever the chunk
+#: declares: the chunk's own bound comes from the header (LogReader._check_header_chunk)
+MAX_SCENARIO_RECORD_BYTES = 3 * MAX_SCENARIO_CHARS + (1 << 20)
 
 
 def _ends_with_magic(s: Structure) -> bool:
@@ -185,16 +192,40 @@ class LogReader:
         st = self.structure
         self._walk = _ends_with_magic(st) and not st.summary_ok and st.data_end >= 0
         self._largest_record = 0
-        for topic, data in self._iter({TOPIC_SCENARIO}):
+        # the header, read from its chunk as a stream that stops after it: the fleet it names
+        # bounds the chunk (which may hold a large fleet's first tick too), so the chunk is not
+        # inflated before it is known; the chunk is read in full (its size and CRC checked) by
+        # _check_header_chunk, at once if that bound is known now, else once the fleet is
+        for _topic, _t, data in iter_messages(self._file, str(self.path), {TOPIC_SCENARIO},
+                                              None, None, self.status, walk=self._walk,
+                                              header=MAX_SCENARIO_RECORD_BYTES):
             self._largest_record = len(data)
             try:
                 self.scenario = pb.ScenarioRecord.FromString(data)
             except Exception as exc:
                 raise LogError(f"{self.path}: damaged scenario record ({exc})") from None
-            break
+        self._header_chunk, self.status.unchecked = self.status.unchecked, None
         if self.scenario is None:
-            raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record)")
+            why = f"; damaged before it: {self.status.damage}" if self.status.damage else ""
+            raise LogError(f"{self.path}: not a Touchdown log (no {TOPIC_SCENARIO} record{why})")
         self._check_record()
+        self._check_header_chunk()
+
+    def _check_header_chunk(self, limits: ReadLimits | None = None) -> None:
+        """The chunk the header was read from (if it was not read to its end), read in full:
+        its size and CRC checked, within ``limits`` (those of the log's ticks), or by default
+        within what a chunk of the header's ships can hold (_limits_for): from format 3 ships may
+        join within the chunk (its last message may be a tick of more ships, or their joining),
+        so a chunk over that bound waits for the fleet's (_tick_limits, which calls this)."""
+        if self._header_chunk is None:
+            return
+        offset, declared = self._header_chunk
+        if limits is None:
+            limits = self._limits_for(len(self.scenario.ship_ids))
+            if declared > limits.max_chunk_bytes and self.log_format >= 3:
+                return
+        chunk_at(self._file, offset, str(self.path), limits)
+        self._header_chunk = None
 
     def _check_record(self) -> None:
         """The scenario record's own numbers, before anything is run on them (the resolved
@@ -226,6 +257,13 @@ class LogReader:
         if len(sr.resolved_json) > MAX_SCENARIO_CHARS:
             raise LogError(f"{where}: its scenario is {len(sr.resolved_json):,} characters "
                            f"(limit {MAX_SCENARIO_CHARS:,})")
+
+    def _header_chunk_checked(self) -> None:
+        """A read of the log's records after its header: the header's chunk, if its check
+        waits for the fleet (a log of format 3 or later whose first chunk is over what the
+        header's ships fill), is checked first."""
+        if self._header_chunk is not None:
+            self._tick_limits()
 
     def structure_note(self) -> str:
         """One line if the file's MCAP structure (its records' fields, message indexes, chunk
@@ -261,12 +299,14 @@ class LogReader:
         """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
         every reader of this log reads them (through its index, or by walking its data section
         when its summary or footer is damaged)."""
+        self._header_chunk_checked()
         yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
                                  walk=self._walk)
 
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
         """(log time ns, message bytes) of one topic's messages, in log order."""
+        self._header_chunk_checked()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
                                                 end_ns, self.status, walk=self._walk):
             yield t_ns, data
@@ -340,13 +380,20 @@ class LogReader:
     def _tick_limits(self) -> ReadLimits:
         """The reader's limits for the tick records: a chunk may hold at most what a writer puts
         in one (its target size, then one message more: the largest tick this fleet fills, or
-        the log's header), so a chunk claiming more is refused before it is decompressed."""
+        the log's header), so a chunk claiming more is refused before it is decompressed. The
+        header's chunk, if not yet read in full, is read within them first."""
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        limits = self._limits_for(ships)
+        self._check_header_chunk(limits)
+        return limits
+
+    def _limits_for(self, ships: int) -> ReadLimits:
+        """_tick_limits for a fleet of ``ships`` ships (the log's records read so far)."""
         base = ReadLimits.from_environment()
-        bound = (CHUNK_BYTES_MAX + max(self.max_tick_bytes(), self._largest_record)
+        bound = (CHUNK_BYTES_MAX + max(tick_bytes_bound(ships), self._largest_record)
                  + (1 << 18))
         if bound >= base.max_chunk_bytes:
             return base
-        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
         return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
             f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
 
@@ -457,6 +504,7 @@ class LogReader:
 
     def _read_timeline(self) -> Timeline:
         table = self.ship_table()
+        self._header_chunk_checked()
         spawns, retires = [], []
         for change in self._fleet:
             for j in change.joined:
@@ -477,6 +525,8 @@ class LogReader:
     def events(self, read: list[bytes] | None = None) -> Iterator[pb.TransitionEvent]:
         """The event records, in log order (``read``: those already read, by blocks' ``events``,
         rather than the log's)."""
+        if read is None:
+            self._header_chunk_checked()
         source = read if read is not None else (data for _t, data in self._iter({TOPIC_EVENTS}))
         for data in source:
             try:
@@ -485,6 +535,7 @@ class LogReader:
                 raise LogError(f"{self.path}: damaged event record ({exc})") from None
 
     def read_summary(self) -> pb.LogSummary | None:
+        self._header_chunk_checked()
         for _topic, data in self._iter({TOPIC_SUMMARY}):
             try:
                 self.summary = pb.LogSummary.FromString(data)

@@ -14,6 +14,11 @@ killed before the footer. This reader:
   produce exactly that; an uncompressed chunk must hold what it declares; any other compression
   (lz4 among them) is refused before anything is allocated;
 * parses at most ``max_records_per_chunk`` records a chunk, each within its chunk's bounds;
+* reads a log's header (``iter_messages``' ``header``) from its chunk as a stream, stopping
+  after it: at most ``HEADER_PREAMBLE_BYTES`` inflated before it and the header's own bound for
+  it, whatever the chunk declares (a chunk may hold a large fleet's first tick after the header:
+  what bounds a chunk is known only once the header is read); that chunk's size and CRC are
+  left to a full read by the caller (``ReadStatus.unchecked``, :func:`chunk_at`);
 * refuses a channel declared again with another topic; checks every CRC.
 
 The limits are :class:`ReadLimits` (environment variables ``TOUCHDOWN_MAX_CHUNK_MIB``,
@@ -45,6 +50,13 @@ from touchdown.logs import LogError
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_RECORD = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, crc
 _MIB = 1 << 20
+#: what a header read inflates of a chunk before the message it looks for (the schemas and
+#: channels a writer puts first: about 17 kB in a Touchdown log); a chunk declaring no more than
+#: this is read whole, as any other read reads it (and checked at once: a writer's first chunk,
+#: the header and its first tick, is a few tens of kB for a small fleet)
+HEADER_PREAMBLE_BYTES = 1 << 20
+#: the piece a header read inflates at a time
+_PIECE = 64 << 10
 
 
 @dataclass(frozen=True)
@@ -88,6 +100,9 @@ class ReadStatus:
     #: damage read around (a chunk whose message times are not its messages'), as (the
     #: chunk's byte offset, what): the content is sound, other readers may stumble
     notes: list = field(default_factory=list)
+    #: (byte offset, declared uncompressed size) of a chunk a header read stopped in, not read
+    #: to its end: its size and CRC are not checked (chunk_at checks them); None: none
+    unchecked: tuple[int, int] | None = None
 
     def note(self, offset: int, what: str) -> None:
         if (offset, what) not in self.notes:
@@ -124,6 +139,12 @@ def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits,
                             chunk.uncompressed_crc, where, limits, buffers=buffers)
 
 
+def _check_declared(declared: int, where: str, limits: ReadLimits) -> None:
+    if declared > limits.max_chunk_bytes:
+        raise LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
+                       f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}); refusing it")
+
+
 def decompress_chunk(records, compression: str, declared: int, crc: int, where: str,
                      limits: ReadLimits, lz4: bool = False,
                      buffers: ChunkBuffers | None = None) -> bytes:
@@ -132,9 +153,7 @@ def decompress_chunk(records, compression: str, declared: int, crc: int, where: 
     ``lz4``: take lz4 too (``touchdown doctor`` on any MCAP file; Touchdown's readers refuse it,
     as its writers never use it). ``buffers``: decompressed into one of them (a memoryview of
     it is returned). LogError naming ``where`` otherwise."""
-    if declared > limits.max_chunk_bytes:
-        raise LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
-                       f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}); refusing it")
+    _check_declared(declared, where, limits)
     if compression == "":
         data = records
     elif compression == "zstd":
@@ -218,6 +237,108 @@ def _chunk_records(data: bytes, where: str, limits: ReadLimits, chunk: Chunk | N
                             f"{chunk.message_end_time}, its messages' log times are {lo}..{hi}")
 
 
+def _streamed_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[int, str],
+                      wanted, held: int) -> Iterator[Channel | Message]:
+    """A header read of ``chunk`` (iter_messages' ``header``): its channels (added to
+    ``channels`` as they come), then the first message ``wanted(message, channels)`` takes, and
+    nothing after it. A zstd chunk is inflated as a stream, a piece at a time: every record
+    before that message must end within HEADER_PREAMBLE_BYTES (schemas, other messages: skipped
+    as they pass, not held), and the message may hold at most ``held`` bytes; whatever the chunk
+    declares beyond it is never inflated (so its size and CRC are not checked, unless it ends
+    without the message: then both are). Another chunk (uncompressed: in memory already; any
+    other compression is refused) is read as any other."""
+    if chunk.compression != "zstd":
+        yield from _chunk_records(_chunk_data(chunk, where, limits), where, limits)
+        return
+    declared = chunk.uncompressed_size
+    _check_declared(declared, where, limits)
+    piece = bytearray(_PIECE)
+    state = {"got": 0, "crc": 0}
+
+    def take(n: int, keep: bool) -> bytes:
+        """The next ``n`` bytes of the records (``keep``: returned, else passed over)."""
+        if state["got"] + n > declared:
+            raise LogError(f"{where}: a record runs past the end of its chunk")
+        out = bytearray(n) if keep else None
+        done = 0
+        while done < n:
+            m = min(n - done, _PIECE)
+            view = memoryview(out)[done:done + m] if keep else memoryview(piece)[:m]
+            k = r.readinto(view)
+            if not k:
+                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
+                               f"holds {state['got'] + done:,}")
+            state["crc"] = crc32(view[:k], state["crc"])
+            done += k
+        state["got"] += n
+        return out
+
+    count = 0
+    try:
+        dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
+        with dctx.stream_reader(chunk.data, read_across_frames=True) as r:
+            while state["got"] < declared:
+                if declared - state["got"] < 9:
+                    raise LogError(f"{where}: a chunk ends inside a record")
+                op, length = struct.unpack("<BQ", take(9, True))
+                count += 1
+                if count > limits.max_records_per_chunk:
+                    raise LogError(f"{where}: a chunk holds more than "
+                                   f"{limits.max_records_per_chunk:,} records "
+                                   f"(TOUCHDOWN_MAX_RECORDS_PER_CHUNK); refusing it")
+                if op == 0x05:
+                    if length < 22:
+                        raise LogError(f"{where}: a message record too short for its header")
+                    cid, seq, log_time, publish_time = struct.unpack("<HIQQ", take(22, True))
+                    m = Message(channel_id=cid, sequence=seq, log_time=log_time,
+                                publish_time=publish_time, data=b"")
+                    if wanted(m, channels):
+                        if length - 22 > held:
+                            raise LogError(f"{where}: a header of {length - 22:,} bytes (limit "
+                                           f"{held:,}); refusing it")
+                        m.data = take(length - 22, True)  # (iter_messages: bytes)
+                        yield m
+                        return
+                    length -= 22
+                if state["got"] + length > HEADER_PREAMBLE_BYTES:
+                    raise LogError(f"{where}: no header within the first "
+                                   f"{HEADER_PREAMBLE_BYTES:,} bytes of its chunk; refusing it")
+                data = take(length, op == 0x04)
+                if op == 0x04:
+                    try:
+                        rec = Channel.read(ReadDataStream(io.BytesIO(data)))
+                    except Exception:
+                        raise LogError(f"{where}: a damaged channel record") from None
+                    _add_channel(channels, rec, where)
+                    yield rec
+            if r.readinto(piece):
+                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
+                               f"holds more")
+    except zstandard.ZstdError as exc:
+        raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
+                       f"is at most {limits.max_window_bytes:,} bytes, "
+                       f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
+    if chunk.uncompressed_crc != 0 and state["crc"] != chunk.uncompressed_crc:
+        raise LogError(f"{where}: a chunk's CRC does not match its contents")
+
+
+def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus, offset: int,
+                buffers: ChunkBuffers | None, header: int, channels: dict[int, str], wanted
+                ) -> Iterator[Channel | Message]:
+    """A chunk's channels and messages: all of them, decompressed within bounds and checked,
+    or for a header read (``header`` > 0) of a chunk declaring more than HEADER_PREAMBLE_BYTES
+    those up to its first wanted message (_streamed_records; the chunk is left in
+    ``status.unchecked``)."""
+    if not header or chunk.uncompressed_size <= HEADER_PREAMBLE_BYTES:
+        yield from _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits, chunk,
+                                  status, offset)
+        return
+    for rec in _streamed_records(chunk, name, limits, channels, wanted, header):
+        if isinstance(rec, Message) and chunk.compression == "zstd":
+            status.unchecked = (offset, chunk.uncompressed_size)
+        yield rec
+
+
 def _add_channel(channels: dict[int, str], rec: Channel, where: str) -> None:
     """Channel records repeat (in chunks and the summary); one id must keep one topic."""
     known = channels.get(rec.id)
@@ -236,17 +357,28 @@ def _has_footer(f: IO[bytes], size: int) -> bool:
 def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None = None,
                   end_ns: int | None = None, status: ReadStatus | None = None,
                   limits: ReadLimits | None = None, views: bool = False, walk: bool = False,
-                  buffers: ChunkBuffers | None = None) -> Iterator[tuple[str, int, bytes]]:
+                  buffers: ChunkBuffers | None = None, header: int = 0
+                  ) -> Iterator[tuple[str, int, bytes]]:
     """(topic, log_time_ns, data) of the messages on ``topics`` with start <= log_time <= end,
     within ``limits`` (default: ReadLimits.from_environment()). ``views``: data as memoryviews
     into the decompressed chunk (no copy), else bytes; ``buffers``: the chunks decompressed into
     these (with ``views``: the caller hands each chunk's buffer, its data's ``.obj``, back when
     done with its messages). ``walk``: read the data section record by record, not through the
     summary (a finished file whose summary or footer is damaged, but whose data section is
-    whole: logs.structure)."""
+    whole: logs.structure). ``header`` > 0: a log's header read, the first message on ``topics``
+    and nothing more, holding at most ``header`` bytes (_streamed_records: the chunk it lies in is
+    inflated only up to it, and left in ``status.unchecked`` for the caller to read in full,
+    chunk_at, once it knows what bounds it)."""
     messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk,
-                         buffers if views else None)
-    if views:
+                         buffers if views else None, header)
+    if header:
+        try:
+            for topic, t_ns, data in messages:
+                yield topic, t_ns, bytes(data)
+                return
+        finally:
+            messages.close()
+    elif views:
         yield from messages
     else:
         for topic, t_ns, data in messages:
@@ -255,7 +387,7 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
 
 def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
               end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None,
-              walk: bool = False, buffers: ChunkBuffers | None = None
+              walk: bool = False, buffers: ChunkBuffers | None = None, header: int = 0
               ) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     limits = limits if limits is not None else ReadLimits.from_environment()
@@ -272,17 +404,17 @@ def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
 
     if not _has_footer(f, size):  # cut, or its writer was killed: read the intact part
         status.complete = False
-        yield from _walk(f, name, wanted, status, limits, buffers)
+        yield from _walk(f, name, wanted, status, limits, buffers, header)
         return
     footer = None if walk else _footer(f, name, size)
     if walk or footer.summary_start == 0:  # finished, without a summary section (MCAP allows
         # it), or with a damaged summary or footer (logs.structure): the data section, walked
-        yield from _walk(f, name, wanted, status, limits, buffers)
+        yield from _walk(f, name, wanted, status, limits, buffers, header)
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
         return
     yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics, status,
-                        buffers)
+                        buffers, header)
 
 
 def _footer(f, name: str, size: int) -> Footer:
@@ -298,8 +430,9 @@ def _footer(f, name: str, size: int) -> Footer:
 
 def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | None,
              end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset(),
-             status: ReadStatus | None = None, buffers: ChunkBuffers | None = None
-             ) -> Iterator[tuple[str, int, bytes]]:
+             status: ReadStatus | None = None, buffers: ChunkBuffers | None = None,
+             header: int = 0) -> Iterator[tuple[str, int, bytes]]:
+    status = status if status is not None else ReadStatus()
     try:
         channels, chunk_indexes = _summary(f, name, size, footer, limits)
         mine = {cid for cid, topic in channels.items() if topic in topics}
@@ -317,8 +450,8 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
                 raise LogError(f"{name}: a chunk of {ci.chunk_length:,} bytes (limit "
                                f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
             chunk = _read_chunk(f, ci.chunk_start_offset, ci.chunk_length, name)
-            for rec in _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits,
-                                      chunk, status, ci.chunk_start_offset):
+            for rec in _records_of(chunk, name, limits, status, ci.chunk_start_offset, buffers,
+                                   header, channels, wanted):
                 if isinstance(rec, Channel):
                     _add_channel(channels, rec, name)
                 elif wanted(rec, channels):
@@ -393,7 +526,8 @@ def _read_chunk(f, offset: int, length: int, name: str) -> Chunk:
 
 
 def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits,
-          buffers: ChunkBuffers | None = None) -> Iterator[tuple[str, int, bytes]]:
+          buffers: ChunkBuffers | None = None, header: int = 0
+          ) -> Iterator[tuple[str, int, bytes]]:
     f.seek(len(MAGIC))
     reader = StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
                           record_size_limit=limits.max_chunk_bytes)
@@ -415,8 +549,8 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits,
                 # where it began: the bytes read, less the record (opcode, length, fields)
                 at = len(MAGIC) + reader._stream.count - (9 + 8 * 3 + 4 + 4 + 8 + len(
                     rec.compression.encode()) + len(rec.data))
-                batch = list(_chunk_records(_chunk_data(rec, name, limits, buffers), name,
-                                            limits, rec, status, at))
+                batch = list(_records_of(rec, name, limits, status, at, buffers, header,
+                                         channels, wanted))
             except LogError as exc:  # a damaged or refused chunk ends the intact part too
                 status.damage = str(exc).removeprefix(f"{name}: ")
                 return
@@ -445,4 +579,4 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
 
 
 __all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "chunk_at",
-           "decompress_chunk"]
+           "decompress_chunk", "HEADER_PREAMBLE_BYTES"]

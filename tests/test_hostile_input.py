@@ -119,6 +119,98 @@ def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_pa
     assert "read only part of the log" in r.stderr and "declares 1,000 bytes" in r.stderr
 
 
+#: opens a log in a fresh process: "<peak RSS before, KiB> <peak RSS after, KiB> <what it said>".
+#: The peak is the process's own (VmHWM); getrusage's ru_maxrss is not: Linux hands a child the
+#: resident size its parent had when it forked (pytest's, a few hundred MiB), hiding the growth
+_OPEN_RSS = """
+import re, sys
+from touchdown.logs import LogError
+from touchdown.logs.reader import LogReader
+def peak_kib():
+    with open("/proc/self/status") as f:
+        return int(re.search(r"VmHWM:\\s+(\\d+) kB", f.read()).group(1))
+before = peak_kib()
+try:
+    LogReader(sys.argv[1]).close()
+    said = "opened"
+except LogError as exc:
+    said = str(exc)
+print(before, peak_kib(), said)
+"""
+
+
+@pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
+def test_a_bomb_in_the_header_s_chunk_is_not_inflated_to_read_the_header(bounce, tmp_path,
+                                                                          framing):
+    """The chunk holding the header declares 200 MiB (within the general 256 MiB bound): the
+    header is read from it as a stream, the rest of it not inflated (before, opening the log
+    took its peak RSS up by the whole 200 MiB). A read of its ticks then refuses the chunk by
+    what a chunk of this log's one ship can hold."""
+    path = tmp_path / f"header-bomb-{framing}.mcap"
+    path.write_bytes(fuzz.header_bomb(bounce.read_bytes(), framing, mib=200))
+    r = subprocess.run([sys.executable, "-c", _OPEN_RSS, str(path)], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    before, after, said = r.stdout.split(" ", 2)
+    grew_mib = (int(after) - int(before)) / 1024
+    print(f"{framing}: opening took the peak RSS from {int(before) / 1024:.1f} MiB up by "
+          f"{grew_mib:.1f} MiB ({said.strip()})")
+    assert said.strip() == "opened" and grew_mib < 20, (grew_mib, said)
+    line = assert_refused(invoke("replay", path, "--verify"), path.name)
+    assert "claims 209,7" in line and "this log's 1 ship(s) can hold" in line, line
+
+
+@pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
+@pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
+def test_a_header_s_chunk_with_a_flipped_byte_is_reported_damaged_on_opening(
+        bounce, tmp_path, framing, compression):
+    """The header is read from its chunk as a stream, stopping after it (a chunk over 1 MiB:
+    here 1.08 MiB, within the 1.26 MiB a chunk of the header's one ship may hold): the chunk is
+    then read in full (its CRC checked) within what a chunk of the log can hold. A byte flipped
+    after the header, where zstd stores random bytes as they are (the frame decodes, a byte of
+    the records differs), is found by the CRC. A smaller chunk (300 kB) is read whole at once."""
+    import random
+    import zlib
+
+    from touchdown.logs import LogError
+    scn = fuzz._scenario_msg_of(bounce.read_bytes())
+    rng = random.Random(7)
+    if compression.startswith("zstd"):
+        after = (1 << 20) + (64 << 10) if compression == "zstd-streamed" else 300 << 10
+        first = bytearray(fuzz.header_chunk(scn, after, rng))
+    else:
+        records = fuzz._header_records(scn) + fuzz._rec(0x80, rng.randbytes(4096))
+        first = bytearray(fuzz._chunk(records, crc=zlib.crc32(records)))
+    path = tmp_path / "sound.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing, first=bytes(first)))
+    LogReader(path).close()
+    first[-10] ^= 0x01
+    path = tmp_path / "flipped.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing, first=bytes(first)))
+    with pytest.raises(LogError, match="CRC does not match"):
+        LogReader(path)
+
+
+@pytest.mark.parametrize("framing", ["indexed", "walked"])
+def test_a_flipped_header_chunk_over_the_header_s_bound_is_damage_at_the_first_read(
+        bounce, tmp_path, framing):
+    """A header chunk over what the header's one ship fills (3 MiB: ships may join within it
+    from format 3) is checked once the fleet is known: opening reads the header only, the first
+    read of the log's records finds the flipped byte."""
+    import random
+
+    from touchdown.logs import LogError
+    scn = fuzz._scenario_msg_of(bounce.read_bytes())
+    first = bytearray(fuzz.header_chunk(scn, 3 << 20, random.Random(3)))
+    first[-10] ^= 0x01
+    path = tmp_path / "flipped.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing, first=bytes(first)))
+    for read in (lambda r: list(r.ticks()), lambda r: r.read_summary(),
+                 lambda r: list(r.raw("/touchdown/ticks"))):
+        with LogReader(path) as r, pytest.raises(LogError, match="CRC does not match|damaged"):
+            read(r)
+
+
 def test_the_read_limits_are_settings(bounce):
     env = {**os.environ, "TOUCHDOWN_MAX_CHUNK_MIB": "0.001"}
     r = subprocess.run([sys.executable, str(ROOT / "cli.py"), "replay", str(bounce), "--verify"],
