@@ -22,7 +22,6 @@ import mcap.writer
 import zstandard
 
 _local = threading.local()
-_stock_compress = zstandard.compress
 
 
 class _Zstandard:
@@ -34,13 +33,26 @@ class _Zstandard:
     @staticmethod
     def compress(data, level: int = 3) -> bytes:
         c = getattr(_local, "compressor", None)
-        return c.compress(data) if c is not None else _stock_compress(data, level)
+        return (c if c is not None else _compressor(level)).compress(data)
+
+
+def _compressor(level: int) -> zstandard.ZstdCompressor:
+    """This thread's compressor at ``level``, made once: ``zstandard.compress(data, level)`` is
+    ``ZstdCompressor(level=level).compress(data)``, the same bytes, but makes a compression
+    context each call (15 us of the 25 a small log's 7 kB chunk takes to compress)."""
+    made = getattr(_local, "by_level", None)
+    if made is None:
+        made = _local.by_level = {}
+    c = made.get(level)
+    if c is None:
+        c = made[level] = zstandard.ZstdCompressor(level=level)
+    return c
 
 
 def chunk_level(level: int | None) -> None:
     """The chunks the calling thread compresses from now on are compressed at ``level`` (None:
     the library's own, 3)."""
-    _local.compressor = None if level is None else zstandard.ZstdCompressor(level=level)
+    _local.compressor = None if level is None else _compressor(level)
 
 
 if not isinstance(mcap.writer.zstandard, _Zstandard):

@@ -7,6 +7,7 @@ written: a file under the final name is always a finished MCAP. A writer that is
 from __future__ import annotations
 
 import collections
+import itertools
 import json
 import os
 import struct
@@ -61,14 +62,15 @@ _ROOM = 32
 
 
 class _MessageIndex(MessageIndex):
-    """The library's Message Index record, its entries packed at once (the library writes two
-    struct calls an entry: at a message a tick, a fifth of a small log's CPU). The same bytes."""
+    """The library's Message Index record, its entries packed by one struct call (the library
+    makes two an entry: at a message a tick, a fifth of a small log's CPU). The same bytes."""
 
     def write(self, stream) -> None:
         stream.start_record(Opcode.MESSAGE_INDEX)
         stream.write2(self.channel_id)
         stream.write4(len(self.records) * 16)
-        stream.write(np.array(self.records, dtype="<u8").tobytes())
+        stream.write(struct.pack(f"<{2 * len(self.records)}Q",
+                                 *itertools.chain.from_iterable(self.records)))
         stream.finish_record()
 
 
