@@ -47,10 +47,15 @@ where a foot first touches, where the last foot leaves, and at the tipped angle.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from numba import njit
+from scipy.integrate import Radau, solve_ivp
+from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
+from scipy.linalg.lapack import get_lapack_funcs
+from scipy.sparse import issparse
 
 
 @dataclass(frozen=True)
@@ -168,7 +173,66 @@ def foot_slips(ld: Lander, y):
     return [y[3] + y[5] * rz for _, rz, _ in foot_offsets(ld, y[2])]
 
 
+@njit(cache=True)
+def _rhs_compiled(y, par, sliding, absorbing, in_contact):
+    """:func:`forces` and the equations of motion, the same operations in the same order (no
+    fastmath: the same bits as the Python below), compiled: the integrator calls it ~10^4 times a
+    solve. ``par``: mass, I, com height, leg radius, omega, zeta, zeta_absorb, mu_s, mu_k, g,
+    slope, thrust, eps (:func:`_params`)."""
+    m, i_t, h, a, w = par[0], par[1], par[2], par[3], par[4]
+    g, alpha, thrust, eps = par[9], par[10], par[11], par[12]
+    fx = fz = tq = 0.0
+    th = y[2]
+    if in_contact:
+        z, vx, vz, om = y[1], y[3], y[4], y[5]
+        k = m * w * w
+        c = 2.0 * (par[6] if absorbing else par[5]) * w * m
+        sec2 = 1.0 / math.cos(alpha) ** 2
+        s, co = math.sin(th), math.cos(th)
+        for i in range(3):
+            f_b = 1.0 - i  # FEET: b / a = 1, 0, -1; shares 1/4, 1/2, 1/4
+            share = 0.5 if i == 1 else 0.25
+            rx = (f_b * a) * co - h * s
+            rz = -(f_b * a) * s - h * co
+            pen = -(z + rz)
+            if pen <= 0.0:
+                continue
+            ux, uz = vx + om * rz, vz - om * rx
+            n = share * (k * pen - c * uz) * sec2
+            if not absorbing:
+                n = 0.0 if 0.0 > n else n  # max(n, 0.0), Python's
+            mu = par[8] if sliding[i] else par[7]
+            f = -(0.0 if 0.0 > n else n) * mu * math.tanh(ux / eps)
+            fx, fz = fx + f, fz + n
+            tq += rz * f - rx * n
+    tx, tz = thrust * math.sin(th), thrust * math.cos(th)
+    out = np.empty(6)
+    out[0], out[1], out[2] = y[3], y[4], y[5]
+    out[3] = (fx + tx) / m + g * math.sin(alpha)
+    out[4] = (fz + tz) / m - g * math.cos(alpha)
+    out[5] = tq / i_t
+    return out
+
+
+def _params(ld: Lander) -> np.ndarray:
+    return np.array([ld.mass_kg, ld.i_transverse_kgm2, ld.com_height_m, ld.leg_radius_m,
+                     ld.omega_radps, ld.zeta, ld.zeta_absorb, ld.mu_s, ld.mu_k, ld.g_mps2,
+                     ld.slope_rad, ld.thrust_n, ld.eps_mps], float)
+
+
 def rhs(ld: Lander, absorbing: bool, in_contact: bool, sliding):
+    """The right-hand side for solve_ivp: :func:`forces` (compiled, :func:`_rhs_compiled`)."""
+    par, slides = _params(ld), np.array(sliding, np.bool_)
+    absorbing, in_contact = bool(absorbing), bool(in_contact)
+
+    def f(t, y):
+        return _rhs_compiled(y, par, slides, absorbing, in_contact)
+    return f
+
+
+def rhs_python(ld: Lander, absorbing: bool, in_contact: bool, sliding):
+    """:func:`rhs` in Python, through :func:`forces` (the compiled one is checked against it,
+    bit for bit: tests/test_reference3d.py, ``solve(..., plain=True)``)."""
     sa, ca = math.sin(ld.slope_rad), math.cos(ld.slope_rad)
     m, i_t = ld.mass_kg, ld.i_transverse_kgm2
 
@@ -181,18 +245,70 @@ def rhs(ld: Lander, absorbing: bool, in_contact: bool, sliding):
     return f
 
 
+_GETRF_GETRS = {k: get_lapack_funcs(("getrf", "getrs"), (np.zeros((1, 1), k),))
+                for k in (np.float64, np.complex128)}
+
+
+class RadauLapack(Radau):
+    """scipy's Radau, its LU factorisations and solves calling LAPACK's getrf and getrs straight,
+    as scipy.linalg.lu_factor and lu_solve do after their checks (kept: a matrix or right-hand
+    side that is not finite raises as there, a singular one warns): the same routines on the same
+    arrays, the same bits (checked, tests/test_reference3d.py), without the wrappers' overhead
+    (60% of a stiff solve's time went to them: scipy 1.17's batch wrapper and array-API
+    checks). A dtype it does not expect goes to scipy's functions."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        if issparse(self.J):
+            return
+
+        def lu(a):
+            self.nlu += 1
+            funcs = _GETRF_GETRS.get(a.dtype.type)
+            if funcs is None or a.ndim != 2 or a.size == 0:
+                return lu_factor(a, overwrite_a=True)
+            if not np.isfinite(a).all():
+                raise ValueError("array must not contain infs or NaNs")
+            lu_, piv, info = funcs[0](a, overwrite_a=True)
+            if info < 0:
+                raise ValueError(f"illegal value in {-info}th argument of internal getrf "
+                                 "(lu_factor)")
+            if info > 0:
+                warnings.warn(f"Diagonal number {info} is exactly zero. Singular matrix.",
+                              LinAlgWarning, stacklevel=2)
+            return lu_, piv
+
+        def solve_lu(lu_piv, b):
+            lu_, piv = lu_piv
+            funcs = _GETRF_GETRS.get(lu_.dtype.type)
+            if (funcs is None or b.dtype != lu_.dtype or b.ndim != 1 or b.size == 0
+                    or lu_.shape[0] != b.shape[0]):
+                return lu_solve(lu_piv, b, overwrite_b=True)
+            if not np.isfinite(b).all():
+                raise ValueError("array must not contain infs or NaNs")
+            x, info = funcs[1](lu_, piv, b, trans=0, overwrite_b=True)
+            if info == 0:
+                return x
+            raise ValueError(f"illegal value in {-info}th argument of internal gesv|posv")
+
+        self.lu, self.solve_lu = lu, solve_lu
+
+
 def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.radians(80.0),
           method: str = "Radau", rtol: float = 1e-10, atol: float = 1e-12,
-          max_step_s: float = 0.01, max_phases: int = 2000) -> Path:
+          max_step_s: float = 0.01, max_phases: int = 2000, plain: bool = False) -> Path:
     """The lander from ``start`` until ``t_end_s`` or until it tips (tilt past ``tipped_rad``).
     Phases (flight, contact, each foot's friction regime) are joined at located events; at most
-    ``max_phases`` of them."""
+    ``max_phases`` of them. ``plain``: the right-hand side in Python and scipy's own Radau (the
+    same bits, slower: the check of :func:`_rhs_compiled` and :class:`RadauLapack`)."""
     t, y = 0.0, np.array([start.x_m, start.z_m, start.theta_rad, start.vx_mps, start.vz_mps,
                           start.omega_radps], float)
     in_contact, absorbing = start.in_contact, start.absorbing
     ts, ys, events = [np.array([t])], [y[:, None]], []
     tipped_t = None
-    opts = dict(method=method, rtol=rtol, atol=atol, max_step=max_step_s)
+    opts = dict(method=RadauLapack if method == "Radau" and not plain else method, rtol=rtol,
+                atol=atol, max_step=max_step_s)
+    make_rhs = rhs_python if plain else rhs
 
     def regimes(y_):
         return tuple(abs(u) > ld.stick_width_mps for u in foot_slips(ld, y_))
@@ -212,7 +328,7 @@ def solve(ld: Lander, start: Start, t_end_s: float, tipped_rad: float = math.rad
             ev.terminal, ev.direction = True, (-1 if sliding[i] else 1)
             evs.append(ev)
         with np.errstate(over="ignore"):
-            sol = solve_ivp(rhs(ld, absorbing, in_contact, sliding), (t, t_end_s), y,
+            sol = solve_ivp(make_rhs(ld, absorbing, in_contact, sliding), (t, t_end_s), y,
                             events=evs, **opts)
         ts.append(sol.t[1:])
         ys.append(sol.y[:, 1:])

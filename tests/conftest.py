@@ -69,6 +69,23 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "redis_url" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.redis)
+    if hasattr(config, "workerinput"):
+        _sweep_first(items)
+
+
+def _sweep_first(items) -> None:
+    """Under xdist, tests/test_sweep.py's tests first, in their order (every worker collects the
+    same order; the controller deals it out). Its sweeps need the sweep's step, compiled once by
+    the first worker to take test_sweep's ``sweep_kernels`` (~130 s of CPU; a lock in the kernel
+    cache, that fixture's docstring). Where the file came late, both workers met it near the end
+    (worksteal hands the thief the tail of the other's queue): one compiled while the other
+    waited on the lock, 103 s of a worker's time idle in one CI run. First, the worker dealt it
+    compiles at the start while the other runs its own half, and the file's tests stay at the
+    head of that worker's queue, which a thief does not take."""
+    first = [it for it in items if it.nodeid.split("::", 1)[0].endswith("test_sweep.py")]
+    if first:
+        rest = [it for it in items if not it.nodeid.split("::", 1)[0].endswith("test_sweep.py")]
+        items[:] = first + rest
 
 
 def pytest_sessionstart(session):

@@ -180,6 +180,25 @@ def test_frictionless_tilted_touchdowns_turn_as_the_reference_does(tilt, dt):
     assert recs[-1].state.omega_body_radps[0][1] == pytest.approx(y[5], rel=0.01)
 
 
+@pytest.mark.parametrize("tilt, v_side, v_down, slope", [(10.0, 2.0, 20.0, 0.0),
+                                                          (3.0, 0.5, 2.5, 12.0)])
+def test_the_compiled_reference_is_the_python_one_bit_for_bit(tilt, v_side, v_down, slope):
+    """The planar reference's compiled right-hand side and its Radau calling LAPACK straight
+    (bench.planar._rhs_compiled, RadauLapack: the sweep below, 30% less CPU) give the very
+    samples and events of its Python right-hand side through scipy's own Radau: a bounce with
+    friction's regimes turning, and an absorbed touchdown sticking on a slope."""
+    alpha, th = math.radians(slope), math.radians(tilt)
+    ld = Lander(mass_kg=8e3, i_transverse_kgm2=4e4, com_height_m=2.5, leg_radius_m=2.2,
+                g_mps2=1.62, eps_mps=1e-6, slope_rad=alpha)
+    z0 = -min(rz for _, rz, _ in foot_offsets(ld, th)) + 1e-6
+    start = Start(z_m=z0, theta_rad=th, vx_mps=v_side * math.cos(alpha) + v_down * math.sin(alpha),
+                  vz_mps=v_side * math.sin(alpha) - v_down * math.cos(alpha))
+    fast, plain = (solve(ld, start, 1.0, rtol=1e-9, atol=1e-11, plain=p) for p in (False, True))
+    assert len(fast.events) >= 1 and len(fast.t) > 100
+    assert np.array_equal(fast.t, plain.t) and np.array_equal(fast.y, plain.y)
+    assert [(t, kind) for t, kind, _ in fast.events] == [(t, kind) for t, kind, _ in plain.events]
+
+
 @pytest.mark.slow
 @settings(max_examples=10, deadline=None, derandomize=True, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
