@@ -232,7 +232,7 @@ def rhs(ld: Lander, absorbing: bool, in_contact: bool, sliding):
 
 def rhs_python(ld: Lander, absorbing: bool, in_contact: bool, sliding):
     """:func:`rhs` in Python, through :func:`forces` (the compiled one is checked against it,
-    bit for bit: tests/test_reference3d.py, ``solve(..., plain=True)``)."""
+    bit for bit: tests/test_edges.py, ``solve(..., plain=True)``)."""
     sa, ca = math.sin(ld.slope_rad), math.cos(ld.slope_rad)
     m, i_t = ld.mass_kg, ld.i_transverse_kgm2
 
@@ -253,7 +253,7 @@ class RadauLapack(Radau):
     """scipy's Radau, its LU factorisations and solves calling LAPACK's getrf and getrs straight,
     as scipy.linalg.lu_factor and lu_solve do after their checks (kept: a matrix or right-hand
     side that is not finite raises as there, a singular one warns): the same routines on the same
-    arrays, the same bits (checked, tests/test_reference3d.py), without the wrappers' overhead
+    arrays, the same bits (checked, tests/test_edges.py), without the wrappers' overhead
     (60% of a stiff solve's time went to them: scipy 1.17's batch wrapper and array-API
     checks). A dtype it does not expect goes to scipy's functions."""
 

@@ -373,7 +373,7 @@ class LogWriter(FinishedOrGone):
         were most of its CPU)."""
         w = self._mcap
         builder = w._Writer__chunk_builder
-        if k1 - k0 < 4 or builder is None:
+        if k1 - k0 < 4 or builder is None:  # (a short run: numpy's fixed cost would not pay)
             view = memoryview(data)
             for k in range(k0, k1):
                 self._put(TOPIC_TICKS, first_tick + k, view[offsets[k]:offsets[k + 1]])
@@ -383,7 +383,6 @@ class LogWriter(FinishedOrGone):
         sizes = lengths + _MESSAGE_HEAD.size
         times = (np.arange(first_tick + k0, first_tick + k1, dtype=np.int64)
                  * np.int64(self._dt_ns))
-        stats = w._Writer__statistics
         a = 0
         while a < k1 - k0:
             buf = builder.record_writer._buffer
@@ -406,21 +405,8 @@ class LogWriter(FinishedOrGone):
             is_head[at_head] = True
             records[at_head] = heads.view(np.uint8)
             records[~is_head] = data[offsets[k0 + a]:offsets[k0 + b]]
-            t0, t1 = int(times[a]), int(times[b - 1])
-            stats.message_start_time = t0 if stats.message_count == 0 else min(
-                t0, stats.message_start_time)
-            stats.message_end_time = max(t1, stats.message_end_time)
-            stats.channel_message_counts[channel] += m
-            stats.message_count += m
-            builder.message_start_time = t0 if builder.num_messages == 0 else min(
-                builder.message_start_time, t0)
-            builder.message_end_time = max(builder.message_end_time, t1)
-            index = builder.message_indices.get(channel)
-            if index is None:
-                index = builder.message_indices[channel] = _MessageIndex(channel_id=channel,
-                                                                         records=[])
-            index.records.extend(zip(times[a:b].tolist(), starts.tolist()))
-            builder.num_messages += m
+            entries = self._counted(builder, channel, int(times[a]), int(times[b - 1]), m)
+            entries.extend(zip(times[a:b].tolist(), starts.tolist()))
             self._seq[TOPIC_TICKS] = seq + m
             buf.write(records)
             if over.size:
@@ -451,30 +437,38 @@ class LogWriter(FinishedOrGone):
         if builder is None:  # (not as this writer makes them: unchunked)
             w.add_message(channel, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
             return
-        stats = w._Writer__statistics
-        if stats.message_count == 0:
-            stats.message_start_time = t_ns
-        else:
-            stats.message_start_time = min(t_ns, stats.message_start_time)
-        stats.message_end_time = max(t_ns, stats.message_end_time)
-        stats.channel_message_counts[channel] += 1
-        stats.message_count += 1
-        if builder.num_messages == 0:
-            builder.message_start_time = t_ns
-        else:
-            builder.message_start_time = min(builder.message_start_time, t_ns)
-        builder.message_end_time = max(builder.message_end_time, t_ns)
         buf = builder.record_writer._buffer
-        index = builder.message_indices.get(channel)
-        if index is None:
-            index = builder.message_indices[channel] = _MessageIndex(channel_id=channel,
-                                                                     records=[])
-        index.records.append((t_ns, buf.tell()))
-        builder.num_messages += 1
+        self._counted(builder, channel, t_ns, t_ns, 1).append((t_ns, buf.tell()))
         buf.write(_MESSAGE_HEAD.pack(0x05, 22 + len(data), channel, seq, t_ns, t_ns))
         buf.write(data)
         if buf.tell() > self._chunk_size:
             w._Writer__finalize_chunk()
+
+    def _counted_in_file(self, channel: int, t0_ns: int, t1_ns: int, m: int) -> None:
+        """The file's statistics for ``m`` more messages on ``channel``, log times ``t0_ns`` to
+        ``t1_ns`` in order, as the library's add_message keeps them."""
+        stats = self._mcap._Writer__statistics
+        stats.message_start_time = t0_ns if stats.message_count == 0 else min(
+            t0_ns, stats.message_start_time)
+        stats.message_end_time = max(t1_ns, stats.message_end_time)
+        stats.channel_message_counts[channel] += m
+        stats.message_count += m
+
+    def _counted(self, builder, channel: int, t0_ns: int, t1_ns: int, m: int) -> list:
+        """The library's bookkeeping for ``m`` messages on ``channel`` going into the chunk being
+        filled, log times ``t0_ns`` to ``t1_ns`` in order: the file's statistics, the chunk's
+        times and count. Returns the chunk's index entries for the channel, for the caller to
+        add (time, offset) to."""
+        self._counted_in_file(channel, t0_ns, t1_ns, m)
+        builder.message_start_time = t0_ns if builder.num_messages == 0 else min(
+            builder.message_start_time, t0_ns)
+        builder.message_end_time = max(builder.message_end_time, t1_ns)
+        builder.num_messages += m
+        index = builder.message_indices.get(channel)
+        if index is None:
+            index = builder.message_indices[channel] = _MessageIndex(channel_id=channel,
+                                                                     records=[])
+        return index.records
 
     def _put_chunk(self, topic: str, tick: int, data: np.ndarray, start: int, end: int) -> None:
         """The message ``data[start:end]`` as a chunk of its own (a tick record over the chunk
@@ -517,13 +511,8 @@ class LogWriter(FinishedOrGone):
         if w._Writer__enable_data_crcs:
             w._Writer__data_section_crc = crc32(index, crc32(packed, crc32(
                 chunk_head, w._Writer__data_section_crc)))
-        stats = w._Writer__statistics
-        stats.message_start_time = (t_ns if stats.message_count == 0
-                                    else min(t_ns, stats.message_start_time))
-        stats.message_end_time = max(t_ns, stats.message_end_time)
-        stats.channel_message_counts[channel] += 1
-        stats.message_count += 1
-        stats.chunk_count += 1
+        self._counted_in_file(channel, t_ns, t_ns, 1)
+        w._Writer__statistics.chunk_count += 1
         w._Writer__chunk_indices.append(ChunkIndex(
             message_start_time=t_ns, message_end_time=t_ns, chunk_start_offset=chunk_at,
             chunk_length=len(chunk_head) + len(packed),

@@ -82,10 +82,9 @@ def _sweep_first(items) -> None:
     waited on the lock, 103 s of a worker's time idle in one CI run. First, the worker dealt it
     compiles at the start while the other runs its own half, and the file's tests stay at the
     head of that worker's queue, which a thief does not take."""
-    first = [it for it in items if it.nodeid.split("::", 1)[0].endswith("test_sweep.py")]
-    if first:
-        rest = [it for it in items if not it.nodeid.split("::", 1)[0].endswith("test_sweep.py")]
-        items[:] = first + rest
+    def is_sweep(it) -> bool:
+        return it.nodeid.split("::", 1)[0].endswith("test_sweep.py")
+    items.sort(key=lambda it: not is_sweep(it))  # (a stable sort: each part keeps its order)
 
 
 def pytest_sessionstart(session):
