@@ -182,21 +182,49 @@ def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, tabl
     return 0
 
 
+#: an MCAP Message record's head: opcode, record length, channel, sequence, log and publish time
+#: (u8, u64, u16, u32, u64, u64, little-endian)
+MESSAGE_HEAD_BYTES = 31
+
+
+@kernel
+def _put_le(out, o, value, n_bytes):
+    for b in range(n_bytes):
+        out[o + b] = (value >> (8 * b)) & 0xFF
+
+
+@kernel
+def _put_head(out, o, body_bytes, channel, sequence, t_ns):
+    """A Message record's head at ``out[o:o + 31]``, for a message of ``body_bytes`` whose log
+    and publish time are both ``t_ns`` (MCAP specification, "Message": opcode 0x05, the record's
+    length after its opcode and length fields, channel id, sequence, log time, publish time)."""
+    out[o] = 0x05
+    _put_le(out, o + 1, body_bytes + 22, 8)
+    _put_le(out, o + 9, channel, 2)
+    _put_le(out, o + 11, sequence, 4)
+    _put_le(out, o + 15, t_ns, 8)
+    _put_le(out, o + 23, t_ns, 8)
+
+
 @kernel
 def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, keyframe_interval,
-                  keyframe_phase, first_keyframe, out, offsets, little):
+                  keyframe_phase, first_keyframe, out, offsets, little, head):
     """Each tick of a block as a TickBatch, one after another into ``out``; ``offsets[k]`` is
     where tick k starts. ``states``, ``outputs``, ``inputs``: the block's records as bytes
     (K, N, itemsize; 8-byte aligned, so also read as words). Each tick's keys and lengths are
-    written first, then every field's numbers (:func:`_gather`). Returns -1 if a one-byte field
-    holds a value past 127, else the bytes written."""
+    written first, then every field's numbers (:func:`_gather`). ``head`` (channel, first
+    sequence, nanoseconds a tick; channel < 0: none): each tick is preceded by its MCAP Message
+    record's head (:func:`_put_head`), and ``offsets[k]`` is where that head starts. Returns
+    -1 if a one-byte field holds a value past 127, else the bytes written."""
     n = states.shape[1]
     nf = table.shape[0]
     start = np.empty(nf, np.int64)
     out64 = out.view(np.uint64)  # (its length a multiple of 8: BlockEncoder.encode)
+    gap = MESSAGE_HEAD_BYTES if head[0] >= 0 else 0
     o = 0
     for k in range(ticks.shape[0]):
         offsets[k] = o
+        o += gap
         tick = ticks[k]
         if tick:
             out[o] = 0x08
@@ -223,6 +251,8 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
             o = _put_varint(out, o + key_len, length)
             start[f] = o
             o += length
+        if gap:  # (before the numbers: _put_words keeps the bytes around them as they were)
+            _put_head(out, offsets[k], o - offsets[k] - gap, head[0], head[1] + k, tick * head[2])
         s8, o8, i8 = states[k], outputs[k], inputs[k]
         if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), keys64,
                    table, start, out, out64, little) < 0:
@@ -245,17 +275,23 @@ class BlockEncoder:
         self.table = _field_table(keyframe_only, with_keys)
 
     def _bytes_per_tick(self, n: int) -> int:
-        """At most: the header, and each field's key, length and numbers."""
-        return 31 + sum(12 + n * count * wire for _, _, count, _, wire, *_ in self.table.tolist())
+        """At most: a message head, the tick's header, and each field's key, length and
+        numbers."""
+        return MESSAGE_HEAD_BYTES + 31 + sum(12 + n * count * wire for _, _, count, _, wire, *_
+                                             in self.table.tolist())
 
     def encode(self, first_tick: int, states: np.ndarray, outputs: np.ndarray,
                inputs: np.ndarray, keys: np.ndarray | None = None, first_keyframe: bool = False,
-               room: int = 0) -> tuple[np.ndarray, np.ndarray]:
+               room: int = 0, heads: tuple[int, int, int] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
         """(bytes, offsets): tick ``first_tick + k`` is ``bytes[offsets[k]:offsets[k + 1]]``.
         ``keys``: the ships' keys (N,), for a table with them; ``first_keyframe``: the block's
         first tick is a keyframe whatever its number. ``room``: bytes left free before the
-        first tick (a multiple of 8; logs.writer puts a record's head there), so offsets[0] is
-        ``room``; the ticks' bytes are the same."""
+        first tick (a multiple of 8), so offsets[0] is ``room``; the ticks' bytes are the same.
+        ``heads`` = (channel, first sequence, nanoseconds a tick): each tick as an MCAP Message
+        record, its head (MESSAGE_HEAD_BYTES) and then its TickBatch, tick ``first_tick + k``
+        on ``channel`` with sequence ``first sequence + k`` at log time ``tick * ns``: what
+        logs.writer adds to a chunk as it is (the block's records, one run of bytes)."""
         if room % 8:
             raise ValueError(f"room {room}: a multiple of 8")
         k, n = states.shape
@@ -271,11 +307,12 @@ class BlockEncoder:
         out = buf[room:]  # (8-byte aligned, as buf: the kernel reads and writes it as words)
         offsets = np.empty(k + 1, np.int64)
         if _encode_ticks(*views, keys64, self.table, ticks, t_s, t_bytes, self.keyframe_interval,
-                         self.keyframe_phase, first_keyframe, out, offsets, LITTLE) < 0:
+                         self.keyframe_phase, first_keyframe, out, offsets, LITTLE,
+                         np.array((-1, 0, 0) if heads is None else heads, np.int64)) < 0:
             raise ValueError("a one-byte field holds a value outside 0..127")
         if room:
             offsets += room
         return buf, offsets
 
 
-__all__ = ["BlockEncoder", "SOURCES"]
+__all__ = ["BlockEncoder", "MESSAGE_HEAD_BYTES", "SOURCES"]

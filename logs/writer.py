@@ -23,7 +23,7 @@ from mcap.records import ChunkIndex, MessageIndex
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import register_schema
 
-from touchdown.logs.encode_block import BlockEncoder
+from touchdown.logs.encode_block import MESSAGE_HEAD_BYTES, BlockEncoder
 from touchdown.logs.encode import chunk_level
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
@@ -50,15 +50,9 @@ LIVE_QUEUE_BLOCKS = 64
 #: Message Index record of one message (opcode, length, channel, bytes of its entries, time,
 #: offset): the same layout
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")
-#: the same head as a numpy record (packed: 31 bytes), for many messages at once
-_HEAD_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
-                        ("sequence", "<u4"), ("log_time", "<u8"), ("publish_time", "<u8")])
 #: a zstd Chunk record's head (opcode, length, message start and end time, uncompressed size and
 #: CRC, "zstd" as a prefixed string, the compressed records' length)
 _CHUNK_HEAD = struct.Struct("<BQQQQII4sQ")
-#: bytes the encoder leaves before a block's first tick, for its Message record's head
-#: (_MESSAGE_HEAD.size, rounded up to whole words)
-_ROOM = 32
 
 
 class _MessageIndex(MessageIndex):
@@ -316,10 +310,11 @@ class LogWriter(FinishedOrGone):
         if self._error is None and not self._abort:  # else dropped: the caller hears of it
             try:
                 block, keys, first_keyframe, events, inputs = item
+                heads = (self._channels[TOPIC_TICKS], self._seq[TOPIC_TICKS], self._dt_ns)
                 data, offsets = self._encoder.encode(block.first_tick, block.states,
                                                      block.outputs, block.inputs, keys,
                                                      first_keyframe=first_keyframe,
-                                                     room=_ROOM)
+                                                     heads=heads)
                 self._write_encoded(block.first_tick, data, offsets, events, inputs)
                 if first_keyframe:  # on disk at once: a file begun is never one without a tick
                     self._mcap.flush()
@@ -333,30 +328,33 @@ class LogWriter(FinishedOrGone):
     def _write_encoded(self, first_tick: int, data: np.ndarray, offsets: np.ndarray,
                        events: dict[int, list[bytes]], inputs: list[tuple[str, int, bytes]]
                        ) -> None:
+        """A block's ticks, each ``data[offsets[k]:offsets[k + 1]]`` a whole Message record
+        (BlockEncoder's ``heads``), with its events, joins, leaves and commands. The ticks go in
+        runs: a run ends at a tick with events, at a flush, and before a tick with inputs."""
         # joins, leaves and commands each just before its tick's record: the file's messages in
         # log-time order (a reader that streams it, Foxglove's among them, need not sort them)
-        j = 0
         n = offsets.shape[0] - 1
+        last_tick = first_tick + n - 1
         every = self._flush_every
+        ends = {t for t in events if first_tick <= t < last_tick}
+        ends.update(t - 1 for _, t, _ in inputs if first_tick < t <= last_tick)
+        if every:
+            ends.update(range(first_tick + (-first_tick) % every, last_tick, every))
+        big = n and offsets[1] - offsets[0] - MESSAGE_HEAD_BYTES >= self._chunk_size
+        if big:  # (a tick over the chunk size: a chunk of its own)
+            ends.add(first_tick)
+        ends.add(last_tick)
+        j = 0
         k = 0
-        while k < n:
-            tick = first_tick + k
-            while j < len(inputs) and inputs[j][1] <= tick:
+        for last in sorted(ends):
+            while j < len(inputs) and inputs[j][1] <= first_tick + k:
                 self._put(*inputs[j])
                 j += 1
-            if k == 0 and offsets[1] - offsets[0] >= self._chunk_size:
-                self._put_chunk(TOPIC_TICKS, tick, data, int(offsets[0]), int(offsets[1]))
-                end = 1
-            else:  # the run of ticks up to the next that has events, a flush or inputs after it
-                end = k + 1
-                while end < n:
-                    last = first_tick + end - 1
-                    if last in events or (every and last % every == 0) or (
-                            j < len(inputs) and inputs[j][1] <= last + 1):
-                        break
-                    end += 1
+            end = last - first_tick + 1
+            if k == 0 and big:
+                self._put_chunk(TOPIC_TICKS, first_tick, data, int(offsets[0]), int(offsets[1]))
+            else:
                 self._put_ticks(first_tick, data, offsets, k, end)
-            last = first_tick + end - 1
             for m in events.get(last, ()):
                 self._put(TOPIC_EVENTS, last, m)
             if every and last % every == 0:
@@ -367,49 +365,39 @@ class LogWriter(FinishedOrGone):
 
     def _put_ticks(self, first_tick: int, data: np.ndarray, offsets: np.ndarray, k0: int,
                    k1: int) -> None:
-        """Ticks ``first_tick + k0 .. + k1 - 1`` (``data[offsets[k]:offsets[k + 1]]`` each) as
-        consecutive messages: what _put does for each, the same bytes, a chunk's worth of heads
-        packed at once (a log of a few ships is a message a tick, and its messages one by one
-        were most of its CPU)."""
+        """Ticks ``first_tick + k0 .. + k1 - 1`` as consecutive messages, each
+        ``data[offsets[k]:offsets[k + 1]]`` its whole Message record, head and all (the
+        encoder's): what _put does for each, the same bytes, the run's records added to the
+        chunk as they lie (a log of a few ships is a message a tick, and its messages one by
+        one were most of its CPU)."""
         w = self._mcap
         builder = w._Writer__chunk_builder
-        if k1 - k0 < 4 or builder is None:  # (a short run: numpy's fixed cost would not pay)
+        if builder is None:  # (not as this writer makes them: unchunked)
             view = memoryview(data)
             for k in range(k0, k1):
-                self._put(TOPIC_TICKS, first_tick + k, view[offsets[k]:offsets[k + 1]])
+                self._put(TOPIC_TICKS, first_tick + k,
+                          view[offsets[k] + MESSAGE_HEAD_BYTES:offsets[k + 1]])
             return
         channel = self._channels[TOPIC_TICKS]
-        lengths = offsets[k0 + 1:k1 + 1] - offsets[k0:k1]
-        sizes = lengths + _MESSAGE_HEAD.size
-        times = (np.arange(first_tick + k0, first_tick + k1, dtype=np.int64)
-                 * np.int64(self._dt_ns))
-        a = 0
-        while a < k1 - k0:
+        dt_ns = self._dt_ns
+        a = k0
+        while a < k1:
             buf = builder.record_writer._buffer
             at = buf.tell()
-            ends = at + np.cumsum(sizes[a:])
-            over = np.flatnonzero(ends > self._chunk_size)
-            b = a + (int(over[0]) + 1 if over.size else ends.size)  # ticks a..b-1 go in
+            # the library ends a chunk after the message that takes it past the chunk size:
+            # ticks a..b-1 go in, b-1 the first whose record ends past ``limit`` (if any)
+            limit = int(offsets[a]) + self._chunk_size - at
+            fit = int(np.searchsorted(offsets[a + 1:k1 + 1], limit, side="right"))
+            over = fit < k1 - a
+            b = a + fit + 1 if over else k1
             m = b - a
-            starts = ends[:m] - sizes[a:b]  # each message's offset in the chunk's records
-            heads = np.empty(m, _HEAD_DTYPE)
-            heads["opcode"] = 0x05
-            heads["length"] = lengths[a:b] + (_MESSAGE_HEAD.size - 9)
-            heads["channel"] = channel
-            seq = self._seq[TOPIC_TICKS]
-            heads["sequence"] = np.arange(seq, seq + m)
-            heads["log_time"] = heads["publish_time"] = times[a:b]
-            records = np.empty(int(ends[m - 1] - at), np.uint8)
-            is_head = np.zeros(records.size, bool)
-            at_head = ((starts - at)[:, None] + np.arange(_MESSAGE_HEAD.size)).ravel()
-            is_head[at_head] = True
-            records[at_head] = heads.view(np.uint8)
-            records[~is_head] = data[offsets[k0 + a]:offsets[k0 + b]]
-            entries = self._counted(builder, channel, int(times[a]), int(times[b - 1]), m)
-            entries.extend(zip(times[a:b].tolist(), starts.tolist()))
-            self._seq[TOPIC_TICKS] = seq + m
-            buf.write(records)
-            if over.size:
+            t0_ns = (first_tick + a) * dt_ns
+            entries = self._counted(builder, channel, t0_ns, (first_tick + b - 1) * dt_ns, m)
+            entries.extend(zip(range(t0_ns, t0_ns + m * dt_ns, dt_ns),
+                               (offsets[a:b] + (at - int(offsets[a]))).tolist()))
+            self._seq[TOPIC_TICKS] += m
+            buf.write(data[offsets[a]:offsets[b]])
+            if over:
                 w._Writer__finalize_chunk()
             a = b
 
@@ -471,32 +459,29 @@ class LogWriter(FinishedOrGone):
         return index.records
 
     def _put_chunk(self, topic: str, tick: int, data: np.ndarray, start: int, end: int) -> None:
-        """The message ``data[start:end]`` as a chunk of its own (a tick record over the chunk
+        """The Message record ``data[start:end]`` (the encoder's head, then the tick record) as
+        a chunk of its own (a tick record over the chunk
         size: the library would have closed the chunk right after it), compressed and checked
         where it lies: the library copies each message into its chunk's buffer, the buffer
         again, and the compressed chunk into a record, megabytes a tick at scale, each copy
-        holding the GIL the tick waits for. The record's head goes in the ``_ROOM`` bytes the
-        encoder left before it. The chunk, its message index and the summary's entries are
+        holding the GIL the tick waits for. The chunk, its message index and the summary's entries are
         those the library writes for a chunk of one message (the same compression, level and
         CRCs): every MCAP reader reads it as any other. The messages before it are a chunk of
         their own, first, so the file stays in log-time order."""
         w = self._mcap
         builder = w._Writer__chunk_builder
-        if (start < _MESSAGE_HEAD.size or not w._Writer__enable_crcs
+        if (not w._Writer__enable_crcs or builder is None
                 or (builder.num_messages == 0 and builder.count)):
             # (not as this writer makes them: schemas or channels waiting without a message)
-            self._put(topic, tick, memoryview(data)[start:end])
+            self._put(topic, tick, memoryview(data)[start + MESSAGE_HEAD_BYTES:end])
             return
         w._Writer__finalize_chunk()
         w._Writer__flush()
         channel = self._channels[topic]
         t_ns = tick * self._dt_ns
-        head = start - _MESSAGE_HEAD.size
-        data[head:start] = np.frombuffer(_MESSAGE_HEAD.pack(
-            0x05, 22 + end - start, channel, self._seq[topic], t_ns, t_ns), np.uint8)
         self._seq[topic] += 1
-        record = memoryview(data)[head:end]
-        size = end - head
+        record = memoryview(data)[start:end]
+        size = end - start
         crc32 = mcap.writer.zlib.crc32  # (logs.encode's: zlib-ng's)
         crc = crc32(record)
         packed = mcap.writer.zstandard.compress(record)  # (logs.encode's: the writer's level)

@@ -4,6 +4,8 @@ give exactly the bytes of the byte-by-byte path, for fleets whose fields begin a
 mod 8, keyframes and in-between ticks, with and without keys."""
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 import pytest
 
@@ -14,8 +16,11 @@ from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.scenario import parse_text
 from touchdown.sim.run import run_blocks
 
+#: an MCAP Message record's head as the library packs it (mcap.records.Message.write)
+MESSAGE_HEAD = struct.Struct("<BQHIQQ")
 
-def _encode(enc, block, keys, little, first_keyframe):
+
+def _encode(enc, block, keys, little, first_keyframe, head=(-1, 0, 0)):
     k, n = block.states.shape
     keys64 = (np.zeros((n, 1), np.uint64) if keys is None else
               np.ascontiguousarray(keys, dtype=np.int64).view(np.uint64).reshape(n, 1))
@@ -27,7 +32,8 @@ def _encode(enc, block, keys, little, first_keyframe):
     out = np.zeros((k * enc._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
     offsets = np.empty(k + 1, np.int64)
     assert eb._encode_ticks(*views, keys64, enc.table, ticks, t_s, t_bytes, enc.keyframe_interval,
-                            enc.keyframe_phase, first_keyframe, out, offsets, little) >= 0
+                            enc.keyframe_phase, first_keyframe, out, offsets, little,
+                            np.array(head, np.int64)) >= 0
     return out[:offsets[-1]].tobytes(), offsets
 
 
@@ -49,6 +55,16 @@ def test_word_stores_give_the_bytes_of_byte_stores():
                         bytewise, o2 = _encode(enc, part, keys, False, first)
                         assert (o1 == o2).all() and words == bytewise, (interval, m, first)
                         seen_offsets.update(int(x) % 8 for x in o1)
+                        # each tick as a Message record: the library's head, then the same tick
+                        headed, o3 = _encode(enc, part, keys, True, first, (3, 11, 50_000_000))
+                        assert headed == _encode(enc, part, keys, False, first,
+                                                 (3, 11, 50_000_000))[0]
+                        for j in range(len(o1) - 1):
+                            body = words[o1[j]:o1[j + 1]]
+                            tick = part.first_tick + j
+                            assert headed[o3[j]:o3[j + 1]] == MESSAGE_HEAD.pack(
+                                5, 22 + len(body), 3, 11 + j, tick * 50_000_000,
+                                tick * 50_000_000) + body
                 # and the public encoder's bytes are protobuf's TickBatch (a spot check)
                 data, offsets = enc.encode(part.first_tick, part.states, part.outputs,
                                            part.inputs, np.arange(m))

@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from mcap.reader import NonSeekingReader, make_reader
 
 from touchdown.cli import main
+from touchdown.logs.encode_block import MESSAGE_HEAD_BYTES
 from touchdown.logs.header import TOPIC_TICKS, scenario_message
 from touchdown.logs.writer import LogWriter
 from touchdown.replay.verify import verify
@@ -101,9 +102,11 @@ def _library_put(self, topic: str, tick: int, data) -> None:
 
 
 def _library_put_ticks(self, first_tick: int, data, offsets, k0: int, k1: int) -> None:
+    """Each tick's TickBatch (after the head the encoder put before it) through the library."""
     view = memoryview(data)
     for k in range(k0, k1):
-        _library_put(self, TOPIC_TICKS, first_tick + k, view[offsets[k]:offsets[k + 1]])
+        _library_put(self, TOPIC_TICKS, first_tick + k,
+                     view[offsets[k] + MESSAGE_HEAD_BYTES:offsets[k + 1]])
 
 
 @pytest.mark.parametrize("n_ships,chunk_size,blocks_of,flush_every", [
