@@ -19,7 +19,9 @@ campaign, the process's address space capped), and every outcome is classified:
 Classes of logs: ``truncate``, ``bitflip``, ``overwrite``, ``garbage``, ``length`` (huge record
 lengths), ``bomb`` (decompression bombs of every framing: zstd with and without a content size,
 several frames, a huge window; "none" declaring more than it holds; lz4; millions of empty
-records; a tick message of 100 MiB), ``schema`` (wrong and random schemas), ``channel`` (unknown
+records; a tick message of 100 MiB; a header's chunk declaring 200 MiB after the header, its
+index listing no channel or the fleet's; a header's chunk ending in a fleet record of 150 MiB of
+zeros), ``schema`` (wrong and random schemas), ``channel`` (unknown
 channels, a channel re-declared with another topic), ``scenario_record`` (the log's own scenario
 damaged: bad JSON, nesting 100,000 deep, huge integers, NaN and infinite ticks, keyframe
 intervals of 2^31 - 1, altered tick counts), ``tick`` (a tick missing a field or with wrong
@@ -140,13 +142,16 @@ def _footer(summary_start: int) -> bytes:
     return _rec(0x02, struct.pack("<QQI", summary_start, 0, 0))
 
 
-def _chunk_index(offset: int, chunk: bytes) -> bytes:
-    """The ChunkIndex of a chunk record placed at ``offset`` (its fields copied from the chunk)."""
+def _chunk_index(offset: int, chunk: bytes, channels: tuple[int, ...] = ()) -> bytes:
+    """The ChunkIndex of a chunk record placed at ``offset`` (its fields copied from the chunk),
+    listing message indexes of ``channels`` (none: a reader takes it to hold any channel)."""
     (start, end, uncompressed) = struct.unpack_from("<QQQ", chunk, 9)
     (n,) = struct.unpack_from("<I", chunk, 9 + 28)
     compression = chunk[9 + 32:9 + 32 + n]
     (compressed,) = struct.unpack_from("<Q", chunk, 9 + 32 + n)
-    return _rec(0x08, struct.pack("<QQQQ", start, end, offset, len(chunk)) + struct.pack("<I", 0)
+    listed = b"".join(struct.pack("<HQ", cid, offset + len(chunk)) for cid in channels)
+    return _rec(0x08, struct.pack("<QQQQ", start, end, offset, len(chunk))
+                + struct.pack("<I", len(listed)) + listed
                 + struct.pack("<Q", 0) + _s(compression) + struct.pack("<QQ", compressed,
                                                                         uncompressed))
 
@@ -164,8 +169,11 @@ def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str,
                  first: bytes | None = None) -> bytes:
     """A log holding our scenario record (in a chunk of its own, or ``first``), then a crafted
     chunk, framed as a writer-killed file (``walked``: no footer), a finished file without a
-    summary section (``unindexed``), or a finished file whose summary indexes both chunks
-    (``indexed``)."""
+    summary section (``unindexed``), a finished file whose summary indexes both chunks, each
+    index listing no channel (``indexed``: a reader takes such a chunk to hold any), or one
+    whose summary declares the scenario, tick and fleet channels and whose first chunk's index
+    lists the scenario's and the fleet's, as a writer's first chunk holding a join does
+    (``fleet-indexed``: the fleet's read reads it)."""
     first = _chunk(_header_records(scenario_msg)) if first is None else first
     body = MAGIC + _header()
     offsets = (len(body), len(body) + len(first))
@@ -174,7 +182,16 @@ def _crafted_log(scenario_msg: bytes, extra_chunk: bytes, framing: str,
         return body
     if framing == "unindexed":
         return body + _footer(0) + MAGIC
-    summary = _chunk_index(offsets[0], first) + _chunk_index(offsets[1], extra_chunk)
+    if framing == "fleet-indexed":
+        summary = (_schema(1, "touchdown.v1.ScenarioRecord", _proto_descriptor())
+                   + _schema(2, "touchdown.v1.TickBatch", _proto_descriptor())
+                   + _schema(3, "touchdown.v1.FleetChange", _proto_descriptor())
+                   + _channel(1, 1, "/touchdown/scenario") + _channel(2, 2, "/touchdown/ticks")
+                   + _channel(3, 3, "/touchdown/fleet")
+                   + _chunk_index(offsets[0], first, (1, 3))
+                   + _chunk_index(offsets[1], extra_chunk, (2,)))
+    else:
+        summary = _chunk_index(offsets[0], first) + _chunk_index(offsets[1], extra_chunk)
     return body + summary + _footer(len(body)) + MAGIC
 
 
@@ -281,20 +298,32 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         # the header's own chunk declaring 200 MiB after it (sound: its size and CRC true)
         out.append((f"header-200MiB-{tag}", _crafted_log(scn, _chunk(b""), tag,
                                                           first=header_chunk(scn, 200 << 20))))
+    for tag in ("fleet-indexed", "walked", "unindexed", "indexed"):
+        if tag == "fleet-indexed":  # its index lists the fleet's channel: the fleet's read reads it
+            out.append((f"header-200MiB-{tag}", header_bomb_of(scn, tag, 200)))
+        # the header's chunk ending in a fleet record of 150 MiB of zeros (within the bound of
+        # a fleet record, what a header may hold): not one, from its first byte
+        out.append((f"fleet-record-150MiB-{tag}", _crafted_log(
+            scn, _chunk(b""), tag, first=header_chunk(scn, 150 << 20, fleet=True))))
     return out
 
 
-def header_chunk(scenario_msg: bytes, after: int = 0, rng: random.Random | None = None
-                 ) -> bytes:
+def header_chunk(scenario_msg: bytes, after: int = 0, rng: random.Random | None = None,
+                 fleet: bool = False) -> bytes:
     """A zstd chunk holding a log's header records (:func:`_header_records`) and then one record
     of an unknown opcode (0x80: readers skip it) of ``after`` bytes: zeros (a few kB compressed,
     compressed a MiB at a time), or with ``rng`` random bytes (zstd stores them as they are: a
-    byte flipped there changes a byte of the records, not the frame). Its size and CRC are
-    true: the chunk is sound, only big."""
+    byte flipped there changes a byte of the records, not the frame). ``fleet``: that record is
+    a message on the fleet's channel (declared before it, id 3) holding those bytes. Its size
+    and CRC are true: the chunk is sound, only big."""
     import zlib
 
     import zstandard
-    records = _header_records(scenario_msg) + _rec(0x80, b"", after)
+    if fleet:
+        records = (_header_records(scenario_msg) + _channel(3, 2, "/touchdown/fleet")
+                   + _rec(0x05, struct.pack("<HIQQ", 3, 0, 0, 0), 22 + after))
+    else:
+        records = _header_records(scenario_msg) + _rec(0x80, b"", after)
     comp = zstandard.ZstdCompressor(level=3).compressobj()
     out = [comp.compress(records)]
     crc = zlib.crc32(records)
@@ -312,8 +341,13 @@ def header_chunk(scenario_msg: bytes, after: int = 0, rng: random.Random | None 
 def header_bomb(seed: bytes, framing: str, mib: int = 200) -> bytes:
     """A log (of ``framing``: _crafted_log's) whose first chunk, the one holding its header,
     holds ``mib`` MiB of zeros after it (:func:`header_chunk`; about 30 kB on disk)."""
-    scn = _scenario_msg_of(seed)
-    return _crafted_log(scn, _chunk(b""), framing, first=header_chunk(scn, mib << 20))
+    return header_bomb_of(_scenario_msg_of(seed), framing, mib)
+
+
+def header_bomb_of(scenario_msg: bytes, framing: str, mib: int = 200) -> bytes:
+    """:func:`header_bomb` of a scenario record (its bytes)."""
+    return _crafted_log(scenario_msg, _chunk(b""), framing,
+                        first=header_chunk(scenario_msg, mib << 20))
 
 
 def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]:
@@ -321,7 +355,8 @@ def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]
     from touchdown.proto import touchdown_pb2 as pb
 
     names = sorted(seeds)
-    per = max(1, -(-(n - 60) // (len(LOG_CLASSES) - 1)))  # 60: the bombs, run by two commands
+    every_bomb = bombs(seeds["bounce"])
+    per = max(1, -(-(n - 2 * len(every_bomb)) // (len(LOG_CLASSES) - 1)))  # bombs: two commands
     cases: list[Case] = []
 
     def add(cls, name, data, original, command=None):
@@ -359,7 +394,7 @@ def log_cases(seeds: dict[str, bytes], n: int, rng: random.Random) -> list[Case]
         other = seeds[names[(k + 1) % len(names)]]
         add("concat", f"concat{k}", [src + other, src + src[len(MAGIC):], src + b"\x00" * 100][k % 3],
             src)
-    for name, data in bombs(seeds["bounce"]):
+    for name, data in every_bomb:
         add("bomb", name, data, seeds["bounce"], "verify")
         add("bomb", name, data, seeds["bounce"], "export")
     return cases

@@ -19,8 +19,8 @@ from touchdown.logs.decode import BlockDecoder, TickBlock, decode_tick
 from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
                          ShipTable, keyframe_due, tick_bytes_bound)
-from touchdown.logs.safe_read import (ChunkBuffers, ReadLimits, ReadStatus, chunk_at,
-                                      iter_messages)
+from touchdown.logs.safe_read import (ChunkBuffers, GrowingBound, ReadLimits, ReadStatus,
+                                      chunk_at, iter_messages)
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
 from touchdown.logs.structure import data_crc_matches
@@ -42,6 +42,9 @@ MAX_SCENARIO_CHARS = 64 << 20
 #: inflates, with safe_read.HEADER_PREAMBLE_BYTES before it) of its chunk, whatever the chunk
 #: declares: the chunk's own bound comes from the header (LogReader._check_header_chunk)
 MAX_SCENARIO_RECORD_BYTES = 3 * MAX_SCENARIO_CHARS + (1 << 20)
+#: a chunk's records beyond what its writer filled before the record that closed it: the
+#: schemas and channels a log's first chunk opens with (8.7-17 kB), with margin
+CHUNK_SLACK_BYTES = 1 << 18
 
 
 def _ends_with_magic(s: Structure) -> bool:
@@ -391,7 +394,7 @@ class LogReader:
         """_tick_limits for a fleet of ``ships`` ships (the log's records read so far)."""
         base = ReadLimits.from_environment()
         bound = (CHUNK_BYTES_MAX + max(tick_bytes_bound(ships), self._largest_record)
-                 + (1 << 18))
+                 + CHUNK_SLACK_BYTES)
         if bound >= base.max_chunk_bytes:
             return base
         return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
@@ -472,12 +475,26 @@ class LogReader:
         return int(self.scenario.log_format_version)
 
     def ship_table(self) -> ShipTable:
-        """Every ship of the log by key: the header's, then each that joined (format 3)."""
+        """Every ship of the log by key: the header's, then each that joined (format 3).
+
+        The fleet records are read within what the fleet read so far bounds (_limits_for; a
+        GrowingBound): a chunk over it is read as a stream, and if its last record runs past
+        what a writer fills before it closes a chunk (a tick of ships that joined in it, or a
+        crafted record) it is not inflated, unless it is a fleet record (checked as it
+        arrives: _FleetRecordCheck); such a chunk, and the header's if its check waits for the
+        fleet (_check_header_chunk), is then read in full within the whole fleet's bound."""
         if getattr(self, "_table", None) is None:
             table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
             self._fleet: list[pb.FleetChange] = []
             if self.log_format >= 3:
-                for _topic, data in self._iter({TOPIC_FLEET}):
+                where = str(self.path)
+                grow = GrowingBound(
+                    bound=lambda: self._limits_for(len(table)).max_chunk_bytes,
+                    prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
+                    check=lambda: _FleetRecordCheck(f"{where}: damaged fleet record"))
+                for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
+                                                      None, self.status, walk=self._walk,
+                                                      grow=grow):
                     self._largest_record = max(self._largest_record, len(data))
                     change = _parse(pb.FleetChange, data, f"{self.path}: damaged fleet record")
                     for j in change.joined:
@@ -491,6 +508,10 @@ class LogReader:
                                            f"record is damaged (ship {j.ship_id!r})")
                         table.add(int(change.tick), spec)
                     self._fleet.append(change)
+                limits = self._limits_for(len(table))
+                for offset, _declared in grow.deferred:
+                    chunk_at(self._file, offset, where, limits)
+                self._check_header_chunk(limits)
             self._table = table
         return self._table
 
@@ -551,6 +572,48 @@ class LogReader:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class _FleetRecordCheck:
+    """A fleet record (FleetChange) checked as it is inflated, a piece at a time
+    (GrowingBound's check): each field as it completes, its number, wire type and length, so
+    that bytes that cannot be one (a run of zeros, noise) are refused at their first piece, not
+    held to the length their record declares."""
+
+    _WIRE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}  # tick, joined, left_ship_key, left_ship_id
+
+    def __init__(self, what: str):
+        self.what = what
+        self.at = 0  # where the first field not yet complete begins
+
+    def __call__(self, data: bytearray, final: bool) -> None:
+        n = len(data)
+        while self.at < n:
+            key, i = _varint(data, self.at, self.what)
+            if key is None:
+                break
+            if (key & 7) not in self._WIRE.get(key >> 3, ()):
+                raise LogError(f"{self.what} (field {key >> 3}, wire type {key & 7})")
+            value, j = _varint(data, i, self.what)
+            if value is None or (key & 7 == 2 and j + value > n):
+                break
+            self.at = j + value if key & 7 == 2 else j
+        if final and self.at != n:
+            raise LogError(f"{self.what} (it ends inside a field)")
+
+
+def _varint(data: bytearray, i: int, what: str) -> tuple[int | None, int]:
+    """(the protobuf varint at ``data[i:]``, where it ends), or (None, i) if it is not all
+    there yet."""
+    value = shift = 0
+    for k in range(i, min(len(data), i + 10)):
+        value |= (data[k] & 0x7F) << shift
+        if data[k] < 0x80:
+            return value, k + 1
+        shift += 7
+    if len(data) >= i + 10:
+        raise LogError(f"{what} (a varint of more than 10 bytes)")
+    return None, i
 
 
 def _parse(cls, data: bytes, what: str):

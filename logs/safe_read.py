@@ -19,6 +19,11 @@ killed before the footer. This reader:
   it, whatever the chunk declares (a chunk may hold a large fleet's first tick after the header:
   what bounds a chunk is known only once the header is read); that chunk's size and CRC are
   left to a full read by the caller (``ReadStatus.unchecked``, :func:`chunk_at`);
+* reads a chunk over what a read knows bounds it (``iter_messages``' ``grow``: a log's fleet
+  read, whose joins bound the ticks after them) as a stream too: every record but its last must
+  end within the part a writer fills before it closes a chunk, and its last is inflated only if
+  it is a message the read wants (within a bound of its own), else that chunk is left to a full
+  read by the caller once the read is done and its bound known (``GrowingBound.deferred``);
 * refuses a channel declared again with another topic; checks every CRC.
 
 The limits are :class:`ReadLimits` (environment variables ``TOUCHDOWN_MAX_CHUNK_MIB``,
@@ -33,7 +38,7 @@ import struct
 import weakref
 import zlib
 from dataclasses import dataclass, field
-from typing import IO, Iterator
+from typing import IO, Callable, Iterator
 
 import zstandard
 
@@ -107,6 +112,30 @@ class ReadStatus:
     def note(self, offset: int, what: str) -> None:
         if (offset, what) not in self.notes:
             self.notes.append((offset, what))
+
+
+@dataclass
+class GrowingBound:
+    """A read whose chunks are bounded by what it has read so far (iter_messages' ``grow``; a
+    log's fleet read: the ships that joined bound the ticks after them, in the same chunk too).
+
+    A chunk declaring at most ``bound()`` (asked as the read reaches it) is read whole, as any
+    read reads it. A larger zstd chunk is inflated as a stream, a piece at a time, its records
+    parsed as they arrive: every record but its last must end within its first ``prefix``
+    bytes (a writer closes a chunk at the record that takes it past its target size: all
+    before it lie within that size); its last may run past them only if it is a message the
+    read wants, of at most ``held`` bytes (checked as it arrives by ``check()``'s checker, if
+    any: ``checker(data so far, final)`` raises LogError on bytes that cannot be one), and then
+    the chunk is read to its end (size and CRC checked). Any other last record is not inflated
+    at all: the chunk's (byte offset, declared size) is appended to ``deferred``, for the
+    caller to read in full (chunk_at: size and CRC) once the read is done and its bound known,
+    before it trusts what the read gave."""
+
+    bound: Callable[[], int]
+    prefix: int
+    held: int
+    check: Callable[[], Callable[[bytearray, bool], None]] | None = None
+    deferred: list = field(default_factory=list)
 
 
 class ChunkBuffers:
@@ -322,13 +351,120 @@ def _streamed_records(chunk: Chunk, where: str, limits: ReadLimits, channels: di
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
 
 
+def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[int, str],
+                   wanted, grow: GrowingBound, offset: int) -> Iterator[Channel | Message]:
+    """A chunk over ``grow.bound()`` read as a stream (GrowingBound): its channels (added to
+    ``channels`` as they come) and wanted messages, then, if its last record runs past
+    ``grow.prefix`` and is not a wanted message, nothing more (the chunk, at byte ``offset``,
+    is appended to ``grow.deferred``, not inflated further). A chunk that is not zstd is read
+    as any other (uncompressed: in memory already; any other compression is refused)."""
+    if chunk.compression != "zstd":
+        yield from _chunk_records(_chunk_data(chunk, where, limits), where, limits)
+        return
+    declared = chunk.uncompressed_size
+    _check_declared(declared, where, limits)
+    piece = bytearray(_PIECE)
+    got = crc = 0
+
+    def take(n: int, out: bytearray | None = None, checker=None) -> None:
+        """The next ``n`` bytes of the records, appended to ``out`` (None: passed over), a piece
+        at a time, ``checker`` called on ``out`` after each."""
+        nonlocal got, crc
+        done = 0
+        while done < n:
+            view = memoryview(piece)[:min(n - done, _PIECE)]
+            k = r.readinto(view)
+            if not k:
+                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
+                               f"holds {got + done:,}")
+            crc = crc32(view[:k], crc)
+            if out is not None:
+                out += view[:k]
+                if checker is not None:
+                    checker(out, False)
+            done += k
+        got += n
+
+    count = 0
+    try:
+        dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
+        with dctx.stream_reader(chunk.data, read_across_frames=True) as r:
+            while got < declared:
+                if declared - got < 9:
+                    raise LogError(f"{where}: a chunk ends inside a record")
+                head = bytearray()
+                take(9, head)
+                op, length = struct.unpack("<BQ", head)
+                end = got + length
+                if end > declared:
+                    raise LogError(f"{where}: a record runs past the end of its chunk")
+                count += 1
+                if count > limits.max_records_per_chunk:
+                    raise LogError(f"{where}: a chunk holds more than "
+                                   f"{limits.max_records_per_chunk:,} records "
+                                   f"(TOUCHDOWN_MAX_RECORDS_PER_CHUNK); refusing it")
+                past = end > grow.prefix
+                if past and end != declared:
+                    raise LogError(f"{where}: a record of a chunk ends at its byte {end:,}, "
+                                   f"past the {grow.prefix:,} a writer fills before it ends a "
+                                   f"chunk, and is not the chunk's last; refusing it")
+                if op == 0x05:
+                    if length < 22:
+                        raise LogError(f"{where}: a message record too short for its header")
+                    fields = bytearray()
+                    take(22, fields)
+                    cid, seq, log_time, publish_time = struct.unpack("<HIQQ", fields)
+                    m = Message(channel_id=cid, sequence=seq, log_time=log_time,
+                                publish_time=publish_time, data=b"")
+                    if wanted(m, channels):
+                        if length - 22 > grow.held:
+                            raise LogError(f"{where}: a message of {length - 22:,} bytes (limit "
+                                           f"{grow.held:,}); refusing it")
+                        checker = grow.check() if past and grow.check is not None else None
+                        data = bytearray()
+                        take(length - 22, data, checker)
+                        if checker is not None:
+                            checker(data, True)
+                        m.data = data
+                        yield m
+                        continue
+                    length -= 22
+                elif op == 0x04 and not past:
+                    data = bytearray()
+                    take(length, data)
+                    try:
+                        rec = Channel.read(ReadDataStream(io.BytesIO(data)))
+                    except Exception:
+                        raise LogError(f"{where}: a damaged channel record") from None
+                    _add_channel(channels, rec, where)
+                    yield rec
+                    continue
+                if past:  # the chunk's last record, not wanted: not inflated
+                    grow.deferred.append((offset, declared))
+                    return
+                take(length)
+            if r.readinto(piece):
+                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
+                               f"holds more")
+    except zstandard.ZstdError as exc:
+        raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
+                       f"is at most {limits.max_window_bytes:,} bytes, "
+                       f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
+    if chunk.uncompressed_crc != 0 and crc != chunk.uncompressed_crc:
+        raise LogError(f"{where}: a chunk's CRC does not match its contents")
+
+
 def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus, offset: int,
-                buffers: ChunkBuffers | None, header: int, channels: dict[int, str], wanted
-                ) -> Iterator[Channel | Message]:
+                buffers: ChunkBuffers | None, header: int, channels: dict[int, str], wanted,
+                grow: GrowingBound | None = None) -> Iterator[Channel | Message]:
     """A chunk's channels and messages: all of them, decompressed within bounds and checked,
     or for a header read (``header`` > 0) of a chunk declaring more than HEADER_PREAMBLE_BYTES
     those up to its first wanted message (_streamed_records; the chunk is left in
-    ``status.unchecked``)."""
+    ``status.unchecked``), or for a read bounded by what it has read (``grow``) of a chunk over
+    that bound, as a stream (_grown_records; the chunk may be left in ``grow.deferred``)."""
+    if grow is not None and not header and chunk.uncompressed_size > grow.bound():
+        yield from _grown_records(chunk, name, limits, channels, wanted, grow, offset)
+        return
     if not header or chunk.uncompressed_size <= HEADER_PREAMBLE_BYTES:
         yield from _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits, chunk,
                                   status, offset)
@@ -357,8 +493,8 @@ def _has_footer(f: IO[bytes], size: int) -> bool:
 def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None = None,
                   end_ns: int | None = None, status: ReadStatus | None = None,
                   limits: ReadLimits | None = None, views: bool = False, walk: bool = False,
-                  buffers: ChunkBuffers | None = None, header: int = 0
-                  ) -> Iterator[tuple[str, int, bytes]]:
+                  buffers: ChunkBuffers | None = None, header: int = 0,
+                  grow: GrowingBound | None = None) -> Iterator[tuple[str, int, bytes]]:
     """(topic, log_time_ns, data) of the messages on ``topics`` with start <= log_time <= end,
     within ``limits`` (default: ReadLimits.from_environment()). ``views``: data as memoryviews
     into the decompressed chunk (no copy), else bytes; ``buffers``: the chunks decompressed into
@@ -368,9 +504,11 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
     whole: logs.structure). ``header`` > 0: a log's header read, the first message on ``topics``
     and nothing more, holding at most ``header`` bytes (_streamed_records: the chunk it lies in is
     inflated only up to it, and left in ``status.unchecked`` for the caller to read in full,
-    chunk_at, once it knows what bounds it)."""
+    chunk_at, once it knows what bounds it). ``grow``: a read whose chunks are bounded by what
+    it has read so far (GrowingBound: a chunk over its bound is read as a stream, and may be
+    left in its ``deferred`` for the caller to read in full, chunk_at, once the read is done)."""
     messages = _messages(f, name, topics, start_ns, end_ns, status, limits, walk,
-                         buffers if views else None, header)
+                         buffers if views else None, header, grow)
     if header:
         try:
             for topic, t_ns, data in messages:
@@ -387,8 +525,8 @@ def iter_messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | Non
 
 def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
               end_ns: int | None, status: ReadStatus | None, limits: ReadLimits | None,
-              walk: bool = False, buffers: ChunkBuffers | None = None, header: int = 0
-              ) -> Iterator[tuple[str, int, bytes]]:
+              walk: bool = False, buffers: ChunkBuffers | None = None, header: int = 0,
+              grow: GrowingBound | None = None) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     limits = limits if limits is not None else ReadLimits.from_environment()
     f.seek(0, io.SEEK_END)
@@ -404,17 +542,17 @@ def _messages(f: IO[bytes], name: str, topics: set[str], start_ns: int | None,
 
     if not _has_footer(f, size):  # cut, or its writer was killed: read the intact part
         status.complete = False
-        yield from _walk(f, name, wanted, status, limits, buffers, header)
+        yield from _walk(f, name, wanted, status, limits, buffers, header, grow)
         return
     footer = None if walk else _footer(f, name, size)
     if walk or footer.summary_start == 0:  # finished, without a summary section (MCAP allows
         # it), or with a damaged summary or footer (logs.structure): the data section, walked
-        yield from _walk(f, name, wanted, status, limits, buffers, header)
+        yield from _walk(f, name, wanted, status, limits, buffers, header, grow)
         if status.damage:  # a finished file is whole: damage in it is not a cut
             raise LogError(f"{name}: damaged ({status.damage})")
         return
     yield from _indexed(f, name, size, footer, wanted, start_ns, end_ns, limits, topics, status,
-                        buffers, header)
+                        buffers, header, grow)
 
 
 def _footer(f, name: str, size: int) -> Footer:
@@ -431,7 +569,8 @@ def _footer(f, name: str, size: int) -> Footer:
 def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | None,
              end_ns: int | None, limits: ReadLimits, topics: set[str] = frozenset(),
              status: ReadStatus | None = None, buffers: ChunkBuffers | None = None,
-             header: int = 0) -> Iterator[tuple[str, int, bytes]]:
+             header: int = 0, grow: GrowingBound | None = None
+             ) -> Iterator[tuple[str, int, bytes]]:
     status = status if status is not None else ReadStatus()
     try:
         channels, chunk_indexes = _summary(f, name, size, footer, limits)
@@ -451,7 +590,7 @@ def _indexed(f, name: str, size: int, footer: Footer, wanted, start_ns: int | No
                                f"{limits.max_chunk_bytes:,}, TOUCHDOWN_MAX_CHUNK_MIB)")
             chunk = _read_chunk(f, ci.chunk_start_offset, ci.chunk_length, name)
             for rec in _records_of(chunk, name, limits, status, ci.chunk_start_offset, buffers,
-                                   header, channels, wanted):
+                                   header, channels, wanted, grow):
                 if isinstance(rec, Channel):
                     _add_channel(channels, rec, name)
                 elif wanted(rec, channels):
@@ -526,8 +665,8 @@ def _read_chunk(f, offset: int, length: int, name: str) -> Chunk:
 
 
 def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits,
-          buffers: ChunkBuffers | None = None, header: int = 0
-          ) -> Iterator[tuple[str, int, bytes]]:
+          buffers: ChunkBuffers | None = None, header: int = 0,
+          grow: GrowingBound | None = None) -> Iterator[tuple[str, int, bytes]]:
     f.seek(len(MAGIC))
     reader = StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
                           record_size_limit=limits.max_chunk_bytes)
@@ -550,7 +689,7 @@ def _walk(f, name: str, wanted, status: ReadStatus, limits: ReadLimits,
                 at = len(MAGIC) + reader._stream.count - (9 + 8 * 3 + 4 + 4 + 8 + len(
                     rec.compression.encode()) + len(rec.data))
                 batch = list(_records_of(rec, name, limits, status, at, buffers, header,
-                                         channels, wanted))
+                                         channels, wanted, grow))
             except LogError as exc:  # a damaged or refused chunk ends the intact part too
                 status.damage = str(exc).removeprefix(f"{name}: ")
                 return
@@ -578,5 +717,5 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
     return _chunk_data(chunk, name, limits)
 
 
-__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "chunk_at",
-           "decompress_chunk", "HEADER_PREAMBLE_BYTES"]
+__all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "GrowingBound",
+           "chunk_at", "decompress_chunk", "HEADER_PREAMBLE_BYTES"]

@@ -106,7 +106,7 @@ def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, 
         path.write_bytes(data)
         line = assert_refused(invoke("replay", path, "--verify"), path.name)
         assert any(w in line for w in ("claims", "declares", "records (TOUCHDOWN_MAX_RECORDS",
-                                       "lz4", "runs past")), line
+                                       "lz4", "runs past", "damaged fleet record")), line
 
 
 def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_path):
@@ -119,27 +119,54 @@ def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_pa
     assert "read only part of the log" in r.stderr and "declares 1,000 bytes" in r.stderr
 
 
-#: opens a log in a fresh process: "<peak RSS before, KiB> <peak RSS after, KiB> <what it said>".
-#: The peak is the process's own (VmHWM); getrusage's ru_maxrss is not: Linux hands a child the
-#: resident size its parent had when it forked (pytest's, a few hundred MiB), hiding the growth
+#: opens a log (argv[2] "open") or verifies it (replay --verify's call: "verify") in a fresh
+#: process: "<peak RSS before, KiB> <peak RSS after, KiB> <what it said>". The peak is the
+#: process's own (VmHWM); getrusage's ru_maxrss is not: Linux hands a child the resident size its
+#: parent had when it forked (pytest's, a few hundred MiB), hiding the growth. What verify does
+#: for any log before it reads one (its imports, the scenario's code: ~50 MiB) is done first,
+#: from the log's header, and not counted
 _OPEN_RSS = """
 import re, sys
 from touchdown.logs import LogError
 from touchdown.logs.reader import LogReader
+from touchdown.replay.verify import scenario_of, verify
 def peak_kib():
     with open("/proc/self/status") as f:
         return int(re.search(r"VmHWM:\\s+(\\d+) kB", f.read()).group(1))
+if sys.argv[2] == "verify":
+    with LogReader(sys.argv[1]) as r:
+        scenario_of(r)
 before = peak_kib()
 try:
-    LogReader(sys.argv[1]).close()
-    said = "opened"
+    if sys.argv[2] == "verify":
+        verify(sys.argv[1])
+        said = "verified"
+    else:
+        LogReader(sys.argv[1]).close()
+        said = "opened"
 except LogError as exc:
     said = str(exc)
 print(before, peak_kib(), said)
 """
 
 
-@pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
+def read_in_a_fresh_process(path: Path, read: str = "open") -> tuple[float, float, str]:
+    """_OPEN_RSS's ``read`` of ``path``: (peak RSS before, MiB; what the read grew it by, MiB;
+    what it said)."""
+    r = subprocess.run([sys.executable, "-c", _OPEN_RSS, str(path), read], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    before, after, said = r.stdout.split(" ", 2)
+    return int(before) / 1024, (int(after) - int(before)) / 1024, said.strip()
+
+
+#: how a crafted chunk reaches the readers (bench/fuzz.py's _crafted_log): indexed, its index
+#: listing no channel (read by every read) or the fleet's (read by the fleet's), a finished file
+#: without a summary, a cut file (no footer: walked)
+FRAMINGS = ["indexed", "fleet-indexed", "unindexed", "walked"]
+
+
+@pytest.mark.parametrize("framing", FRAMINGS)
 def test_a_bomb_in_the_header_s_chunk_is_not_inflated_to_read_the_header(bounce, tmp_path,
                                                                           framing):
     """The chunk holding the header declares 200 MiB (within the general 256 MiB bound): the
@@ -148,16 +175,104 @@ def test_a_bomb_in_the_header_s_chunk_is_not_inflated_to_read_the_header(bounce,
     what a chunk of this log's one ship can hold."""
     path = tmp_path / f"header-bomb-{framing}.mcap"
     path.write_bytes(fuzz.header_bomb(bounce.read_bytes(), framing, mib=200))
-    r = subprocess.run([sys.executable, "-c", _OPEN_RSS, str(path)], capture_output=True,
-                       text=True, timeout=120)
-    assert r.returncode == 0, r.stderr[-2000:]
-    before, after, said = r.stdout.split(" ", 2)
-    grew_mib = (int(after) - int(before)) / 1024
-    print(f"{framing}: opening took the peak RSS from {int(before) / 1024:.1f} MiB up by "
-          f"{grew_mib:.1f} MiB ({said.strip()})")
-    assert said.strip() == "opened" and grew_mib < 20, (grew_mib, said)
+    before, grew_mib, said = read_in_a_fresh_process(path, "open")
+    print(f"{framing}: opening took the peak RSS from {before:.1f} MiB up by "
+          f"{grew_mib:.1f} MiB ({said})")
+    assert said == "opened" and grew_mib < 20, (grew_mib, said)
     line = assert_refused(invoke("replay", path, "--verify"), path.name)
     assert "claims 209,7" in line and "this log's 1 ship(s) can hold" in line, line
+
+
+@pytest.mark.parametrize("framing", FRAMINGS)
+def test_replay_verify_of_a_header_chunk_bomb_never_inflates_it(bounce, tmp_path, framing):
+    """The same bomb, verified: the fleet's read (ship_table) reads the header's chunk too (its
+    index lists the fleet's channel, or none; unindexed or cut, every chunk), within what the
+    fleet read so far bounds (here one ship: 1.3 MB), as a stream: its last record, past what
+    a writer fills before it closes a chunk and not a fleet record, is not inflated, and the
+    chunk is then refused by the whole fleet's bound. Before, ship_table inflated the 200 MiB
+    (peak RSS +202 MiB) before that bound refused it."""
+    path = tmp_path / f"header-bomb-{framing}.mcap"
+    path.write_bytes(fuzz.header_bomb(bounce.read_bytes(), framing, mib=200))
+    before, grew_mib, said = read_in_a_fresh_process(path, "verify")
+    print(f"{framing}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
+          f"({said})")
+    assert grew_mib < 5, (grew_mib, said)
+    assert "claims 209,7" in said and "this log's 1 ship(s) can hold" in said, said
+    line = assert_refused(invoke("replay", path, "--verify"), path.name)
+    assert "claims 209,7" in line and "this log's 1 ship(s) can hold" in line, line
+
+
+@pytest.mark.parametrize("framing", FRAMINGS)
+def test_a_fleet_record_bomb_is_refused_at_its_first_piece(bounce, tmp_path, framing):
+    """The header's chunk ends in a message on the fleet's channel of 150 MiB of zeros (within
+    what a fleet record may hold, what a header may): the fleet's read takes it as it is
+    inflated, a piece at a time, and the first piece is no fleet record (field 0). Cut (walked),
+    the refusal ends the part read, and the chunk is then refused by the fleet's bound."""
+    path = tmp_path / f"fleet-bomb-{framing}.mcap"
+    path.write_bytes(dict(fuzz.bombs(bounce.read_bytes()))[f"fleet-record-150MiB-{framing}"])
+    before, grew_mib, said = read_in_a_fresh_process(path, "verify")
+    print(f"{framing}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
+          f"({said})")
+    assert grew_mib < 5, (grew_mib, said)
+    needle = "claims 157,2" if framing == "walked" else "damaged fleet record (field 0"
+    assert needle in said, said
+    assert needle in assert_refused(invoke("replay", path, "--verify"), path.name)
+
+
+def _joining_log(path: Path, joins: int, inputs: int) -> None:
+    """A log of one ship, then ``joins`` ships joining at once at tick 4 (each with ``inputs``
+    commands in its table: a larger fleet record), written as the service writes (LogWriter)."""
+    from touchdown.logs.header import scenario_message
+    from touchdown.logs.writer import LogWriter
+    from touchdown.sim.scenario import parse
+    from touchdown.sim.world import World
+    scn = parse({"name": "joins", "duration": 0.5,
+                 "ships": [{"id": "s0", "initial": {"altitude": 2.0}}]}, "joins")
+    world = World.of(scn)
+    with LogWriter(path, scenario_message(scn, "joins", keyframe_interval=10)) as writer:
+        writer.write_block(world.first_block())
+        for t in (0, 4, 8):
+            if t == 4:
+                for i in range(joins):
+                    world.spawn({"id": f"j{i}", "initial": {"altitude": 1.0 + i % 5,
+                                                            "east": 3.0 * i},
+                                 "inputs": [{"t": 0.3 + 0.01 * k, "throttle": 0.5}
+                                            for k in range(inputs)]})
+            for block in world.blocks(min(t + 4, 10), max_ticks=4):
+                writer.write_block(block)
+
+
+@pytest.mark.parametrize("joins, inputs", [(2500, 0), (4000, 10)],
+                         ids=["its-ticks-past-the-bound", "its-fleet-record-past-the-bound"])
+def test_ships_joining_within_a_chunk_over_the_fleet_s_bound_read(tmp_path, monkeypatch, joins,
+                                                                  inputs):
+    """Ships joining at once: the chunk holding their joins ends past what the fleet before it
+    (one ship) bounds, with a tick of the ships that joined in it (2,500 ships: a chunk of 1.6
+    MB) or with the fleet record itself (4,000 joins, each ship with its commands: 1.7 MB). The
+    fleet's read takes it as a stream (the joins it holds bound the rest), and the log reads as
+    written: verify finds it identical, and its cut copy (no footer: walked) the same ships and
+    ticks."""
+    from touchdown.logs import safe_read
+    from touchdown.replay.verify import verify
+    streamed = []
+    real = safe_read._grown_records
+
+    def spy(chunk, *args):
+        streamed.append(chunk.uncompressed_size)
+        return real(chunk, *args)
+    monkeypatch.setattr(safe_read, "_grown_records", spy)
+    path = tmp_path / "joins.mcap"
+    _joining_log(path, joins, inputs)
+    res = verify(str(path))
+    assert res.divergence is None and res.ticks_compared == 11, res.divergence
+    assert streamed, "no chunk was over the fleet's bound when the fleet's read reached it"
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[:-1])
+    with LogReader(path) as whole, LogReader(cut) as part:
+        assert list(part.ship_table().ids) == list(whole.ship_table().ids)
+        assert len(whole.ship_table()) == joins + 1
+        assert [t.raw for t in part.ticks()] == [t.raw for t in whole.ticks()]
+        assert not part.status.complete
 
 
 @pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
