@@ -511,6 +511,8 @@ class LogReader:
                 limits = self._limits_for(len(table))
                 for offset, _declared in grow.deferred:
                     chunk_at(self._file, offset, where, limits)
+                    if self._header_chunk is not None and self._header_chunk[0] == offset:
+                        self._header_chunk = None  # (just read in full)
                 self._check_header_chunk(limits)
             self._table = table
         return self._table

@@ -356,7 +356,9 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
     """A chunk over ``grow.bound()`` read as a stream (GrowingBound): its channels (added to
     ``channels`` as they come) and wanted messages, then, if its last record runs past
     ``grow.prefix`` and is not a wanted message, nothing more (the chunk, at byte ``offset``,
-    is appended to ``grow.deferred``, not inflated further). A chunk that is not zstd is read
+    is appended to ``grow.deferred``, not inflated further: at most a piece past the prefix).
+    The records are parsed from a buffer of inflated pieces (one record at a time, as
+    _chunk_records does), a record kept whole only if wanted. A chunk that is not zstd is read
     as any other (uncompressed: in memory already; any other compression is refused)."""
     if chunk.compression != "zstd":
         yield from _chunk_records(_chunk_data(chunk, where, limits), where, limits)
@@ -364,38 +366,62 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
     declared = chunk.uncompressed_size
     _check_declared(declared, where, limits)
     piece = bytearray(_PIECE)
-    got = crc = 0
+    buf = bytearray()  # inflated, not yet parsed past: buf[pos:] is the chunk from byte `at`
+    pos = inflated = crc = 0
 
-    def take(n: int, out: bytearray | None = None, checker=None) -> None:
-        """The next ``n`` bytes of the records, appended to ``out`` (None: passed over), a piece
-        at a time, ``checker`` called on ``out`` after each."""
-        nonlocal got, crc
-        done = 0
-        while done < n:
-            view = memoryview(piece)[:min(n - done, _PIECE)]
-            k = r.readinto(view)
-            if not k:
-                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
-                               f"holds {got + done:,}")
-            crc = crc32(view[:k], crc)
-            if out is not None:
-                out += view[:k]
+    def inflate(n: int) -> memoryview:
+        """The next at most ``n`` bytes of the chunk (a piece at most), CRC counted."""
+        nonlocal inflated, crc
+        view = memoryview(piece)[:min(n, _PIECE, declared - inflated)]
+        k = r.readinto(view) if len(view) else 0
+        if not k:
+            raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
+                           f"holds {inflated:,}")
+        crc = crc32(view[:k], crc)
+        inflated += k
+        return view[:k]
+
+    def buffered(n: int) -> None:
+        """At least ``n`` bytes in buf after pos (pieces read ahead: a piece past at most)."""
+        nonlocal buf, pos
+        if pos > _PIECE:
+            del buf[:pos]
+            pos = 0
+        while len(buf) - pos < n:
+            buf += inflate(_PIECE)
+
+    def body(n: int, keep: bool, checker=None) -> bytearray | None:
+        """The next ``n`` bytes (a record's body): returned if ``keep`` (``checker`` called on
+        them as they arrive), else passed over; never inflated past them."""
+        nonlocal pos
+        have = min(n, len(buf) - pos)
+        out = bytearray(buf[pos:pos + have]) if keep else None
+        pos += have
+        left = n - have
+        while left:
+            got = inflate(left)
+            if keep:
+                out += got
                 if checker is not None:
                     checker(out, False)
-            done += k
-        got += n
+            left -= len(got)
+        if checker is not None:
+            checker(out, True)
+        return out
 
     count = 0
     try:
         dctx = zstandard.ZstdDecompressor(max_window_size=limits.max_window_bytes)
         with dctx.stream_reader(chunk.data, read_across_frames=True) as r:
-            while got < declared:
-                if declared - got < 9:
+            while inflated - (len(buf) - pos) < declared:
+                at = inflated - (len(buf) - pos)  # the record's first byte in the chunk
+                if declared - at < 9:
                     raise LogError(f"{where}: a chunk ends inside a record")
-                head = bytearray()
-                take(9, head)
-                op, length = struct.unpack("<BQ", head)
-                end = got + length
+                buffered(9)
+                op = buf[pos]
+                (length,) = struct.unpack_from("<Q", buf, pos + 1)
+                pos += 9
+                end = at + 9 + length
                 if end > declared:
                     raise LogError(f"{where}: a record runs past the end of its chunk")
                 count += 1
@@ -411,9 +437,9 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                 if op == 0x05:
                     if length < 22:
                         raise LogError(f"{where}: a message record too short for its header")
-                    fields = bytearray()
-                    take(22, fields)
-                    cid, seq, log_time, publish_time = struct.unpack("<HIQQ", fields)
+                    buffered(22)
+                    cid, seq, log_time, publish_time = struct.unpack_from("<HIQQ", buf, pos)
+                    pos += 22
                     m = Message(channel_id=cid, sequence=seq, log_time=log_time,
                                 publish_time=publish_time, data=b"")
                     if wanted(m, channels):
@@ -421,17 +447,12 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                             raise LogError(f"{where}: a message of {length - 22:,} bytes (limit "
                                            f"{grow.held:,}); refusing it")
                         checker = grow.check() if past and grow.check is not None else None
-                        data = bytearray()
-                        take(length - 22, data, checker)
-                        if checker is not None:
-                            checker(data, True)
-                        m.data = data
+                        m.data = body(length - 22, True, checker)
                         yield m
                         continue
                     length -= 22
                 elif op == 0x04 and not past:
-                    data = bytearray()
-                    take(length, data)
+                    data = body(length, True)
                     try:
                         rec = Channel.read(ReadDataStream(io.BytesIO(data)))
                     except Exception:
@@ -439,10 +460,10 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                     _add_channel(channels, rec, where)
                     yield rec
                     continue
-                if past:  # the chunk's last record, not wanted: not inflated
+                if past:  # the chunk's last record, not wanted: not inflated (past a piece)
                     grow.deferred.append((offset, declared))
                     return
-                take(length)
+                body(length, False)
             if r.readinto(piece):
                 raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
                                f"holds more")
