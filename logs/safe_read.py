@@ -431,9 +431,9 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                                    f"(TOUCHDOWN_MAX_RECORDS_PER_CHUNK); refusing it")
                 past = end > grow.prefix
                 if past and end != declared:
-                    raise LogError(f"{where}: a record of a chunk ends at its byte {end:,}, "
-                                   f"past the {grow.prefix:,} a writer fills before it ends a "
-                                   f"chunk, and is not the chunk's last; refusing it")
+                    raise LogError(f"{where}: a record runs past the {grow.prefix:,} bytes "
+                                   f"a writer fills before it ends a chunk (to byte {end:,}) "
+                                   f"and is not its chunk's last; refusing it")
                 if op == 0x05:
                     if length < 22:
                         raise LogError(f"{where}: a message record too short for its header")
