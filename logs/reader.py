@@ -393,12 +393,18 @@ class LogReader:
     def _limits_for(self, ships: int) -> ReadLimits:
         """_tick_limits for a fleet of ``ships`` ships (the log's records read so far)."""
         base = ReadLimits.from_environment()
-        bound = (CHUNK_BYTES_MAX + max(tick_bytes_bound(ships), self._largest_record)
-                 + CHUNK_SLACK_BYTES)
+        bound = self._chunk_bytes_for(ships)
         if bound >= base.max_chunk_bytes:
             return base
         return dataclasses.replace(base, max_chunk_bytes=bound, chunk_bound=(
             f"what a chunk of ticks of this log's {ships:,} ship(s) can hold"))
+
+    def _chunk_bytes_for(self, ships: int) -> int:
+        """The most a chunk of a fleet of ``ships`` ships holds: what the writer fills (its chunk
+        size, and the schemas and channels a first chunk opens with), then one record more: the
+        largest tick that fleet fills, or the log's largest record read so far."""
+        return (CHUNK_BYTES_MAX + max(tick_bytes_bound(ships), self._largest_record)
+                + CHUNK_SLACK_BYTES)
 
     def blocks(self, first: int | None = None, last: int | None = None,
                wanted: tuple[str, ...] | None = None, block_bytes: int = 32 << 20,
@@ -488,8 +494,16 @@ class LogReader:
             self._fleet: list[pb.FleetChange] = []
             if self.log_format >= 3:
                 where = str(self.path)
+                general = ReadLimits.from_environment().max_chunk_bytes
+                known: list = [None, 0]  # (ships, largest record), and the bound they give
+
+                def bound() -> int:  # _limits_for's, once per change (it is asked per chunk)
+                    if known[0] != (len(table), self._largest_record):
+                        known[:] = [(len(table), self._largest_record),
+                                    min(general, self._chunk_bytes_for(len(table)))]
+                    return known[1]
                 grow = GrowingBound(
-                    bound=lambda: self._limits_for(len(table)).max_chunk_bytes,
+                    bound=bound,
                     prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
                     check=lambda: _FleetRecordCheck(f"{where}: damaged fleet record"))
                 for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
