@@ -178,6 +178,31 @@ def test_sparse_keyframes_seek_from_the_nearest_one(tmp_path):
     assert verify(str(bad)).divergence.tick == 77
 
 
+
+def test_the_chunks_zstd_level_changes_the_files_size_not_its_contents(tmp_path):
+    """``record --zstd-level``: a faster level writes a larger file holding the same messages,
+    which replays bit for bit; a level zstd has not is refused (exit 2) before anything is
+    written."""
+    logs = {}
+    for level in ("3", "-20"):
+        logs[level] = tmp_path / f"z{level}.mcap"
+        r = CliRunner().invoke(main, ["record", "fleet", "--set", "duration=6", "--zstd-level",
+                                      level, "-o", str(logs[level])])
+        assert r.exit_code == 0, r.output
+    assert logs["-20"].stat().st_size > 1.2 * logs["3"].stat().st_size
+    messages = {}
+    for level, path in logs.items():
+        with open(path, "rb") as f:
+            messages[level] = [(c.topic, m.log_time, m.sequence, bytes(m.data)) for _s, c, m
+                               in make_reader(f, validate_crcs=True).iter_messages()]
+    assert len(messages["3"]) > 100 and messages["3"] == messages["-20"]
+    assert verify(str(logs["-20"])).identical
+    r = CliRunner().invoke(main, ["record", "bounce", "--zstd-level", "23", "-o",
+                                  str(tmp_path / "no.mcap")])
+    assert r.exit_code == 2 and "--zstd-level" in r.output
+    assert not list(tmp_path.glob("no.mcap*"))
+
+
 DATA = Path(__file__).resolve().parent / "data"
 
 
