@@ -110,7 +110,7 @@ main.add_command(bench)  # one subcommand per benchmark, each with its own optio
 
 @main.command()
 @click.option("--sweep", "with_sweep", is_flag=True,
-              help="also the sweep's kernels (a compile of their own: minutes more)")
+              help="also the sweep's own kernels (its reductions: seconds more)")
 def warm(with_sweep: bool) -> None:
     """Compile the physics kernels for this CPU now (or load them from the cache), so that the
     first record, replay or serve after an install starts at once: the README's install line

@@ -61,9 +61,11 @@ def main(doc: dict, source: str, vary, samples, seed, output, chart, workers, sc
 def _compile_first(say=None) -> bool:
     """Where the sweep's kernels are not in the cache (the first sweep after an install, or after
     a change to sim/), compile them here, once, before the workers start: each worker would
-    otherwise compile the same code silently, all at once (minutes of CPU and ~0.9 GB of memory
-    each), then load them. The command line's compile notice (sim.compiled.notify_compilation;
-    ``say``, default: a line on a terminal) then names the sweep's kernels and `warm --sweep`.
+    otherwise compile the same code silently, all at once, then load them (seconds for the
+    sweep's own reductions; minutes, and ~0.9 GB of memory each, for the step itself where
+    `touchdown warm` has not compiled it). The command line's compile notice
+    (sim.compiled.notify_compilation; ``say``, default: a line on a terminal) then names the
+    sweep's kernels and `warm --sweep`.
     Returns whether they were missing."""
     from touchdown.sim.compiled import notify_compilation
     from touchdown.sweep.fleet import kernels_ready, ready
@@ -72,8 +74,8 @@ def _compile_first(say=None) -> bool:
 
     def notice(_text):
         line = ("touchdown sweep: compiling the sweep's kernels for this CPU (once after an "
-                "install or a change to sim/, a few minutes; `touchdown warm --sweep` does it "
-                "ahead) ...")
+                "install or a change to sim/: seconds after `touchdown warm`, minutes without it; "
+                "`touchdown warm --sweep` does it ahead) ...")
         if say is not None:
             say(line)
         elif sys.stderr.isatty():

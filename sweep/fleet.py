@@ -1,6 +1,15 @@
-"""The cases as one fleet: every case a ship, stepped by the compiled tick (sim.phases.step_ship),
-each ship with its own scene record and terrain (a case may change the contact model, the body or
-the slope), and its outcome reduced as it goes: nothing of a tick is kept past it.
+"""The cases as one fleet: every case a ship, stepped by the compiled tick of record and replay
+(sim.step.step_ticks, the same compiled code, loaded from the cache `touchdown warm` fills), each
+group of cases that share a scene (a case may change the contact model, the body or the slope)
+with its own scene record and terrain, and its outcome reduced block by block (:func:`_fold_block`):
+nothing of a tick is kept past its block.
+
+Why step_ticks itself: a loop of the sweep's own around the step (0.8's ``sweep_ticks``) is
+compiled as a whole with the step it calls (sim.compiled: an entry point links in and optimizes
+everything below it), so the step's ~180 kernels were optimized and turned into machine code a
+second time for it: ~75 s of CPU after `touchdown warm`, ~130 s in a fresh process (measured with
+numba's compile events, docs/issue36/session22-suite2.txt). The sweep's own kernels are now the
+reductions alone, a few seconds.
 
 Why a case's row is the bits of the case recorded alone: the row's ship is built by the scenario
 parser from the case's own scenario (its parameters, sub-steps and start placed on its terrain do
@@ -23,10 +32,10 @@ from touchdown.sim.dynamics import Motion
 from touchdown.sim.energy import mechanical, total
 from touchdown.sim.frames import Body, body_rotation
 from touchdown.sim.params import SCENE_DTYPE, Records
-from touchdown.sim.state import (COMMAND_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE, TRANSITION_DTYPE,
-    concatenate)
+from touchdown.sim.state import (COMMAND_DTYPE, INPUTS_DTYPE, OUTPUTS_DTYPE, STATE_DTYPE,
+    TRANSITION_DTYPE, concatenate)
 from touchdown.sim.ship import CONTACT, Turn, scene_ground
-from touchdown.sim.step import apply_commands, observe_ships, step_ships
+from touchdown.sim.step import Queue, Span, Written, observe_ships, resting, step_ticks
 from touchdown.sim.vec import quat_axis_z
 from touchdown.sweep.cases import Sweep
 
@@ -42,9 +51,10 @@ ACC_DTYPE = np.dtype([
     ("e1_j", "f8"),
 ], align=True)
 
-#: Ship-ticks per compiled call: about a tenth of a second of stepping, so that Ctrl-C and the
-#: progress bar answer promptly.
-BLOCK_SHIP_TICKS = 200_000
+#: Ship-ticks per call of the step: about a tenth of a second of stepping, so that Ctrl-C and the
+#: progress bar answer promptly, and ~10 MB of the block's per-tick records (states, telemetry,
+#: inputs: ~0.5 kB a ship-tick) that :func:`_fold_block` reduces.
+BLOCK_SHIP_TICKS = 20_000
 
 
 @separate
@@ -102,69 +112,40 @@ def _footprint_bf(p, q, h, c, s):
 
 
 @separate
-def sweep_ticks(scenes, terrains, group, rot_index, rot, ships, state, inputs, commands,
-                next_command, first_tick, n_ticks, dt_s, outs, events, count, acc, raw, scratch,
-                still, last_command, frozen):
-    """Ticks ``first_tick`` .. ``first_tick + n_ticks - 1`` of the fleet, each ship's by
-    sim.phases.step_ship with its group's scene and terrain and its rotation group's body angle
-    (``rot[r, k]``: (cos, sin) at the start of the k-th tick), reduced into ``acc``. Commands
-    (sorted by tick, from ``next_command``) are applied before the tick they are for, as
-    sim.step.step_ticks applies them. Returns the index of the next command."""
-    c = next_command
-    for k in range(n_ticks):
-        tick = first_tick + k
-        c = apply_commands(commands, c, tick, inputs)
-        t_end = (tick + 1) * dt_s
-        for i in range(state.shape[0]):
-            if frozen[i]:
-                continue
-            g = group[i]
-            r = rot_index[i]
-            rec = state[i]
-            row = raw[i]
-            for b in range(row.shape[0]):
-                scratch[b] = row[b]
-            sp = ships[i]
-            before = rec.surface_state
-            c0, s0, c1, s1 = rot[r, k, 0], rot[r, k, 1], rot[r, k + 1, 0], rot[r, k + 1, 1]
-            f0 = _footprint_bf((rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
-                               (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
-                               sp.com_height_m, c0, s0)
-            count[0] = 0
-            # the tick of record and replay (sim.step.step_ships, already compiled for them),
-            # on this one ship with its own scene
-            step_ships(Records(scenes[g:g + 1], terrains[g:g + 1], ships[i:i + 1]),
-                       state[i:i + 1], inputs[i:i + 1], outs[i:i + 1], Turn(c0, s0, c1, s1),
-                       events, count)
-            a = acc[i]
-            _fold_outputs(outs[i], a)
-            if before == CONTACT and rec.surface_state == CONTACT:
+def _fold_block(before, states, outputs, ships, rot, events, event_ticks, n_events, dt_s, acc):
+    """A block of ticks of one group's ships, as sim.step.step_ticks wrote it (``states`` and
+    ``outputs``: (ticks, ships); ``before``: the ships' states before the block; ``rot[k]``: the
+    body's (cos, sin) at the start of the block's k-th tick; ``events[:n_events]`` its
+    transitions, ``event_ticks`` the tick each led to), folded into each ship's ``acc``, tick
+    after tick as each ship stepped: its telemetry's extremes, the ground its footprint slid over
+    while in contact through a tick, and its last transition (at n dt - (dt - t_offset) for the
+    step into tick n, as sim.step.transitions)."""
+    for i in range(states.shape[1]):
+        a = acc[i]
+        h = ships[i].com_height_m
+        prev = before[i]
+        for k in range(states.shape[0]):
+            rec = states[k, i]
+            _fold_outputs(outputs[k, i], a)
+            if prev.surface_state == CONTACT and rec.surface_state == CONTACT:
+                f0 = _footprint_bf((prev.pos_m[0], prev.pos_m[1], prev.pos_m[2]),
+                                   (prev.quat[0], prev.quat[1], prev.quat[2], prev.quat[3]),
+                                   h, rot[k, 0], rot[k, 1])
                 f1 = _footprint_bf((rec.pos_m[0], rec.pos_m[1], rec.pos_m[2]),
                                    (rec.quat[0], rec.quat[1], rec.quat[2], rec.quat[3]),
-                                   sp.com_height_m, c1, s1)
+                                   h, rot[k + 1, 0], rot[k + 1, 1])
                 d = (f1[0] - f0[0], f1[1] - f0[1], f1[2] - f0[2])
                 n2 = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2]
                 along = (d[0] * f1[0] + d[1] * f1[1] + d[2] * f1[2]) / math.sqrt(n2)
                 tang2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - along * along
                 if tang2 > 0.0:
                     a.slide_m = a.slide_m + math.sqrt(tang2)
-            for e in range(min(count[0], events.shape[0])):
-                ev = events[e]
-                # sim.step.transitions: at n dt - (dt - t_offset) for the step into tick n
-                a.t_last_s = t_end - (dt_s - ev.t_offset_s)
-                a.last_to = ev.to_state
-            # a fixed point: the state came back bit for bit, on a body that does not turn,
-            # with no command to come: every later tick is this one again (the same state,
-            # telemetry and no transition), so the reductions have seen all they will see
-            if count[0] == 0 and still[r] and last_command[i] <= tick:
-                same = True
-                for b in range(row.shape[0]):
-                    if row[b] != scratch[b]:
-                        same = False
-                        break
-                if same:
-                    frozen[i] = True
-    return c
+            prev = rec
+    for e in range(n_events):
+        ev = events[e]
+        a = acc[ev.ship]
+        a.t_last_s = event_ticks[e] * dt_s - (dt_s - ev.t_offset_s)
+        a.last_to = ev.to_state
 
 
 @dataclass
@@ -238,12 +219,17 @@ class Fleet:
         sim.step.rotations computes them)."""
         out = np.empty((len(self.omegas), k + 1, 2))
         for r, om in enumerate(self.omegas.tolist()):
-            if om == 0.0:
-                out[r, :, 0], out[r, :, 1] = 1.0, 0.0
-            else:
-                for j in range(k + 1):
-                    out[r, j] = body_rotation(om, (first_tick + j) * self.dt_s)
+            self._spin(om, first_tick, out[r])
         return out
+
+    def _spin(self, om: float, first_tick: int, out: np.ndarray) -> None:
+        """(cos, sin) of a body spinning at ``om`` at the start of ticks first_tick, ... into the
+        rows of ``out``."""
+        if om == 0.0:
+            out[:, 0], out[:, 1] = 1.0, 0.0
+        else:
+            for j in range(out.shape[0]):
+                out[j] = body_rotation(om, (first_tick + j) * self.dt_s)
 
     def _start(self) -> None:
         """Tick 0: the telemetry of each start (as the log's first record), the energy."""
@@ -266,43 +252,90 @@ class Fleet:
         _energy_into(self.scenes, self.terrains, self.group, self.rot_index, rot[:, 0, :],
                      self.ships, self.state, acc, False)
 
+    def bounds(self) -> list[tuple[int, int]]:
+        """Each group's rows (lo, hi): Fleet.build lays each group's cases in one run of rows."""
+        starts = np.flatnonzero(np.diff(self.group, prepend=-1))
+        return list(zip(starts.tolist(), np.append(starts[1:], len(self.group)).tolist()))
+
+    def _rotation(self, r: int) -> np.ndarray:
+        """(cos, sin) at the start of every tick 0 .. n_ticks of rotation group ``r``
+        (:meth:`rotations`' numbers), kept for the next group of the same rotation group (groups
+        of one body's spin come one after another: one table at a time)."""
+        kept = getattr(self, "_rot_kept", None)
+        if kept is not None and kept[0] == r:
+            return kept[1]
+        table = np.empty((self.n_ticks + 1, 2))
+        self._spin(float(self.omegas[r]), 0, table)
+        self._rot_kept = (r, table)
+        return table
+
     def step(self, progress: Callable[[int], None] | None = None,
              stop: Callable[[], bool] | None = None) -> int:
         """Step every case to the end (or until ``stop()``, checked between blocks); returns the
-        last tick reached."""
+        last tick reached by every case.
+
+        Group by group (its cases share the scene record, the terrain and the body's angle),
+        blocks of ticks by sim.step.step_ticks, as record and replay step a scenario: the commands
+        applied before the tick they are for, a ship at a fixed point of the step (a still body)
+        given its state and telemetry again rather than stepped (sim.step.Resting); each block
+        then folded into the cases' reductions (:func:`_fold_block`)."""
         n = len(self.cases)
         if n == 0:
             return self.n_ticks
-        cap = int(np.max(2 * self.ships["n_substeps"] + 3))
-        events = np.empty(cap, TRANSITION_DTYPE)
-        count = np.zeros(1, np.int64)
-        outs = np.zeros(n, OUTPUTS_DTYPE)
-        block = max(1, min(self.n_ticks, BLOCK_SHIP_TICKS // n))
-        raw = self.state.view(np.uint8).reshape(n, self.state.dtype.itemsize)
-        scratch = np.empty(self.state.dtype.itemsize, np.uint8)
-        still = self.omegas == 0.0
-        last_command = np.full(n, -1, np.int64)
-        if len(self.commands):
-            np.maximum.at(last_command, self.commands["ship"], self.commands["tick"])
-        frozen = np.zeros(n, bool)
+        bounds = self.bounds()
+        ticks = []
+        for g, (lo, hi) in enumerate(bounds):
+            ticks.append(self._step_group(g, lo, hi, progress, stop))
+            if ticks[-1] < self.n_ticks:
+                break
+        # the groups not started are at tick 0 (an interrupted part is reported missing whole:
+        # run_part's ``done``)
+        reached = min(ticks) if len(ticks) == len(bounds) else 0
+        rot = self.rotations(reached, 0)
+        _energy_into(self.scenes, self.terrains, self.group, self.rot_index, rot[:, 0, :],
+                     self.ships, self.state, self.acc, True)
+        self.last_tick = reached
+        return reached
+
+    def _step_group(self, g: int, lo: int, hi: int, progress, stop) -> int:
+        """Group ``g``'s ships (rows lo..hi-1) to the end, or until ``stop()``; the tick reached."""
+        n_g = hi - lo
+        recs = Records(self.scenes[g:g + 1], self.terrains[g:g + 1], self.ships[lo:hi])
+        state, inputs, acc = self.state[lo:hi], self.inputs[lo:hi], self.acc[lo:hi]
+        r = int(self.rot_index[lo])
+        on = bool(self.omegas[r] == 0.0)
+        rotation = self._rotation(r)
+        table = self.commands
+        if len(table):
+            mine = (table["ship"] >= lo) & (table["ship"] < hi)
+            table = table[mine]  # (a copy) sorted by tick, then ship, as the whole
+            table["ship"] -= lo
+        # transitions a tick can make (sim.step.tick_capacity, for these ships)
+        cap = int(np.sum(2 * recs.ships["n_substeps"] + 3))
+        size = max(1, BLOCK_SHIP_TICKS // n_g)
+        kept = None
         tick, c = 0, 0
         while tick < self.n_ticks:
             if stop is not None and stop():
                 break
-            k = min(block, self.n_ticks - tick)
-            rot = self.rotations(tick, k)
-            c = sweep_ticks(self.scenes, self.terrains, self.group, self.rot_index, rot,
-                            self.ships, self.state, self.inputs, self.commands, c, tick, k,
-                            self.dt_s, outs, events, count, self.acc, raw, scratch, still,
-                            last_command, frozen)
-            tick += k
+            k = min(size, self.n_ticks - tick)
+            states = np.empty((k, n_g), STATE_DTYPE)
+            outputs = np.empty((k, n_g), OUTPUTS_DTYPE)
+            ins = np.empty((k, n_g), INPUTS_DTYPE)
+            events = np.empty(cap * min(k, 16), TRANSITION_DTYPE)
+            event_ticks = np.empty(events.shape[0], np.int64)
+            count = np.zeros(1, np.int64)
+            kept = resting(n_g, state, inputs, outputs, on, kept)
+            before = state.copy()
+            rot = rotation[tick:tick + k + 1]
+            done, c = step_ticks(recs, state, inputs, Queue(table, c), Span(tick, rot),
+                                 Written(states, outputs, ins, events, event_ticks, count, kept),
+                                 cap)
+            _fold_block(before, states[:done], outputs[:done], recs.ships, rot, events,
+                        event_ticks, int(count[0]), self.dt_s, acc)
+            tick += done
             if progress is not None:
-                progress(k * n)
-        rot = self.rotations(tick, 0)
-        _energy_into(self.scenes, self.terrains, self.group, self.rot_index, rot[:, 0, :],
-                     self.ships, self.state, self.acc, True)
-        self.last_tick = tick
-        self.frozen = frozen
+                progress(done * n_g)
         return tick
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -336,16 +369,15 @@ def run_part(sw: Sweep, cases: Sequence[int], progress=None, stop=None) -> dict[
 
 
 # -- the sweep's own compiled code -----------------------------------------------------------------
-#: The kernels a sweep calls from Python. Each is compiled as a whole with the step it calls
-#: (sim.compiled: an entry point optimizes everything it calls), so the sweep's are a compile of
-#: their own, beside record's and serve's that `touchdown warm` makes: ~2.5 minutes of CPU and
-#: ~0.9 GB of memory on session 25's 2-core AMD EPYC, once after an install or a change to sim/.
-SWEEP_KERNELS = (sweep_ticks, _observe_into, _energy_into)
+#: The kernels of its own a sweep calls from Python: its reductions, a few seconds of CPU once
+#: after an install or a change to sim/. The step is record's (sim.step.step_ticks), which
+#: `touchdown warm` compiles.
+SWEEP_KERNELS = (_fold_block, _observe_into, _energy_into)
 
 
 def kernels_ready() -> bool:
     """Whether the sweep's kernels are in the on-disk cache (their first call loads them)."""
-    return all(in_cache(k) for k in SWEEP_KERNELS)
+    return all(in_cache(k) for k in (step_ticks, observe_ships, *SWEEP_KERNELS))
 
 
 def ready() -> float:

@@ -75,13 +75,13 @@ def pytest_collection_modifyitems(config, items):
 
 def _sweep_first(items) -> None:
     """Under xdist, tests/test_sweep.py's tests first, in their order (every worker collects the
-    same order; the controller deals it out). Its sweeps need the sweep's step, compiled once by
-    the first worker to take test_sweep's ``sweep_kernels`` (~130 s of CPU; a lock in the kernel
-    cache, that fixture's docstring). Where the file came late, both workers met it near the end
-    (worksteal hands the thief the tail of the other's queue): one compiled while the other
-    waited on the lock, 103 s of a worker's time idle in one CI run. First, the worker dealt it
-    compiles at the start while the other runs its own half, and the file's tests stay at the
-    head of that worker's queue, which a thief does not take."""
+    same order; the controller deals it out). Its sweeps needed the sweep's own compile of the
+    step (~130 s of CPU, under a lock in the kernel cache): where the file came late, both
+    workers met it near the end (worksteal hands the thief the tail of the other's queue), one
+    compiling while the other waited on the lock, 103 s of a worker's time idle in one CI run.
+    The sweep now steps with record's compiled step (sweep.fleet), which the warm-up compiles;
+    the file stays first, its longer tests (the Ctrl-C subprocess, the Dask cluster) at the
+    head of one worker's queue rather than its tail."""
     def is_sweep(it) -> bool:
         return it.nodeid.split("::", 1)[0].endswith("test_sweep.py")
     items.sort(key=lambda it: not is_sweep(it))  # (a stable sort: each part keeps its order)

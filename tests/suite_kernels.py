@@ -6,9 +6,9 @@ A worker that calls a kernel from Python (a test calling a phase or the friction
 in a fresh worker that types every kernel it calls again (they are not cached on disk), 5 to 20 s
 of CPU each (the friction solve's 18 s). In the warm's process the kernels are typed already, so
 each twin costs only its own code (the friction solve's 1.6 s); it goes into the project's cache
-(:func:`compile_them`'s ``cache``), where the workers load it. Not the sweep's step: its twin is
-the whole step optimized again, 129 s of CPU even there (measured), which would only lengthen the
-warm-up (tests/test_sweep.py compiles it once under a lock instead).
+(:func:`compile_them`'s ``cache``), where the workers load it. The sweep's own kernels too (its
+reductions: the sweep steps with the warm's sim.step.step_ticks; before session 27 its own loop
+around the step was the whole step optimized again, 129 s of CPU even here).
 
 Each call below is one a test makes (the same helper, the same argument types): a call whose
 types drift from the test's only leaves that test to compile its own, as before; a call that
@@ -63,7 +63,13 @@ def _export() -> None:
                 raise RuntimeError(f"{args[0]}: {r.output}")
 
 
-STEPS = {"friction": _friction, "settle": _settle, "export": _export}
+def _sweep() -> None:
+    # tests/test_sweep.py's sweep_kernels fixture: the sweep's reductions (sweep.fleet.ready)
+    from touchdown.sweep.fleet import ready
+    ready()
+
+
+STEPS = {"friction": _friction, "settle": _settle, "export": _export, "sweep": _sweep}
 
 
 def compile_them(cache: str, steps: tuple[str, ...] = tuple(STEPS)) -> dict:

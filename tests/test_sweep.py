@@ -63,10 +63,10 @@ def _compile_the_sweeps_kernels() -> None:
 
 @pytest.fixture(scope="module")
 def sweep_kernels():
-    """The sweep's kernels in the cache and loaded in this process (sweep.fleet.ready): under
-    xdist two workers came to this file's sweeps together (the table's and
-    test_the_cli_summary_and_the_table's) and each compiled the same step, ~130 s of CPU each;
-    ready's lock in the kernel cache has the second wait for the first and load them.
+    """The sweep's kernels in the cache and loaded in this process (sweep.fleet.ready): the step
+    (record's sim.step.step_ticks, which the warm-up compiled) and the sweep's own reductions
+    (tests/suite_kernels.py compiles them in the warm-up; a few seconds of CPU otherwise). Under
+    ready's lock in the kernel cache, workers that come to it together compile them once.
     (A serial run: the background job has compiled them; the lock is uncontended.)"""
     from touchdown.sweep.fleet import ready
     background.wait(_compile_the_sweeps_kernels)
