@@ -294,24 +294,51 @@ class LogReader:
         return ok
 
     def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
-        for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
-                                             self.status, walk=self._walk):
+        for topic, _t, data in self.messages(topics):
             yield topic, data
+
+    def _fleet_bound(self) -> GrowingBound:
+        """How a read after the fleet's bounds its chunks: by the whole fleet (_tick_limits),
+        save one ending in a tick's commands, which the fleet does not bound (any number a ship
+        a tick: World.commands, a scenario's inputs). A chunk over that bound is read as a
+        stream (safe_read.GrowingBound): every record but its last within what a writer fills
+        before it closes a chunk, and its last a command batch (kept if the read wants it,
+        checked field by field as it arrives, else passed over, not held) or else the chunk is
+        refused, before it is inflated past a piece of that record. The header's chunk, if its
+        check waits for the fleet, is checked first."""
+        limits = self._tick_limits()
+        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        where = str(self.path)
+
+        def refuse(declared: int) -> LogError:
+            return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
+                            f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}) and does not "
+                            f"end in a tick's commands; refusing it")
+        return GrowingBound(
+            bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
+            held=max(tick_bytes_bound(ships), self._largest_record),
+            check=lambda topic: (_FieldCheck(f"{where}: damaged command record",
+                                             _FieldCheck.COMMAND_BATCH)
+                                 if topic == TOPIC_COMMANDS else None),
+            passed=frozenset({TOPIC_COMMANDS}), refuse=refuse)
 
     def messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
         """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
         every reader of this log reads them (through its index, or by walking its data section
-        when its summary or footer is damaged)."""
-        self._header_chunk_checked()
+        when its summary or footer is damaged), each chunk within the fleet's bound
+        (_fleet_bound)."""
+        grow = self._fleet_bound()
         yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
-                                 walk=self._walk)
+                                 walk=self._walk, grow=grow)
 
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
-        """(log time ns, message bytes) of one topic's messages, in log order."""
-        self._header_chunk_checked()
+        """(log time ns, message bytes) of one topic's messages, in log order (each chunk
+        within the fleet's bound: _fleet_bound)."""
+        grow = self._fleet_bound()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
-                                                end_ns, self.status, walk=self._walk):
+                                                end_ns, self.status, walk=self._walk,
+                                                grow=grow):
             yield t_ns, data
 
     @property
@@ -487,7 +514,7 @@ class LogReader:
         GrowingBound): a chunk over it is read as a stream, and if its last record runs past
         what a writer fills before it closes a chunk (a tick of ships that joined in it, or a
         crafted record) it is not inflated, unless it is a fleet record (checked as it
-        arrives: _FleetRecordCheck); such a chunk, and the header's if its check waits for the
+        arrives: _FieldCheck); such a chunk, and the header's if its check waits for the
         fleet (_check_header_chunk), is then read in full within the whole fleet's bound."""
         if getattr(self, "_table", None) is None:
             table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
@@ -505,7 +532,9 @@ class LogReader:
                 grow = GrowingBound(
                     bound=bound,
                     prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
-                    check=lambda: _FleetRecordCheck(f"{where}: damaged fleet record"))
+                    check=lambda topic: _FieldCheck(f"{where}: damaged fleet record",
+                                                    _FieldCheck.FLEET_CHANGE),
+                    passed=frozenset({TOPIC_COMMANDS}))
                 for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
                                                       None, self.status, walk=self._walk,
                                                       grow=grow):
@@ -590,16 +619,21 @@ class LogReader:
         self.close()
 
 
-class _FleetRecordCheck:
-    """A fleet record (FleetChange) checked as it is inflated, a piece at a time
+class _FieldCheck:
+    """A record (a protobuf message) checked as it is inflated, a piece at a time
     (GrowingBound's check): each field as it completes, its number, wire type and length, so
     that bytes that cannot be one (a run of zeros, noise) are refused at their first piece, not
-    held to the length their record declares."""
+    held to the length their record declares. ``wire``: field number -> the wire types it may
+    take."""
 
-    _WIRE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}  # tick, joined, left_ship_key, left_ship_id
+    #: FleetChange: tick, joined, left_ship_key (packed or not), left_ship_id
+    FLEET_CHANGE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}
+    #: CommandBatch: tick, commands
+    COMMAND_BATCH = {1: (0,), 2: (2,)}
 
-    def __init__(self, what: str):
+    def __init__(self, what: str, wire: dict[int, tuple[int, ...]]):
         self.what = what
+        self._WIRE = wire
         self.at = 0  # where the first field not yet complete begins
 
     def __call__(self, data: bytearray, final: bool) -> None:

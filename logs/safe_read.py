@@ -129,13 +129,26 @@ class GrowingBound:
     the chunk is read to its end (size and CRC checked). Any other last record is not inflated
     at all: the chunk's (byte offset, declared size) is appended to ``deferred``, for the
     caller to read in full (chunk_at: size and CRC) once the read is done and its bound known,
-    before it trusts what the read gave."""
+    before it trusts what the read gave.
+
+    ``passed``: topics whose messages what the read knows does not bound (a tick's commands:
+    a ship may be given any number): a chunk's last record on one of them may run past the
+    prefix, to the general bound (``max_chunk_bytes``), kept if wanted (``check(topic)``'s
+    checker, if any, on it as it arrives), else passed over (inflated a piece at a time, not
+    held); either way the chunk is read to its end, its size and CRC checked. ``refuse``: the
+    bound is final (the whole fleet is read): a chunk's last record past the prefix that is
+    neither a wanted message within ``held`` nor on a ``passed`` topic is refused with
+    ``refuse(declared size)``, not deferred. A chunk read as a stream gives its messages only
+    once it is read to its end (iter_messages' caller sees none of an unchecked chunk), or,
+    deferred, those before its last record."""
 
     bound: Callable[[], int]
     prefix: int
     held: int
-    check: Callable[[], Callable[[bytearray, bool], None]] | None = None
+    check: Callable[[str], Callable[[bytearray, bool], None] | None] | None = None
     deferred: list = field(default_factory=list)
+    passed: frozenset = frozenset()
+    refuse: Callable[[int], Exception] | None = None
 
 
 class ChunkBuffers:
@@ -442,15 +455,21 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                     pos += 22
                     m = Message(channel_id=cid, sequence=seq, log_time=log_time,
                                 publish_time=publish_time, data=b"")
+                    topic = channels.get(cid)
+                    free = past and topic in grow.passed  # (bounded by the chunk's declared)
                     if wanted(m, channels):
-                        if length - 22 > grow.held:
+                        if length - 22 > grow.held and not free:
                             raise LogError(f"{where}: a message of {length - 22:,} bytes (limit "
                                            f"{grow.held:,}); refusing it")
-                        checker = grow.check() if past and grow.check is not None else None
+                        checker = (grow.check(topic) if past and grow.check is not None
+                                   else None)
                         m.data = body(length - 22, True, checker)
                         yield m
                         continue
                     length -= 22
+                    if free:  # the chunk's last record, not wanted: passed over, not held
+                        body(length, False)
+                        continue
                 elif op == 0x04 and not past:
                     data = body(length, True)
                     try:
@@ -461,6 +480,8 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                     yield rec
                     continue
                 if past:  # the chunk's last record, not wanted: not inflated (past a piece)
+                    if grow.refuse is not None:
+                        raise grow.refuse(declared)
                     grow.deferred.append((offset, declared))
                     return
                 body(length, False)
@@ -484,7 +505,9 @@ def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus,
     ``status.unchecked``), or for a read bounded by what it has read (``grow``) of a chunk over
     that bound, as a stream (_grown_records; the chunk may be left in ``grow.deferred``)."""
     if grow is not None and not header and chunk.uncompressed_size > grow.bound():
-        yield from _grown_records(chunk, name, limits, channels, wanted, grow, offset)
+        # (all of it, before any is given: a chunk streamed is checked, its size and CRC, at
+        # its end, or deferred; its records before its last are within grow.prefix)
+        yield from list(_grown_records(chunk, name, limits, channels, wanted, grow, offset))
         return
     if not header or chunk.uncompressed_size <= HEADER_PREAMBLE_BYTES:
         yield from _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits, chunk,
