@@ -309,6 +309,10 @@ class LogReader:
         limits = self._tick_limits()
         ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
         where = str(self.path)
+        ids = self.ship_table().ids if self.log_format >= 3 else self.scenario.ship_ids
+        if getattr(self, "_longest_id", (-1,))[0] != len(ids):  # (once per fleet)
+            self._longest_id = (len(ids), max((len(i.encode()) for i in ids), default=0))
+        command_bytes = COMMAND_BYTES_BUT_ID + self._longest_id[1]
 
         def refuse(declared: int) -> LogError:
             return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
@@ -318,7 +322,7 @@ class LogReader:
             bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
             held=max(tick_bytes_bound(ships), self._largest_record),
             check=lambda topic: (_FieldCheck(f"{where}: damaged command record",
-                                             _FieldCheck.COMMAND_BATCH)
+                                             _FieldCheck.COMMAND_BATCH, {2: command_bytes})
                                  if topic == TOPIC_COMMANDS else None),
             passed=frozenset({TOPIC_COMMANDS}), refuse=refuse)
 
@@ -386,9 +390,9 @@ class LogReader:
         fmt = self.scenario.log_format_version
         table = len(self.ship_table()) if fmt >= 3 else ships
         limit = self.max_tick_bytes()
+        grow = self._fleet_bound()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status, self._tick_limits(),
-                                                walk=self._walk):
+                                                end, self.status, walk=self._walk, grow=grow):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
             if len(data) > limit:
@@ -472,9 +476,10 @@ class LogReader:
                 begins.clear(), ends.clear(), times.clear()
 
         topics = {TOPIC_TICKS} if events is None else {TOPIC_TICKS, TOPIC_EVENTS}
+        grow = self._fleet_bound()
         for topic, t_ns, data in iter_messages(self._file, str(self.path), topics, start,
-                                               end, self.status, self._tick_limits(),
-                                               views=True, walk=self._walk, buffers=buffers):
+                                               end, self.status, views=True, walk=self._walk,
+                                               buffers=buffers, grow=grow):
             owner = data.obj if isinstance(data, memoryview) else data
             if owner is not base:  # the next chunk: the last one's records are decoded
                 feed()
@@ -532,8 +537,11 @@ class LogReader:
                 grow = GrowingBound(
                     bound=bound,
                     prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
-                    check=lambda topic: _FieldCheck(f"{where}: damaged fleet record",
-                                                    _FieldCheck.FLEET_CHANGE),
+                    check=lambda topic: (
+                        _FieldCheck(f"{where}: damaged fleet record", _FieldCheck.FLEET_CHANGE)
+                        if topic == TOPIC_FLEET else  # (a tick's commands, passed over)
+                        _FieldCheck(f"{where}: damaged command record",
+                                    _FieldCheck.COMMAND_BATCH)),
                     passed=frozenset({TOPIC_COMMANDS}))
                 for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
                                                       None, self.status, walk=self._walk,
@@ -621,49 +629,63 @@ class LogReader:
 
 class _FieldCheck:
     """A record (a protobuf message) checked as it is inflated, a piece at a time
-    (GrowingBound's check): each field as it completes, its number, wire type and length, so
+    (GrowingBound's check; each call is given the bytes that came after the last's): each
+    field's number, wire type and, for the fields ``longest`` names, length, as they arrive, so
     that bytes that cannot be one (a run of zeros, noise) are refused at their first piece, not
-    held to the length their record declares. ``wire``: field number -> the wire types it may
-    take."""
+    held (or inflated) to the length their record declares. ``wire``: field number -> the wire
+    types it may take."""
 
     #: FleetChange: tick, joined, left_ship_key (packed or not), left_ship_id
     FLEET_CHANGE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}
     #: CommandBatch: tick, commands
     COMMAND_BATCH = {1: (0,), 2: (2,)}
 
-    def __init__(self, what: str, wire: dict[int, tuple[int, ...]]):
+    def __init__(self, what: str, wire: dict[int, tuple[int, ...]],
+                 longest: dict[int, int] | None = None):
         self.what = what
-        self._WIRE = wire
-        self.at = 0  # where the first field not yet complete begins
+        self.wire = wire
+        self.longest = longest or {}
+        self.state = 0  # reading: 0 a field's key, 1 a varint's value, 2 a length
+        self.field = self.value = self.shift = 0
+        self.skip = 0  # bytes of a length-delimited field still to pass
 
-    def __call__(self, data: bytearray, final: bool) -> None:
-        n = len(data)
-        while self.at < n:
-            key, i = _varint(data, self.at, self.what)
-            if key is None:
-                break
-            if (key & 7) not in self._WIRE.get(key >> 3, ()):
-                raise LogError(f"{self.what} (field {key >> 3}, wire type {key & 7})")
-            value, j = _varint(data, i, self.what)
-            if value is None or (key & 7 == 2 and j + value > n):
-                break
-            self.at = j + value if key & 7 == 2 else j
-        if final and self.at != n:
+    def __call__(self, data, final: bool) -> None:
+        i, n = 0, len(data)
+        while i < n:
+            if self.skip:
+                k = min(self.skip, n - i)
+                self.skip -= k
+                i += k
+                continue
+            b = data[i]
+            i += 1
+            self.value |= (b & 0x7F) << self.shift
+            self.shift += 7
+            if b & 0x80:
+                if self.shift >= 70:
+                    raise LogError(f"{self.what} (a varint of more than 10 bytes)")
+                continue
+            v, self.value, self.shift = self.value, 0, 0
+            if self.state == 0:
+                if (v & 7) not in self.wire.get(v >> 3, ()):
+                    raise LogError(f"{self.what} (field {v >> 3}, wire type {v & 7})")
+                self.field, self.state = v >> 3, 1 if v & 7 == 0 else 2
+            elif self.state == 1:
+                self.state = 0
+            else:
+                most = self.longest.get(self.field)
+                if most is not None and v > most:
+                    raise LogError(f"{self.what} (field {self.field} of {v:,} bytes, more than "
+                                   f"{most:,})")
+                self.skip, self.state = v, 0
+        if final and (self.state or self.skip or self.shift):
             raise LogError(f"{self.what} (it ends inside a field)")
 
 
-def _varint(data: bytearray, i: int, what: str) -> tuple[int | None, int]:
-    """(the protobuf varint at ``data[i:]``, where it ends), or (None, i) if it is not all
-    there yet."""
-    value = shift = 0
-    for k in range(i, min(len(data), i + 10)):
-        value |= (data[k] & 0x7F) << shift
-        if data[k] < 0x80:
-            return value, k + 1
-        shift += 7
-    if len(data) >= i + 10:
-        raise LogError(f"{what} (a varint of more than 10 bytes)")
-    return None, i
+#: the most bytes a Command holds, less its ship id's: its fields' keys, a tick and a hold
+#: (varints of 10 bytes at most), the id's length, a throttle and three rcs numbers (packed or
+#: not), with margin
+COMMAND_BYTES_BUT_ID = 128
 
 
 def _parse(cls, data: bytes, what: str):

@@ -124,8 +124,9 @@ class GrowingBound:
     parsed as they arrive: every record but its last must end within its first ``prefix``
     bytes (a writer closes a chunk at the record that takes it past its target size: all
     before it lie within that size); its last may run past them only if it is a message the
-    read wants, of at most ``held`` bytes (checked as it arrives by ``check()``'s checker, if
-    any: ``checker(data so far, final)`` raises LogError on bytes that cannot be one), and then
+    read wants, of at most ``held`` bytes (checked as it arrives by ``check(topic)``'s checker,
+    if any: ``checker(the bytes since its last call, final)`` raises LogError on bytes that
+    cannot be one), and then
     the chunk is read to its end (size and CRC checked). Any other last record is not inflated
     at all: the chunk's (byte offset, declared size) is appended to ``deferred``, for the
     caller to read in full (chunk_at: size and CRC) once the read is done and its bound known,
@@ -133,9 +134,9 @@ class GrowingBound:
 
     ``passed``: topics whose messages what the read knows does not bound (a tick's commands:
     a ship may be given any number): a chunk's last record on one of them may run past the
-    prefix, to the general bound (``max_chunk_bytes``), kept if wanted (``check(topic)``'s
-    checker, if any, on it as it arrives), else passed over (inflated a piece at a time, not
-    held); either way the chunk is read to its end, its size and CRC checked. ``refuse``: the
+    prefix, to the general bound (``max_chunk_bytes``), kept if wanted, else passed over
+    (inflated a piece at a time, not held), ``check(topic)``'s checker, if any, on it as it
+    arrives; either way the chunk is read to its end, its size and CRC checked. ``refuse``: the
     bound is final (the whole fleet is read): a chunk's last record past the prefix that is
     neither a wanted message within ``held`` nor on a ``passed`` topic is refused with
     ``refuse(declared size)``, not deferred. A chunk read as a stream gives its messages only
@@ -404,22 +405,26 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
             buf += inflate(_PIECE)
 
     def body(n: int, keep: bool, checker=None) -> bytearray | None:
-        """The next ``n`` bytes (a record's body): returned if ``keep`` (``checker`` called on
-        them as they arrive), else passed over; never inflated past them."""
+        """The next ``n`` bytes (a record's body): returned if ``keep``, else passed over
+        (``checker``, if any, called on each piece as it arrives, and at the end); never
+        inflated past them."""
         nonlocal pos
         have = min(n, len(buf) - pos)
-        out = bytearray(buf[pos:pos + have]) if keep else None
+        first = buf[pos:pos + have]
+        out = first if keep else None
+        if checker is not None and have:
+            checker(first, False)
         pos += have
         left = n - have
         while left:
             got = inflate(left)
             if keep:
                 out += got
-                if checker is not None:
-                    checker(out, False)
+            if checker is not None:
+                checker(got, False)
             left -= len(got)
         if checker is not None:
-            checker(out, True)
+            checker(b"", True)
         return out
 
     count = 0
@@ -468,7 +473,8 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                         continue
                     length -= 22
                     if free:  # the chunk's last record, not wanted: passed over, not held
-                        body(length, False)
+                        body(length, False, grow.check(topic) if grow.check is not None
+                             else None)
                         continue
                 elif op == 0x04 and not past:
                     data = body(length, True)
