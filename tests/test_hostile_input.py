@@ -296,7 +296,8 @@ def test_replay_verify_of_a_second_chunk_bomb_in_a_cut_log_never_inflates_it(bou
     assert needle in assert_refused(invoke("replay", path, "--verify"), path.name)
 
 
-def _commands_log(path: Path, commands: int, id_chars: int) -> None:
+def _commands_log(path: Path, commands: int, id_chars: int, keyframe_interval: int = 10
+                  ) -> None:
     """A log of one ship (its id ``id_chars`` long) given ``commands`` commands at tick 4 (World
     .commands takes any number a ship a tick, as a scenario's inputs at one time do), written
     as the service writes (LogWriter): its command batch is a record of about ``commands`` x
@@ -309,7 +310,8 @@ def _commands_log(path: Path, commands: int, id_chars: int) -> None:
     scn = parse({"name": "commands", "duration": 0.5,
                  "ships": [{"id": sid, "initial": {"altitude": 2.0}}]}, "commands")
     world = World.of(scn)
-    with LogWriter(path, scenario_message(scn, "commands", keyframe_interval=10)) as writer:
+    with LogWriter(path, scenario_message(scn, "commands",
+                                          keyframe_interval=keyframe_interval)) as writer:
         writer.write_block(world.first_block())
         for t in range(0, 10, 2):
             if t == 4:
@@ -323,8 +325,9 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
     one ship with a 200-character id are a command batch of 4.9 MB, ending a chunk over what
     a chunk of the one ship's ticks can hold (1.3 MB): every read takes it as a stream (its
     records before the batch within what a writer fills), the commands' read keeps the batch,
-    the others pass over it, and the log reads as written: verify finds it identical, whole
-    and cut (walked). Before, the ticks' read refused the chunk ("claims 4,861,509 bytes")."""
+    the others pass over it, and the log reads as written: verify finds it identical, whole,
+    cut (walked) and cut around tick 4 by `touchdown incident`. Before, the ticks' read refused
+    the chunk ("claims 4,861,509 bytes")."""
     from touchdown.logs import safe_read
     from touchdown.replay.verify import verify
     streamed = []
@@ -335,7 +338,7 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
         return real(chunk, *args)
     monkeypatch.setattr(safe_read, "_grown_records", spy)
     path = tmp_path / "commands.mcap"
-    _commands_log(path, 20_000, 200)
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
     res = verify(str(path))
     assert res.divergence is None and res.ticks_compared == 11, res.divergence
     assert streamed and max(streamed) > 4_000_000, streamed
@@ -346,6 +349,13 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
     with LogReader(cut) as r:
         assert len(r.timeline().commands) == 20_000 and not r.status.complete
         assert len(list(r.events())) == 0 and r.read_summary().last_tick == 10
+    around = tmp_path / "incident.mcap"
+    assert invoke("incident", path, "--ship", "s" * 200, "--around", 4, "--before", 0.05,
+                  "--after", 0.2, "-o", around).exit_code == 0
+    res = verify(str(around))
+    assert res.divergence is None and res.ticks_compared == 7, res.divergence
+    with LogReader(around) as r:
+        assert len(r.timeline().commands) == 20_000
 
 
 @pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
