@@ -20,7 +20,7 @@ from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVE
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
                          ShipTable, keyframe_due, tick_bytes_bound)
 from touchdown.logs.safe_read import (ChunkBuffers, GrowingBound, ReadLimits, ReadStatus,
-                                      chunk_at, iter_messages)
+                                      chunk_at, chunk_checked_at, iter_messages)
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
 from touchdown.logs.structure import data_crc_matches
@@ -307,9 +307,13 @@ class LogReader:
         refused, before it is inflated past a piece of that record. The header's chunk, if its
         check waits for the fleet, is checked first."""
         limits = self._tick_limits()
-        ships = len(self.ship_table()) if self.log_format >= 3 else len(self.scenario.ship_ids)
+        return self._grow_for(limits, self.ship_table().ids if self.log_format >= 3
+                              else self.scenario.ship_ids)
+
+    def _grow_for(self, limits: ReadLimits, ids) -> GrowingBound:
+        """_fleet_bound for the fleet of ``ids`` (the ship ids), whose chunks ``limits`` bound."""
+        ships = len(ids)
         where = str(self.path)
-        ids = self.ship_table().ids if self.log_format >= 3 else self.scenario.ship_ids
         if getattr(self, "_longest_id", (-1,))[0] != len(ids):  # (once per fleet)
             self._longest_id = (len(ids), max((len(i.encode()) for i in ids), default=0))
         command_bytes = COMMAND_BYTES_BUT_ID + self._longest_id[1]
@@ -520,7 +524,9 @@ class LogReader:
         what a writer fills before it closes a chunk (a tick of ships that joined in it, or a
         crafted record) it is not inflated, unless it is a fleet record (checked as it
         arrives: _FieldCheck); such a chunk, and the header's if its check waits for the
-        fleet (_check_header_chunk), is then read in full within the whole fleet's bound."""
+        fleet (_check_header_chunk), is then read in full within the whole fleet's bound, or,
+        one ending in a tick's commands (which the fleet does not bound), as every read after
+        the fleet's reads it (_fleet_bound: the batch passed over, checked as it arrives)."""
         if getattr(self, "_table", None) is None:
             table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
             self._fleet: list[pb.FleetChange] = []
@@ -537,12 +543,8 @@ class LogReader:
                 grow = GrowingBound(
                     bound=bound,
                     prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
-                    check=lambda topic: (
-                        _FieldCheck(f"{where}: damaged fleet record", _FieldCheck.FLEET_CHANGE)
-                        if topic == TOPIC_FLEET else  # (a tick's commands, passed over)
-                        _FieldCheck(f"{where}: damaged command record",
-                                    _FieldCheck.COMMAND_BATCH)),
-                    passed=frozenset({TOPIC_COMMANDS}))
+                    check=lambda topic: _FieldCheck(f"{where}: damaged fleet record",
+                                                    _FieldCheck.FLEET_CHANGE))
                 for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
                                                       None, self.status, walk=self._walk,
                                                       grow=grow):
@@ -560,8 +562,12 @@ class LogReader:
                         table.add(int(change.tick), spec)
                     self._fleet.append(change)
                 limits = self._limits_for(len(table))
-                for offset, _declared in grow.deferred:
-                    chunk_at(self._file, offset, where, limits)
+                final = self._grow_for(limits, table.ids) if grow.deferred else None
+                for offset, _declared, topic, cid in grow.deferred:
+                    if topic == TOPIC_COMMANDS:  # (the fleet does not bound a tick's commands)
+                        chunk_checked_at(self._file, offset, where, final, {cid: topic})
+                    else:
+                        chunk_at(self._file, offset, where, limits)
                     if self._header_chunk is not None and self._header_chunk[0] == offset:
                         self._header_chunk = None  # (just read in full)
                 self._check_header_chunk(limits)

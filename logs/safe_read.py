@@ -128,7 +128,8 @@ class GrowingBound:
     if any: ``checker(the bytes since its last call, final)`` raises LogError on bytes that
     cannot be one), and then
     the chunk is read to its end (size and CRC checked). Any other last record is not inflated
-    at all: the chunk's (byte offset, declared size) is appended to ``deferred``, for the
+    at all: the chunk's (byte offset, declared size, the last record's topic (None: not a
+    message) and channel id) is appended to ``deferred``, for the
     caller to read in full (chunk_at: size and CRC) once the read is done and its bound known,
     before it trusts what the read gave.
 
@@ -488,7 +489,8 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                 if past:  # the chunk's last record, not wanted: not inflated (past a piece)
                     if grow.refuse is not None:
                         raise grow.refuse(declared)
-                    grow.deferred.append((offset, declared))
+                    grow.deferred.append((offset, declared, channels.get(cid)
+                                          if op == 0x05 else None, cid if op == 0x05 else -1))
                     return
                 body(length, False)
             if r.readinto(piece):
@@ -767,5 +769,29 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
     return _chunk_data(chunk, name, limits)
 
 
+def chunk_checked_at(f: IO[bytes], offset: int, name: str, grow: GrowingBound,
+                     channels: dict[int, str], limits: ReadLimits | None = None) -> None:
+    """The chunk record at ``offset`` read to its end, its size and CRC checked, as a read with
+    ``grow`` (a final bound: its ``refuse`` set) reads it: whole if it declares at most
+    ``grow.bound()``, else as a stream whose last record past ``grow.prefix`` must be a message
+    on a ``grow.passed`` topic (``channels``: the topics by channel id), passed over (checked by
+    ``grow.check``'s checker as it arrives), not held; LogError otherwise."""
+    limits = limits if limits is not None else ReadLimits.from_environment()
+    try:
+        f.seek(offset)
+        chunk = next(StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
+                                  record_size_limit=limits.max_chunk_bytes).records)
+    except Exception as exc:  # noqa: BLE001 - any failure to parse it is damage
+        raise LogError(f"{name}: damaged chunk at byte {offset:,} ({type(exc).__name__})") from None
+    if not isinstance(chunk, Chunk):
+        raise LogError(f"{name}: expected a chunk at byte {offset:,}")
+    if chunk.uncompressed_size <= grow.bound():
+        _chunk_data(chunk, name, limits)
+        return
+    for _ in _grown_records(chunk, name, limits, dict(channels), lambda m, c: False, grow,
+                            offset):
+        pass
+
+
 __all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "GrowingBound",
-           "chunk_at", "decompress_chunk", "HEADER_PREAMBLE_BYTES"]
+           "chunk_at", "chunk_checked_at", "decompress_chunk", "HEADER_PREAMBLE_BYTES"]
