@@ -20,7 +20,7 @@ from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVE
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
                          ShipTable, keyframe_due, tick_bytes_bound)
 from touchdown.logs.safe_read import (ChunkBuffers, GrowingBound, ReadLimits, ReadStatus,
-                                      chunk_at, iter_messages)
+                                      chunk_at, chunk_checked_at, iter_messages)
 from touchdown.logs.structure import Structure
 from touchdown.logs.structure import check as check_structure
 from touchdown.logs.structure import data_crc_matches
@@ -294,24 +294,59 @@ class LogReader:
         return ok
 
     def _iter(self, topics: set[str]) -> Iterator[tuple[str, bytes]]:
-        for topic, _t, data in iter_messages(self._file, str(self.path), topics, None, None,
-                                             self.status, walk=self._walk):
+        for topic, _t, data in self.messages(topics):
             yield topic, data
+
+    def _fleet_bound(self) -> GrowingBound:
+        """How a read after the fleet's bounds its chunks: by the whole fleet (_tick_limits),
+        save one ending in a tick's commands, which the fleet does not bound (any number a ship
+        a tick: World.commands, a scenario's inputs). A chunk over that bound is read as a
+        stream (safe_read.GrowingBound): every record but its last within what a writer fills
+        before it closes a chunk, and its last a command batch (kept if the read wants it,
+        checked field by field as it arrives, else passed over, not held) or else the chunk is
+        refused, before it is inflated past a piece of that record. The header's chunk, if its
+        check waits for the fleet, is checked first."""
+        limits = self._tick_limits()
+        return self._grow_for(limits, self.ship_table().ids if self.log_format >= 3
+                              else self.scenario.ship_ids)
+
+    def _grow_for(self, limits: ReadLimits, ids) -> GrowingBound:
+        """_fleet_bound for the fleet of ``ids`` (the ship ids), whose chunks ``limits`` bound."""
+        ships = len(ids)
+        where = str(self.path)
+        if getattr(self, "_longest_id", (-1,))[0] != len(ids):  # (once per fleet)
+            self._longest_id = (len(ids), max((len(i.encode()) for i in ids), default=0))
+        command_bytes = COMMAND_BYTES_BUT_ID + self._longest_id[1]
+
+        def refuse(declared: int) -> LogError:
+            return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
+                            f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}) and does not "
+                            f"end in a tick's commands; refusing it")
+        return GrowingBound(
+            bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
+            held=max(tick_bytes_bound(ships), self._largest_record),
+            check=lambda topic: (_FieldCheck(f"{where}: damaged command record",
+                                             _FieldCheck.COMMAND_BATCH, {2: command_bytes})
+                                 if topic == TOPIC_COMMANDS else None),
+            passed=frozenset({TOPIC_COMMANDS}), refuse=refuse)
 
     def messages(self, topics: set[str]) -> Iterator[tuple[str, int, bytes]]:
         """(topic, log time ns, bytes) of the messages on ``topics``, in log order, read as
         every reader of this log reads them (through its index, or by walking its data section
-        when its summary or footer is damaged)."""
-        self._header_chunk_checked()
+        when its summary or footer is damaged), each chunk within the fleet's bound
+        (_fleet_bound)."""
+        grow = self._fleet_bound()
         yield from iter_messages(self._file, str(self.path), topics, None, None, self.status,
-                                 walk=self._walk)
+                                 walk=self._walk, grow=grow)
 
     def raw(self, topic: str, start_ns: int | None = None, end_ns: int | None = None
             ) -> Iterator[tuple[int, bytes]]:
-        """(log time ns, message bytes) of one topic's messages, in log order."""
-        self._header_chunk_checked()
+        """(log time ns, message bytes) of one topic's messages, in log order (each chunk
+        within the fleet's bound: _fleet_bound)."""
+        grow = self._fleet_bound()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {topic}, start_ns,
-                                                end_ns, self.status, walk=self._walk):
+                                                end_ns, self.status, walk=self._walk,
+                                                grow=grow):
             yield t_ns, data
 
     @property
@@ -359,9 +394,9 @@ class LogReader:
         fmt = self.scenario.log_format_version
         table = len(self.ship_table()) if fmt >= 3 else ships
         limit = self.max_tick_bytes()
+        grow = self._fleet_bound()
         for _topic, t_ns, data in iter_messages(self._file, str(self.path), {TOPIC_TICKS}, start,
-                                                end, self.status, self._tick_limits(),
-                                                walk=self._walk):
+                                                end, self.status, walk=self._walk, grow=grow):
             if t_ns % dt_ns:
                 raise LogError(f"{self.path}: a tick record at {t_ns} ns, not on the tick")
             if len(data) > limit:
@@ -445,9 +480,10 @@ class LogReader:
                 begins.clear(), ends.clear(), times.clear()
 
         topics = {TOPIC_TICKS} if events is None else {TOPIC_TICKS, TOPIC_EVENTS}
+        grow = self._fleet_bound()
         for topic, t_ns, data in iter_messages(self._file, str(self.path), topics, start,
-                                               end, self.status, self._tick_limits(),
-                                               views=True, walk=self._walk, buffers=buffers):
+                                               end, self.status, views=True, walk=self._walk,
+                                               buffers=buffers, grow=grow):
             owner = data.obj if isinstance(data, memoryview) else data
             if owner is not base:  # the next chunk: the last one's records are decoded
                 feed()
@@ -487,8 +523,10 @@ class LogReader:
         GrowingBound): a chunk over it is read as a stream, and if its last record runs past
         what a writer fills before it closes a chunk (a tick of ships that joined in it, or a
         crafted record) it is not inflated, unless it is a fleet record (checked as it
-        arrives: _FleetRecordCheck); such a chunk, and the header's if its check waits for the
-        fleet (_check_header_chunk), is then read in full within the whole fleet's bound."""
+        arrives: _FieldCheck); such a chunk, and the header's if its check waits for the
+        fleet (_check_header_chunk), is then read in full within the whole fleet's bound, or,
+        one ending in a tick's commands (which the fleet does not bound), as every read after
+        the fleet's reads it (_fleet_bound: the batch passed over, checked as it arrives)."""
         if getattr(self, "_table", None) is None:
             table = ShipTable(self.scenario.ship_ids, self.scenario.player_ids)
             self._fleet: list[pb.FleetChange] = []
@@ -505,7 +543,8 @@ class LogReader:
                 grow = GrowingBound(
                     bound=bound,
                     prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES, held=MAX_SCENARIO_RECORD_BYTES,
-                    check=lambda: _FleetRecordCheck(f"{where}: damaged fleet record"))
+                    check=lambda topic: _FieldCheck(f"{where}: damaged fleet record",
+                                                    _FieldCheck.FLEET_CHANGE))
                 for _topic, _t, data in iter_messages(self._file, where, {TOPIC_FLEET}, None,
                                                       None, self.status, walk=self._walk,
                                                       grow=grow):
@@ -523,8 +562,12 @@ class LogReader:
                         table.add(int(change.tick), spec)
                     self._fleet.append(change)
                 limits = self._limits_for(len(table))
-                for offset, _declared in grow.deferred:
-                    chunk_at(self._file, offset, where, limits)
+                final = self._grow_for(limits, table.ids) if grow.deferred else None
+                for offset, _declared, topic, cid in grow.deferred:
+                    if topic == TOPIC_COMMANDS:  # (the fleet does not bound a tick's commands)
+                        chunk_checked_at(self._file, offset, where, final, {cid: topic})
+                    else:
+                        chunk_at(self._file, offset, where, limits)
                     if self._header_chunk is not None and self._header_chunk[0] == offset:
                         self._header_chunk = None  # (just read in full)
                 self._check_header_chunk(limits)
@@ -590,46 +633,65 @@ class LogReader:
         self.close()
 
 
-class _FleetRecordCheck:
-    """A fleet record (FleetChange) checked as it is inflated, a piece at a time
-    (GrowingBound's check): each field as it completes, its number, wire type and length, so
+class _FieldCheck:
+    """A record (a protobuf message) checked as it is inflated, a piece at a time
+    (GrowingBound's check; each call is given the bytes that came after the last's): each
+    field's number, wire type and, for the fields ``longest`` names, length, as they arrive, so
     that bytes that cannot be one (a run of zeros, noise) are refused at their first piece, not
-    held to the length their record declares."""
+    held (or inflated) to the length their record declares. ``wire``: field number -> the wire
+    types it may take."""
 
-    _WIRE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}  # tick, joined, left_ship_key, left_ship_id
+    #: FleetChange: tick, joined, left_ship_key (packed or not), left_ship_id
+    FLEET_CHANGE = {1: (0,), 2: (2,), 3: (0, 2), 4: (2,)}
+    #: CommandBatch: tick, commands
+    COMMAND_BATCH = {1: (0,), 2: (2,)}
 
-    def __init__(self, what: str):
+    def __init__(self, what: str, wire: dict[int, tuple[int, ...]],
+                 longest: dict[int, int] | None = None):
         self.what = what
-        self.at = 0  # where the first field not yet complete begins
+        self.wire = wire
+        self.longest = longest or {}
+        self.state = 0  # reading: 0 a field's key, 1 a varint's value, 2 a length
+        self.field = self.value = self.shift = 0
+        self.skip = 0  # bytes of a length-delimited field still to pass
 
-    def __call__(self, data: bytearray, final: bool) -> None:
-        n = len(data)
-        while self.at < n:
-            key, i = _varint(data, self.at, self.what)
-            if key is None:
-                break
-            if (key & 7) not in self._WIRE.get(key >> 3, ()):
-                raise LogError(f"{self.what} (field {key >> 3}, wire type {key & 7})")
-            value, j = _varint(data, i, self.what)
-            if value is None or (key & 7 == 2 and j + value > n):
-                break
-            self.at = j + value if key & 7 == 2 else j
-        if final and self.at != n:
+    def __call__(self, data, final: bool) -> None:
+        i, n = 0, len(data)
+        while i < n:
+            if self.skip:
+                k = min(self.skip, n - i)
+                self.skip -= k
+                i += k
+                continue
+            b = data[i]
+            i += 1
+            self.value |= (b & 0x7F) << self.shift
+            self.shift += 7
+            if b & 0x80:
+                if self.shift >= 70:
+                    raise LogError(f"{self.what} (a varint of more than 10 bytes)")
+                continue
+            v, self.value, self.shift = self.value, 0, 0
+            if self.state == 0:
+                if (v & 7) not in self.wire.get(v >> 3, ()):
+                    raise LogError(f"{self.what} (field {v >> 3}, wire type {v & 7})")
+                self.field, self.state = v >> 3, 1 if v & 7 == 0 else 2
+            elif self.state == 1:
+                self.state = 0
+            else:
+                most = self.longest.get(self.field)
+                if most is not None and v > most:
+                    raise LogError(f"{self.what} (field {self.field} of {v:,} bytes, more than "
+                                   f"{most:,})")
+                self.skip, self.state = v, 0
+        if final and (self.state or self.skip or self.shift):
             raise LogError(f"{self.what} (it ends inside a field)")
 
 
-def _varint(data: bytearray, i: int, what: str) -> tuple[int | None, int]:
-    """(the protobuf varint at ``data[i:]``, where it ends), or (None, i) if it is not all
-    there yet."""
-    value = shift = 0
-    for k in range(i, min(len(data), i + 10)):
-        value |= (data[k] & 0x7F) << shift
-        if data[k] < 0x80:
-            return value, k + 1
-        shift += 7
-    if len(data) >= i + 10:
-        raise LogError(f"{what} (a varint of more than 10 bytes)")
-    return None, i
+#: the most bytes a Command holds, less its ship id's: its fields' keys, a tick and a hold
+#: (varints of 10 bytes at most), the id's length, a throttle and three rcs numbers (packed or
+#: not), with margin
+COMMAND_BYTES_BUT_ID = 128
 
 
 def _parse(cls, data: bytes, what: str):

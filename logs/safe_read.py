@@ -124,18 +124,33 @@ class GrowingBound:
     parsed as they arrive: every record but its last must end within its first ``prefix``
     bytes (a writer closes a chunk at the record that takes it past its target size: all
     before it lie within that size); its last may run past them only if it is a message the
-    read wants, of at most ``held`` bytes (checked as it arrives by ``check()``'s checker, if
-    any: ``checker(data so far, final)`` raises LogError on bytes that cannot be one), and then
+    read wants, of at most ``held`` bytes (checked as it arrives by ``check(topic)``'s checker,
+    if any: ``checker(the bytes since its last call, final)`` raises LogError on bytes that
+    cannot be one), and then
     the chunk is read to its end (size and CRC checked). Any other last record is not inflated
-    at all: the chunk's (byte offset, declared size) is appended to ``deferred``, for the
+    at all: the chunk's (byte offset, declared size, the last record's topic (None: not a
+    message) and channel id) is appended to ``deferred``, for the
     caller to read in full (chunk_at: size and CRC) once the read is done and its bound known,
-    before it trusts what the read gave."""
+    before it trusts what the read gave.
+
+    ``passed``: topics whose messages what the read knows does not bound (a tick's commands:
+    a ship may be given any number): a chunk's last record on one of them may run past the
+    prefix, to the general bound (``max_chunk_bytes``), kept if wanted, else passed over
+    (inflated a piece at a time, not held), ``check(topic)``'s checker, if any, on it as it
+    arrives; either way the chunk is read to its end, its size and CRC checked. ``refuse``: the
+    bound is final (the whole fleet is read): a chunk's last record past the prefix that is
+    neither a wanted message within ``held`` nor on a ``passed`` topic is refused with
+    ``refuse(declared size)``, not deferred. A chunk read as a stream gives its messages only
+    once it is read to its end (iter_messages' caller sees none of an unchecked chunk), or,
+    deferred, those before its last record."""
 
     bound: Callable[[], int]
     prefix: int
     held: int
-    check: Callable[[], Callable[[bytearray, bool], None]] | None = None
+    check: Callable[[str], Callable[[bytearray, bool], None] | None] | None = None
     deferred: list = field(default_factory=list)
+    passed: frozenset = frozenset()
+    refuse: Callable[[int], Exception] | None = None
 
 
 class ChunkBuffers:
@@ -391,22 +406,26 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
             buf += inflate(_PIECE)
 
     def body(n: int, keep: bool, checker=None) -> bytearray | None:
-        """The next ``n`` bytes (a record's body): returned if ``keep`` (``checker`` called on
-        them as they arrive), else passed over; never inflated past them."""
+        """The next ``n`` bytes (a record's body): returned if ``keep``, else passed over
+        (``checker``, if any, called on each piece as it arrives, and at the end); never
+        inflated past them."""
         nonlocal pos
         have = min(n, len(buf) - pos)
-        out = bytearray(buf[pos:pos + have]) if keep else None
+        first = buf[pos:pos + have]
+        out = first if keep else None
+        if checker is not None and have:
+            checker(first, False)
         pos += have
         left = n - have
         while left:
             got = inflate(left)
             if keep:
                 out += got
-                if checker is not None:
-                    checker(out, False)
+            if checker is not None:
+                checker(got, False)
             left -= len(got)
         if checker is not None:
-            checker(out, True)
+            checker(b"", True)
         return out
 
     count = 0
@@ -442,15 +461,22 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                     pos += 22
                     m = Message(channel_id=cid, sequence=seq, log_time=log_time,
                                 publish_time=publish_time, data=b"")
+                    topic = channels.get(cid)
+                    free = past and topic in grow.passed  # (bounded by the chunk's declared)
                     if wanted(m, channels):
-                        if length - 22 > grow.held:
+                        if length - 22 > grow.held and not free:
                             raise LogError(f"{where}: a message of {length - 22:,} bytes (limit "
                                            f"{grow.held:,}); refusing it")
-                        checker = grow.check() if past and grow.check is not None else None
+                        checker = (grow.check(topic) if past and grow.check is not None
+                                   else None)
                         m.data = body(length - 22, True, checker)
                         yield m
                         continue
                     length -= 22
+                    if free:  # the chunk's last record, not wanted: passed over, not held
+                        body(length, False, grow.check(topic) if grow.check is not None
+                             else None)
+                        continue
                 elif op == 0x04 and not past:
                     data = body(length, True)
                     try:
@@ -461,7 +487,10 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                     yield rec
                     continue
                 if past:  # the chunk's last record, not wanted: not inflated (past a piece)
-                    grow.deferred.append((offset, declared))
+                    if grow.refuse is not None:
+                        raise grow.refuse(declared)
+                    grow.deferred.append((offset, declared, channels.get(cid)
+                                          if op == 0x05 else None, cid if op == 0x05 else -1))
                     return
                 body(length, False)
             if r.readinto(piece):
@@ -484,7 +513,9 @@ def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus,
     ``status.unchecked``), or for a read bounded by what it has read (``grow``) of a chunk over
     that bound, as a stream (_grown_records; the chunk may be left in ``grow.deferred``)."""
     if grow is not None and not header and chunk.uncompressed_size > grow.bound():
-        yield from _grown_records(chunk, name, limits, channels, wanted, grow, offset)
+        # (all of it, before any is given: a chunk streamed is checked, its size and CRC, at
+        # its end, or deferred; its records before its last are within grow.prefix)
+        yield from list(_grown_records(chunk, name, limits, channels, wanted, grow, offset))
         return
     if not header or chunk.uncompressed_size <= HEADER_PREAMBLE_BYTES:
         yield from _chunk_records(_chunk_data(chunk, name, limits, buffers), name, limits, chunk,
@@ -738,5 +769,29 @@ def chunk_at(f: IO[bytes], offset: int, name: str, limits: ReadLimits | None = N
     return _chunk_data(chunk, name, limits)
 
 
+def chunk_checked_at(f: IO[bytes], offset: int, name: str, grow: GrowingBound,
+                     channels: dict[int, str], limits: ReadLimits | None = None) -> None:
+    """The chunk record at ``offset`` read to its end, its size and CRC checked, as a read with
+    ``grow`` (a final bound: its ``refuse`` set) reads it: whole if it declares at most
+    ``grow.bound()``, else as a stream whose last record past ``grow.prefix`` must be a message
+    on a ``grow.passed`` topic (``channels``: the topics by channel id), passed over (checked by
+    ``grow.check``'s checker as it arrives), not held; LogError otherwise."""
+    limits = limits if limits is not None else ReadLimits.from_environment()
+    try:
+        f.seek(offset)
+        chunk = next(StreamReader(f, skip_magic=True, emit_chunks=True, validate_crcs=True,
+                                  record_size_limit=limits.max_chunk_bytes).records)
+    except Exception as exc:  # noqa: BLE001 - any failure to parse it is damage
+        raise LogError(f"{name}: damaged chunk at byte {offset:,} ({type(exc).__name__})") from None
+    if not isinstance(chunk, Chunk):
+        raise LogError(f"{name}: expected a chunk at byte {offset:,}")
+    if chunk.uncompressed_size <= grow.bound():
+        _chunk_data(chunk, name, limits)
+        return
+    for _ in _grown_records(chunk, name, limits, dict(channels), lambda m, c: False, grow,
+                            offset):
+        pass
+
+
 __all__ = ["iter_messages", "ReadStatus", "ReadLimits", "ChunkBuffers", "GrowingBound",
-           "chunk_at", "decompress_chunk", "HEADER_PREAMBLE_BYTES"]
+           "chunk_at", "chunk_checked_at", "decompress_chunk", "HEADER_PREAMBLE_BYTES"]

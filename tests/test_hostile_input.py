@@ -275,6 +275,89 @@ def test_ships_joining_within_a_chunk_over_the_fleet_s_bound_read(tmp_path, monk
         assert not part.status.complete
 
 
+@pytest.mark.parametrize("bomb", ["zstd-claims-true-walked", "empty-records-walked"])
+def test_replay_verify_of_a_second_chunk_bomb_in_a_cut_log_never_inflates_it(bounce, tmp_path,
+                                                                             bomb):
+    """A cut log (no footer: every read walks it) whose second chunk declares 64 MiB of zeros
+    (or 20 MiB: millions of empty records), its size and CRC true. The fleet's read refuses
+    it, which ends the part it reads; each read after it (the commands', the ticks', the
+    events') walks the file again, and bounds that chunk by the whole fleet (one ship: 1.3 MB)
+    too, save a chunk ending in a tick's commands: read as a stream, its records past what a
+    writer fills before it closes a chunk are refused, not inflated. Before, the commands'
+    read inflated the whole chunk (peak RSS +64.5 MiB; the 20 MiB one +20.5 MiB)."""
+    path = tmp_path / f"{bomb}.mcap"
+    path.write_bytes(dict(fuzz.bombs(bounce.read_bytes()))[bomb])
+    before, grew_mib, said = read_in_a_fresh_process(path, "verify")
+    print(f"{bomb}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
+          f"({said})")
+    assert grew_mib < 5, (grew_mib, said)
+    needle = "a record runs past the 1,310,720 bytes a writer fills before it ends a chunk"
+    assert said.startswith(str(path)) and needle in said, said
+    assert needle in assert_refused(invoke("replay", path, "--verify"), path.name)
+
+
+def _commands_log(path: Path, commands: int, id_chars: int, keyframe_interval: int = 10
+                  ) -> None:
+    """A log of one ship (its id ``id_chars`` long) given ``commands`` commands at tick 4 (World
+    .commands takes any number a ship a tick, as a scenario's inputs at one time do), written
+    as the service writes (LogWriter): its command batch is a record of about ``commands`` x
+    (45 + ``id_chars``) bytes, ending the chunk that holds ticks 1 to 3 before it."""
+    from touchdown.logs.header import scenario_message
+    from touchdown.logs.writer import LogWriter
+    from touchdown.sim.scenario import parse
+    from touchdown.sim.world import World
+    sid = "s" * id_chars
+    scn = parse({"name": "commands", "duration": 0.5,
+                 "ships": [{"id": sid, "initial": {"altitude": 2.0}}]}, "commands")
+    world = World.of(scn)
+    with LogWriter(path, scenario_message(scn, "commands",
+                                          keyframe_interval=keyframe_interval)) as writer:
+        writer.write_block(world.first_block())
+        for t in range(0, 10, 2):
+            if t == 4:
+                world.commands([(sid, 0.5, (0.0, 0.1, 0.0), 0)] * commands)
+            for block in world.blocks(min(t + 2, 10), max_ticks=2):
+                writer.write_block(block)
+
+
+def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
+    """What the fleet does not bound: a tick's commands (any number a ship). 20,000 commands of
+    one ship with a 200-character id are a command batch of 4.9 MB, ending a chunk over what
+    a chunk of the one ship's ticks can hold (1.3 MB): every read takes it as a stream (its
+    records before the batch within what a writer fills), the commands' read keeps the batch,
+    the others pass over it, and the log reads as written: verify finds it identical, whole,
+    cut (walked) and cut around tick 4 by `touchdown incident`. Before, the ticks' read refused
+    the chunk ("claims 4,861,509 bytes")."""
+    from touchdown.logs import safe_read
+    from touchdown.replay.verify import verify
+    streamed = []
+    real = safe_read._grown_records
+
+    def spy(chunk, *args):
+        streamed.append(chunk.uncompressed_size)
+        return real(chunk, *args)
+    monkeypatch.setattr(safe_read, "_grown_records", spy)
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    res = verify(str(path))
+    assert res.divergence is None and res.ticks_compared == 11, res.divergence
+    assert streamed and max(streamed) > 4_000_000, streamed
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[:-1])
+    res = verify(str(cut))
+    assert res.divergence is None and res.ticks_compared == 11, res.divergence
+    with LogReader(cut) as r:
+        assert len(r.timeline().commands) == 20_000 and not r.status.complete
+        assert len(list(r.events())) == 0 and r.read_summary().last_tick == 10
+    around = tmp_path / "incident.mcap"
+    assert invoke("incident", path, "--ship", "s" * 200, "--around", 4, "--before", 0.05,
+                  "--after", 0.2, "-o", around).exit_code == 0
+    res = verify(str(around))
+    assert res.divergence is None and res.ticks_compared == 7, res.divergence
+    with LogReader(around) as r:
+        assert len(r.timeline().commands) == 20_000
+
+
 @pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
 @pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
 def test_a_header_s_chunk_with_a_flipped_byte_is_reported_damaged_on_opening(
