@@ -176,6 +176,28 @@ class ChunkBuffers:
             self._free.append(buf)
 
 
+
+def _channel_record(data, where: str) -> Channel:
+    """A Channel record's body parsed, or a LogError naming the file."""
+    try:
+        return Channel.read(ReadDataStream(io.BytesIO(data)))
+    except Exception:
+        raise LogError(f"{where}: a damaged channel record") from None
+
+
+def _undecompressed(where: str, limits: ReadLimits, exc: Exception) -> LogError:
+    """The error of a chunk zstd cannot decompress within the decoder's window."""
+    return LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window is at "
+                    f"most {limits.max_window_bytes:,} bytes, TOUCHDOWN_MAX_WINDOW_MIB)")
+
+
+def _nothing_past(r, piece, declared: int, where: str) -> None:
+    """A chunk read as a stream to its declared size (``r``: its decompressing reader) holds
+    nothing more."""
+    if r.readinto(piece):
+        raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but holds "
+                       f"more")
+
 def _chunk_data(chunk: Chunk, where: str, limits: ReadLimits,
                 buffers: ChunkBuffers | None = None) -> bytes:
     """The chunk's records, decompressed within bounds (module docstring); CRC checked."""
@@ -216,9 +238,7 @@ def decompress_chunk(records, compression: str, declared: int, crc: int, where: 
                     got += n
             view.release()
         except zstandard.ZstdError as exc:
-            raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
-                           f"is at most {limits.max_window_bytes:,} bytes, "
-                           f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
+            raise _undecompressed(where, limits, exc) from None
         data = out if got == len(out) and buffers is None else memoryview(out)[:got]
     elif compression == "lz4" and lz4:
         import lz4.frame as lz4f
@@ -270,10 +290,7 @@ def _chunk_records(data: bytes, where: str, limits: ReadLimits, chunk: Chunk | N
             yield Message(channel_id=channel_id, sequence=sequence, log_time=log_time,
                           publish_time=publish_time, data=data[start + 22:stop])
         elif op == 0x04:
-            try:
-                yield Channel.read(ReadDataStream(io.BytesIO(data[start:stop])))
-            except Exception:
-                raise LogError(f"{where}: a damaged channel record") from None
+            yield _channel_record(data[start:stop], where)
         i = stop
     if chunk is not None and status is not None and lo is not None and (
             chunk.message_start_time, chunk.message_end_time) != (lo, hi):
@@ -349,19 +366,12 @@ def _streamed_records(chunk: Chunk, where: str, limits: ReadLimits, channels: di
                                    f"{HEADER_PREAMBLE_BYTES:,} bytes of its chunk; refusing it")
                 data = take(length, op == 0x04)
                 if op == 0x04:
-                    try:
-                        rec = Channel.read(ReadDataStream(io.BytesIO(data)))
-                    except Exception:
-                        raise LogError(f"{where}: a damaged channel record") from None
+                    rec = _channel_record(data, where)
                     _add_channel(channels, rec, where)
                     yield rec
-            if r.readinto(piece):
-                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
-                               f"holds more")
+            _nothing_past(r, piece, declared, where)
     except zstandard.ZstdError as exc:
-        raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
-                       f"is at most {limits.max_window_bytes:,} bytes, "
-                       f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
+        raise _undecompressed(where, limits, exc) from None
     if chunk.uncompressed_crc != 0 and state["crc"] != chunk.uncompressed_crc:
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
 
@@ -479,10 +489,7 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                         continue
                 elif op == 0x04 and not past:
                     data = body(length, True)
-                    try:
-                        rec = Channel.read(ReadDataStream(io.BytesIO(data)))
-                    except Exception:
-                        raise LogError(f"{where}: a damaged channel record") from None
+                    rec = _channel_record(data, where)
                     _add_channel(channels, rec, where)
                     yield rec
                     continue
@@ -493,13 +500,9 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                                           if op == 0x05 else None, cid if op == 0x05 else -1))
                     return
                 body(length, False)
-            if r.readinto(piece):
-                raise LogError(f"{where}: a chunk declares {declared:,} bytes uncompressed but "
-                               f"holds more")
+            _nothing_past(r, piece, declared, where)
     except zstandard.ZstdError as exc:
-        raise LogError(f"{where}: a chunk does not decompress ({exc}; the decoder's window "
-                       f"is at most {limits.max_window_bytes:,} bytes, "
-                       f"TOUCHDOWN_MAX_WINDOW_MIB)") from None
+        raise _undecompressed(where, limits, exc) from None
     if chunk.uncompressed_crc != 0 and crc != chunk.uncompressed_crc:
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
 
