@@ -219,6 +219,20 @@ def test_a_fleet_record_bomb_is_refused_at_its_first_piece(bounce, tmp_path, fra
     assert needle in assert_refused(invoke("replay", path, "--verify"), path.name)
 
 
+def _streamed_chunks(monkeypatch) -> list[int]:
+    """The declared sizes of the chunks read as a stream from now on (safe_read._grown_records,
+    the reads bounded by the fleet), appended as each is read."""
+    from touchdown.logs import safe_read
+    streamed = []
+    real = safe_read._grown_records
+
+    def spy(chunk, *args):
+        streamed.append(chunk.uncompressed_size)
+        return real(chunk, *args)
+    monkeypatch.setattr(safe_read, "_grown_records", spy)
+    return streamed
+
+
 def _joining_log(path: Path, joins: int, inputs: int) -> None:
     """A log of one ship, then ``joins`` ships joining at once at tick 4 (each with ``inputs``
     commands in its table: a larger fleet record), written as the service writes (LogWriter)."""
@@ -252,15 +266,8 @@ def test_ships_joining_within_a_chunk_over_the_fleet_s_bound_read(tmp_path, monk
     fleet's read takes it as a stream (the joins it holds bound the rest), and the log reads as
     written: verify finds it identical, and its cut copy (no footer: walked) the same ships and
     ticks."""
-    from touchdown.logs import safe_read
     from touchdown.replay.verify import verify
-    streamed = []
-    real = safe_read._grown_records
-
-    def spy(chunk, *args):
-        streamed.append(chunk.uncompressed_size)
-        return real(chunk, *args)
-    monkeypatch.setattr(safe_read, "_grown_records", spy)
+    streamed = _streamed_chunks(monkeypatch)
     path = tmp_path / "joins.mcap"
     _joining_log(path, joins, inputs)
     res = verify(str(path))
@@ -328,15 +335,8 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
     the others pass over it, and the log reads as written: verify finds it identical, whole,
     cut (walked) and cut around tick 4 by `touchdown incident`. Before, the ticks' read refused
     the chunk ("claims 4,861,509 bytes")."""
-    from touchdown.logs import safe_read
     from touchdown.replay.verify import verify
-    streamed = []
-    real = safe_read._grown_records
-
-    def spy(chunk, *args):
-        streamed.append(chunk.uncompressed_size)
-        return real(chunk, *args)
-    monkeypatch.setattr(safe_read, "_grown_records", spy)
+    streamed = _streamed_chunks(monkeypatch)
     path = tmp_path / "commands.mcap"
     _commands_log(path, 20_000, 200, keyframe_interval=2)
     res = verify(str(path))
