@@ -228,9 +228,15 @@ def test_touchdowns_over_the_space_of_starts_end_as_the_reference_says(tilt, v_s
     vx = v_side * math.cos(alpha) + v_down * math.sin(alpha)
     vz = v_side * math.sin(alpha) - v_down * math.cos(alpha)
     # 3 s: the first contact's largest tilt, a bounce or a fall come within it; past it a ship at
-    # rest on regularised friction makes the reference stiff (minutes a case)
-    path = solve(ld, Start(z_m=z0, theta_rad=th, vx_mps=vx, vz_mps=vz), 3.0,
-                 tipped_rad=math.radians(80.0) - alpha, rtol=1e-9, atol=1e-11)
+    # rest on regularised friction makes the reference stiff (minutes a case). A reference at
+    # rest at 2 s (every speed under 1e-6, away from the critical tilt: the assume below) is
+    # taken as it is: one start (upright, 1.8e-105 m/s sideways) took 130 s of CPU from 2.8 s on
+    start = Start(z_m=z0, theta_rad=th, vx_mps=vx, vz_mps=vz)
+    path = solve(ld, start, 2.0, tipped_rad=math.radians(80.0) - alpha, rtol=1e-9, atol=1e-11)
+    if path.events[-1:] == [] or path.events[-1][1] not in ("liftoff", "tipped"):
+        if not (path.events and np.abs(path.y[3:, -1]).max() < 1e-6):
+            path = solve(ld, start, 3.0, tipped_rad=math.radians(80.0) - alpha, rtol=1e-9,
+                         atol=1e-11)
     first = [e for e in path.events if e[1] in ("liftoff", "tipped")][:1]
     end_t = first[0][0] if first else path.t[-1]
     contact = path.t <= end_t
@@ -244,7 +250,7 @@ def test_touchdowns_over_the_space_of_starts_end_as_the_reference_says(tilt, v_s
                                                           "com_height": com, "leg_radius": leg},
                          contact={"align_on_touchdown": False}, sim={"dt": dt},
                          body={"terrain": {"slope_deg": slope, "slope_azimuth_deg": 0.0}},
-                         duration=min(3.0, end_t + 0.5)))
+                         duration=min(3.0, end_t + 0.5) if first else 3.0))
     ends = [(r, e) for r in recs for e in r.events
             if e.kind in (EventKind.LIFTOFF, EventKind.TIPPED, EventKind.CRASHED)][:1]
     assert bool(ends) == bool(first)
