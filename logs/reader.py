@@ -214,12 +214,18 @@ class LogReader:
         self._check_record()
         self._check_header_chunk()
 
-    def _check_header_chunk(self, limits: ReadLimits | None = None) -> None:
+    def _check_header_chunk(self, limits: ReadLimits | None = None, ids=None) -> None:
         """The chunk the header was read from (if it was not read to its end), read in full:
-        its size and CRC checked, within ``limits`` (those of the log's ticks), or by default
-        within what a chunk of the header's ships can hold (_limits_for): from format 3 ships may
-        join within the chunk (its last message may be a tick of more ships, or their joining),
-        so a chunk over that bound waits for the fleet's (_tick_limits, which calls this)."""
+        its size and CRC checked, within ``limits`` (those of the log's ticks, of the fleet of
+        ``ids``: its ship ids), or by default within what a chunk of the header's ships can
+        hold (_limits_for): from format 3 ships may join within the chunk (its last message may
+        be a tick of more ships, or their joining), so a chunk over that bound waits for the
+        fleet's (_tick_limits and ship_table call this). From format 3 a chunk over the fleet's
+        bound is read as every read after the fleet's reads it (_grow_for): its last record may
+        be a tick's commands, which the fleet does not bound (a writer that does not end its
+        first chunk after the first tick, `touchdown recover`'s, puts the ticks after it and
+        their commands there too), passed over; anything else past what a writer fills is
+        refused."""
         if self._header_chunk is None:
             return
         offset, declared = self._header_chunk
@@ -227,7 +233,12 @@ class LogReader:
             limits = self._limits_for(len(self.scenario.ship_ids))
             if declared > limits.max_chunk_bytes and self.log_format >= 3:
                 return
-        chunk_at(self._file, offset, str(self.path), limits)
+        if declared > limits.max_chunk_bytes and self.log_format >= 3:
+            ids = ids if ids is not None else self.ship_table().ids
+            chunk_checked_at(self._file, offset, str(self.path), self._grow_for(limits, ids),
+                             {})
+        else:
+            chunk_at(self._file, offset, str(self.path), limits)
         self._header_chunk = None
 
     def _check_record(self) -> None:
@@ -570,7 +581,7 @@ class LogReader:
                         chunk_at(self._file, offset, where, limits)
                     if self._header_chunk is not None and self._header_chunk[0] == offset:
                         self._header_chunk = None  # (just read in full)
-                self._check_header_chunk(limits)
+                self._check_header_chunk(limits, table.ids)
             self._table = table
         return self._table
 

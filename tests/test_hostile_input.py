@@ -358,6 +358,43 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
         assert len(r.timeline().commands) == 20_000
 
 
+def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tmp_path):
+    """`touchdown recover` rewrites a log with the library's writer, which does not end the
+    first chunk after the first tick: the header's chunk then holds ticks 0 to 3 and ends in
+    tick 4's 20,000 commands (a 4.9 MB batch), over what a chunk of the one ship's ticks can
+    hold (1.3 MB). The header's chunk is checked as every read after the fleet's reads a
+    chunk: its last record a tick's commands, passed over. Before, `replay --verify` of the
+    recovered log refused it ("a chunk claims 4,882,224 bytes uncompressed")."""
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    recovered = tmp_path / "recovered.mcap"
+    assert invoke("recover", path, "-o", recovered).exit_code == 0
+    r = invoke("replay", recovered, "--verify")
+    assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
+    with LogReader(recovered) as log:
+        assert log._header_chunk is not None and log._header_chunk[1] > 4_000_000
+        assert len(log.timeline().commands) == 20_000
+
+
+@pytest.mark.parametrize("framing", FRAMINGS)
+def test_a_commands_bomb_ending_the_header_s_chunk_is_refused_at_its_first_piece(
+        bounce, tmp_path, framing):
+    """The header's chunk ending in a message of 200 MiB of zeros on the commands' channel
+    (size and CRC true): a tick's commands may run past the fleet's bound, but each field of
+    the batch is checked as it is inflated, so the zeros are refused at their first piece
+    (verify's peak RSS grows < 5 MiB), with one line naming the file."""
+    scn = fuzz._scenario_msg_of(bounce.read_bytes())
+    path = tmp_path / f"header-commands-{framing}.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing,
+                                       first=fuzz.header_chunk(scn, 200 << 20, commands=True)))
+    before, grew_mib, said = read_in_a_fresh_process(path, "verify")
+    print(f"{framing}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
+          f"({said})")
+    assert grew_mib < 5, (grew_mib, said)
+    assert said.startswith(str(path)) and "damaged command record (field 0" in said, said
+    assert_refused(invoke("replay", path, "--verify"), path.name, "damaged command record")
+
+
 @pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
 @pytest.mark.parametrize("framing", ["indexed", "unindexed", "walked"])
 def test_a_header_s_chunk_with_a_flipped_byte_is_reported_damaged_on_opening(
