@@ -603,11 +603,17 @@ class LogReader:
             for sid in change.left_ship_id:
                 retires.append(Retire(int(change.tick), sid))
         commands = []
+        most = ReadLimits.from_environment().max_commands
+        ids = {sid: sid for sid in table.ids} if self.log_format >= 3 else {}
         for _topic, data in self._iter({TOPIC_COMMANDS}):
+            if len(commands) + _commands_at_most(data, most - len(commands) + 1) > most:
+                raise LogError(f"{self.path}: more than {most:,} commands "
+                               f"(TOUCHDOWN_MAX_COMMANDS); refusing to hold them")
             batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
             for c in batch.commands:
+                sid = c.ship_id
                 try:
-                    commands.append(command_of(int(c.tick), c.ship_id,
+                    commands.append(command_of(int(c.tick), ids.get(sid, sid),
                                                [getattr(c, name) for name in INPUTS]).check())
                 except CommandError as exc:
                     raise LogError(f"{self.path}: {exc}") from None
@@ -703,6 +709,42 @@ class _FieldCheck:
 #: (varints of 10 bytes at most), the id's length, a throttle and three rcs numbers (packed or
 #: not), with margin
 COMMAND_BYTES_BUT_ID = 128
+
+
+def _commands_at_most(data: bytes, most: int) -> int:
+    """How many commands a CommandBatch's bytes hold, or ``most`` if at least that many: each
+    begins with the key of field 2 (0x12), so a batch holding fewer of those bytes than ``most``
+    is counted no further (memchr's speed); else its fields are walked, at most ``most`` + 1 of
+    them (a batch holds one tick, then its commands). So a batch is never parsed, nor its
+    commands made, past what a timeline may hold."""
+    keys = data.count(0x12)
+    if keys < most:
+        return keys
+    i, n, fields, count = 0, len(data), 0, 0
+    while i < n and count < most and fields <= most:
+        key, i = _varint(data, i)
+        fields += 1
+        if key & 7 == 0:
+            _, i = _varint(data, i)
+        elif key & 7 == 2:
+            length, i = _varint(data, i)
+            i += length
+            count += key >> 3 == 2
+        else:
+            return count  # (damage: the parse says so)
+    return most if fields > most else count
+
+
+def _varint(data, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while i < len(data) and shift < 70:
+        b = data[i]
+        i += 1
+        value |= (b & 0x7F) << shift
+        shift += 7
+        if not b & 0x80:
+            break
+    return value, i
 
 
 def _parse(cls, data: bytes, what: str):

@@ -27,7 +27,8 @@ killed before the footer. This reader:
 * refuses a channel declared again with another topic; checks every CRC.
 
 The limits are :class:`ReadLimits` (environment variables ``TOUCHDOWN_MAX_CHUNK_MIB``,
-``TOUCHDOWN_MAX_RECORDS_PER_CHUNK``, ``TOUCHDOWN_MAX_WINDOW_MIB`` change them). Every failure is a
+``TOUCHDOWN_MAX_RECORDS_PER_CHUNK``, ``TOUCHDOWN_MAX_WINDOW_MIB``, ``TOUCHDOWN_MAX_COMMANDS`` change
+them). Every failure is a
 :class:`logs.LogError` with one line naming the file.
 """
 from __future__ import annotations
@@ -74,6 +75,10 @@ class ReadLimits:
     max_window_bytes: int = 64 * _MIB  # the zstd decoder's window (the writer's is ~1 MiB)
     #: where max_chunk_bytes comes from, for the message refusing a chunk
     chunk_bound: str = "TOUCHDOWN_MAX_CHUNK_MIB"
+    #: the commands a log's timeline holds (LogReader.timeline: a few hundred bytes each in
+    #: memory; a scenario's resolved inputs fit in about a million, a service shard at its cap
+    #: of 2,000 a tick fills a 64 MiB file with about 3 million)
+    max_commands: int = 4_000_000
 
     @staticmethod
     def from_environment() -> "ReadLimits":
@@ -91,7 +96,8 @@ class ReadLimits:
         d = ReadLimits()
         return ReadLimits(env("TOUCHDOWN_MAX_CHUNK_MIB", d.max_chunk_bytes, _MIB),
                           env("TOUCHDOWN_MAX_RECORDS_PER_CHUNK", d.max_records_per_chunk),
-                          env("TOUCHDOWN_MAX_WINDOW_MIB", d.max_window_bytes, _MIB))
+                          env("TOUCHDOWN_MAX_WINDOW_MIB", d.max_window_bytes, _MIB),
+                          max_commands=env("TOUCHDOWN_MAX_COMMANDS", d.max_commands))
 
 
 

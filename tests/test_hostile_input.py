@@ -376,6 +376,22 @@ def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tm
         assert len(log.timeline().commands) == 20_000
 
 
+def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
+    """timeline() holds every command (a few hundred bytes each in memory), so the commands a
+    log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
+    million well-formed commands took `replay --verify`'s peak RSS up by 2.4 GB. Beyond the
+    bound the log is refused with one line naming the file and the setting, before the batch
+    past it is parsed; at the bound (the 20,000 commands of one tick, exactly) it verifies."""
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 8, keyframe_interval=2)
+    monkeypatch.setenv("TOUCHDOWN_MAX_COMMANDS", "19999")
+    assert_refused(invoke("replay", path, "--verify"), path.name,
+                   "more than 19,999 commands (TOUCHDOWN_MAX_COMMANDS)")
+    monkeypatch.setenv("TOUCHDOWN_MAX_COMMANDS", "20000")
+    r = invoke("replay", path, "--verify")
+    assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
+
+
 @pytest.mark.parametrize("framing", FRAMINGS)
 def test_a_commands_bomb_ending_the_header_s_chunk_is_refused_at_its_first_piece(
         bounce, tmp_path, framing):
