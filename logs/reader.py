@@ -333,7 +333,10 @@ class LogReader:
             return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
                             f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}) and does not "
                             f"end in a tick's commands; refusing it")
+        if getattr(self, "_known_chunks", None) is None:
+            self._known_chunks: dict = {}  # (GrowingBound.known: shared by this log's reads)
         return GrowingBound(
+            known=self._known_chunks,
             bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
             held=max(tick_bytes_bound(ships), self._largest_record),
             check=lambda topic: (_FieldCheck(f"{where}: damaged command record",

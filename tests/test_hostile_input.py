@@ -376,6 +376,32 @@ def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tm
         assert len(log.timeline().commands) == 20_000
 
 
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_path,
+                                                                            monkeypatch, cut):
+    """The chunk ending in 20,000 commands (4.9 MB) is read to its end, its size and CRC
+    checked, by the first read that reaches it; the reads after it that do not want the
+    commands (the ticks', the events', the summary's) stop where the batch begins. verify then
+    inflates it once (indexed: the commands' read) or twice (cut: the fleet's check, then the
+    commands' read), not once for every read (cut: 4 before), and finds the log identical."""
+    from touchdown.logs import safe_read
+    from touchdown.replay.verify import verify
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    if cut:
+        path.write_bytes(path.read_bytes()[:-1])
+    ends = []
+    real = safe_read._nothing_past
+
+    def spy(r, piece, declared, where):
+        ends.append(declared)
+        return real(r, piece, declared, where)
+    monkeypatch.setattr(safe_read, "_nothing_past", spy)
+    res = verify(str(path))
+    assert res.divergence is None and res.ticks_compared == 11, res.divergence
+    assert sum(d > 4_000_000 for d in ends) == (2 if cut else 1), ends
+
+
 def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
     """timeline() holds every command (a few hundred bytes each in memory), so the commands a
     log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
