@@ -305,6 +305,10 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         # a fleet record, what a header may hold): not one, from its first byte
         out.append((f"fleet-record-150MiB-{tag}", _crafted_log(
             scn, _chunk(b""), tag, first=header_chunk(scn, 150 << 20, fleet=True))))
+        # ending in a message of 150 MiB of zeros on the commands' channel (a tick's commands
+        # may run past the fleet's bound: checked field by field as they are inflated)
+        out.append((f"header-commands-150MiB-{tag}", _crafted_log(
+            scn, _chunk(b""), tag, first=header_chunk(scn, 150 << 20, commands=True))))
     return out
 
 

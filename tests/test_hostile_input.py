@@ -106,7 +106,8 @@ def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, 
         path.write_bytes(data)
         line = assert_refused(invoke("replay", path, "--verify"), path.name)
         assert any(w in line for w in ("claims", "declares", "records (TOUCHDOWN_MAX_RECORDS",
-                                       "lz4", "runs past", "damaged fleet record")), line
+                                       "lz4", "runs past", "damaged fleet record",
+                                       "damaged command record")), line
 
 
 def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_path):
@@ -405,7 +406,7 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_p
 def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
     """timeline() holds every command (a few hundred bytes each in memory), so the commands a
     log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
-    million well-formed commands took `replay --verify`'s peak RSS up by 2.4 GB. Beyond the
+    million well-formed commands took timeline()'s peak RSS up by 2.4 GB. Beyond the
     bound the log is refused with one line naming the file and the setting, before the batch
     past it is parsed; at the bound (the 20,000 commands of one tick, exactly) it verifies."""
     path = tmp_path / "commands.mcap"
