@@ -305,23 +305,29 @@ def bombs(seed: bytes) -> list[tuple[str, bytes]]:
         # a fleet record, what a header may hold): not one, from its first byte
         out.append((f"fleet-record-150MiB-{tag}", _crafted_log(
             scn, _chunk(b""), tag, first=header_chunk(scn, 150 << 20, fleet=True))))
+        # ending in a message of 150 MiB of zeros on the commands' channel (a tick's commands
+        # may run past the fleet's bound: checked field by field as they are inflated)
+        out.append((f"header-commands-150MiB-{tag}", _crafted_log(
+            scn, _chunk(b""), tag, first=header_chunk(scn, 150 << 20, commands=True))))
     return out
 
 
 def header_chunk(scenario_msg: bytes, after: int = 0, rng: random.Random | None = None,
-                 fleet: bool = False) -> bytes:
+                 fleet: bool = False, commands: bool = False) -> bytes:
     """A zstd chunk holding a log's header records (:func:`_header_records`) and then one record
     of an unknown opcode (0x80: readers skip it) of ``after`` bytes: zeros (a few kB compressed,
     compressed a MiB at a time), or with ``rng`` random bytes (zstd stores them as they are: a
     byte flipped there changes a byte of the records, not the frame). ``fleet``: that record is
-    a message on the fleet's channel (declared before it, id 3) holding those bytes. Its size
-    and CRC are true: the chunk is sound, only big."""
+    a message on the fleet's channel (declared before it, id 3) holding those bytes;
+    ``commands``: on the commands' channel (id 6: the fleet does not bound a tick's commands).
+    Its size and CRC are true: the chunk is sound, only big."""
     import zlib
 
     import zstandard
-    if fleet:
-        records = (_header_records(scenario_msg) + _channel(3, 2, "/touchdown/fleet")
-                   + _rec(0x05, struct.pack("<HIQQ", 3, 0, 0, 0), 22 + after))
+    if fleet or commands:
+        cid, topic = (6, "/touchdown/commands") if commands else (3, "/touchdown/fleet")
+        records = (_header_records(scenario_msg) + _channel(cid, 2, topic)
+                   + _rec(0x05, struct.pack("<HIQQ", cid, 0, 0, 0), 22 + after))
     else:
         records = _header_records(scenario_msg) + _rec(0x80, b"", after)
     comp = zstandard.ZstdCompressor(level=3).compressobj()

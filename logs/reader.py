@@ -214,12 +214,18 @@ class LogReader:
         self._check_record()
         self._check_header_chunk()
 
-    def _check_header_chunk(self, limits: ReadLimits | None = None) -> None:
+    def _check_header_chunk(self, limits: ReadLimits | None = None, ids=None) -> None:
         """The chunk the header was read from (if it was not read to its end), read in full:
-        its size and CRC checked, within ``limits`` (those of the log's ticks), or by default
-        within what a chunk of the header's ships can hold (_limits_for): from format 3 ships may
-        join within the chunk (its last message may be a tick of more ships, or their joining),
-        so a chunk over that bound waits for the fleet's (_tick_limits, which calls this)."""
+        its size and CRC checked, within ``limits`` (those of the log's ticks, of the fleet of
+        ``ids``: its ship ids), or by default within what a chunk of the header's ships can
+        hold (_limits_for): from format 3 ships may join within the chunk (its last message may
+        be a tick of more ships, or their joining), so a chunk over that bound waits for the
+        fleet's (_tick_limits and ship_table call this). From format 3 a chunk over the fleet's
+        bound is read as every read after the fleet's reads it (_grow_for): its last record may
+        be a tick's commands, which the fleet does not bound (a writer that does not end its
+        first chunk after the first tick, `touchdown recover`'s, puts the ticks after it and
+        their commands there too), passed over; anything else past what a writer fills is
+        refused."""
         if self._header_chunk is None:
             return
         offset, declared = self._header_chunk
@@ -227,7 +233,12 @@ class LogReader:
             limits = self._limits_for(len(self.scenario.ship_ids))
             if declared > limits.max_chunk_bytes and self.log_format >= 3:
                 return
-        chunk_at(self._file, offset, str(self.path), limits)
+        if declared > limits.max_chunk_bytes and self.log_format >= 3:
+            ids = ids if ids is not None else self.ship_table().ids
+            chunk_checked_at(self._file, offset, str(self.path), self._grow_for(limits, ids),
+                             {})
+        else:
+            chunk_at(self._file, offset, str(self.path), limits)
         self._header_chunk = None
 
     def _check_record(self) -> None:
@@ -322,7 +333,10 @@ class LogReader:
             return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
                             f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}) and does not "
                             f"end in a tick's commands; refusing it")
+        if getattr(self, "_known_chunks", None) is None:
+            self._known_chunks: dict = {}  # (GrowingBound.known: shared by this log's reads)
         return GrowingBound(
+            known=self._known_chunks,
             bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
             held=max(tick_bytes_bound(ships), self._largest_record),
             check=lambda topic: (_FieldCheck(f"{where}: damaged command record",
@@ -570,7 +584,7 @@ class LogReader:
                         chunk_at(self._file, offset, where, limits)
                     if self._header_chunk is not None and self._header_chunk[0] == offset:
                         self._header_chunk = None  # (just read in full)
-                self._check_header_chunk(limits)
+                self._check_header_chunk(limits, table.ids)
             self._table = table
         return self._table
 
@@ -592,11 +606,17 @@ class LogReader:
             for sid in change.left_ship_id:
                 retires.append(Retire(int(change.tick), sid))
         commands = []
+        most = ReadLimits.from_environment().max_commands
+        ids = {sid: sid for sid in table.ids} if self.log_format >= 3 else {}
         for _topic, data in self._iter({TOPIC_COMMANDS}):
+            if len(commands) + _commands_at_most(data, most - len(commands) + 1) > most:
+                raise LogError(f"{self.path}: more than {most:,} commands "
+                               f"(TOUCHDOWN_MAX_COMMANDS); refusing to hold them")
             batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
             for c in batch.commands:
+                sid = c.ship_id
                 try:
-                    commands.append(command_of(int(c.tick), c.ship_id,
+                    commands.append(command_of(int(c.tick), ids.get(sid, sid),
                                                [getattr(c, name) for name in INPUTS]).check())
                 except CommandError as exc:
                     raise LogError(f"{self.path}: {exc}") from None
@@ -692,6 +712,42 @@ class _FieldCheck:
 #: (varints of 10 bytes at most), the id's length, a throttle and three rcs numbers (packed or
 #: not), with margin
 COMMAND_BYTES_BUT_ID = 128
+
+
+def _commands_at_most(data: bytes, most: int) -> int:
+    """How many commands a CommandBatch's bytes hold, or ``most`` if at least that many: each
+    begins with the key of field 2 (0x12), so a batch holding fewer of those bytes than ``most``
+    is counted no further (memchr's speed); else its fields are walked, at most ``most`` + 1 of
+    them (a batch holds one tick, then its commands). So a batch is never parsed, nor its
+    commands made, past what a timeline may hold."""
+    keys = data.count(0x12)
+    if keys < most:
+        return keys
+    i, n, fields, count = 0, len(data), 0, 0
+    while i < n and count < most and fields <= most:
+        key, i = _varint(data, i)
+        fields += 1
+        if key & 7 == 0:
+            _, i = _varint(data, i)
+        elif key & 7 == 2:
+            length, i = _varint(data, i)
+            i += length
+            count += key >> 3 == 2
+        else:
+            return count  # (damage: the parse says so)
+    return most if fields > most else count
+
+
+def _varint(data, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while i < len(data) and shift < 70:
+        b = data[i]
+        i += 1
+        value |= (b & 0x7F) << shift
+        shift += 7
+        if not b & 0x80:
+            break
+    return value, i
 
 
 def _parse(cls, data: bytes, what: str):

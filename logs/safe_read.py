@@ -27,7 +27,8 @@ killed before the footer. This reader:
 * refuses a channel declared again with another topic; checks every CRC.
 
 The limits are :class:`ReadLimits` (environment variables ``TOUCHDOWN_MAX_CHUNK_MIB``,
-``TOUCHDOWN_MAX_RECORDS_PER_CHUNK``, ``TOUCHDOWN_MAX_WINDOW_MIB`` change them). Every failure is a
+``TOUCHDOWN_MAX_RECORDS_PER_CHUNK``, ``TOUCHDOWN_MAX_WINDOW_MIB``, ``TOUCHDOWN_MAX_COMMANDS`` change
+them). Every failure is a
 :class:`logs.LogError` with one line naming the file.
 """
 from __future__ import annotations
@@ -74,6 +75,10 @@ class ReadLimits:
     max_window_bytes: int = 64 * _MIB  # the zstd decoder's window (the writer's is ~1 MiB)
     #: where max_chunk_bytes comes from, for the message refusing a chunk
     chunk_bound: str = "TOUCHDOWN_MAX_CHUNK_MIB"
+    #: the commands a log's timeline holds (LogReader.timeline: a few hundred bytes each in
+    #: memory; a scenario's resolved inputs fit in about a million, a service shard at its cap
+    #: of 2,000 a tick fills a 64 MiB file with about 3 million)
+    max_commands: int = 4_000_000
 
     @staticmethod
     def from_environment() -> "ReadLimits":
@@ -91,7 +96,8 @@ class ReadLimits:
         d = ReadLimits()
         return ReadLimits(env("TOUCHDOWN_MAX_CHUNK_MIB", d.max_chunk_bytes, _MIB),
                           env("TOUCHDOWN_MAX_RECORDS_PER_CHUNK", d.max_records_per_chunk),
-                          env("TOUCHDOWN_MAX_WINDOW_MIB", d.max_window_bytes, _MIB))
+                          env("TOUCHDOWN_MAX_WINDOW_MIB", d.max_window_bytes, _MIB),
+                          max_commands=env("TOUCHDOWN_MAX_COMMANDS", d.max_commands))
 
 
 
@@ -142,7 +148,8 @@ class GrowingBound:
     neither a wanted message within ``held`` nor on a ``passed`` topic is refused with
     ``refuse(declared size)``, not deferred. A chunk read as a stream gives its messages only
     once it is read to its end (iter_messages' caller sees none of an unchecked chunk), or,
-    deferred, those before its last record."""
+    deferred, those before its last record, or, its last record on a ``passed`` topic and the
+    chunk read to its end by a read before (``known``) and not wanted now, those before it."""
 
     bound: Callable[[], int]
     prefix: int
@@ -151,6 +158,11 @@ class GrowingBound:
     deferred: list = field(default_factory=list)
     passed: frozenset = frozenset()
     refuse: Callable[[int], Exception] | None = None
+    #: what reads of one file learned of its chunks, shared by them: (byte offset, declared
+    #: size, CRC) of a chunk read to its end (size and CRC checked) whose last record, on a
+    #: ``passed`` topic, ran past the prefix -> where that record begins. A later read that
+    #: does not want it stops there, not inflating it again (the records before it are given).
+    known: dict = field(default_factory=dict)
 
 
 class ChunkBuffers:
@@ -393,6 +405,9 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
     piece = bytearray(_PIECE)
     buf = bytearray()  # inflated, not yet parsed past: buf[pos:] is the chunk from byte `at`
     pos = inflated = crc = 0
+    key = (offset, declared, chunk.uncompressed_crc)
+    last_at = grow.known.get(key)  # (a read before checked the chunk: its last record here)
+    passed_at = None
 
     def inflate(n: int) -> memoryview:
         """The next at most ``n`` bytes of the chunk (a piece at most), CRC counted."""
@@ -480,12 +495,16 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
                         checker = (grow.check(topic) if past and grow.check is not None
                                    else None)
                         m.data = body(length - 22, True, checker)
+                        passed_at = at if free else passed_at
                         yield m
                         continue
                     length -= 22
+                    if free and at == last_at:  # checked to its end by a read before
+                        return
                     if free:  # the chunk's last record, not wanted: passed over, not held
                         body(length, False, grow.check(topic) if grow.check is not None
                              else None)
+                        passed_at = at
                         continue
                 elif op == 0x04 and not past:
                     data = body(length, True)
@@ -505,6 +524,8 @@ def _grown_records(chunk: Chunk, where: str, limits: ReadLimits, channels: dict[
         raise _undecompressed(where, limits, exc) from None
     if chunk.uncompressed_crc != 0 and crc != chunk.uncompressed_crc:
         raise LogError(f"{where}: a chunk's CRC does not match its contents")
+    if passed_at is not None and offset >= 0:
+        grow.known[key] = passed_at
 
 
 def _records_of(chunk: Chunk, name: str, limits: ReadLimits, status: ReadStatus, offset: int,

@@ -106,7 +106,8 @@ def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, 
         path.write_bytes(data)
         line = assert_refused(invoke("replay", path, "--verify"), path.name)
         assert any(w in line for w in ("claims", "declares", "records (TOUCHDOWN_MAX_RECORDS",
-                                       "lz4", "runs past", "damaged fleet record")), line
+                                       "lz4", "runs past", "damaged fleet record",
+                                       "damaged command record")), line
 
 
 def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_path):
@@ -356,6 +357,85 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
     assert res.divergence is None and res.ticks_compared == 7, res.divergence
     with LogReader(around) as r:
         assert len(r.timeline().commands) == 20_000
+
+
+def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tmp_path):
+    """`touchdown recover` rewrites a log with the library's writer, which does not end the
+    first chunk after the first tick: the header's chunk then holds ticks 0 to 3 and ends in
+    tick 4's 20,000 commands (a 4.9 MB batch), over what a chunk of the one ship's ticks can
+    hold (1.3 MB). The header's chunk is checked as every read after the fleet's reads a
+    chunk: its last record a tick's commands, passed over. Before, `replay --verify` of the
+    recovered log refused it ("a chunk claims 4,882,224 bytes uncompressed")."""
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    recovered = tmp_path / "recovered.mcap"
+    assert invoke("recover", path, "-o", recovered).exit_code == 0
+    r = invoke("replay", recovered, "--verify")
+    assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
+    with LogReader(recovered) as log:
+        assert log._header_chunk is not None and log._header_chunk[1] > 4_000_000
+        assert len(log.timeline().commands) == 20_000
+
+
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_path,
+                                                                            monkeypatch, cut):
+    """The chunk ending in 20,000 commands (4.9 MB) is read to its end, its size and CRC
+    checked, by the first read that reaches it; the reads after it that do not want the
+    commands (the ticks', the events', the summary's) stop where the batch begins. verify then
+    inflates it once (indexed: the commands' read) or twice (cut: the fleet's check, then the
+    commands' read), not once for every read (cut: 4 before), and finds the log identical."""
+    from touchdown.logs import safe_read
+    from touchdown.replay.verify import verify
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    if cut:
+        path.write_bytes(path.read_bytes()[:-1])
+    ends = []
+    real = safe_read._nothing_past
+
+    def spy(r, piece, declared, where):
+        ends.append(declared)
+        return real(r, piece, declared, where)
+    monkeypatch.setattr(safe_read, "_nothing_past", spy)
+    res = verify(str(path))
+    assert res.divergence is None and res.ticks_compared == 11, res.divergence
+    assert sum(d > 4_000_000 for d in ends) == (2 if cut else 1), ends
+
+
+def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
+    """timeline() holds every command (a few hundred bytes each in memory), so the commands a
+    log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
+    million well-formed commands took timeline()'s peak RSS up by 2.4 GB. Beyond the
+    bound the log is refused with one line naming the file and the setting, before the batch
+    past it is parsed; at the bound (the 20,000 commands of one tick, exactly) it verifies."""
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 20_000, 8, keyframe_interval=2)
+    monkeypatch.setenv("TOUCHDOWN_MAX_COMMANDS", "19999")
+    assert_refused(invoke("replay", path, "--verify"), path.name,
+                   "more than 19,999 commands (TOUCHDOWN_MAX_COMMANDS)")
+    monkeypatch.setenv("TOUCHDOWN_MAX_COMMANDS", "20000")
+    r = invoke("replay", path, "--verify")
+    assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
+
+
+@pytest.mark.parametrize("framing", FRAMINGS)
+def test_a_commands_bomb_ending_the_header_s_chunk_is_refused_at_its_first_piece(
+        bounce, tmp_path, framing):
+    """The header's chunk ending in a message of 200 MiB of zeros on the commands' channel
+    (size and CRC true): a tick's commands may run past the fleet's bound, but each field of
+    the batch is checked as it is inflated, so the zeros are refused at their first piece
+    (verify's peak RSS grows < 5 MiB), with one line naming the file."""
+    scn = fuzz._scenario_msg_of(bounce.read_bytes())
+    path = tmp_path / f"header-commands-{framing}.mcap"
+    path.write_bytes(fuzz._crafted_log(scn, fuzz._chunk(b""), framing,
+                                       first=fuzz.header_chunk(scn, 200 << 20, commands=True)))
+    before, grew_mib, said = read_in_a_fresh_process(path, "verify")
+    print(f"{framing}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
+          f"({said})")
+    assert grew_mib < 5, (grew_mib, said)
+    assert said.startswith(str(path)) and "damaged command record (field 0" in said, said
+    assert_refused(invoke("replay", path, "--verify"), path.name, "damaged command record")
 
 
 @pytest.mark.parametrize("compression", ["zstd-streamed", "zstd-whole", ""])
