@@ -653,6 +653,16 @@ def _interior_point(a_mat, slip, radius, lam, active):
     n = 2 * n_feet
     if n == 0 or not scale_s > 0.0:
         return 0
+    if n_feet == 4:  # (the loops of four feet's known lengths: LLVM unrolls them; the same
+        return _ipm_steps(a_mat, slip, radius, lam, idx, 4, scale_s)  # arithmetic, same bits)
+    return _ipm_steps(a_mat, slip, radius, lam, idx, n_feet, scale_s)
+
+
+@kernel
+def _ipm_steps(a_mat, slip, radius, lam, idx, n_feet, scale_s):
+    """:func:`_interior_point`'s steps for its ``n_feet`` feet ``idx`` (``scale_s``: the largest
+    slip before the impulses; ``lam`` zeroed): its impulses into ``lam``, returns its steps."""
+    n = 2 * n_feet
     # one scratch allocation each for the vectors, the matrices and the feet's cones (each a
     # malloc of its own costs as much as a Newton step's arithmetic)
     vecs = stack_zeros((7, 8), np.float64)
