@@ -90,7 +90,7 @@ class _Layout(NamedTuple):
     u1: list  # (start, length) of each one-byte field: its values checked per message
 
 
-def _varint(data, i: int, end: int) -> tuple[int, int, int]:
+def varint(data, i: int, end: int) -> tuple[int, int, int]:
     """(value, next index, error): a varint of at most ten bytes starting at ``i`` (as a uint64:
     the bits past 64 dropped)."""
     result = shift = 0
@@ -123,7 +123,7 @@ def _scan_one(mv, data: np.ndarray, i: int, end: int) -> tuple[int, _Layout | No
         if i >= end:
             break
         k0 = i
-        key, i, err = _varint(mv, i, end)
+        key, i, err = varint(mv, i, end)
         if err:
             return err, None
         fixed.extend(range(k0, i))
@@ -131,7 +131,7 @@ def _scan_one(mv, data: np.ndarray, i: int, end: int) -> tuple[int, _Layout | No
         f = _NUM_LIST[num] if num < 64 else -1
         if wt == 0:
             v0 = i
-            val, i, err = _varint(mv, i, end)
+            val, i, err = varint(mv, i, end)
             if err:
                 return err, None
             if num == 1:
@@ -151,7 +151,7 @@ def _scan_one(mv, data: np.ndarray, i: int, end: int) -> tuple[int, _Layout | No
             i += 8
         elif wt == 2:
             l0 = i
-            n, i, err = _varint(mv, i, end)
+            n, i, err = varint(mv, i, end)
             if err:
                 return err, None
             fixed.extend(range(l0, i))

@@ -15,7 +15,7 @@ from typing import Iterator
 import numpy as np
 
 from touchdown.logs import LogError
-from touchdown.logs.decode import BlockDecoder, TickBlock, decode_tick
+from touchdown.logs.decode import BlockDecoder, TickBlock, varint, decode_tick
 from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS, TOPIC_FLEET,
                          TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, WIDTH, CHUNK_BYTES_MAX,
                          ShipTable, keyframe_due, tick_bytes_bound)
@@ -195,6 +195,7 @@ class LogReader:
         st = self.structure
         self._walk = _ends_with_magic(st) and not st.summary_ok and st.data_end >= 0
         self._largest_record = 0
+        self._known_chunks: dict = {}  # GrowingBound.known: shared by this log's reads
         # the header, read from its chunk as a stream that stops after it: the fleet it names
         # bounds the chunk (which may hold a large fleet's first tick too), so the chunk is not
         # inflated before it is known; the chunk is read in full (its size and CRC checked) by
@@ -333,8 +334,6 @@ class LogReader:
             return LogError(f"{where}: a chunk claims {declared:,} bytes uncompressed (limit "
                             f"{limits.max_chunk_bytes:,}, {limits.chunk_bound}) and does not "
                             f"end in a tick's commands; refusing it")
-        if getattr(self, "_known_chunks", None) is None:
-            self._known_chunks: dict = {}  # (GrowingBound.known: shared by this log's reads)
         return GrowingBound(
             known=self._known_chunks,
             bound=lambda: limits.max_chunk_bytes, prefix=CHUNK_BYTES_MAX + CHUNK_SLACK_BYTES,
@@ -725,29 +724,17 @@ def _commands_at_most(data: bytes, most: int) -> int:
         return keys
     i, n, fields, count = 0, len(data), 0, 0
     while i < n and count < most and fields <= most:
-        key, i = _varint(data, i)
+        key, i, err = varint(data, i, n)
         fields += 1
-        if key & 7 == 0:
-            _, i = _varint(data, i)
-        elif key & 7 == 2:
-            length, i = _varint(data, i)
+        if not err and key & 7 == 0:
+            _, i, err = varint(data, i, n)
+        elif not err and key & 7 == 2:
+            length, i, err = varint(data, i, n)
             i += length
             count += key >> 3 == 2
-        else:
+        if err or key & 7 not in (0, 2):
             return count  # (damage: the parse says so)
     return most if fields > most else count
-
-
-def _varint(data, i: int) -> tuple[int, int]:
-    value = shift = 0
-    while i < len(data) and shift < 70:
-        b = data[i]
-        i += 1
-        value |= (b & 0x7F) << shift
-        shift += 7
-        if not b & 0x80:
-            break
-    return value, i
 
 
 def _parse(cls, data: bytes, what: str):
