@@ -225,7 +225,7 @@ class LogWriter(FinishedOrGone):
         keyframe_interval = max(1, header.keyframe_interval)
         self._flush_every = flush_every_ticks
         self._chunk_size = chunk_size
-        self._zstd_level = zstd_level  # the chunks' (logs.encode; None: the library's, 3)
+        self._zstd_level = zstd_level  # the chunks' (None: logs.encode.DEFAULT_ZSTD_LEVEL)
         chunk_level(zstd_level)  # (the header's chunk is compressed on this thread)
         self._stream = open(self.partial, "wb")
         try:

@@ -181,15 +181,20 @@ def test_sparse_keyframes_seek_from_the_nearest_one(tmp_path):
 
 def test_the_chunks_zstd_level_changes_the_files_size_not_its_contents(tmp_path):
     """``record --zstd-level``: a faster level writes a larger file holding the same messages,
-    which replays bit for bit; a level zstd has not is refused (exit 2) before anything is
-    written."""
+    which replays bit for bit; without the option the level is logs.encode's default (1); a
+    level zstd has not is refused (exit 2) before anything is written."""
+    from touchdown.logs.encode import DEFAULT_ZSTD_LEVEL
+
     logs = {}
-    for level in ("3", "-20"):
+    for level in ("3", "-20", str(DEFAULT_ZSTD_LEVEL), None):
         logs[level] = tmp_path / f"z{level}.mcap"
-        r = CliRunner().invoke(main, ["record", "fleet", "--set", "duration=6", "--zstd-level",
-                                      level, "-o", str(logs[level])])
+        option = [] if level is None else ["--zstd-level", level]
+        r = CliRunner().invoke(main, ["record", "fleet", "--set", "duration=6", *option,
+                                      "-o", str(logs[level])])
         assert r.exit_code == 0, r.output
     assert logs["-20"].stat().st_size > 1.2 * logs["3"].stat().st_size
+    assert logs[None].read_bytes() == logs[str(DEFAULT_ZSTD_LEVEL)].read_bytes()
+    assert logs[None].stat().st_size > logs["3"].stat().st_size
     messages = {}
     for level, path in logs.items():
         with open(path, "rb") as f:

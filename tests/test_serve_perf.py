@@ -190,7 +190,7 @@ def test_checkpoints_pack_later_and_the_last_versions_still_read():
 
 # -- the flight log --------------------------------------------------------------------------
 def test_a_fast_zstd_log_holds_the_same_records_and_verifies(tmp_path):
-    """The same world logged at the library's level, at zstd -3 and at the service's level
+    """The same world logged at the default level, at zstd -3 and at the service's level
     (encoded on the writer's thread either way): the same tick records, the chunks zstd, and
     each verifies."""
     paths = []
