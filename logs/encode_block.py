@@ -65,72 +65,106 @@ LITTLE = sys.byteorder == "little"
 
 
 @kernel
-def _put_words(out64, o, words, i0, i1, w0, count):
-    """Words ``words[i, w0:w0 + count]`` of ships ``i0 .. i1 - 1``, one after another, at byte
-    ``o`` of the buffer whose words are ``out64`` (a little-endian machine's: byte b of word q is
-    the buffer's byte 8 q + b); returns the byte after them. A field's numbers begin anywhere
-    (after its key and length), so each word of the wire straddles two of the buffer's words at
-    a shift of ``o % 8`` bytes: word q takes the last number's high bytes and the next one's low
-    bytes (a funnel shift), and the bytes before ``o`` and after the last number are kept as
-    they were. The same bytes as storing each number byte by byte, with one store per word.
-    A field of one, three or four numbers a ship (all but the keyframe's 12-number one) has a
-    loop of its own, unrolled: the general loop's inner loop over ``count`` cost about a fifth
-    of the encoder's time (176-180 -> 129-143 ns a ship-tick at 15,000 ships, loaded)."""
-    q = o >> 3
-    r = o & 7
-    n_words = (i1 - i0) * count
-    if r == 0:
-        if count == 1:
-            for i in range(i0, i1):
-                out64[q] = words[i, w0]
-                q += 1
-        else:
+def _put_fields(src, recs, words, table, start, i0, i1, out, out64, little):
+    """The numbers of ships ``i0 .. i1 - 1`` of every field whose numbers come from record kind
+    ``src`` (``table``'s column 0: SOURCES), each field's where its ships' numbers begin
+    (``start[f]``; -1: not in this tick). ``recs``: that kind's records as bytes (N, itemsize),
+    ``words``: the same as eight-byte words. Returns -1 if a one-byte number is past 127 (a
+    two-byte varint: never written here), else 0.
+
+    An eight-byte number is read as a word and, on a little-endian machine (``little``: byte b of
+    word q is the buffer's byte 8 q + b), stored as one: a field's numbers begin anywhere (after
+    its key and length), so each word of the wire straddles two of the buffer's words at a shift
+    of ``o % 8`` bytes: word q takes the last number's high bytes and the next one's low bytes (a
+    funnel shift), and the bytes before the field and after its last number are kept as they
+    were (so the fields may be written in any order). The same bytes as storing each number
+    byte by byte, which a big-endian machine does. Fields of one, three or four numbers a ship
+    (all but the keyframe's 12-number one) have loops of their own, unrolled: the general loop's
+    inner loop over ``count`` cost about a fifth of the encoder's time (176-180 -> 129-143 ns a
+    ship-tick at 15,000 ships, loaded).
+
+    One call a record kind, its fields' loop inside: numba counts references to the arrays a
+    function is given at each call, two atomic calls an array, and a call a field (an array
+    chosen a field) was ~70 ns of each of a tick's 32 fields, two thirds of a one-ship tick's
+    encoding (2.2 us)."""
+    for f in range(table.shape[0]):
+        o = start[f]
+        if table[f, 0] != src or o < 0:
+            continue
+        off, count, size, wire = table[f, 1], table[f, 2], table[f, 3], table[f, 4]
+        o += i0 * count * wire
+        if wire != 8:
             for i in range(i0, i1):
                 for j in range(count):
-                    out64[q] = words[i, w0 + j]
+                    v = recs[i, off + j * size]
+                    if v > 127:
+                        return -1
+                    out[o] = v
+                    o += 1
+            continue
+        w0 = off // 8
+        if not little:
+            for i in range(i0, i1):
+                for j in range(count):
+                    w = words[i, w0 + j]
+                    for b in range(8):
+                        out[o + b] = (w >> np.uint64(8 * b)) & np.uint64(0xFF)
+                    o += 8
+            continue
+        q = o >> 3
+        r = o & 7
+        if r == 0:
+            if count == 1:
+                for i in range(i0, i1):
+                    out64[q] = words[i, w0]
                     q += 1
-        return o + 8 * n_words
-    up = np.uint64(8 * r)
-    down = np.uint64(64 - 8 * r)
-    below = (np.uint64(1) << up) - np.uint64(1)  # the bytes of word q before byte o
-    carry = out64[q] & below
-    if count == 1:
-        for i in range(i0, i1):
-            w = words[i, w0]
-            out64[q] = carry | (w << up)
-            carry = w >> down
-            q += 1
-    elif count == 3:
-        for i in range(i0, i1):
-            a = words[i, w0]
-            b = words[i, w0 + 1]
-            c = words[i, w0 + 2]
-            out64[q] = carry | (a << up)
-            out64[q + 1] = (a >> down) | (b << up)
-            out64[q + 2] = (b >> down) | (c << up)
-            carry = c >> down
-            q += 3
-    elif count == 4:
-        for i in range(i0, i1):
-            a = words[i, w0]
-            b = words[i, w0 + 1]
-            c = words[i, w0 + 2]
-            d = words[i, w0 + 3]
-            out64[q] = carry | (a << up)
-            out64[q + 1] = (a >> down) | (b << up)
-            out64[q + 2] = (b >> down) | (c << up)
-            out64[q + 3] = (c >> down) | (d << up)
-            carry = d >> down
-            q += 4
-    else:
-        for i in range(i0, i1):
-            for j in range(count):
-                w = words[i, w0 + j]
+            else:
+                for i in range(i0, i1):
+                    for j in range(count):
+                        out64[q] = words[i, w0 + j]
+                        q += 1
+            continue
+        up = np.uint64(8 * r)
+        down = np.uint64(64 - 8 * r)
+        below = (np.uint64(1) << up) - np.uint64(1)  # the bytes of word q before byte o
+        carry = out64[q] & below
+        if count == 1:
+            for i in range(i0, i1):
+                w = words[i, w0]
                 out64[q] = carry | (w << up)
                 carry = w >> down
                 q += 1
-    out64[q] = (out64[q] & ~below) | carry
-    return o + 8 * n_words
+        elif count == 3:
+            for i in range(i0, i1):
+                a = words[i, w0]
+                b = words[i, w0 + 1]
+                c = words[i, w0 + 2]
+                out64[q] = carry | (a << up)
+                out64[q + 1] = (a >> down) | (b << up)
+                out64[q + 2] = (b >> down) | (c << up)
+                carry = c >> down
+                q += 3
+        elif count == 4:
+            for i in range(i0, i1):
+                a = words[i, w0]
+                b = words[i, w0 + 1]
+                c = words[i, w0 + 2]
+                d = words[i, w0 + 3]
+                out64[q] = carry | (a << up)
+                out64[q + 1] = (a >> down) | (b << up)
+                out64[q + 2] = (b >> down) | (c << up)
+                out64[q + 3] = (c >> down) | (d << up)
+                carry = d >> down
+                q += 4
+        else:
+            for i in range(i0, i1):
+                for j in range(count):
+                    w = words[i, w0 + j]
+                    out64[q] = carry | (w << up)
+                    carry = w >> down
+                    q += 1
+        out64[q] = (out64[q] & ~below) | carry
+    return 0
 
 
 #: ships gathered at a time: their records stay in cache while every field takes its numbers
@@ -138,47 +172,21 @@ GATHER_SHIPS = 256
 
 
 @kernel
-def _gather(states, outputs, inputs, states64, outputs64, inputs64, keys64, table, start, out,
-            out64, little):
+def _gather(states, outputs, inputs, keys8, states64, outputs64, inputs64, keys64, table, start,
+            out, out64, little):
     """One tick's numbers of every field, written to ``out`` where each field's numbers begin
-    (``start[f]``; -1: not in this tick). Ships are taken GATHER_SHIPS at a time, so each record
-    is read from memory once; an eight-byte number is read as a word and stored as it is on a
-    little-endian machine (``little``; :func:`_put_words`, into ``out64``, ``out``'s words),
-    else byte by byte in the wire's little-endian order. Returns -1 if a one-byte number is past 127 (a two-byte
-    varint: never written here)."""
+    (``start[f]``; -1: not in this tick), a record kind at a time (:func:`_put_fields`). Ships
+    are taken GATHER_SHIPS at a time, so each record is read from memory once. Returns -1 if a
+    one-byte number is past 127, else 0."""
     n = states.shape[0]
     for i0 in range(0, n, GATHER_SHIPS):
         i1 = min(i0 + GATHER_SHIPS, n)
-        for f in range(table.shape[0]):
-            if start[f] < 0:
-                continue
-            src, off, count, size, wire = table[f, 0], table[f, 1], table[f, 2], table[f, 3], \
-                table[f, 4]
-            o = start[f] + i0 * count * wire
-            if wire == 8 and little:
-                words = states64 if src == 0 else (outputs64 if src == 1 else (
-                    inputs64 if src == 2 else keys64))
-                w0 = off // 8
-                o = _put_words(out64, o, words, i0, i1, w0, count)
-            elif wire == 8:
-                words = states64 if src == 0 else (outputs64 if src == 1 else (
-                    inputs64 if src == 2 else keys64))
-                w0 = off // 8
-                for i in range(i0, i1):
-                    for j in range(count):
-                        w = words[i, w0 + j]
-                        for b in range(8):
-                            out[o + b] = (w >> np.uint64(8 * b)) & np.uint64(0xFF)
-                        o += 8
-            else:
-                rec = states if src == 0 else (outputs if src == 1 else inputs)
-                for i in range(i0, i1):
-                    for j in range(count):
-                        v = rec[i, off + j * size]
-                        if v > 127:
-                            return -1
-                        out[o] = v
-                        o += 1
+        if (_put_fields(0, states, states64, table, start, i0, i1, out, out64, little) < 0
+                or _put_fields(1, outputs, outputs64, table, start, i0, i1, out, out64,
+                               little) < 0
+                or _put_fields(2, inputs, inputs64, table, start, i0, i1, out, out64, little) < 0
+                or _put_fields(3, keys8, keys64, table, start, i0, i1, out, out64, little) < 0):
+            return -1
     return 0
 
 
@@ -220,6 +228,7 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
     nf = table.shape[0]
     start = np.empty(nf, np.int64)
     out64 = out.view(np.uint64)  # (its length a multiple of 8: BlockEncoder.encode)
+    keys8 = keys64.view(np.uint8)  # (the keys' kind as bytes, as every record kind is given)
     gap = MESSAGE_HEAD_BYTES if head[0] >= 0 else 0
     o = 0
     for k in range(ticks.shape[0]):
@@ -251,10 +260,11 @@ def _encode_ticks(states, outputs, inputs, keys64, table, ticks, t_s, t_bytes, k
             o = _put_varint(out, o + key_len, length)
             start[f] = o
             o += length
-        if gap:  # (before the numbers: _put_words keeps the bytes around them as they were)
+        if gap:  # (before the numbers: _put_fields keeps the bytes around them as they were)
             _put_head(out, offsets[k], o - offsets[k] - gap, head[0], head[1] + k, tick * head[2])
         s8, o8, i8 = states[k], outputs[k], inputs[k]
-        if _gather(s8, o8, i8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64), keys64,
+        if _gather(s8, o8, i8, keys8, s8.view(np.uint64), o8.view(np.uint64), i8.view(np.uint64),
+                   keys64,
                    table, start, out, out64, little) < 0:
             return -1
     offsets[ticks.shape[0]] = o
@@ -302,7 +312,7 @@ class BlockEncoder:
         ticks = np.arange(first_tick, first_tick + k, dtype=np.int64)
         t_s = ticks * self.dt_s
         t_bytes = t_s.astype("<f8").view(np.uint8).reshape(k, 8)
-        # whole words, and one spare: _put_words reads and writes the word a field's numbers end in
+        # whole words, and one spare: _put_fields reads and writes the word a field's numbers end in
         buf = np.empty(room + (k * self._bytes_per_tick(n) // 8 + 2) * 8, np.uint8)
         out = buf[room:]  # (8-byte aligned, as buf: the kernel reads and writes it as words)
         offsets = np.empty(k + 1, np.int64)

@@ -1,4 +1,4 @@
-"""The block encoder's word stores (logs.encode_block._put_words: each eight-byte number stored
+"""The block encoder's word stores (logs.encode_block._put_fields: each eight-byte number stored
 as a whole word, shifted across the buffer's words where a field begins off a word boundary)
 give exactly the bytes of the byte-by-byte path, for fleets whose fields begin at every offset
 mod 8, keyframes and in-between ticks, with and without keys."""
@@ -74,14 +74,18 @@ def test_word_stores_give_the_bytes_of_byte_stores():
                 assert msg.ship_count == m
 
 
-def test_put_words_keeps_the_bytes_around_it():
-    """Numbers written at each offset mod 8 leave the bytes before and after them as they were."""
+def test_put_fields_keeps_the_bytes_around_it():
+    """Numbers written at each offset mod 8 leave the bytes before and after them as they were,
+    on both paths (word stores, and byte stores as a big-endian machine makes them)."""
     rng = np.random.default_rng(7)
     words = rng.integers(0, 2**63, size=(5, 3), dtype=np.int64).view(np.uint64)
-    for o in range(16):
-        out = rng.integers(0, 256, size=112, dtype=np.uint8)
-        want = out.copy()
-        want[o:o + 5 * 2 * 8] = words[:, 1:3].astype("<u8").view(np.uint8).ravel()
-        end = eb._put_words(out.view(np.uint64), o, words, 0, 5, 1, 2)
-        assert end == o + 5 * 2 * 8
-        assert (out == want).all(), o
+    # one field of two numbers a ship, from words 1 and 2 of the ships' records (kind 0)
+    table = np.array([(0, 8, 2, 8, 8, 0x0A, 0, 1, False)], np.int64)
+    for little in (True, False):
+        for o in range(16):
+            out = rng.integers(0, 256, size=112, dtype=np.uint8)
+            want = out.copy()
+            want[o:o + 5 * 2 * 8] = words[:, 1:3].astype("<u8").view(np.uint8).ravel()
+            assert eb._put_fields(0, words.view(np.uint8), words, table, np.array([o]), 0, 5,
+                                  out, out.view(np.uint64), little) == 0
+            assert (out == want).all(), (little, o)
