@@ -404,9 +404,10 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_p
 
 
 def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
-    """timeline() holds every command (a few hundred bytes each in memory), so the commands a
-    log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
-    million well-formed commands took timeline()'s peak RSS up by 2.4 GB. Beyond the
+    """timeline() holds every command (~140 bytes each in memory at its peak, ~390 if all
+    differ), so the commands a log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by
+    default): a 36 kB log of 5 million well-formed commands took timeline()'s peak RSS up by
+    2.4 GB (4 million now: 525 MiB). Beyond the
     bound the log is refused with one line naming the file and the setting, before the batch
     past it is parsed; at the bound (the 20,000 commands of one tick, exactly) it verifies."""
     path = tmp_path / "commands.mcap"
