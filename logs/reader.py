@@ -9,6 +9,7 @@ import dataclasses
 import json
 import math
 import os
+import struct
 from pathlib import Path
 from typing import Iterator
 
@@ -28,7 +29,7 @@ from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
 from touchdown.sim import fields
 from touchdown.sim.state import Inputs, Outputs, State
-from touchdown.sim.timeline import INPUTS, CommandError, Retire, Spawn, Timeline, command_of
+from touchdown.sim.timeline import Command, CommandError, Retire, Spawn, Timeline
 
 #: how far a log may start (ticks): past any run a scenario may ask for, within a double's integers
 MAX_START_TICK = 1 << 53
@@ -590,7 +591,11 @@ class LogReader:
     def timeline(self) -> Timeline:
         """The run's recorded input: the ships that joined and left, and every command
         (format 3). Read once (a later call, e.g. while the ticks are being read, reads nothing:
-        a file whose footer is missing is read in one pass at a time)."""
+        a file whose footer is missing is read in one pass at a time). The commands are held in
+        ~140 bytes each at the read's peak (RSS) when they repeat their values (a tick, a ship,
+        a throttle or rcs held once: _Shared), ~390 when every value differs (before: 564 and
+        594); each batch is parsed where it lies, a megabyte at a time (_command_pieces), and
+        refused past TOUCHDOWN_MAX_COMMANDS before it is parsed."""
         if getattr(self, "_timeline", None) is None:
             self._timeline = self._read_timeline()
         return self._timeline
@@ -604,21 +609,30 @@ class LogReader:
                 spawns.append(Spawn(int(change.tick), table.specs[j.ship_key]))
             for sid in change.left_ship_id:
                 retires.append(Retire(int(change.tick), sid))
-        commands = []
+        commands: list = []
         most = ReadLimits.from_environment().max_commands
-        ids = {sid: sid for sid in table.ids} if self.log_format >= 3 else {}
-        for _topic, data in self._iter({TOPIC_COMMANDS}):
+        shared = _Shared({sid: sid for sid in table.ids} if self.log_format >= 3 else {})
+        what = f"{self.path}: damaged command record"
+        # each batch read where it lies, in its decompressed chunk (not copied out of it)
+        for _topic, _t, data in iter_messages(self._file, str(self.path), {TOPIC_COMMANDS},
+                                              None, None, self.status, views=True,
+                                              walk=self._walk, grow=self._fleet_bound()):
             if len(commands) + _commands_at_most(data, most - len(commands) + 1) > most:
                 raise LogError(f"{self.path}: more than {most:,} commands "
                                f"(TOUCHDOWN_MAX_COMMANDS); refusing to hold them")
-            batch = _parse(pb.CommandBatch, data, f"{self.path}: damaged command record")
-            for c in batch.commands:
-                sid = c.ship_id
-                try:
-                    commands.append(command_of(int(c.tick), ids.get(sid, sid),
-                                               [getattr(c, name) for name in INPUTS]).check())
-                except CommandError as exc:
-                    raise LogError(f"{self.path}: {exc}") from None
+            # a piece at a time (its parsed messages dropped before the next is parsed); a
+            # refused command is said once the whole batch has parsed, damage first, as when
+            # the batch was parsed whole
+            refused = None
+            for piece in _command_pieces(data):
+                if refused is None:
+                    refused = _add_commands(_parse(pb.CommandBatch, piece, what), shared,
+                                            commands)
+                else:
+                    _parse(pb.CommandBatch, piece, what)
+            if refused is not None:
+                raise LogError(f"{self.path}: {refused}")
+        data = piece = None  # (the last batch's bytes, not held while the timeline is made)
         return Timeline.of(spawns, retires, commands)
 
     def events(self, read: list[bytes] | None = None) -> Iterator[pb.TransitionEvent]:
@@ -713,13 +727,14 @@ class _FieldCheck:
 COMMAND_BYTES_BUT_ID = 128
 
 
-def _commands_at_most(data: bytes, most: int) -> int:
+def _commands_at_most(data, most: int) -> int:
     """How many commands a CommandBatch's bytes hold, or ``most`` if at least that many: each
     begins with the key of field 2 (0x12), so a batch holding fewer of those bytes than ``most``
     is counted no further (memchr's speed); else its fields are walked, at most ``most`` + 1 of
     them (a batch holds one tick, then its commands). So a batch is never parsed, nor its
     commands made, past what a timeline may hold."""
-    keys = data.count(0x12)
+    keys = sum(bytes(data[i:i + COMMAND_PIECE_BYTES]).count(0x12)  # (a view: a piece at a time)
+               for i in range(0, len(data), COMMAND_PIECE_BYTES))
     if keys < most:
         return keys
     i, n, fields, count = 0, len(data), 0, 0
@@ -735,6 +750,129 @@ def _commands_at_most(data: bytes, most: int) -> int:
         if err or key & 7 not in (0, 2):
             return count  # (damage: the parse says so)
     return most if fields > most else count
+
+
+#: a command batch larger than this is parsed this many bytes at a time (_command_pieces)
+COMMAND_PIECE_BYTES = 1 << 20
+#: the most values _Shared holds: what a log's values may grow it to, however many differ
+SHARED_MAX = 1 << 16
+_ZERO, _MINUS_ZERO = 0.0, -0.0
+
+
+def _command_pieces(data, piece: int = COMMAND_PIECE_BYTES) -> Iterator:
+    """A CommandBatch's bytes as views of about ``piece`` bytes each (the batch itself if no
+    larger), each ending where one of its fields does: a batch's parse is its pieces' parses
+    merged (its commands, a repeated field, appended in order), each piece's messages held only
+    while it is read, not the whole batch's (a million commands: ~45 MB of bytes, parsed ~1 MB
+    at a time). Where the fields cannot be walked (damage) the rest is one piece, whose parse
+    says what is wrong as the whole batch's would."""
+    n = len(data)
+    if n <= piece:
+        yield data
+        return
+    view = memoryview(data)
+    start = i = 0
+    while i < n:
+        if data[i] == 0x12 and i + 1 < n and data[i + 1] < 0x80:  # a command of < 128 bytes
+            j, err = i + 2 + data[i + 1], 0
+        else:
+            key, j, err = varint(data, i, n)
+            wire = key & 7
+            if err or not 0 < key >> 3 < 1 << 29 or wire not in (0, 1, 2, 5):
+                break
+            if wire == 0:
+                _, j, err = varint(data, j, n)
+            elif wire == 2:
+                length, j, err = varint(data, j, n)
+                j += length
+            else:
+                j += 8 if wire == 1 else 4
+        if err or j > n:
+            break
+        i = j
+        if i - start >= piece:
+            yield view[start:i]
+            start = i
+    if start < n:
+        yield view[start:]
+
+
+class _Shared:
+    """The values of a log's commands, each held once however many commands give it (a tick,
+    a ship id, a number, a vector): a command made from a record (a protobuf message) would
+    otherwise hold its own copy of each (1 M commands of one tick: ~200 MB more). At most
+    ``most`` values are held (a log of all different values holds its own copies past them).
+    A number is shared by its bits: 0.0 and -0.0, equal as dict keys, are kept apart (replay
+    is bit for bit)."""
+
+    def __init__(self, ids: dict[str, str], most: int = SHARED_MAX):
+        self.room = most
+        self.ids = ids  # the log's ship ids (format 3), outside the bound (the table holds them)
+        self.ticks: dict[int, int] = {}
+        self.names: dict[str, str] = {}  # ship ids not in ``ids``
+        self.numbers: dict[float, float] = {}  # (never a zero: see number)
+        self.vectors: dict[bytes, tuple] = {}  # keyed by their numbers' bits
+
+    def tick(self, x: int) -> int:
+        got = self.ticks.get(x)
+        if got is None:
+            if self.room > 0:
+                self.ticks[x] = x
+                self.room -= 1
+            return x
+        return got
+
+    def ship_id(self, x: str) -> str:
+        got = self.ids.get(x)
+        if got is None:
+            got = self.names.get(x)
+            if got is None:
+                if self.room > 0:
+                    self.names[x] = x
+                    self.room -= 1
+                return x
+        return got
+
+    def number(self, x: float) -> float:
+        if x == 0.0:  # 0.0 == -0.0, one key: each is its own constant
+            return _MINUS_ZERO if math.copysign(1.0, x) < 0 else _ZERO
+        got = self.numbers.get(x)  # (a NaN is never found: held as it is, the check refuses it)
+        if got is None:
+            if self.room > 0:
+                self.numbers[x] = x
+                self.room -= 1
+            return x
+        return got
+
+    def vector(self, x) -> tuple:
+        if len(x) != 3:
+            return tuple(x)  # (the check refuses it)
+        key = _VECTOR.pack(*x)
+        got = self.vectors.get(key)
+        if got is None:
+            a, b, c = x
+            got = (self.number(a), self.number(b), self.number(c))
+            if self.room > 0:
+                self.vectors[key] = got
+                self.room -= 1
+        return got
+
+
+_VECTOR = struct.Struct("<3d")
+
+
+def _add_commands(batch, shared: _Shared, commands: list) -> CommandError | None:
+    """``batch``'s commands (a CommandBatch, parsed) appended to ``commands``, each checked, their
+    values shared (_Shared); the first refused, if one is, instead of the rest."""
+    made = [(f.name, shared.number if f.per_ship == 1 and f.choices is None else
+             int if f.choices is not None else shared.vector) for f in fields.INPUTS]
+    for c in batch.commands:
+        try:
+            commands.append(Command(shared.tick(int(c.tick)), shared.ship_id(c.ship_id),
+                                    *[make(getattr(c, name)) for name, make in made]).check())
+        except CommandError as exc:
+            return exc
+    return None
 
 
 def _parse(cls, data: bytes, what: str):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, make_dataclass
+from itertools import pairwise
 
 from touchdown.sim import fields as _fields
 from touchdown.sim.errors import TouchdownError
@@ -35,26 +36,35 @@ class CommandError(TouchdownError, ValueError):
     and the field."""
 
 
+#: what _check holds each input to: (name, its choices or None, (lo, hi) or None, numbers)
+_CHECKS = tuple((f.name, None if f.choices is None else frozenset(int(m) for m in f.choices),
+                 f.limits, f.per_ship) for f in _fields.INPUTS)
+
+
 def _check(self) -> "Command":
-    """This command if every value is in range, else CommandError naming the field."""
-    where = f"command for ship {self.ship_id!r} at tick {self.tick}"
+    """This command if every value is in range, else CommandError naming the field (a log's
+    timeline checks each of its commands: a million in ~1.5 s)."""
     if not isinstance(self.tick, int) or self.tick < 0:
-        raise CommandError(f"{where}: tick must be a whole number >= 0")
-    for f in _fields.INPUTS:
-        x = getattr(self, f.name)
-        if f.choices is not None:
-            if x not in {int(m) for m in f.choices}:
-                raise CommandError(f"{where}: {f.name} must be one of {', '.join(f.labels)}, "
-                                   f"got {x!r}")
+        raise CommandError(f"{_where(self)}: tick must be a whole number >= 0")
+    for name, choices, limits, n in _CHECKS:
+        x = getattr(self, name)
+        if choices is not None:
+            if x not in choices:
+                raise CommandError(f"{_where(self)}: {name} must be one of "
+                                   f"{', '.join(_INPUT[name].labels)}, got {x!r}")
             continue
-        lo, hi = f.limits
-        if f.per_ship == 1:
+        lo, hi = limits
+        if n == 1:
             if not (_finite(x) and lo <= x <= hi):
-                raise CommandError(f"{where}: {f.name} must be {lo:g}..{hi:g}, got {x!r}")
-        elif len(x) != f.per_ship or not all(_finite(v) and lo <= v <= hi for v in x):
-            raise CommandError(f"{where}: {f.name} must be {_COUNT[f.per_ship]} numbers in "
+                raise CommandError(f"{_where(self)}: {name} must be {lo:g}..{hi:g}, got {x!r}")
+        elif len(x) != n or not all([_finite(v) and lo <= v <= hi for v in x]):
+            raise CommandError(f"{_where(self)}: {name} must be {_COUNT[n]} numbers in "
                                f"{lo:g}..{hi:g}, got {x!r}")
     return self
+
+
+def _where(c) -> str:
+    return f"command for ship {c.ship_id!r} at tick {c.tick}"
 
 
 def _inputs(self) -> tuple:
@@ -71,7 +81,7 @@ Command = make_dataclass(
      *[(f.name, float if f.per_ship == 1 and f.choices is None else
         int if f.choices is not None else tuple, field(default=f.default))
        for f in _fields.INPUTS]],
-    frozen=True,
+    frozen=True, slots=True,  # (no __dict__: 72 bytes a command, not ~112)
     namespace={"check": _check, "inputs": property(_inputs),
                "__doc__": "From tick ``tick`` on, ship ``ship_id`` is given these inputs "
                           "(sim.fields.INPUTS: throttle 0..1 of its max_thrust, rcs -1..1 of "
@@ -88,6 +98,8 @@ def command_of(tick: int, ship_id: str, values) -> "Command":
 
 
 def _finite(x) -> bool:
+    if type(x) is float:
+        return math.isfinite(x)
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
@@ -112,6 +124,14 @@ class Retire:
     ship_id: str
 
 
+def _by_tick(items) -> tuple:
+    """``items`` as a tuple sorted by tick, stably: as given if already in order (one pass)."""
+    items = tuple(items)
+    if all(a.tick <= b.tick for a, b in pairwise(items)):
+        return items
+    return tuple(sorted(items, key=lambda x: x.tick))  # a stable sort keeps same-tick order
+
+
 @dataclass(frozen=True)
 class Timeline:
     """Joins, leaves and commands, each sorted by tick (ties in the order they were given)."""
@@ -122,9 +142,9 @@ class Timeline:
 
     @staticmethod
     def of(spawns=(), retires=(), commands=()) -> "Timeline":
-        key = lambda x: x.tick  # noqa: E731 - a stable sort keeps same-tick order
-        return Timeline(tuple(sorted(spawns, key=key)), tuple(sorted(retires, key=key)),
-                        tuple(sorted(commands, key=key)))
+        """Each sorted by tick, stably (a log's are already: they are not sorted again, which
+        for a million commands would take a list and a key each more, ~16 MB)."""
+        return Timeline(_by_tick(spawns), _by_tick(retires), _by_tick(commands))
 
     def for_ship(self, ship_id: str) -> "Timeline":
         """Only what concerns ship ``ship_id``."""

@@ -404,9 +404,10 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_p
 
 
 def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, monkeypatch):
-    """timeline() holds every command (a few hundred bytes each in memory), so the commands a
-    log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by default): a 36 kB log of 5
-    million well-formed commands took timeline()'s peak RSS up by 2.4 GB. Beyond the
+    """timeline() holds every command (~140 bytes each in memory at its peak, ~390 if all
+    differ), so the commands a log may hold are bounded (TOUCHDOWN_MAX_COMMANDS, 4,000,000 by
+    default): a 36 kB log of 5 million well-formed commands took timeline()'s peak RSS up by
+    2.4 GB (4 million now: 525 MiB). Beyond the
     bound the log is refused with one line naming the file and the setting, before the batch
     past it is parsed; at the bound (the 20,000 commands of one tick, exactly) it verifies."""
     path = tmp_path / "commands.mcap"
@@ -417,6 +418,105 @@ def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, mo
     monkeypatch.setenv("TOUCHDOWN_MAX_COMMANDS", "20000")
     r = invoke("replay", path, "--verify")
     assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
+
+
+def test_a_timeline_of_200_000_commands_holds_them_in_under_250_bytes_each(tmp_path):
+    """timeline() holds a log's commands in little memory: each command compact (no __dict__),
+    the values commands repeat (ticks, ship ids, numbers, vectors) held once, the batch parsed
+    from where it lies in its chunk a megabyte at a time. 200,000 commands of one tick (a 9.8 MB
+    batch) written by the project's writer: timeline()'s peak (tracemalloc) was ~380 bytes a
+    command, ~130 now (held: 280, now 80)."""
+    import tracemalloc
+    path = tmp_path / "commands.mcap"
+    _commands_log(path, 200_000, 8, keyframe_interval=2)
+    with LogReader(path) as r:
+        r.ship_table()
+        tracemalloc.start()
+        try:
+            before = tracemalloc.get_traced_memory()[0]
+            commands = r.timeline().commands
+            held, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+    per, held_per = (peak - before) / len(commands), (held - before) / len(commands)
+    print(f"timeline() of {len(commands):,} commands: peak {per:.0f} B a command, "
+          f"{held_per:.0f} held")
+    assert len(commands) == 200_000 and per < 250, per
+    assert commands[0] == commands[-1] and commands[-1].rcs == (0.0, 0.1, 0.0)
+
+
+def _log_of_commands(path: Path, given: list) -> None:
+    """A log of one ship ("s") given the commands ``given`` (World.commands' form) at tick 4,
+    written by the project's writer."""
+    from touchdown.logs.header import scenario_message
+    from touchdown.logs.writer import LogWriter
+    from touchdown.sim.scenario import parse
+    from touchdown.sim.world import World
+    scn = parse({"name": "zeros", "duration": 0.5,
+                 "ships": [{"id": "s", "initial": {"altitude": 2.0}}]}, "zeros")
+    world = World.of(scn)
+    with LogWriter(path, scenario_message(scn, "zeros", keyframe_interval=2)) as writer:
+        writer.write_block(world.first_block())
+        for block in world.blocks(4, max_ticks=4):
+            writer.write_block(block)
+        world.commands(given)
+        for block in world.blocks(10, max_ticks=6):
+            writer.write_block(block)
+
+
+def test_signed_zeros_in_commands_come_back_from_the_log_bit_for_bit(tmp_path):
+    """0.0 and -0.0 are equal (one dict key), but a command's -0.0 is recorded as it is, and the
+    timeline, which holds a value many commands give once, gives each command its own zero back:
+    the log replays bit for bit."""
+    import struct
+    given = [("s", t, (a, b, c), 0) for t in (0.0, -0.0) for a in (0.0, -0.0)
+             for b in (-0.0, 0.0, 0.5) for c in (0.0, -0.0)] * 2
+    path = tmp_path / "zeros.mcap"
+    _log_of_commands(path, given)
+
+    def bits(throttle, rcs):
+        return struct.pack("<4d", throttle, *rcs)
+    with LogReader(path) as r:
+        got = r.timeline().commands
+    assert [bits(c.throttle, c.rcs) for c in got] == [bits(t, v) for _s, t, v, _h in given]
+    assert len({bits(c.throttle, c.rcs) for c in got}) == 24
+    r = invoke("replay", path, "--verify")
+    assert r.exit_code == 0 and "identical" in r.output, r.output
+
+
+@pytest.mark.parametrize("refused_first", [False, True])
+def test_a_command_batch_damaged_in_its_second_megabyte_says_so_as_before(tmp_path,
+                                                                           refused_first):
+    """A batch over 1 MB is parsed a megabyte at a time; damage in its second piece (a ship id
+    that is not UTF-8, 1.5 MB into a 2.2 MB batch of 45,000 commands) is said as when the batch
+    was parsed whole: one line naming the file, "damaged command record (DecodeError)", even
+    when a command of the first piece is out of range (the damage is said, not the range)."""
+    import struct
+
+    from touchdown.logs import LogError
+    src = tmp_path / "commands.mcap"
+    _commands_log(src, 45_000, 8, keyframe_interval=2)
+    spots = []
+
+    def edit(topic, data):
+        if topic == "/touchdown/commands" and len(data) > 2_000_000:
+            data = bytearray(data)
+            at = data.index(b"s" * 8, 1_500_000)
+            data[at] = 0xFF  # (a ship id not UTF-8: only the full parse of its command sees it)
+            if refused_first:
+                half = struct.pack("<d", 0.5)
+                throttle = data.index(b"\x19" + half, 1000) + 1
+                data[throttle:throttle + 8] = struct.pack("<d", 2.0)
+            spots.append((len(data), at))
+            data = bytes(data)
+        return [(topic, data)]
+    path = rewrite(src, tmp_path / "damaged.mcap", edit)
+    assert spots and spots[0][0] > 2_000_000 and 1 << 20 < spots[0][1] < 2 << 20, spots
+    with LogReader(path) as r, pytest.raises(LogError) as err:
+        r.timeline()
+    assert str(err.value) == f"{path}: damaged command record (DecodeError)", str(err.value)
+    assert_refused(invoke("replay", path, "--verify"), path.name,
+                   "damaged command record (DecodeError)")
 
 
 @pytest.mark.parametrize("framing", FRAMINGS)
