@@ -83,17 +83,6 @@ def no_resting(state: np.ndarray, inputs: np.ndarray, outputs: np.ndarray) -> Re
 
 
 @kernel
-def borrowed_rest(rest):
-    """``rest`` with its arrays :func:`sim.compiled.borrowed` (for step_ticks, whose caller holds
-    them for the whole call): a resting ship's tick takes views of them, whose reference counts
-    would otherwise be an atomic add and subtract a ship-tick."""
-    return Resting(rest.on, borrowed(rest.fixed), borrowed(rest.state_w), borrowed(rest.inputs_w),
-                   borrowed(rest.outputs_w), borrowed(rest.fix_state_w),
-                   borrowed(rest.fix_inputs_w), borrowed(rest.fix_outputs_w),
-                   borrowed(rest.before_w))
-
-
-@kernel
 def _same_words(a, b):
     for j in range(a.shape[0]):
         if a[j] != b[j]:
@@ -159,8 +148,7 @@ def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     commands, first_tick, rotations = queue.table, span.first_tick, span.rotations
     states_out, outputs_out, inputs_out = out.states, out.outputs, out.inputs
-    events, event_ticks, count = out.events, out.event_ticks, out.count
-    rest = borrowed_rest(out.rest)
+    events, event_ticks, count, rest = out.events, out.event_ticks, out.count, out.rest
     c = queue.next
     for k in range(states_out.shape[0]):
         if events.shape[0] - count[0] < tick_capacity:
