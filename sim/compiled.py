@@ -368,6 +368,28 @@ def stack_zeros(typingctx, shape, dtype):
     return array_t(shape, dtype), codegen
 
 
+@intrinsic
+def borrowed(typingctx, arr):
+    """``arr`` itself (its data, shape and strides) without its meminfo: an array whose reference
+    counts are the NRT's null check, not an atomic add. numba counts references to every array
+    a function is given, at each call of it, forceinline or not (the counts are emitted before
+    LLVM inlines), and to an array a variable holds in a branch or a loop: the step's event log
+    (sim.ship.EventLog), handed down through the flight's phases each piece and sub-step, paid
+    ~5,700 of the envelope touchdown's ~6,600 counts (4% of the kernels' time; 0.7% with it
+    borrowed: docs/issue36/session25-nrt.txt). Same code otherwise, same bits. Only for an array
+    that outlives every use of what is made from it: one a caller holds for the whole of a call
+    (an entry point's argument)."""
+    if not isinstance(arr, nb_types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        ary = context.make_array(arr)(context, builder, args[0])
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        return ary._getvalue()
+
+    return arr(arr), codegen
+
+
 def ir_const(context, n):
     """An LLVM intp constant."""
     return ir.Constant(context.get_value_type(nb_types.intp), n)

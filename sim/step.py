@@ -15,7 +15,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from touchdown.sim.compiled import entry, kernel, separate
+from touchdown.sim.compiled import borrowed, entry, kernel, separate
 from touchdown.sim.enums import TRANSITION_KINDS
 from touchdown.sim.frames import body_rotation
 from touchdown.sim.params import Params
@@ -104,7 +104,7 @@ def step_ships(recs, state, inputs, outputs, turn, events, count):
     cfg, ter, ships = recs.scene[0], recs.terrain[0], recs.ships
     for i in range(state.shape[0]):
         step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], outputs[i],
-                  EventLog(events, count, i))
+                  EventLog(borrowed(events), borrowed(count), i))
 
 
 @kernel
@@ -173,7 +173,7 @@ def step_ticks(recs, state, inputs, queue, span, out, tick_capacity):
                 _copy_words(rest.state_w[i], rest.before_w)
             n_i = count[0]
             step_ship(Here(cfg, ter, ships[i], turn), state[i], inputs[i], out_k[i],
-                      EventLog(events, count, i))
+                      EventLog(borrowed(events), borrowed(count), i))
             fixed = (watch and count[0] == n_i
                      and _same_words(rest.state_w[i], rest.before_w))
             rest.fixed[i] = fixed

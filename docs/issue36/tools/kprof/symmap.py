@@ -60,6 +60,13 @@ def write(folder: str) -> str:
                     break
         if base is not None:
             lines += [f"{base + off:x} {size:x} {s}" for off, size, _kind, s in syms]
+    for name, size in (("NRT_incref", 0x10), ("NRT_decref", 0x20)):  # numba's reference counts
+        try:
+            a = eng.get_function_address(name)
+        except Exception:
+            a = 0
+        if a:
+            lines.append(f"{a:x} {size:x} {name}")
     path = os.path.join(folder, f"syms-{os.getpid()}.txt")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
