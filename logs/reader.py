@@ -813,36 +813,31 @@ class _Shared:
         self.numbers: dict[float, float] = {}  # (never a zero: see number)
         self.vectors: dict[bytes, tuple] = {}  # keyed by their numbers' bits
 
+    def _hold(self, table: dict, key, x):
+        """``x``, kept in ``table`` under ``key`` while there is room (a value not yet held:
+        the lookups stay in the callers, where most values are found)."""
+        if self.room > 0:
+            table[key] = x
+            self.room -= 1
+        return x
+
     def tick(self, x: int) -> int:
         got = self.ticks.get(x)
-        if got is None:
-            if self.room > 0:
-                self.ticks[x] = x
-                self.room -= 1
-            return x
-        return got
+        return self._hold(self.ticks, x, x) if got is None else got
 
     def ship_id(self, x: str) -> str:
         got = self.ids.get(x)
         if got is None:
             got = self.names.get(x)
             if got is None:
-                if self.room > 0:
-                    self.names[x] = x
-                    self.room -= 1
-                return x
+                return self._hold(self.names, x, x)
         return got
 
     def number(self, x: float) -> float:
         if x == 0.0:  # 0.0 == -0.0, one key: each is its own constant
             return _MINUS_ZERO if math.copysign(1.0, x) < 0 else _ZERO
         got = self.numbers.get(x)  # (a NaN is never found: held as it is, the check refuses it)
-        if got is None:
-            if self.room > 0:
-                self.numbers[x] = x
-                self.room -= 1
-            return x
-        return got
+        return self._hold(self.numbers, x, x) if got is None else got
 
     def vector(self, x) -> tuple:
         if len(x) != 3:
@@ -851,10 +846,8 @@ class _Shared:
         got = self.vectors.get(key)
         if got is None:
             a, b, c = x
-            got = (self.number(a), self.number(b), self.number(c))
-            if self.room > 0:
-                self.vectors[key] = got
-                self.room -= 1
+            return self._hold(self.vectors, key,
+                              (self.number(a), self.number(b), self.number(c)))
         return got
 
 
