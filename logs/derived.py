@@ -22,6 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from touchdown.sim import trig
 from touchdown.sim.params import Params
 
 #: rows computed at a time: a block's intermediates stay in the CPU's cache
@@ -43,7 +44,7 @@ def tilt_deg(cos_tilt: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
 
 def body_angles(params: Params, t_s: np.ndarray) -> tuple[np.ndarray | float, np.ndarray | float]:
     """(cos, sin) of the body's angle at each row's time, as sim.measure.body_angles gives them
-    (sim.frames.body_rotation: libm's cos and sin of Omega t, once per instant; (1, 0) at angle
+    (sim.frames.body_rotation: sim.trig's cos and sin of Omega t, once per instant; (1, 0) at angle
     0). A body that does not turn: the two numbers for every row."""
     om = params.body.omega_radps
     t = np.asarray(t_s, float)
@@ -52,7 +53,7 @@ def body_angles(params: Params, t_s: np.ndarray) -> tuple[np.ndarray | float, np
     if not t.shape[0]:
         return np.zeros(0), np.zeros(0)
     starts = np.concatenate(([0], np.flatnonzero(t[1:] != t[:-1]) + 1))
-    cs = np.array([(1.0, 0.0) if om * x == 0.0 else (math.cos(om * x), math.sin(om * x))
+    cs = np.array([(1.0, 0.0) if om * x == 0.0 else trig.cos_sin(om * x)
                    for x in t[starts].tolist()]).reshape(-1, 2)
     lengths = np.diff(np.append(starts, t.shape[0]))
     return np.repeat(cs[:, 0], lengths), np.repeat(cs[:, 1], lengths)

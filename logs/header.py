@@ -48,7 +48,10 @@ if TYPE_CHECKING:  # (sim.world is compiled: a reader of logs loads none of it)
 #: 5 (touchdown 0.7): the keyframes may have a phase (ScenarioRecord.keyframe_phase: keyframes
 #: at ticks = phase mod interval), so that a live service's shards encode theirs on different
 #: ticks; the fields are 4's. A reader of format 4 would look for keyframes at the multiples of
-#: the interval, so such a reader refuses the log by its format number.
+#: the interval, so such a reader refuses the log by its format number. 6 (touchdown 0.8): an
+#: event's tilt_deg is the same bits on every machine (:func:`tilt_deg`); the fields are 5's. A
+#: replay rebuilds a format-5 log's events as 0.7 made them, which can differ in the last bits
+#: on a machine whose BLAS or libm differs from the recording's.
 LOG_FORMAT_VERSION = fields.LOG_FORMAT
 TOPIC_SCENARIO = "/touchdown/scenario"
 TOPIC_TICKS = "/touchdown/ticks"
@@ -95,22 +98,41 @@ def surface_state(value) -> SurfaceState:
     return got if got is not None else SurfaceState(int(value))
 
 
-def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: int
-                       ) -> pb.ShipState:
+def ship_state_message(ship_id: str, player_id: str, body: str, rec_state, i: int, *,
+                       log_format: int = LOG_FORMAT_VERSION) -> pb.ShipState:
     """Ship ``i`` of ``rec_state`` (a State) as a ShipState: its state, position, velocity,
-    attitude and rates, and its tilt from local vertical, acos(ez . r_hat) with ez the body's
-    long axis from the attitude quaternion and r_hat = p / |p|.
+    attitude and rates, and its tilt from local vertical (:func:`tilt_deg`, as a log of
+    ``log_format`` has it).
 
     The ship's record is read once (its row), its numbers taken as Python floats: the same
-    IEEE operations, one by one, as on numpy's scalars (the two dot products still numpy's), so
-    the same bits, at half the cost (a test compares them with the field-by-field way)."""
+    IEEE operations, one by one, as on numpy's scalars, so the same bits, at half the cost (a
+    test compares them with the field-by-field way)."""
     rows = getattr(rec_state, "rows", None)
     if rows is None:
-        return _ship_state_message_fields(ship_id, player_id, body, rec_state, i)
-    return pb.ShipState(**_ship_state_fields(ship_id, player_id, body, rows[i]))
+        return _ship_state_message_fields(ship_id, player_id, body, rec_state, i, log_format)
+    return pb.ShipState(**_ship_state_fields(ship_id, player_id, body, rows[i], log_format))
 
 
-def _ship_state_fields(ship_id: str, player_id: str, body: str, row) -> dict:
+#: the first log format whose events carry a tilt with the same bits on every machine
+#: (:func:`tilt_deg`); an older log's events are rebuilt as their version made them
+PORTABLE_TILT_FORMAT = 6
+
+
+def tilt_deg(pos_m: tuple[float, float, float], quat: tuple[float, float, float, float]) -> float:
+    """The long axis's tilt from local vertical, degrees: the angle between the body z axis of
+    ``quat`` (w, x, y, z) and pos_m / |pos_m|, as atan2(|ez x r_hat|, ez . r_hat) from IEEE
+    +, *, / and sqrt only (sim.measure.tilt_from_vertical_rad, compiled).
+
+    Logs of format 5 and before took acos(ez . r_hat) with numpy's dot products, which OpenBLAS
+    computes with the kernel it picks for the CPU (fused multiply-adds on AVX2 and AVX-512, a
+    plain sum or another order on older ones) and libm's pow and acos: an event's last bits, and
+    so ``replay --verify``, depended on the machine. (The compiled module is imported here, at
+    the first event: a reader of logs loads none of it.)"""
+    from touchdown.sim.measure import tilt_from_vertical_rad
+    return math.degrees(float(tilt_from_vertical_rad(np.array([pos_m]), np.array([quat]))[0]))
+
+
+def _ship_state_fields(ship_id: str, player_id: str, body: str, row, log_format: int) -> dict:
     """ship_state_message's fields (the sub-messages as dicts) from the ship's record row: a
     TransitionEvent given them makes its ``ship`` at once, where a ShipState made first is
     copied into it (1.3 us of an event's 16)."""
@@ -118,13 +140,18 @@ def _ship_state_fields(ship_id: str, player_id: str, body: str, row) -> dict:
     p = row["pos_m"]
     q0, q1, q2, q3 = row["quat"].tolist()
     px, py, pz = p.tolist()
-    # r_hat divided element by element in Python (IEEE division, correctly rounded: the bits of
-    # numpy's p / norm), then an array: numpy's division of the record's unaligned view took
-    # 6 us of the message's 22 (the dot products stay numpy's, on the same kinds of arrays)
-    norm = math.sqrt(float(p @ p))
-    r_hat = np.array((px / norm, py / norm, pz / norm))
-    ez = np.array([2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1), 1 - 2 * (q1 ** 2 + q2 ** 2)])
-    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
+    if log_format >= PORTABLE_TILT_FORMAT:
+        tilt = tilt_deg((px, py, pz), (q0, q1, q2, q3))
+    else:
+        # r_hat divided element by element in Python (IEEE division, correctly rounded: the bits
+        # of numpy's p / norm), then an array: numpy's division of the record's unaligned view
+        # took 6 us of the message's 22 (the dot products stay numpy's, on the same kinds of
+        # arrays)
+        norm = math.sqrt(float(p @ p))
+        r_hat = np.array((px / norm, py / norm, pz / norm))
+        ez = np.array([2 * (q1 * q3 + q0 * q2), 2 * (q2 * q3 - q0 * q1),
+                       1 - 2 * (q1 ** 2 + q2 ** 2)])
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
     vx, vy, vz = row["vel_mps"].tolist()
     wx, wy, wz = row["omega_body_radps"].tolist()
     return dict(
@@ -137,17 +164,20 @@ def _ship_state_fields(ship_id: str, player_id: str, body: str, row) -> dict:
         tilt_deg=tilt, surface_contact_state=SEED_STRINGS[st])
 
 
-def _ship_state_message_fields(ship_id: str, player_id: str, body: str, rec_state, i: int
-                               ) -> pb.ShipState:
+def _ship_state_message_fields(ship_id: str, player_id: str, body: str, rec_state, i: int,
+                               log_format: int = LOG_FORMAT_VERSION) -> pb.ShipState:
     """ship_state_message field by field, on numpy's scalars (any object with the State's
     fields as arrays)."""
     st = SurfaceState(int(rec_state.surface_state[i]))
     p, v, q, w = (rec_state.pos_m[i], rec_state.vel_mps[i], rec_state.quat[i],
                   rec_state.omega_body_radps[i])
-    r_hat = p / math.sqrt(float(p @ p))
-    ez = np.array([2 * (q[1] * q[3] + q[0] * q[2]), 2 * (q[2] * q[3] - q[0] * q[1]),
-                   1 - 2 * (q[1] ** 2 + q[2] ** 2)])
-    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
+    if log_format >= PORTABLE_TILT_FORMAT:
+        tilt = tilt_deg(tuple(p.tolist()), tuple(q.tolist()))
+    else:
+        r_hat = p / math.sqrt(float(p @ p))
+        ez = np.array([2 * (q[1] * q[3] + q[0] * q[2]), 2 * (q[2] * q[3] - q[0] * q[1]),
+                       1 - 2 * (q[1] ** 2 + q[2] ** 2)])
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(ez @ r_hat)))))
     return pb.ShipState(
         ship_id=ship_id, player_id=player_id,
         landed_body_name="" if st is SurfaceState.FLYING else body,
@@ -158,15 +188,17 @@ def _ship_state_message_fields(ship_id: str, player_id: str, body: str, rec_stat
         tilt_deg=tilt, surface_contact_state=st.seed_string)
 
 
-def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev
-                  ) -> pb.TransitionEvent:
-    """A transition as the log and the event stream carry it."""
+def event_message(ships: "ShipTable", body: str, dt_s: float, state: State, ev, *,
+                  log_format: int = LOG_FORMAT_VERSION) -> pb.TransitionEvent:
+    """A transition as the log and the event stream carry it (as a log of ``log_format`` has
+    it: a replay rebuilds an older log's events as that log's version made them)."""
     ship_id = ev.ship_id
     player_id = ships.players[ships.key(ship_id)]
     topic = _TOPIC.get(int(ev.kind))
     rows = getattr(state, "rows", None)
-    ship = (ship_state_message(ship_id, player_id, body, state, ev.ship) if rows is None else
-            _ship_state_fields(ship_id, player_id, body, rows[ev.ship]))
+    ship = (ship_state_message(ship_id, player_id, body, state, ev.ship, log_format=log_format)
+            if rows is None else
+            _ship_state_fields(ship_id, player_id, body, rows[ev.ship], log_format))
     return pb.TransitionEvent(
         event=EventKind(ev.kind).topic if topic is None else topic, tick=ev.tick,
         t_s=ev.tick * dt_s, ship_id=ship_id,

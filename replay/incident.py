@@ -356,7 +356,8 @@ def _compare_events(block: Block, seg_of: dict, ship_id: str, recorded: dict) ->
         sr = seg.reader.scenario
         state = State(rows=block.states[ev.tick - block.first_tick], tick=ev.tick)
         mine.setdefault(id(seg), []).append(
-            event_message(seg.reader.ship_table(), sr.body, sr.dt_s, state, ev).SerializeToString())
+            event_message(seg.reader.ship_table(), sr.body, sr.dt_s, state, ev,
+                          log_format=seg.reader.log_format).SerializeToString())
     for k, (seg, lo, hi) in by_seg.items():
         theirs = [data for tick, data in recorded[k] if lo <= tick <= hi]
         ours = mine.get(k, [])

@@ -278,7 +278,8 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
         res.ticks_compared += 1
         compared_to = new.tick
         events += [(new.tick, ev.ship_id,
-                    event_message(table, sr.body, sr.dt_s, new.state, ev).SerializeToString())
+                    event_message(table, sr.body, sr.dt_s, new.state, ev,
+                                  log_format=reader.log_format).SerializeToString())
                    for ev in new.events]
         if ship_id is None:
             # the whole batch: the replayed tick, encoded as the writer encodes it, must be

@@ -137,10 +137,11 @@ BY_LOG_NAME: dict[str, Field] = {f.in_log: f for f in FIELDS}
 # exactly its own format's fields, and a reader checks a tick against that format's lists, never
 # against today's table (tests/test_log_format.py: one test per format, and one that today's lists
 # are what the table derives). So does a header field that changes which ticks hold what (5: the
-# keyframes' phase, logs.header).
+# keyframes' phase, logs.header), and a change to how a replay rebuilds what the log holds (6:
+# an event's tilt, logs.header.tilt_deg).
 
 #: the format today's logs are written in (logs.header)
-LOG_FORMAT = 5
+LOG_FORMAT = 6
 
 #: the fields on every tick of a log, by format
 EVERY_TICK_BY_FORMAT: dict[int, tuple[str, ...]] = {
@@ -169,6 +170,11 @@ EVERY_TICK_BY_FORMAT: dict[int, tuple[str, ...]] = {
         "input_throttle", "input_rcs", "input_hold", "altitude_m", "penetration_m",
         "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
         "friction_force_n", "throttle", "rcs_torque_body_nm", "energy_guard_j", "ship_key"),
+    # touchdown 0.8: as 5 (an event's tilt_deg the same bits on every machine: logs.header)
+    6: ("surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg",
+        "input_throttle", "input_rcs", "input_hold", "altitude_m", "penetration_m",
+        "peak_penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n",
+        "friction_force_n", "throttle", "rcs_torque_body_nm", "energy_guard_j", "ship_key"),
 }
 
 #: the fields on keyframe ticks only, by format (all of them or none on a tick)
@@ -184,6 +190,8 @@ KEYFRAME_BY_FORMAT: dict[int, tuple[str, ...]] = {
     4: ("absorbing", "sliding", "settle_ticks", "settle_for_s", "settle_margin", "hold_force_n",
         "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m"),
     5: ("absorbing", "sliding", "settle_ticks", "settle_for_s", "settle_margin", "hold_force_n",
+        "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m"),
+    6: ("absorbing", "sliding", "settle_ticks", "settle_for_s", "settle_margin", "hold_force_n",
         "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m"),
 }
 

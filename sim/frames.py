@@ -4,9 +4,10 @@ and the landing-site frame (east, north, up) in which positions are reported.
 
 The site is the body-fixed +x axis: east is body-fixed +y, north +z, and up is +x measured from the
 reference sphere (``body.radius``), so the site frame's origin is the point of the sphere under the
-site. The body's rotation angle at a tick's start comes from one scalar libm call shared by every
-ship (:func:`body_rotation`, outside the kernels); an instant inside the tick adds its small angle
-with sim.vec's +,*,/ series (:func:`turned`), so a ship's frame depends on its own instants alone.
+site. The body's rotation angle at a tick's start comes from one scalar call shared by every
+ship (:func:`body_rotation`, outside the kernels: sim.trig, not libm); an instant inside the tick
+adds its small angle with sim.vec's +,*,/ series (:func:`turned`), so a ship's frame depends on
+its own instants alone.
 One ship's functions, compiled (sim.compiled).
 """
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+from touchdown.sim import trig
 from touchdown.sim.compiled import kernel
 from touchdown.sim.vec import cos_sinc, dot, quat_mul, quat_rotate_inv
 
@@ -28,10 +30,11 @@ class Body(NamedTuple):
 
 
 def body_rotation(omega_radps: float, t_s: float) -> tuple[float, float]:
-    """(cos, sin) of the body's rotation angle Omega t at a tick's start: one scalar libm call per
-    tick, shared by every ship, so it cannot make ships differ."""
+    """(cos, sin) of the body's rotation angle Omega t at a tick's start: one scalar call per
+    tick, shared by every ship, so it cannot make ships differ; sim.trig's, not libm's, whose
+    last bits differ between machines (log format 6)."""
     theta = omega_radps * t_s
-    return (1.0, 0.0) if theta == 0.0 else (math.cos(theta), math.sin(theta))
+    return (1.0, 0.0) if theta == 0.0 else trig.cos_sin(theta)
 
 
 @kernel

@@ -18,7 +18,7 @@ from touchdown.sim.frames import (Body, body_rotation, effective_gravity, quat_z
 from touchdown.sim.frames import surface_velocity as _surface_velocity
 from touchdown.sim.params import Params, Terrain
 from touchdown.sim.settings import SurfaceNormal
-from touchdown.sim.vec import quat_mul, sub
+from touchdown.sim.vec import angle_between, quat_axis_z, quat_mul, sub, unit
 
 ENERGY_PARTS = ("translational_j", "rotational_j", "gravity_j", "centrifugal_j",
                 "centrifugal_spin_j", "spring_j")
@@ -222,7 +222,8 @@ def gravity(params: Params, p: np.ndarray) -> np.ndarray:
     """Effective gravity at each point (N,3), m/s^2 (sim.frames.effective_gravity)."""
     p = _vec(p)
     out = np.empty_like(p)
-    _gravity(params.body.gm_m3ps2, params.body.omega_radps ** 2, p, out)
+    om = params.body.omega_radps
+    _gravity(params.body.gm_m3ps2, om * om, p, out)
     return out
 
 
@@ -238,4 +239,22 @@ def surface_velocity(params: Params, p: np.ndarray) -> np.ndarray:
     p = _vec(p)
     out = np.empty_like(p)
     _surface_velocity_rows(params.body.omega_radps, p, out)
+    return out
+
+
+@entry
+def _tilt_rows(p, q, out):
+    for i in range(p.shape[0]):
+        ez = quat_axis_z((q[i, 0], q[i, 1], q[i, 2], q[i, 3]))
+        out[i] = angle_between(ez, unit((p[i, 0], p[i, 1], p[i, 2])))
+
+
+def tilt_from_vertical_rad(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The long axis's tilt from local vertical at each row, rad: the angle between the body z
+    axis of q (N,4, w x y z) and p / |p| (N,3), by sim.vec.angle_between. IEEE +, *, / and sqrt
+    in a fixed order: the same bits on every machine, where acos(ez . r_hat) by numpy and libm
+    took the host's BLAS kernel and libm (log format 6, logs.header)."""
+    p, q = _vec(p), _vec(q)
+    out = np.empty(p.shape[0])
+    _tilt_rows(p, q, out)
     return out

@@ -12,6 +12,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
+from touchdown.sim import trig
 from touchdown.sim.settings import in_scene, landing_in, record_type
 from touchdown.sim.state import Batch
 
@@ -46,15 +47,15 @@ class _SimDerived:
 class _ContactDerived:
     @cached_property
     def cos_settle_tilt(self) -> float:
-        return math.cos(math.radians(self.settle_tilt_deg))
+        return trig.cos(math.radians(self.settle_tilt_deg))
 
     @cached_property
     def cos_tipped(self) -> float:
-        return math.cos(math.radians(self.tipped_angle_deg))
+        return trig.cos(math.radians(self.tipped_angle_deg))
 
     @cached_property
     def cos_tipped_rest(self) -> float:
-        return math.cos(math.radians(self.tipped_rest_deg))
+        return trig.cos(math.radians(self.tipped_rest_deg))
 
     @cached_property
     def omega_radps(self) -> float:
@@ -111,13 +112,13 @@ class Terrain:
 
     @property
     def gradient(self) -> tuple[float, float]:
-        """(dh/d(east), dh/d(north)) of the uniform slope: -tan(slope) (sin(az), cos(az)) (libm,
-        once, when the scene is built)."""
+        """(dh/d(east), dh/d(north)) of the uniform slope: -tan(slope) (sin(az), cos(az))
+        (sim.trig, once, when the scene is built)."""
         if self.slope_deg == 0.0:
             return 0.0, 0.0
-        t = math.tan(math.radians(self.slope_deg))
-        az = math.radians(self.slope_azimuth_deg)
-        return -t * math.sin(az), -t * math.cos(az)
+        t = trig.tan(math.radians(self.slope_deg))
+        cos_az, sin_az = trig.cos_sin(math.radians(self.slope_azimuth_deg))
+        return -t * sin_az, -t * cos_az
 
     @property
     def flat(self) -> bool:
@@ -226,20 +227,21 @@ class Params:
         # sim.coarse_substep: the sub-steps a quiet contact tick takes (0: max_substep's always)
         r["coarse_substeps"] = (0 if sim.max_substep_s <= 0.0
                                 else substeps(sim.dt_s, sim.coarse_substep_s))
-        r["crash_speed2"] = cp.crash_speed_mps ** 2
-        r["settle_lin2"] = cp.settle_linear_vel_mps ** 2
-        r["settle_ang2"] = cp.settle_angular_vel_radps ** 2
+        r["crash_speed2"] = cp.crash_speed_mps * cp.crash_speed_mps
+        r["settle_lin2"] = cp.settle_linear_vel_mps * cp.settle_linear_vel_mps
+        r["settle_ang2"] = cp.settle_angular_vel_radps * cp.settle_angular_vel_radps
         r["cos_settle_tilt"] = cp.cos_settle_tilt
         r["cos_tipped"] = cp.cos_tipped
         r["tipped_rest_rad"] = math.radians(cp.tipped_rest_deg)
         r["cos_tipped_rest"] = cp.cos_tipped_rest
         r["omega_radps"] = body.omega_radps
-        r["omega2"] = body.omega_radps ** 2
+        r["omega2"] = body.omega_radps * body.omega_radps
         r["surface_gravity_mps2"] = body.surface_gravity_mps2
         # the highest the bumps raise the ground; a slope adds its plane's height under the ship
         # (sim.phases.near_ground)
         r["terrain_max_m"] = ter.base_height_m + sum(max(h, 0.0) for h in ter.bump_height_m)
-        r["slope_tan"] = math.hypot(*ter.gradient)
+        gx, gy = ter.gradient
+        r["slope_tan"] = math.sqrt(gx * gx + gy * gy)
         return rec
 
     @cached_property

@@ -10,8 +10,9 @@ from typing import NamedTuple
 
 from touchdown.sim.compiled import kernel, separate
 from touchdown.sim.frames import body_spin_in_body_frame, surface_velocity
-from touchdown.sim.vec import add, angle, cos_sinc, cross, dot, fmax, mul, norm, quat_axis_z, \
-    quat_from_rotvec, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv, scale, sub, unit
+from touchdown.sim.vec import add, angle_between, cos_sinc, cross, dot, fmax, mul, norm, \
+    quat_axis_z, quat_from_rotvec, quat_mul, quat_normalize, quat_rotate, quat_rotate_inv, scale, \
+    sub, unit
 
 
 @kernel
@@ -161,7 +162,7 @@ def pivot_step(cfg, pin, m, inertia_b, rcs_torque_body_nm):
             break
     rate1 = 2.0 * delta / dt_s - rate0
     # the hull: the turn stops at tipped_rest_deg (an angle found once, with +,*,/ and sqrt)
-    tilt0 = angle(norm(cross(ez, up)), dot(ez, up))
+    tilt0 = angle_between(ez, up)
     to_rest = fmax(cfg.tipped_rest_rad - tilt0, 0.0)
     hull = delta > to_rest
     g_rest = _slope(pv, to_rest)[0]

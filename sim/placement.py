@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from touchdown.sim import vec
+from touchdown.sim import trig, vec
 from touchdown.sim.compiled import entry, kernel, separate
 from touchdown.sim.contact import Ground, lowest_foot, lowest_foot_penetration
 from touchdown.sim.enums import SurfaceState
@@ -106,15 +106,15 @@ def _place_ships(terrain, radius_m, omega_radps, radial, starts, rows):
 
 def initial_state(params: Params, ships: list[dict]) -> State:
     """Every ship where its ``initial`` table puts it (:func:`_place_ships`; the angles' cosines
-    and sines from libm here, once). sim.vec keeps even the set-up elementwise IEEE arithmetic: a
-    replay on another CPU rebuilds this state bit for bit."""
+    and sines from sim.trig here, once). sim.vec keeps even the set-up elementwise IEEE
+    arithmetic: a replay on another CPU rebuilds this state bit for bit."""
     sh = params.ships
     starts = np.empty((len(ships), 16))
     for i, s in enumerate(ships):
         ini = s["initial"]
         hd, th, yaw = (math.radians(ini[k]) for k in ("heading_deg", "tilt_deg", "yaw_deg"))
-        starts[i] = (ini["east"], ini["north"], ini["altitude"], math.cos(hd), math.sin(hd),
-                     math.cos(th), math.sin(th), math.cos(yaw), math.sin(yaw),
+        starts[i] = (ini["east"], ini["north"], ini["altitude"], *trig.cos_sin(hd),
+                     *trig.cos_sin(th), *trig.cos_sin(yaw),
                      sh.leg_radius_m[i], sh.com_height_m[i], ini["vertical_speed"],
                      ini["horizontal_speed"], *ini["angular_velocity"])
     st = State.zeros(len(ships))

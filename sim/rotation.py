@@ -34,7 +34,8 @@ from touchdown.sim.vec import (TINY_ANGLE, cos_sinc, quat_from_rotvec, quat_mul,
     scale)
 
 #: Yoshida's fourth-order triple jump: the Strang step at (w1, w0, w1) of the step, w0 = 1 - 2 w1.
-_W1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+#: (2^(1/3) as a literal: Python's power is libm's pow, whose last bit differs between machines)
+_W1 = 1.0 / (2.0 - 1.2599210498948732)
 _W0 = 1.0 - 2.0 * _W1
 
 

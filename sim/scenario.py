@@ -16,6 +16,7 @@ from functools import cached_property
 from typing import Any, Callable
 
 from touchdown.sim import constants as C
+from touchdown.sim import trig
 from touchdown.sim.constants import MAX_BUMPS
 from touchdown.sim.errors import TouchdownError
 from touchdown.sim.params import (BodyParams, ContactParams, ControllerParams, Params, ShipParams,
@@ -319,10 +320,11 @@ def _checked(doc: dict, source: str, overrides: dict[str, Any] | None
             body["gm"] = C.MOON_GM_M3PS2
         else:
             rd.fail("body.gm", "give exactly one of body.gm and body.surface_gravity")
+    r2 = body["radius"] * body["radius"]  # (x ** 2 is libm's pow: sim.trig)
     if body["gm"] is None:
-        body["gm"] = body["surface_gravity"] * body["radius"] ** 2
-    elif not 1e-6 <= body["gm"] / body["radius"] ** 2 <= 1e4:
-        rd.fail("body.gm", f"gives a surface gravity of {body['gm'] / body['radius'] ** 2:.3g} "
+        body["gm"] = body["surface_gravity"] * r2
+    elif not 1e-6 <= body["gm"] / r2 <= 1e4:
+        rd.fail("body.gm", f"gives a surface gravity of {body['gm'] / r2:.3g} "
                            f"m/s^2 at body.radius; it must be 1e-06 to 1e+04")
     if math.ceil(top["duration"] / sim["dt"] - 1e-9) > MAX_TICKS:
         rd.fail("duration", f"{top['duration']:g} s is more than {MAX_TICKS:,} ticks of "
@@ -338,7 +340,7 @@ def _checked(doc: dict, source: str, overrides: dict[str, Any] | None
                                         f"got {body['rotation_period']:g}")
     if body["rotation_period"] != 0.0:
         spin = 2.0 * math.pi / body["rotation_period"]
-        fling, pull = spin * spin * body["radius"], body["gm"] / body["radius"] ** 2
+        fling, pull = spin * spin * body["radius"], body["gm"] / r2
         if fling >= pull:
             rd.fail("body.rotation_period", f"{body['rotation_period']:g} s spins the body so "
                                             f"fast that its equator flings ships off "
@@ -424,7 +426,8 @@ def contact_omega(sh: dict) -> float:
     lever arm leg_radius about the transverse axes); k/m the ship's ``stiffness_per_kg``."""
     kpm = sh["stiffness_per_kg"]
     i_t = min(sh["inertia"][0], sh["inertia"][1])
-    return math.sqrt(max(kpm, 0.25 * kpm * (1.0 + sh["mass"] * sh["leg_radius"] ** 2 / i_t)))
+    a = sh["leg_radius"]
+    return math.sqrt(max(kpm, 0.25 * kpm * (1.0 + sh["mass"] * (a * a) / i_t)))
 
 
 def rocking_omega(sh: dict) -> float:
@@ -433,7 +436,8 @@ def rocking_omega(sh: dict) -> float:
     each k/4 at lever arm leg_radius). The load's destabilising moment (m g com_height) only slows
     it, so this bounds it from above."""
     i_t = min(sh["inertia"][0], sh["inertia"][1])
-    return math.sqrt(0.5 * sh["stiffness_per_kg"] * sh["mass"] * sh["leg_radius"] ** 2 / i_t)
+    a = sh["leg_radius"]
+    return math.sqrt(0.5 * sh["stiffness_per_kg"] * sh["mass"] * (a * a) / i_t)
 
 
 def _substeps(rd: _Reader, sim: dict, con: dict, ships: list[dict]) -> list[int]:
@@ -510,9 +514,10 @@ def _check_initial(rd: _Reader, sh: dict, con: dict, pre: str) -> None:
     # the footprint holds the centre of mass while h sin(tilt) (|cos yaw| + |sin yaw|) < a cos(tilt)
     # (sim.rest.over_footprint: toward a foot atan(a / h), toward an edge atan(a / (sqrt 2 h)))
     th, yaw = math.radians(ini["tilt_deg"]), math.radians(ini["yaw_deg"])
-    reach = abs(math.cos(yaw)) + abs(math.sin(yaw))
-    if state == "landed" and not (sh["com_height"] * math.sin(th) * reach
-                                  < sh["leg_radius"] * math.cos(th)):
+    cos_yaw, sin_yaw = trig.cos_sin(yaw)
+    cos_th, sin_th = trig.cos_sin(th)
+    reach = abs(cos_yaw) + abs(sin_yaw)
+    if state == "landed" and not (sh["com_height"] * sin_th * reach < sh["leg_radius"] * cos_th):
         crit = math.degrees(math.atan2(sh["leg_radius"], sh["com_height"] * reach))
         rd.fail(pre + "tilt_deg", f"a landed ship must stand: its centre of mass over its "
                                   f"footprint, tilt below {crit:.2f} deg at this yaw")

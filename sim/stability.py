@@ -30,6 +30,18 @@ _HALVINGS = 80
 _SEARCH_MAX = 16.0  # w h beyond any method here
 
 
+def _mul(*ms: np.ndarray) -> np.ndarray:
+    """The product of 2x2 matrices, left to right, each entry a0 b0 + a1 b1 in that order: numpy's
+    ``@`` hands even a 2x2 product to the host's BLAS, whose kernel OpenBLAS picks by CPU (fused
+    multiply-adds on AVX2 and AVX-512, not on older ones), so the last bits, and the bisection's
+    edge below, would differ between machines."""
+    out = ms[0]
+    for b in ms[1:]:
+        a = out
+        out = np.array([[a[i, 0] * b[0, j] + a[i, 1] * b[1, j] for j in (0, 1)] for i in (0, 1)])
+    return out
+
+
 def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
     """One step of ``method`` on x'' = -x - 2 zeta x' in units where w = 1, step wh."""
     a = np.array([[0.0, 1.0], [-1.0, -2.0 * zeta]])
@@ -41,7 +53,7 @@ def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
         # v1 = v + h (-x - 2 zeta v); x1 = x + h v1
         kick = np.array([[1.0, 0.0], [-h, 1.0 - 2.0 * zeta * h]])
         drift = np.array([[1.0, h], [0.0, 1.0]])
-        return drift @ kick
+        return _mul(drift, kick)
     if method == "velocity_verlet":
         # v_half = v + h/2 a(x, v); x1 = x + h v_half; the closing kick's damper at the end's own
         # velocity, by one fixed-point pass (sim.integrators.velocity_verlet):
@@ -50,10 +62,12 @@ def amplification(method: str, wh: float, zeta: float) -> np.ndarray:
         drift = np.array([[1.0, h], [0.0, 1.0]])
         closing = np.array([[1.0, 0.0],
                             [-h / 2 + zeta * h * h / 2, 1.0 - zeta * h + zeta * zeta * h * h]])
-        return closing @ drift @ half_kick
+        return _mul(closing, drift, half_kick)
     if method == "rk4":
         ha = h * a
-        return eye + ha + ha @ ha / 2 + ha @ ha @ ha / 6 + ha @ ha @ ha @ ha / 24
+        ha2 = _mul(ha, ha)
+        ha3 = _mul(ha2, ha)
+        return eye + ha + ha2 / 2 + ha3 / 6 + _mul(ha3, ha) / 24
     if method == "exponential":
         # the exact flow exp(A h): its columns are the flow from (1, 0) and from (0, 1) (compiled:
         # imported here, as a scenario's checks, which use this module, run none)

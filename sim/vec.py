@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import math
 
+from touchdown.sim import trig
 from touchdown.sim.compiled import kernel
+from touchdown.sim.trig import MAX_HALVINGS, TINY_ANGLE  # noqa: F401 (sim.rotation's)
 
 Vec = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -162,54 +164,7 @@ def quat_add_scaled(q, d, h):
     return (q[0] + h * d[0], q[1] + h * d[1], q[2] + h * d[2], q[3] + h * d[3])
 
 
-# Taylor coefficients of cos(x) and sin(x)/x in x^2, enough terms for |x| <= pi/4 to full double
-# precision (the next term is below 1e-17 there). Argument halving extends the range.
-_COS = (1.0, -1.0 / 2, 1.0 / 24, -1.0 / 720, 1.0 / 40320, -1.0 / 3628800, 1.0 / 479001600,
-        -1.0 / 87178291200)
-_SINC = (1.0, -1.0 / 6, 1.0 / 120, -1.0 / 5040, 1.0 / 362880, -1.0 / 39916800, 1.0 / 6227020800,
-         -1.0 / 1307674368000)
-#: fixed bound: 2^60 rad covers any finite rotation a tick can produce
-MAX_HALVINGS = 60
-#: rad, 2^-27: below it cos x and sin(x)/x are 1.0 to the last bit (x^2 / 2 < 2^-55), which
-#: :func:`cos_sinc` returns without summing its series
-TINY_ANGLE = 2.0 ** -27
-
-
-@kernel
-def cos_sinc(x):
-    """(cos x, sin(x)/x) from polynomials and double-angle steps: IEEE +, * only."""
-    if x == 0.0:
-        # what the series give there, exactly (each Horner step c y2 + k is k at y2 = 0, down to
-        # the constant terms 1 and 1): the turn about a long axis a ship does not spin about
-        # (sim.rotation.axis_flow at theta = 0, every step of a ship that only rocks or bounces)
-        return 1.0, 1.0
-    if abs(x) < TINY_ANGLE:
-        # what the series give there too, exactly: in the last Horner step c1 y2 + 1 (c1 = -1/2
-        # + y2 / 24 - ..., -1/6 + ... for sin(x)/x) the term c1 y2 is under 2^-55 and rounds away
-        # (a rounding-level spin's turn, ~1e-10 rad a step: a bouncing upright ship's)
-        return 1.0, 1.0
-    x = abs(x)
-    halvings = 0
-    y = x
-    for _ in range(MAX_HALVINGS):
-        if not y > 0.785:
-            break
-        y = y * 0.5
-        halvings += 1
-    y2 = y * y
-    c = _COS[7]
-    s = _SINC[7]
-    for k in range(6, -1, -1):
-        c = c * y2 + _COS[k]
-        s = s * y2 + _SINC[k]
-    sin = s * y
-    for _ in range(halvings):
-        sin_new = 2.0 * sin * c
-        c = c * c - sin * sin
-        sin = sin_new
-    if halvings > 0:
-        return c, sin / (x if x > 0.0 else 1.0)
-    return c, s
+cos_sinc = kernel(trig.cos_sinc)
 
 
 @kernel
@@ -227,25 +182,11 @@ def quat_integrate(q, omega_body, dt):
     return quat_normalize(quat_mul(q, quat_from_rotvec(scale(omega_body, dt))))
 
 
-#: atan(z) = sum (-1)^k z^(2k+1) / (2k+1), for |z| <= tan(pi/32) ~ 0.0985 after three halvings:
-#: the first term left out (z^19 / 19) is below 1e-20.
-_ATAN = (1.0, -1.0 / 3, 1.0 / 5, -1.0 / 7, 1.0 / 9, -1.0 / 11, 1.0 / 13, -1.0 / 15, 1.0 / 17)
-PI = 3.141592653589793
+angle = kernel(trig.angle)
 
 
 @kernel
-def angle(y, x):
-    """atan2(y, x) for y >= 0, in [0, pi], from +,*,/ and sqrt only: the half-angle identity
-    atan2(y, x) = 2 atan(y / (r + x)) (r = hypot(x, y); mirrored for x < 0), then
-    atan(z) = 2 atan(z / (1 + sqrt(1 + z^2))) three times, then the series."""
-    r = math.sqrt(x * x + y * y)
-    denom = r + abs(x)
-    z = y / denom if denom > 0.0 else 0.0
-    for _ in range(3):
-        z = z / (1.0 + math.sqrt(1.0 + z * z))
-    z2 = z * z
-    acc = _ATAN[8]
-    for k in range(7, -1, -1):
-        acc = acc * z2 + _ATAN[k]
-    half_turn = 16.0 * z * acc  # 2 (half-angle) * 8 (three halvings) * atan(z)
-    return PI - half_turn if x < 0.0 else half_turn
+def angle_between(a, b):
+    """The angle between a and b, in [0, pi]: atan2(|a x b|, a . b) by :func:`angle`, accurate
+    at every angle (acos(a . b) loses half the digits near 0 and pi) and free of libm."""
+    return angle(norm(cross(a, b)), dot(a, b))

@@ -177,7 +177,10 @@ def test_the_kernels_never_fuse_a_multiply_and_an_add():
 def _generic_env() -> dict:
     import os
     import warmup
-    env = dict(os.environ, NUMBA_CPU_NAME="generic")
+    # and an older machine's libm and BLAS (tests/test_portable.py): glibc's functions without
+    # AVX2 and FMA, OpenBLAS's SSE3 kernels
+    env = dict(os.environ, NUMBA_CPU_NAME="generic", OPENBLAS_CORETYPE="Prescott",
+               GLIBC_TUNABLES="glibc.cpu.hwcaps=-AVX2,-FMA")
     env.pop("NUMBA_CPU_FEATURES", None)
     if "generic_cache" in warmup.done():  # compiled there before xdist's workers started
         env["NUMBA_CACHE_DIR"] = warmup.done()["generic_cache"]
@@ -197,8 +200,9 @@ def _compile_for_a_generic_cpu() -> None:
 @pytest.mark.slow
 def test_kernels_compiled_for_a_generic_cpu_give_this_hosts_bits(tmp_path):
     """A log recorded here verifies with the kernels compiled for a generic x86-64 (no FMA, no
-    AVX: NUMBA_CPU_NAME=generic), and a log recorded with those verifies here: varied ship
-    classes, every state, terrain, a turning body."""
+    AVX: NUMBA_CPU_NAME=generic; glibc and OpenBLAS as on an older machine), and a log recorded
+    with those verifies here, its events too: varied ship classes, every state, terrain, a
+    turning body."""
     import json
     import subprocess
     import sys
