@@ -1,6 +1,6 @@
 """Golden logs: today's bits and today's log format, pinned.
 
-tests/data/golden holds logs of five scenes recorded by this version (log format 5): the bounce and
+tests/data/golden holds logs of five scenes recorded by this version (log format 6): the bounce and
 the trip (built-in scenarios), a 10-degree tilted touchdown, a ship held and a ship sliding on a
 30-degree slope, and a fleet with a join, a leave and commands. Two checks, as Box2D's determinism
 test does:
@@ -11,7 +11,7 @@ test does:
 A change that alters bits fails both, says why in its commit message, and regenerates the logs and
 the digests in a commit of its own (``python tests/test_golden.py`` prints the new digests and
 rewrites the logs). Older formats stay readable: one test per format (1: 0.2.0, 2: 0.4.0, 3: 0.5.0,
-4: 0.6.0) replays, verifies with a version notice (their physics differs from today's, so a
+4: 0.6.0, 5: 0.7.0) replays, verifies with a version notice (their physics differs from today's, so a
 divergence is expected and said), and exports the logs those versions wrote.
 """
 from __future__ import annotations
@@ -61,12 +61,13 @@ SCENES = {
 #: carried-impulse try for two or three feet, MODEL-NOTES 64, the tilted touchdown, the slope and
 #: the fleet; a purely vertical ship's own path, MODEL-NOTES 65, the bounce and the fleet: the
 #: feet's onset at the ballistic flow's root, no friction solve; a ship at rest already taking the
-#: coarse contact sub-step, MODEL-NOTES 69, the tilted touchdown, the slope and the fleet)
+#: coarse contact sub-step, MODEL-NOTES 69, the tilted touchdown, the slope and the fleet; the
+#: slope's tangent, sine and cosine from sim.trig rather than libm, log format 6, the slope)
 EXPECTED = {
     "bounce": "dc4bf9d1ecfa9ca66832db31fda03d1c1e1b65069e8c090a0410551f020f7982",
     "trip": "73e877ecc8eedef2c421dd1fd7478e307d3c3edb6650ed3c8ed4704e2dc80c9b",
     "tilted": "427bcd61ac633c535e45b08adb1eb59a6b1e8bb2912a410cdd033621b09b660b",
-    "slope": "f2b6277eb7d2bdb74c8c6c98114687980b9c4937d4136b0bad2497b8f20ca5de",
+    "slope": "9adfbfc26b0cc4e3e9a63af896a1390589cc4e499c72b3b5deaef8dda10584da",
     "fleet": "81b6e926f44ea6e5d552148a5f86bad064aca40cefa0a16620449c3360708e4f",
 }
 
@@ -110,6 +111,8 @@ OLD = {  # format: (log, project version that wrote it, ships, ticks)
     3: ("fleet-0.5.0.mcap", "0.5.0", 3, 41),
     # the golden fleet as 0.6.0 recorded it, keyframes every 5 ticks (at their multiples)
     4: ("fleet-0.6.0-kf5.mcap", "0.6.0", 3, 41),
+    # and as 0.7.0 recorded it (its events' tilt from the host's BLAS and libm)
+    5: ("fleet-0.7.0-kf5.mcap", "0.7.0", 3, 41),
 }
 
 
