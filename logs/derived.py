@@ -11,9 +11,9 @@ gives the same bits when it does the same IEEE-754 operations in the same order:
 below is :mod:`sim.energy`, :mod:`sim.contact` and :mod:`sim.frames` written for columns,
 operation by operation (``a + b + c`` is ``(a + b) + c`` in both; the kernels are compiled
 without fastmath, so no multiply-add is fused: sim.compiled). Two steps are left out where their
-result is known exactly, each said where it is. The one transcendental function, the tilt's
-arccosine, is libm's in both (numpy's own vectorised one differs in the last bit for one value in
-ten on AVX-512 machines; Arrow's ``acos`` calls libm's).
+result is known exactly, each said where it is. The tilt's arccosine is sim.trig's (IEEE +, *, /
+and sqrt only), spelled for columns here: libm's differs between machines, numpy's own
+vectorised one differs from libm's in the last bit for one value in ten on AVX-512 machines.
 """
 from __future__ import annotations
 
@@ -31,15 +31,26 @@ _DEG = 180.0 / math.pi
 
 
 def tilt_deg(cos_tilt: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-    """degrees(acos(c)), c clipped to [-1, 1]: ``math.degrees(math.acos(c))``, libm's acos."""
-    import pyarrow as pa
-    try:  # pyarrow.compute's own (importing pyarrow.compute itself costs 25 ms: it builds a
-        from pyarrow._compute import call_function  # wrapper for each of its functions)
-    except ImportError:  # pragma: no cover - a pyarrow that moved it
-        from pyarrow.compute import call_function
+    """degrees(sim.trig.acos(c)) for a column: c clipped to [-1, 1], then sim.trig.angle's
+    operations elementwise (the half-angle, three halvings and the series), NaN kept. The same
+    bits as the scalar function, value by value (tests/test_export_numpy.py)."""
     c = np.clip(np.ascontiguousarray(cos_tilt, float), -1.0, 1.0)
-    acos = call_function("acos", [pa.array(c, pa.float64())])
-    return np.multiply(acos.to_numpy(zero_copy_only=False), _DEG, out=out)
+    with np.errstate(invalid="ignore"):
+        y = np.sqrt((1.0 - c) * (1.0 + c))
+        r = np.sqrt(c * c + y * y)
+        denom = r + np.abs(c)
+        positive = denom > 0.0
+        z = np.where(positive, y / np.where(positive, denom, 1.0), 0.0)
+        for _ in range(3):
+            z = z / (1.0 + np.sqrt(1.0 + z * z))
+        z2 = z * z
+        acc = np.full_like(z, trig.ATAN_TERMS[8])
+        for k in range(7, -1, -1):
+            acc = acc * z2 + trig.ATAN_TERMS[k]
+        half_turn = 16.0 * z * acc
+        a = np.where(c < 0.0, trig.PI - half_turn, half_turn)
+    a = np.where(np.isnan(c), c, a)
+    return np.multiply(a, _DEG, out=out)
 
 
 def body_angles(params: Params, t_s: np.ndarray) -> tuple[np.ndarray | float, np.ndarray | float]:

@@ -19,7 +19,7 @@ from touchdown.logs import LogError, derived
 from touchdown.logs.reader import LogReader, TickData
 from touchdown.logs.rebuild import fleet_params, log_params, scenario_of
 from touchdown.proto import touchdown_pb2 as pb
-from touchdown.sim import fields
+from touchdown.sim import fields, trig
 from touchdown.sim.enums import SurfaceState
 
 _STATE = {int(s): s.label for s in SurfaceState}
@@ -62,9 +62,8 @@ def tick_rows(reader: LogReader) -> Iterator[dict]:
         a = td.arrays
         d = _derived(params, td)
         for i, key in enumerate(td.keys.tolist()):
-            c = max(-1.0, min(1.0, float(a["cos_tilt"][i])))
             row = {"tick": td.tick, "t": td.t_s, "ship_id": ids[key],
-                   "tilt_deg": math.degrees(math.acos(c))}
+                   "tilt_deg": math.degrees(trig.acos(float(a["cos_tilt"][i])))}
             for f in EXPORTED:
                 x = a.get(f.in_log)  # a format-1 log has no energy_guard_j
                 row[f.export] = None if x is None else (

@@ -69,7 +69,7 @@ def cos_sinc(x):
 
 #: atan(z) = sum (-1)^k z^(2k+1) / (2k+1), for |z| <= tan(pi/32) ~ 0.0985 after three halvings:
 #: the first term left out (z^19 / 19) is below 1e-20.
-_ATAN = (1.0, -1.0 / 3, 1.0 / 5, -1.0 / 7, 1.0 / 9, -1.0 / 11, 1.0 / 13, -1.0 / 15, 1.0 / 17)
+ATAN_TERMS = (1.0, -1.0 / 3, 1.0 / 5, -1.0 / 7, 1.0 / 9, -1.0 / 11, 1.0 / 13, -1.0 / 15, 1.0 / 17)
 PI = 3.141592653589793
 
 
@@ -83,9 +83,9 @@ def angle(y, x):
     for _ in range(3):
         z = z / (1.0 + math.sqrt(1.0 + z * z))
     z2 = z * z
-    acc = _ATAN[8]
+    acc = ATAN_TERMS[8]
     for k in range(7, -1, -1):
-        acc = acc * z2 + _ATAN[k]
+        acc = acc * z2 + ATAN_TERMS[k]
     half_turn = 16.0 * z * acc  # 2 (half-angle) * 8 (three halvings) * atan(z)
     return PI - half_turn if x < 0.0 else half_turn
 
@@ -131,6 +131,16 @@ def cos_sin(x: float) -> tuple[float, float]:
     if quadrant == 2:
         return -c, -s
     return s, -c
+
+
+def acos(c: float) -> float:
+    """acos c, c clipped to [-1, 1] (NaN stays NaN): :func:`angle` of (sqrt((1 - c)(1 + c)), c).
+    1 - c is exact near 1 (Sterbenz), so a small angle keeps its digits, where libm's acos of a
+    number within rounding of 1 has few. logs.derived.tilt_deg spells it for columns."""
+    if c != c:
+        return c
+    c = min(1.0, max(-1.0, c))
+    return angle(math.sqrt((1.0 - c) * (1.0 + c)), c)
 
 
 def cos(x: float) -> float:

@@ -26,6 +26,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from touchdown.logs import derived
 from touchdown.sim.compiled import cache_dir, in_cache, separate
 from touchdown.sim.contact import Legs
 from touchdown.sim.dynamics import Motion
@@ -348,9 +349,8 @@ class Fleet:
                          & np.isin(final, (2, 3, 4)), 0.0, t_out)
         # flying and contact have no instant of outcome
         t_out = np.where(np.isin(final, (0, 1)), np.nan, t_out)
-        # libm's acos, as export computes tilt_deg (numpy's may differ in the last bit)
-        tilt = np.array([math.degrees(math.acos(max(-1.0, min(1.0, c))))
-                         for c in acc["min_cos_tilt"].tolist()])
+        # as export computes tilt_deg (sim.trig's acos: the same bits on every machine)
+        tilt = derived.tilt_deg(acc["min_cos_tilt"])
         return {"case": self.cases, "state": final, "t_outcome": t_out, "max_tilt_deg": tilt,
                 "max_penetration": np.maximum(acc["max_penetration_m"], 0.0),
                 "peak_normal_force": acc["peak_normal_n"], "slide_distance": acc["slide_m"],

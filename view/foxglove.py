@@ -33,7 +33,6 @@ test decodes them with the published classes. Everything else is made with those
 """
 from __future__ import annotations
 
-import math
 import struct
 from dataclasses import dataclass
 from typing import Iterable, Sequence
@@ -56,6 +55,7 @@ from foxglove_schemas_protobuf.TriangleListPrimitive_pb2 import TriangleListPrim
 from foxglove_schemas_protobuf.Vector3_pb2 import Vector3
 from google.protobuf.timestamp_pb2 import Timestamp
 
+from touchdown.logs import derived
 from touchdown.logs.codec import varint
 from touchdown.proto import views_pb2
 from touchdown.sim.compiled import separate
@@ -448,9 +448,8 @@ class FleetEncoder:
 
 
 def tilt_deg(cos_tilt: np.ndarray) -> np.ndarray:
-    """Tilt from its cosine, degrees (as export computes it: libm's acos)."""
-    return np.array([math.degrees(math.acos(max(-1.0, min(1.0, c)))) for c in
-                     np.asarray(cos_tilt, float).tolist()])
+    """Tilt from its cosine, degrees, as export computes it (logs.derived.tilt_deg)."""
+    return derived.tilt_deg(cos_tilt)
 
 
 __all__ = ["SITE_FRAME", "TOPIC_TRANSFORMS", "TOPIC_LANDERS", "TOPIC_GROUND", "TOPIC_EVENTS",

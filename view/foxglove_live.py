@@ -37,6 +37,7 @@ from touchdown.service import redis_io as rio
 from foxglove_schemas_protobuf.Log_pb2 import Log
 
 from touchdown.sim.enums import EventKind, SurfaceState
+from touchdown.sim.frames import body_rotation
 from touchdown.view import foxglove as fx
 from touchdown.view.live import ServiceStreams
 from touchdown.view.rerun_view import ViewError
@@ -58,7 +59,7 @@ def site_of(p: np.ndarray, v: np.ndarray, omega: float, radius: float, t_s: floa
     """Inertial positions and velocities (N,3) at time ``t_s`` as (east, north, up) and the
     velocity relative to the surface in the same axes (sim.measure.site_frame's: the body turned
     by omega t about z, its x axis through the site; up = x - R)."""
-    c, s = math.cos(omega * t_s), math.sin(omega * t_s)
+    c, s = body_rotation(omega, t_s)
     x, y = c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]
     vx, vy = c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]
     vx, vy = vx + omega * y, vy - omega * x  # less the surface's own velocity, omega z x r

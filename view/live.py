@@ -33,6 +33,7 @@ import redis
 from touchdown.proto import service_pb2 as spb
 from touchdown.service import redis_io as rio
 from touchdown.sim.enums import SurfaceState
+from touchdown.sim.frames import body_rotation
 from touchdown.view.rerun_view import ViewError
 from touchdown.view.scene import STATE_COLORS
 
@@ -59,8 +60,7 @@ class Fleet:
         pos = np.array(sample.pos_m, dtype=float).reshape(n, 3)
         # body-centred inertial -> body-fixed (the body turned by omega t about z) -> the site's
         # east (y), north (z), up (x - R): the log view's frame near the site
-        a = self.omega * sample.t_s
-        c, s = math.cos(a), math.sin(a)
+        c, s = body_rotation(self.omega, sample.t_s)
         x = c * pos[:, 0] + s * pos[:, 1]
         y = -s * pos[:, 0] + c * pos[:, 1]
         site = np.stack([y, pos[:, 2], x - self.radius], axis=1)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from touchdown.logs import LogError
+from touchdown.logs import LogError, derived
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import fleet_params, scenario_of
 from touchdown.sim import fields, measure
@@ -306,12 +306,10 @@ def _track(params: Params, i: int, col: dict[str, np.ndarray], tick: np.ndarray,
     thrust = ez * (col["throttle"] * float(sh.max_thrust_n[i]))[:, None]
     slip = measure.to_site(v - measure.surface_velocity(params, p), c, s)
     e = measure.energy(params, i, t_s, Motion(p, v, q, w), mass)
-    cos_tilt = np.clip(col["cos_tilt"], -1.0, 1.0)
     series = {
         "altitude_m": col["altitude_m"], "penetration_m": col["penetration_m"],
         "peak_penetration_m": col["peak_penetration_m"],
-        # as export computes it (libm's acos, not numpy's: the same digits in both)
-        "tilt_deg": np.array([math.degrees(math.acos(x)) for x in cos_tilt.tolist()]),
+        "tilt_deg": derived.tilt_deg(col["cos_tilt"]),  # as export computes it
         "v_radial_mps": col["v_radial_mps"], "v_tangential_mps": col["v_tangential_mps"],
         "normal_force_n": col["normal_force_n"], "friction_force_n": col["friction_force_n"],
         "fuel_kg": col["fuel_kg"], "mass_kg": mass, "throttle": col["throttle"],
