@@ -10,6 +10,9 @@ half; ``touchdown bench chaos`` runs the long form (lease 2 s, pauses of 5 s and
 from __future__ import annotations
 
 import shutil
+import tempfile
+import time
+from pathlib import Path
 
 import pytest
 
@@ -25,11 +28,19 @@ def _need(binary: str) -> None:
         pytest.fail(f"the fault campaign needs {binary} on PATH")
 
 
-def _assert_accounted(out, least: int = 300, stolen: bool = True) -> None:
+def _assert_accounted(out, least: int = 300, stolen: bool = True, folder=None) -> None:
     v = out.verdict
     print("\n" + out.line())
     for note in out.notes:
         print(f"    {note}")
+    if folder is not None and (v.lost or v.twice or v.wrong_recipient or v.pending_left
+                               or v.seq_gaps or v.unverified or v.tracebacks):
+        # the session's evidence (flight logs, the workers' lines, what was sent and read),
+        # kept where a later pytest run does not remove it (it keeps its last three folders)
+        stamp = time.strftime("%Y%m%dT%H%M%S")
+        kept = Path(tempfile.gettempdir()) / f"touchdown-chaos-failed-{stamp}"
+        shutil.copytree(folder, kept, ignore=shutil.ignore_patterns("*.rdb", "appendonlydir"))
+        print(f"    the session's folder kept in {kept}")
     assert v.sent > least, v.line()
     assert not v.lost, v.lost[:10]
     assert not v.twice, v.twice[:10]
@@ -55,7 +66,7 @@ def test_one_redis_killed_workers_pauses_restarts_and_a_rollback_lose_and_double
     out = run_session(["worker-kill", "pause-0.5", "pause-3", "aof-restart", "empty-restart",
                        "rollback-1", "takeover-kill"], tmp_path, seconds_between=2.5,
                       rate=120.0, lease_s=LEASE_S, seed=34)
-    _assert_accounted(out)
+    _assert_accounted(out, folder=tmp_path)
     # what Redis held unread when it was emptied or rolled back, lost with its data by design:
     # at most a second of commands at the campaign's rate (the workers read every tick; under
     # a loaded CI machine their reads lag: 62 in one run, where 60 was the bound)
@@ -69,7 +80,7 @@ def test_a_worker_alone_never_rewinds_when_redis_pauses_past_its_lease(tmp_path)
     _need("redis-server")
     out = run_session(["pause-3"], tmp_path, seconds_between=2.5, rate=80.0, lease_s=LEASE_S,
                       workers=1, seed=2)
-    _assert_accounted(out)
+    _assert_accounted(out, folder=tmp_path)
     assert not out.verdict.backwards, out.verdict.backwards
 
 
@@ -82,4 +93,4 @@ def test_a_cluster_failover_and_a_reshard_lose_and_double_nothing(tmp_path):
     out = run_session(["failover", "reshard"], tmp_path, seconds_between=2.5, rate=100.0,
                       lease_s=LEASE_S, seed=7)
     # (a gateway that WAITs for a replica writes fewer: a promoted master has none for a while)
-    _assert_accounted(out, least=50, stolen=False)
+    _assert_accounted(out, least=50, stolen=False, folder=tmp_path)
