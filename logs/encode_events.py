@@ -22,17 +22,21 @@ to event_message, which raises or writes what it always did.
 """
 from __future__ import annotations
 
+import functools
 import math
+import weakref
 from collections.abc import Sequence
 from operator import attrgetter
 
 import numpy as np
 
-from touchdown.logs.header import LOG_FORMAT_VERSION, PORTABLE_TILT_FORMAT, event_message
+from touchdown.logs.header import (LOG_FORMAT_VERSION, PORTABLE_TILT_FORMAT, ShipTable,
+                                   event_message)
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.compiled import kernel
 from touchdown.sim.enums import EventKind, SurfaceState
 from touchdown.sim.state import STATE_DTYPE, State
+from touchdown.sim.vec import angle_between, quat_axis_z, unit
 
 #: math.degrees's factor (CPython: radToDeg = 180.0 / Py_MATH_PI, times x)
 RAD_TO_DEG = 180.0 / math.pi
@@ -50,13 +54,13 @@ def _word(name: str) -> int:
     return offset // 8
 
 
-#: where each of a ShipState's numbers is in a state record, in eight-byte words: position,
-#: velocity, attitude, rates (their first), mass, fuel; and the surface state's byte
-LAYOUT = np.array([_word(n) for n in ("pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg",
-                                      "fuel_kg")], np.int64)
 STATE_BYTE = STATE_DTYPE.fields["surface_state"][1]
-if STATE_DTYPE.fields["surface_state"][0].itemsize != 1:
-    raise AssertionError("surface_state: one byte")
+if STATE_DTYPE.fields["surface_state"][0].itemsize != 1 or STATE_DTYPE.itemsize % 8:
+    raise AssertionError("surface_state: one byte; a record: whole words")
+#: where each of a ShipState's numbers is in a state record, in eight-byte words: position,
+#: velocity, attitude, rates (their first), mass, fuel; then the surface state's byte
+LAYOUT = np.array([_word(n) for n in ("pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg",
+                                      "fuel_kg")] + [STATE_BYTE], np.int64)
 
 
 @kernel
@@ -116,92 +120,110 @@ def _string_size(key, n):
 
 
 @kernel
-def _doubles_size(words, e, w0, count):
+def _doubles_size(w, w0, count):
     """The bytes of a Vec3's or Quaternion's fields (``count`` doubles from word ``w0``)."""
     n = 0
     for j in range(count):
-        if words[e, w0 + j] != 0:
+        if w[w0 + j] != 0:
             n += 9
     return n
 
 
 @kernel
-def _put_doubles(out, o, key, words, e, w0, count, size):
+def _put_doubles(out, o, key, w, w0, count, size):
     """A Vec3 or Quaternion field (``size``: its fields' bytes), always there."""
     out[o] = key
     o = _put_varint(out, o + 1, size)
     for j in range(count):
-        o = _put_double(out, o, (j + 1) << 3 | 1, words[e, w0 + j])
+        o = _put_double(out, o, (j + 1) << 3 | 1, w[w0 + j])
     return o
 
 
 @kernel
-def _encode(words, states, layout, ints, bits, blob, strings, consts, out, offsets):
+def _encode(words, floats, recs, layout, ev, bits, names, names_at, text, text_at, dt_s, out,
+            offsets):
     """Each event's TransitionEvent into ``out``, one after another (event e is
-    ``out[offsets[e]:offsets[e + 1]]``). Event e's ship: ``words[e]`` (its state record as
-    int64 words: the doubles' bits, LAYOUT's ``layout``), ``states[e]`` its surface state;
-    ``ints[e]`` = (tick, from_state, to_state); ``bits[e]`` = the bits of (t_s, tilt_deg,
-    v_radial_mps, t_event_s); ``strings[e]`` = where its topic, ship id and player id begin in
-    ``blob`` and where the player id ends. ``consts``: the body's name's start and end in
-    ``blob``, the flying state's number, the number of states, then where each state's seed
-    string begins in ``blob`` (and where the last ends). Returns the bytes written, or -1 (a
-    state past the enum, a negative number: event_message's to say)."""
-    body_a, body_b, flying, n_states = consts[0], consts[1], consts[2], consts[3]
+    ``out[offsets[e]:offsets[e + 1]]``). The block's state records (K, N) as int64 words
+    (``words``: the doubles' bits, where LAYOUT's ``layout`` says), the same as doubles
+    (``floats``) and as bytes (``recs``: the surface state at byte STATE_BYTE); ``ev[e]`` =
+    (its tick's row k, its ship's column, tick, from_state, to_state, kind, key), ``bits[e]`` =
+    the bits of (v_radial_mps, t_event_s). Key k's ship id is ``names[names_at[2k]:names_at[2k
+    + 1]]`` and its player id the next. ``text``: the body's name, each state's seed string and
+    each kind's topic (by number: "" for a number no kind has), ``text_at`` = (the flying
+    state, the number of states, of kinds, 0 (where the body's name begins), where the body's
+    name ends, then where each seed ends, then where each topic ends: each begins where the one
+    before ends). t_s = tick * dt_s, and the tilt as
+    sim.measure.tilt_from_vertical_rad and math.degrees give it (the same kernels, then the
+    same multiplication). Returns the bytes written, or -1 (a state or kind past the enum, a
+    negative number: event_message's to say)."""
+    flying, n_states, n_kinds = text_at[0], text_at[1], text_at[2]
+    body_a, body_b = text_at[3], text_at[4]
+    pos, vel, quat, omega = layout[0], layout[1], layout[2], layout[3]
+    mass, fuel, state_byte = layout[4], layout[5], layout[6]
     o = 0
-    for e in range(words.shape[0]):
+    for e in range(ev.shape[0]):
         offsets[e] = o
-        st = np.int64(states[e])
-        tick, from_state, to_state = ints[e, 0], ints[e, 1], ints[e, 2]
-        if st >= n_states or tick < 0 or from_state < 0 or to_state < 0:
+        k, i, tick, from_state, to_state, kind, key = (ev[e, 0], ev[e, 1], ev[e, 2], ev[e, 3],
+                                                       ev[e, 4], ev[e, 5], ev[e, 6])
+        st = np.int64(recs[k, i, state_byte])
+        if (st >= n_states or kind < 0 or kind >= n_kinds or tick < 0 or from_state < 0
+                or to_state < 0):
             return -1
-        s_topic, s_ship, s_player, s_end = strings[e, 0], strings[e, 1], strings[e, 2], \
-            strings[e, 3]
-        seed_a, seed_b = consts[4 + st], consts[5 + st]
+        topic_a, topic_b = text_at[4 + n_states + kind], text_at[5 + n_states + kind]
+        if topic_a == topic_b:  # (no such kind)
+            return -1
+        seed_a, seed_b = text_at[4 + st], text_at[5 + st]
+        ship_a, ship_b, player_b = names_at[2 * key], names_at[2 * key + 1], \
+            names_at[2 * key + 2]
+        w = words[k, i]
+        f = floats[k, i]
+        ez = quat_axis_z((f[quat], f[quat + 1], f[quat + 2], f[quat + 3]))
+        tilt = angle_between(ez, unit((f[pos], f[pos + 1], f[pos + 2]))) * RAD_TO_DEG
+        tilt_bits = np.float64(tilt).view(np.int64)
+        t_bits = np.float64(tick * dt_s).view(np.int64)
         named_body = st != flying
-        pos, vel, quat, omega = layout[0], layout[1], layout[2], layout[3]
-        vecs = (_doubles_size(words, e, pos, 3), _doubles_size(words, e, vel, 3),
-                _doubles_size(words, e, quat, 4), _doubles_size(words, e, omega, 3))
-        ship = (_string_size(0x0A, s_player - s_ship) + _string_size(0x12, s_end - s_player)
+        vecs = (_doubles_size(w, pos, 3), _doubles_size(w, vel, 3), _doubles_size(w, quat, 4),
+                _doubles_size(w, omega, 3))
+        ship = (_string_size(0x0A, ship_b - ship_a) + _string_size(0x12, player_b - ship_b)
                 + (_string_size(0x1A, body_b - body_a) if named_body else 0)
                 + 4 + _varint_size(vecs[0]) + vecs[0] + _varint_size(vecs[1]) + vecs[1]
                 + _varint_size(vecs[2]) + vecs[2] + _varint_size(vecs[3]) + vecs[3]
-                + (9 if words[e, layout[4]] != 0 else 0)
-                + (9 if words[e, layout[5]] != 0 else 0)
+                + (9 if w[mass] != 0 else 0) + (9 if w[fuel] != 0 else 0)
                 + (1 + _varint_size(st) if st != 0 else 0)
-                + (9 if bits[e, 1] != 0 else 0) + _string_size(30 << 3 | 2, seed_b - seed_a))
+                + (9 if tilt_bits != 0 else 0) + _string_size(30 << 3 | 2, seed_b - seed_a))
         # the event: 1 event, 2 tick, 3 t_s, 4 ship_id, 5 player_id, 6 body, 7 from, 8 to
-        o = _put_string(out, o, 0x0A, blob, s_topic, s_ship)
+        o = _put_string(out, o, 0x0A, text, topic_a, topic_b)
         o = _put_uint(out, o, 0x10, tick)
-        o = _put_double(out, o, 0x19, bits[e, 0])
-        o = _put_string(out, o, 0x22, blob, s_ship, s_player)
-        o = _put_string(out, o, 0x2A, blob, s_player, s_end)
-        o = _put_string(out, o, 0x32, blob, body_a, body_b)
+        o = _put_double(out, o, 0x19, t_bits)
+        o = _put_string(out, o, 0x22, names, ship_a, ship_b)
+        o = _put_string(out, o, 0x2A, names, ship_b, player_b)
+        o = _put_string(out, o, 0x32, text, body_a, body_b)
         o = _put_uint(out, o, 0x38, from_state)
         o = _put_uint(out, o, 0x40, to_state)
         # 9 ship: ship_id, player_id, landed_body_name, position, velocity, attitude, rates,
         # mass, fuel, state, tilt, surface_contact_state (30)
         out[o] = 0x4A
         o = _put_varint(out, o + 1, ship)
-        o = _put_string(out, o, 0x0A, blob, s_ship, s_player)
-        o = _put_string(out, o, 0x12, blob, s_player, s_end)
+        o = _put_string(out, o, 0x0A, names, ship_a, ship_b)
+        o = _put_string(out, o, 0x12, names, ship_b, player_b)
         if named_body:
-            o = _put_string(out, o, 0x1A, blob, body_a, body_b)
-        o = _put_doubles(out, o, 0x22, words, e, pos, 3, vecs[0])
-        o = _put_doubles(out, o, 0x2A, words, e, vel, 3, vecs[1])
-        o = _put_doubles(out, o, 0x32, words, e, quat, 4, vecs[2])
-        o = _put_doubles(out, o, 0x3A, words, e, omega, 3, vecs[3])
-        o = _put_double(out, o, 0x41, words[e, layout[4]])
-        o = _put_double(out, o, 0x49, words[e, layout[5]])
+            o = _put_string(out, o, 0x1A, text, body_a, body_b)
+        o = _put_doubles(out, o, 0x22, w, pos, 3, vecs[0])
+        o = _put_doubles(out, o, 0x2A, w, vel, 3, vecs[1])
+        o = _put_doubles(out, o, 0x32, w, quat, 4, vecs[2])
+        o = _put_doubles(out, o, 0x3A, w, omega, 3, vecs[3])
+        o = _put_double(out, o, 0x41, w[mass])
+        o = _put_double(out, o, 0x49, w[fuel])
         o = _put_uint(out, o, 0x50, st)
-        o = _put_double(out, o, 0x59, bits[e, 1])
-        o = _put_string(out, o, 30 << 3 | 2, blob, seed_a, seed_b)
+        o = _put_double(out, o, 0x59, tilt_bits)
+        o = _put_string(out, o, 30 << 3 | 2, text, seed_a, seed_b)
         # 10 v_radial_mps, 11 t_event_s (optional: there at 0.0 too)
-        o = _put_double(out, o, 0x51, bits[e, 2])
+        o = _put_double(out, o, 0x51, bits[e, 0])
         out[o] = 0x59
         for b in range(8):
-            out[o + 1 + b] = (bits[e, 3] >> (8 * b)) & 0xFF
+            out[o + 1 + b] = (bits[e, 1] >> (8 * b)) & 0xFF
         o += 9
-    offsets[words.shape[0]] = o
+    offsets[ev.shape[0]] = o
     return o
 
 
@@ -210,9 +232,12 @@ def _encode(words, states, layout, ints, bits, blob, strings, consts, out, offse
 ENCODED_FORMAT = 6
 if not PORTABLE_TILT_FORMAT <= ENCODED_FORMAT <= LOG_FORMAT_VERSION:
     raise AssertionError(f"events of format {ENCODED_FORMAT}")
-#: the event's numbers, in one call an event (operator.attrgetter: no Python frame)
+#: the event's numbers, in one call an event (operator.attrgetter: no Python frame); the
+#: ship's id only where there are no keys (reading it touches each id's string: ~0.8 us an
+#: event of a 10,000-ship block, its cache lines cold)
 _NUMBERS = attrgetter("tick", "ship", "kind", "from_state", "to_state", "v_radial_mps",
-                      "t_event_s", "ship_id")
+                      "t_event_s")
+_SHIP_ID = attrgetter("ship_id")
 #: what a block whose events this module cannot write raises on the way (a kind or ship not
 #: known, a number that is no int64 or no double, an id that is no UTF-8): event_message's
 _NOT_WRITTEN = (KeyError, IndexError, ValueError, TypeError, OverflowError, UnicodeError)
@@ -224,12 +249,18 @@ class EventMessages(Sequence):
     (parsed from its bytes when first asked for, then kept: the log's writer and the service
     need only the bytes, a publisher of messages the messages)."""
 
-    __slots__ = ("datas", "player_ids", "body", "_msgs")
+    __slots__ = ("datas", "_players", "body", "_msgs")
 
-    def __init__(self, datas: list[bytes], player_ids: list[str], body: str,
-                 msgs: list | None = None):
-        self.datas, self.player_ids, self.body = datas, player_ids, body
+    def __init__(self, datas: list[bytes], player_ids, body: str, msgs: list | None = None):
+        """``player_ids``: a list, or a function that makes it (when first asked for)."""
+        self.datas, self._players, self.body = datas, player_ids, body
         self._msgs = [None] * len(datas) if msgs is None else msgs
+
+    @property
+    def player_ids(self) -> list[str]:
+        if callable(self._players):
+            self._players = self._players()
+        return self._players
 
     def __len__(self) -> int:
         return len(self.datas)
@@ -250,20 +281,72 @@ class EventMessages(Sequence):
     __hash__ = None
 
 
+class _Names:
+    """A ShipTable's ship and player ids as UTF-8, one run of bytes: key k's ship id is
+    ``blob[at[2k]:at[2k + 1]]``, its player's the next; extended as ships join (a table only
+    grows), its room doubled when full."""
+
+    def __init__(self):
+        self.count = 0
+        self.blob = np.empty(1 << 12, np.uint8)
+        self.at = np.zeros(1 << 10, np.int64)
+
+    def update(self, ids: list[str], players: list[str]) -> None:
+        n = len(ids)
+        if n == self.count:
+            return
+        new = [x.encode() for pair in zip(ids[self.count:n], players[self.count:n])
+               for x in pair]
+        start = int(self.at[2 * self.count])
+        ends = start + np.cumsum(np.fromiter(map(len, new), np.int64, len(new)))
+        end = int(ends[-1])
+        if 2 * n + 1 > len(self.at):
+            self.at = np.concatenate([self.at, np.zeros(max(len(self.at), 2 * n + 1), np.int64)])
+        if end > len(self.blob):
+            self.blob = np.concatenate([self.blob, np.empty(max(len(self.blob), end),
+                                                            np.uint8)])
+        self.at[2 * self.count + 1:2 * n + 1] = ends
+        self.blob[start:end] = np.frombuffer(b"".join(new), np.uint8)
+        self.count = n
+
+
+#: each ShipTable's _Names (while the table lives)
+_NAMES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: the body's name, the seed strings and the topics as _encode takes them (``text``,
+#: ``text_at``), by the body's name
+_TEXTS: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _texts(body: str) -> tuple[np.ndarray, np.ndarray]:
+    got = _TEXTS.get(body)
+    if got is None:
+        kinds = max(_TOPIC) + 1
+        parts = [body.encode(), *_SEEDS, *(_TOPIC.get(k, b"") for k in range(kinds))]
+        ends = np.cumsum([len(x) for x in parts]).tolist()
+        text_at = np.array([_FLYING, len(_SEEDS), kinds, 0, *ends], np.int64)
+        got = (np.frombuffer(b"".join(parts) or b"\0", np.uint8), text_at)
+        if len(_TEXTS) < 64:
+            _TEXTS[body] = got
+    return got
+
+
 def event_messages(ships, body: str, dt_s: float, states: np.ndarray, first_tick: int,
-                   events: Sequence, log_format: int = LOG_FORMAT_VERSION) -> EventMessages:
+                   events: Sequence, log_format: int = LOG_FORMAT_VERSION,
+                   keys: np.ndarray | None = None) -> EventMessages:
     """The ``events`` (sim.state.Event) of the ticks whose state records are ``states`` (K, N,
     row k tick ``first_tick + k``: a Block's ``states``; or (N,), one tick's) as
     ``event_message(ships, body, dt_s, State(rows=<its tick's row>), ev,
     log_format=log_format)`` makes each (``ships``: a ShipTable, or what has its ``players``
     and ``key``), its bytes the same: written here for format ENCODED_FORMAT, by event_message
-    for any other (or anything this module does not write: module docstring)."""
+    for any other (or anything this module does not write: module docstring). ``keys``: the
+    key in ``ships`` (a ShipTable) of each column's ship (ShipTable.keys of the block's
+    ship_ids: an event's ship is ``ev.ship``'s key, its id not read)."""
     states = states.reshape(1, -1) if states.ndim == 1 else states
     if not events:
         return EventMessages([], [], body)
     if log_format == ENCODED_FORMAT and states.dtype == STATE_DTYPE:
         try:
-            got = _written(ships, body, dt_s, states, first_tick, events)
+            got = _written(ships, body, dt_s, states, first_tick, events, keys)
         except _NOT_WRITTEN:
             got = None
         if got is not None:
@@ -276,55 +359,62 @@ def event_messages(ships, body: str, dt_s: float, states: np.ndarray, first_tick
 
 
 def _written(ships, body: str, dt_s: float, states: np.ndarray, first_tick: int,
-             events: Sequence) -> EventMessages | None:
+             events: Sequence, keys: np.ndarray | None) -> EventMessages | None:
     """event_messages's, written by :func:`_encode` (None: a block it does not write)."""
-    from touchdown.sim.measure import tilt_from_vertical_rad  # (compiled: a writer's)
     n = len(events)
-    ticks, rows, kinds, froms, tos, v_radial, t_event, ship_ids = zip(*map(_NUMBERS, events))
-    ints = np.array((ticks, froms, tos, rows), dtype=None)
-    if ints.dtype.kind not in "iu" or ints.dtype.itemsize > 8 or ints.dtype == np.uint64:
-        return None  # (a float, or a number past int64: protobuf's to refuse or write)
-    ints = ints.astype(np.int64)
+    ticks, rows, kinds, froms, tos, v_radial, t_event = zip(*map(_NUMBERS, events))
     if None in v_radial or None in t_event:  # (a field left out: numpy would make it a NaN)
         return None
-    doubles = np.empty((n, 4))
-    doubles[:, 2] = v_radial
-    doubles[:, 3] = t_event
-    key, players = ships.key, ships.players
-    player_ids = [players[key(sid)] for sid in ship_ids]
-    parts = []
-    for kind, sid, pid in zip(kinds, ship_ids, player_ids):
-        parts += (_TOPIC[kind], sid.encode(), pid.encode())
-    k = ints[0] - first_tick
-    if (k < 0).any() or (ints[3] < 0).any():  # (a negative index would wrap around)
+    ints = np.array((ticks, rows, ticks, froms, tos, kinds, rows), dtype=None)
+    if ints.dtype.kind not in "iu" or ints.dtype.itemsize > 8 or ints.dtype == np.uint64:
+        return None  # (a float, or a number past int64: protobuf's to refuse or write)
+    ev = ints.T.astype(np.int64)  # (E, 7), rows made keys below
+    ev[:, 0] -= first_tick
+    k, i = ev[:, 0], ev[:, 1]
+    if (k < 0).any() or (k >= states.shape[0]).any() or (i < 0).any() or \
+            (i >= states.shape[1]).any():
         return None
-    recs = states[k, ints[3]]  # (E,) each event's ship's record at its tick, a copy
-    words = recs.view(np.int64).reshape(n, STATE_DTYPE.itemsize // 8)
-    surface = np.ascontiguousarray(recs.view(np.uint8).reshape(n, -1)[:, STATE_BYTE])
-    doubles[:, 0] = ints[0] * dt_s  # (ev.tick * dt_s: an int made a double, then multiplied)
-    doubles[:, 1] = tilt_from_vertical_rad(recs["pos_m"], recs["quat"]) * RAD_TO_DEG
-    lengths = np.fromiter(map(len, parts), np.int64, 3 * n)
-    ends = np.cumsum(lengths)
-    strings = np.empty((n, 4), np.int64)
-    strings[:, 0] = ends[0::3] - lengths[0::3]
-    strings[:, 1] = ends[0::3]
-    strings[:, 2] = ends[1::3]
-    strings[:, 3] = ends[2::3]
-    at = int(ends[-1])
-    body_utf8 = body.encode()
-    seeds = np.cumsum([at + len(body_utf8)] + [len(s) for s in _SEEDS])
-    consts = np.array([at, at + len(body_utf8), _FLYING, len(_SEEDS), *seeds.tolist()],
-                      np.int64)
-    blob = np.frombuffer(b"".join(parts) + body_utf8 + b"".join(_SEEDS), np.uint8)
-    out = np.empty(2 * at + n * (2 * len(body_utf8) + max(map(len, _SEEDS)) + 400), np.uint8)
+    if keys is not None and type(ships) is ShipTable:
+        names = _NAMES.get(ships)
+        if names is None:
+            names = _NAMES[ships] = _Names()
+        names.update(ships.ids, ships.players)
+        ev[:, 6] = keys[i]
+        player_ids = functools.partial(_players_of, ships.players, ev[:, 6])
+        blob, at = names.blob, names.at
+    else:  # the events' own ids and players, event e's at key e
+        ship_ids = list(map(_SHIP_ID, events))
+        key, players = ships.key, ships.players
+        player_ids = [players[key(sid)] for sid in ship_ids]
+        new = [x.encode() for pair in zip(ship_ids, player_ids) for x in pair]
+        at = np.zeros(2 * n + 1, np.int64)
+        np.cumsum(np.fromiter(map(len, new), np.int64, 2 * n), out=at[1:])
+        blob = np.frombuffer(b"".join(new) or b"\0", np.uint8)
+        ev[:, 6] = np.arange(n)
+    doubles = np.empty((n, 2))
+    doubles[:, 0] = v_radial
+    doubles[:, 1] = t_event
+    text, text_at = _texts(body)
+    records = np.ascontiguousarray(states)
+    kk, nn = records.shape
+    words = records.view(np.int64).reshape(kk, nn, STATE_DTYPE.itemsize // 8)
+    # room: each event's ids twice, its body's name twice, its topic and seed, the rest bounded
+    room = int((2 * (at[2 * ev[:, 6] + 2] - at[2 * ev[:, 6]])).sum()) + n * (
+        2 * int(text_at[4]) + int(text_at[-1] - text_at[4]) + 400)
+    out = np.empty(room, np.uint8)
     offsets = np.empty(n + 1, np.int64)
-    end = _encode(words, surface, LAYOUT, ints[:3].T.copy(), doubles.view(np.int64), blob,
-                  strings, consts, out, offsets)
+    end = _encode(words, words.view(np.float64), records.view(np.uint8).reshape(kk, nn, -1),
+                  LAYOUT, ev, doubles.view(np.int64), blob, at, text, text_at, float(dt_s), out,
+                  offsets)
     if end < 0:
         return None
     raw = out[:end].tobytes()
     at = offsets.tolist()
     return EventMessages([raw[a:b] for a, b in zip(at, at[1:])], player_ids, body)
+
+
+def _players_of(players: list[str], keys: np.ndarray) -> list[str]:
+    return [players[k] for k in keys.tolist()]
 
 
 __all__ = ["ENCODED_FORMAT", "EventMessages", "LAYOUT", "RAD_TO_DEG", "event_messages"]

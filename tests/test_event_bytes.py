@@ -35,16 +35,16 @@ def _reference(ships, body, dt_s, states, first_tick, events, log_format=H.LOG_F
 
 
 def _check(ships, body, dt_s, states, first_tick, events, log_format=H.LOG_FORMAT_VERSION,
-           written=True):
+           written=True, keys=None):
     """event_messages's against event_message's; ``written``: by logs.encode_events itself
-    (event_message not called)."""
+    (event_message not called); ``keys``: each column's ship's key (as the writer gives)."""
     if written and log_format == ENCODED_FORMAT:
         with mock.patch.object(EE, "event_message", side_effect=AssertionError("not written")):
             got = event_messages(ships, body, dt_s, states, first_tick, events,
-                                 log_format=log_format)
+                                 log_format=log_format, keys=keys)
     else:
         got = event_messages(ships, body, dt_s, states, first_tick, events,
-                             log_format=log_format)
+                             log_format=log_format, keys=keys)
     ref = _reference(ships, body, dt_s, states, first_tick, events, log_format)
     assert got.datas == [m.SerializeToString() for m in ref]
     assert got.player_ids == [m.player_id for m in ref]
@@ -80,8 +80,9 @@ def test_the_events_of_real_fleets_are_event_message_bytes(doc):
     n, kinds, states = 0, set(), set()
     for b, block in enumerate(w.blocks(60)):
         body = BODIES[b % len(BODIES)]
+        keys = ships.keys(block.ship_ids) if b % 2 else None  # (the writer's way, and not)
         got, ref = _check(ships, body, w.params.sim.dt_s, block.states, block.first_tick,
-                          block.events)
+                          block.events, keys=keys)
         for k, (ev, m) in enumerate(zip(block.events, ref)):
             kinds.add(int(ev.kind))
             states.add(m.ship.state)
@@ -122,7 +123,9 @@ def test_made_up_records_and_events_are_event_message_bytes():
     ids = [f"ship-{i}" if i % 2 else f"корабль-{i}-" + "ß" * (i % 97) + "🛰" * (i % 5)
            for i in range(n_ships)]
     players = ["" if i % 11 == 0 else f"p{i % 17}" + "é" * (i % 140) for i in range(n_ships)]
-    ships = H.ShipTable(ids, players)
+    order = rng.permutation(n_ships)  # the table's keys not the columns (ships that joined)
+    ships = H.ShipTable([ids[i] for i in order], [players[i] for i in order])
+    keys = ships.keys(ids)
     specials = [0.0, -0.0, 1.5, -3.25, math.nan, math.inf, 5e-324]
     for first_tick in (0, 1, 200, 2**40):
         events = []
@@ -138,6 +141,7 @@ def test_made_up_records_and_events_are_event_message_bytes():
         for body in BODIES:
             for dt_s in (0.05, 0.1, 1.0 / 3.0):
                 _check(ships, body, dt_s, states, first_tick, events)
+                _check(ships, body, dt_s, states, first_tick, events, keys=keys)
     # the kind of every event and every state were there
     assert set(np.unique(states["surface_state"])) == set(range(len(SurfaceState)))
 
@@ -202,3 +206,19 @@ def test_event_messages_read_back_as_a_sequence():
     assert got[0] is got[0]  # parsed once
     assert [m.event for m in got] == [EventKind(ev.kind).topic for ev in block.events]
     assert all(m.HasField("t_event_s") for m in got)
+
+
+def test_the_table_s_names_follow_ships_that_join():
+    """The writer's table grows as ships join: their ids are written as event_message's."""
+    states = _made_up(np.random.default_rng(8), 1, 3)
+    states["surface_state"] = 1
+    ships = H.ShipTable(["a", "b", "c"], ["pa", "pb", "pc"])
+    evs = [event_of(1, i, 1, 0, 1, -2.0, ship_id=sid, t_event_s=0.5)
+           for i, sid in enumerate(["a", "b", "c"])]
+    _check(ships, "Luna", 0.1, states, 1, evs, keys=ships.keys(["a", "b", "c"]))
+    for j in range(3000):  # past the names' first room
+        ships.add(2, {"id": f"joined-{j}-" + "ω" * (j % 50), "player_id": "q" * (j % 70)})
+    ids = ["c", "joined-2999-" + "ω" * (2999 % 50), "joined-7-" + "ω" * 7]
+    evs = [event_of(1, i, 5, 1, 4, -9.0, ship_id=sid, t_event_s=0.75)
+           for i, sid in enumerate(ids)]
+    _check(ships, "Luna", 0.1, states, 1, evs, keys=ships.keys(ids))
