@@ -540,8 +540,12 @@ class LogWriter(FinishedOrGone):
                               block.first_tick, block.events, keys=self._keys_of[1])
         datas = msgs.datas
         events: dict[int, list[bytes]] = {}
-        for ev, data in zip(block.events, datas):
-            events.setdefault(ev.tick, []).append(data)
+        if len(block) == 1 and datas:  # (a big fleet's block is one tick: its events are that
+            # tick's, sim.world.Block)
+            events[block.first_tick] = list(datas)
+        else:
+            for ev, data in zip(block.events, datas):
+                events.setdefault(ev.tick, []).append(data)
         # encoded on the writer's thread (compiled, without the GIL): off the caller's tick
         item = (block, self._keys_of[1], self.last_tick < 0, events, inputs)
         self.waited_s += self._queue.put(item, block.states.nbytes + block.outputs.nbytes
