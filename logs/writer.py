@@ -355,8 +355,9 @@ class LogWriter(FinishedOrGone):
                 self._put_chunk(TOPIC_TICKS, first_tick, data, int(offsets[0]), int(offsets[1]))
             else:
                 self._put_ticks(first_tick, data, offsets, k, end)
-            for m in events.get(last, ()):
-                self._put(TOPIC_EVENTS, last, m)
+            got = events.get(last)
+            if got:
+                self._put_all(TOPIC_EVENTS, last, got)
             if every and last % every == 0:
                 self._mcap.flush()  # bounds what a killed writer loses
             k = end
@@ -431,6 +432,44 @@ class LogWriter(FinishedOrGone):
         buf.write(data)
         if buf.tell() > self._chunk_size:
             w._Writer__finalize_chunk()
+
+    def _put_all(self, topic: str, tick: int, datas: list[bytes]) -> None:
+        """:meth:`_put` of each of ``datas`` (a tick's events), in order: the same bytes,
+        statistics, index entries and chunk breaks (a chunk ends after the message that takes
+        its buffer past the chunk size), the messages up to each break counted and written at
+        once (a message at a time was ~2 us of the writer's thread an event: 13,000 events in
+        a second of 10,000 landers touching down)."""
+        w = self._mcap
+        if w._Writer__chunk_builder is None:
+            for data in datas:
+                self._put(topic, tick, data)
+            return
+        t_ns = tick * self._dt_ns
+        channel = self._channels[topic]
+        pack = _MESSAGE_HEAD.pack
+        a, n = 0, len(datas)
+        while a < n:
+            builder = w._Writer__chunk_builder
+            buf = builder.record_writer._buffer
+            at = buf.tell()
+            seq = self._seq[topic]
+            records, where = [], []
+            b = a
+            while b < n:  # up to and with the message that takes the chunk past its size
+                data = datas[b]
+                head = pack(0x05, 22 + len(data), channel, seq + b - a, t_ns, t_ns)
+                records += (head, data)
+                where.append((t_ns, at))
+                at += len(head) + len(data)
+                b += 1
+                if at > self._chunk_size:
+                    break
+            self._seq[topic] = seq + b - a
+            self._counted(builder, channel, t_ns, t_ns, b - a).extend(where)
+            buf.write(b"".join(records))
+            if at > self._chunk_size:
+                w._Writer__finalize_chunk()
+            a = b
 
     def _counted_in_file(self, channel: int, t0_ns: int, t1_ns: int, m: int) -> None:
         """The file's statistics for ``m`` more messages on ``channel``, log times ``t0_ns`` to
