@@ -122,9 +122,10 @@ def _library_put_all(self, topic, tick, datas):
 def test_the_writers_messages_are_the_librarys_byte_for_byte(tmp_path, monkeypatch, n_ships,
                                                              chunk_size, blocks_of, flush_every):
     """LogWriter._put packs each message itself (the library's add_message was nine tenths of a
-    small fleet's log), _put_all a tick's events at once: the same file, byte for byte, as through the library, chunk breaks,
-    message indexes, statistics and CRCs included (chunks of 700 bytes: a break every few
-    ticks, 40 ships' records over it, which _put_chunk writes; 3 ships' a few hundred bytes)."""
+    small fleet's log), _put_all a tick's events at once: the same file, byte for byte, as
+    through the library, chunk breaks, message indexes, statistics and CRCs included (chunks of
+    700 bytes: a break every few ticks, 40 ships' records over it, which _put_chunk writes; 3
+    ships' a few hundred bytes)."""
     ours, theirs = tmp_path / "ours.mcap", tmp_path / "theirs.mcap"
     _record(ours, chunk_size, blocks_of, n_ships, flush_every)
     with monkeypatch.context() as m:
