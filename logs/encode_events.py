@@ -2,12 +2,14 @@
 straight from the step's records, compiled: the bytes ``logs.header.event_message(...)
 .SerializeToString()`` gives, without protobuf's Python objects.
 
-An event's message through protobuf cost ~16-22 us (the ShipState's fields gathered, the
-tilt's compiled call, four sub-messages built, the message built and serialized); a fleet of
-10,000 landers touching down makes ~13,000 events a simulated second, ~0.28 us a ship-tick of a
-log's ~0.7. Here one call a block: the events' numbers gathered from the block's records at
-once, their tilts by sim.measure.tilt_from_vertical_rad (the format's own kernel, then
-``* 180/pi``: math.degrees's multiplication), and every message written by :func:`_encode`.
+An event's message through protobuf cost ~12 us alone, ~18 inside ``touchdown record`` (the
+ShipState's fields gathered, the tilt's compiled call, four sub-messages built, the message
+built and serialized); 10,000 landers touching down make ~13,000 events a simulated second:
+~1.2 us of each ship-tick's ~3.6. Here one compiled call a block (:func:`_encode`, ~1-2 us an
+event): each ship's numbers read from the block's records in place, its tilt by the format's
+kernels (sim.measure's: quat_axis_z, unit, angle_between, then ``* 180/pi``, math.degrees's
+multiplication), its ids from a table of the ShipTable's UTF-8 (with the writer's keys) or
+from the events.
 
 The wire (protobuf's encoding, proto3): fields in number order; a double is its key and its
 eight little-endian bytes, left out when its bits are all zero (0.0, not -0.0: protobuf keeps a
