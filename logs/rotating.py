@@ -35,9 +35,9 @@ from pathlib import Path
 from typing import Callable
 
 from touchdown.logs.encode import ShipTables
+from touchdown.logs.encode_events import EventMessages
 from touchdown.logs.header import ShipTable, world_header_later
 from touchdown.logs.writer import QUEUE_BLOCKS, FinishedOrGone, LogWriter, Runner
-from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.world import Block, World
 
 #: the default bound on a file's size: 64 MiB
@@ -102,14 +102,14 @@ class RotatingLog(FinishedOrGone):
         self.runner: Runner | None = None
 
     # -- the sink --------------------------------------------------------------------------------
-    def write_block(self, block: Block) -> list[pb.TransitionEvent]:
+    def write_block(self, block: Block) -> EventMessages:
         """Append a block (as LogWriter.write_block: returns its events as messages); then, if
         the file is past ``max_bytes`` and the world is at the block's last tick, close it and
         begin the next at that tick."""
         return self.write_block_serialized(block)[0]
 
     def write_block_serialized(self, block: Block
-                               ) -> tuple[list[pb.TransitionEvent], list[bytes]]:
+                               ) -> tuple[EventMessages, list[bytes]]:
         """write_block, with each event message's bytes (LogWriter.write_block_serialized)."""
         if self._closed:
             raise ValueError("write_block on a closed RotatingLog")

@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from touchdown.logs import LogError
-from touchdown.logs.header import TOPIC_EVENTS, event_message, tick_arrays, world_header
+from touchdown.logs.encode_events import event_messages
+from touchdown.logs.header import TOPIC_EVENTS, tick_arrays, world_header
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import keyframe_world, scenario_of
 from touchdown.logs.writer import LogWriter
@@ -34,7 +35,6 @@ from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.errors import TouchdownError
 from touchdown.replay.verify import WIDTH, first_difference
 from touchdown.sim.scenario import ScenarioError
-from touchdown.sim.state import State
 from touchdown.sim.timeline import CommandError, Timeline
 from touchdown.sim.world import Block, World
 
@@ -351,13 +351,14 @@ def _compare_events(block: Block, seg_of: dict, ship_id: str, recorded: dict) ->
     for tick in range(block.first_tick, block.last_tick + 1):
         by_seg.setdefault(id(seg_of[tick]), [seg_of[tick], tick, tick])[2] = tick
     mine = {}
+    by_seg_events: dict[int, tuple] = {}
     for ev in block.events:
         seg = seg_of[ev.tick]
+        by_seg_events.setdefault(id(seg), (seg, []))[1].append(ev)
+    for k, (seg, evs) in by_seg_events.items():  # (each segment's events as its writer made them)
         sr = seg.reader.scenario
-        state = State(rows=block.states[ev.tick - block.first_tick], tick=ev.tick)
-        mine.setdefault(id(seg), []).append(
-            event_message(seg.reader.ship_table(), sr.body, sr.dt_s, state, ev,
-                          log_format=seg.reader.log_format).SerializeToString())
+        mine[k] = event_messages(seg.reader.ship_table(), sr.body, sr.dt_s, block.states,
+                                 block.first_tick, evs, log_format=seg.reader.log_format).datas
     for k, (seg, lo, hi) in by_seg.items():
         theirs = [data for tick, data in recorded[k] if lo <= tick <= hi]
         ours = mine.get(k, [])

@@ -33,8 +33,9 @@ import numpy as np
 from touchdown.logs import LogError
 from touchdown.logs.codec import PACKED
 from touchdown.logs.encode_block import BlockEncoder
+from touchdown.logs.encode_events import event_messages
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_EVENTS, TOPIC_SUMMARY,
-                         ShipTable, event_message, tick_arrays)
+                         ShipTable, tick_arrays)
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import keyframe_world, recorded_world, scenario_of
 from touchdown.proto import touchdown_pb2 as pb
@@ -277,10 +278,10 @@ def _compare_ticks(reader: LogReader, scn: Scenario, table: ShipTable, ship_id: 
                            f"found {recorded.tick_from_time})")
         res.ticks_compared += 1
         compared_to = new.tick
-        events += [(new.tick, ev.ship_id,
-                    event_message(table, sr.body, sr.dt_s, new.state, ev,
-                                  log_format=reader.log_format).SerializeToString())
-                   for ev in new.events]
+        if new.events:  # (as the writer made them: logs.encode_events, or an older format's)
+            made = event_messages(table, sr.body, sr.dt_s, new.state.rows, new.tick, new.events,
+                                  log_format=reader.log_format)
+            events += [(new.tick, ev.ship_id, data) for ev, data in zip(new.events, made.datas)]
         if ship_id is None:
             # the whole batch: the replayed tick, encoded as the writer encodes it, must be
             # the recorded message byte for byte; only a mismatch is decoded and diagnosed

@@ -16,7 +16,7 @@ stop the ships, with retention.
   (the file being written always stays).
 
 The transition events come from the log's writer when it is writing, and are made the same way
-(logs.header.event_message) when it is paused, so the event stream is the same either way.
+(logs.encode_events.event_messages) when it is paused, so the event stream is the same either way.
 """
 from __future__ import annotations
 
@@ -27,10 +27,9 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from touchdown.logs.header import event_message
+from touchdown.logs.encode_events import EventMessages, event_messages
 from touchdown.logs.rotating import RotatingLog
 from touchdown.logs.writer import LIVE_QUEUE_BLOCKS, QUEUE_BYTES
-from touchdown.sim.state import State
 from touchdown.sim.world import Block, World
 
 
@@ -47,20 +46,16 @@ class _Players:
         return ship_id
 
 
-def events_of(world: World, block: Block) -> list:
-    """The block's transitions as the log would have returned them."""
+def events_of(world: World, block: Block) -> EventMessages:
+    """The block's transitions as the log would have returned them (logs.encode_events)."""
     if not block.events:
-        return []
-    players = _Players(world)
-    body = world.params.body.name
-    dt = world.params.sim.dt_s
-    return [event_message(players, body, dt, State(rows=block.states[ev.tick - block.first_tick],
-                                                     tick=ev.tick), ev)
-            for ev in block.events]
+        return EventMessages([], [], world.params.body.name)
+    return event_messages(_Players(world), world.params.body.name, world.params.sim.dt_s,
+                          block.states, block.first_tick, block.events)
 
 
-def _serialized(msgs: list) -> tuple[list, list[bytes]]:
-    return msgs, [m.SerializeToString() for m in msgs]
+def _serialized(msgs: EventMessages) -> tuple[EventMessages, list[bytes]]:
+    return msgs, msgs.datas
 
 
 class ServiceLog:

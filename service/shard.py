@@ -13,6 +13,7 @@ the same numbers, and the event stream keeps the first of each (service.redis_io
 """
 from __future__ import annotations
 
+import itertools
 import json
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -156,9 +157,14 @@ class Shard:
                                  "tick": str(block.first_tick)})
             # (the log's messages are the block's events, in order: their entries and hashes
             # made from the events' own numbers, not read back out of each message)
-            for ev, m, data in zip(block.events, msgs, datas):
-                player = m.player_id
-                self._emit(out, event_entry(ev, player, m.body, data))
+            # (an EventMessages has each event's player and the body: no message parsed)
+            players = getattr(msgs, "player_ids", None)
+            bodies = (itertools.repeat(msgs.body) if players is not None
+                      else [m.body for m in msgs])
+            if players is None:
+                players = [m.player_id for m in msgs]
+            for ev, player, body, data in zip(block.events, players, bodies, datas):
+                self._emit(out, event_entry(ev, player, body, data))
                 out.hashes[ev.ship_id] = ship_hash(surface_state(ev.to_state), self.body,
                                                    int(ev.tick), player, self.index)
         return out

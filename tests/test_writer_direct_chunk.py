@@ -109,20 +109,29 @@ def _library_put_ticks(self, first_tick: int, data, offsets, k0: int, k1: int) -
                      view[offsets[k] + MESSAGE_HEAD_BYTES:offsets[k + 1]])
 
 
+def _library_put_all(self, topic, tick, datas):
+    """A tick's events (LogWriter._put_all) one by one through the library."""
+    for data in datas:
+        _library_put(self, topic, tick, data)
+
+
 @pytest.mark.parametrize("n_ships,chunk_size,blocks_of,flush_every", [
     (40, 1 << 20, 1, 7), (40, 2048, 4, 7), (40, 700, 30, 7), (3, 1000, 30, 7), (3, 2500, 7, 7),
-    (3, 1000, 30, 0), (3, 1 << 20, 30, 25), (1, 600, 30, 0)])
+    (3, 1000, 30, 0), (3, 1 << 20, 30, 25), (1, 600, 30, 0),
+    (300, 2048, 1, 7)])  # (300 ships: up to 20 events a tick, chunk breaks among them)
 def test_the_writers_messages_are_the_librarys_byte_for_byte(tmp_path, monkeypatch, n_ships,
                                                              chunk_size, blocks_of, flush_every):
     """LogWriter._put packs each message itself (the library's add_message was nine tenths of a
-    small fleet's log): the same file, byte for byte, as through the library, chunk breaks,
-    message indexes, statistics and CRCs included (chunks of 700 bytes: a break every few
-    ticks, 40 ships' records over it, which _put_chunk writes; 3 ships' a few hundred bytes)."""
+    small fleet's log), _put_all a tick's events at once: the same file, byte for byte, as
+    through the library, chunk breaks, message indexes, statistics and CRCs included (chunks of
+    700 bytes: a break every few ticks, 40 ships' records over it, which _put_chunk writes; 3
+    ships' a few hundred bytes)."""
     ours, theirs = tmp_path / "ours.mcap", tmp_path / "theirs.mcap"
     _record(ours, chunk_size, blocks_of, n_ships, flush_every)
     with monkeypatch.context() as m:
         m.setattr(LogWriter, "_put", _library_put)
         m.setattr(LogWriter, "_put_ticks", _library_put_ticks)
+        m.setattr(LogWriter, "_put_all", _library_put_all)
         _record(theirs, chunk_size, blocks_of, n_ships, flush_every)
     assert len(_messages(ours, seeking=False)) > 30
     assert ours.read_bytes() == theirs.read_bytes()
