@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import stat
+import sys
 from pathlib import Path
 
 import pytest
@@ -63,6 +64,23 @@ def bounce_log(tmp_path_factory) -> Path:
 def fleet_log_20s(tmp_path_factory) -> Path:
     """The built-in ``fleet`` cut to 20 s, recorded once a session; read-only."""
     return _record(tmp_path_factory.mktemp("scenes") / "fleet-20s.mcap", "fleet", "duration=20")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_collection(session):
+    """Collection keeps the bytecode of what it imports, PYTHONDONTWRITEBYTECODE=1 or not (this
+    machine's harness sets it): pytest reads its rewritten test modules' pyc
+    (tests/__pycache__/*-pytest-*.pyc) whatever the setting, but writes them only where it is
+    off, so every worker of every run rewrote the asserts of every test module again (4.6 s of
+    its 8 s collection, measured) and compiled the project's modules the tests import (as did
+    each subprocess a test starts). The pyc go where Python puts them (``__pycache__``, which
+    .gitignore ignores); the setting is the environment's again once collection ends."""
+    was = sys.dont_write_bytecode
+    sys.dont_write_bytecode = False
+    try:
+        yield
+    finally:
+        sys.dont_write_bytecode = was
 
 
 def pytest_collection_modifyitems(config, items):

@@ -73,7 +73,7 @@ def point_mass(mass_kg: float, slip_mps, radius_ns):
     radius = np.asarray(radius_ns, float)
     active = np.array([r > 0.0 for r in radius])
     lam = np.zeros((4, 2))
-    _solve_feet(a, slip, radius, lam, active)
+    _solve_feet(a, slip, radius, lam, active, True)  # try_pairs as the step passes it
     return a, slip, radius, lam, active
 
 
@@ -201,7 +201,7 @@ def test_the_feet_gauss_seidel_crawls_on_end_at_the_exact_slips():
         radius[:nf] = r
         active = radius > 0.0
         lam = np.zeros((4, 2))
-        methods.append(_solve_feet(a, slip, radius, lam, active))
+        methods.append(_solve_feet(a, slip, radius, lam, active, True))
         ref = barrier_reference(a2, s2, r)
         after, after_ref = a2 @ lam[:nf].reshape(-1) + s2, a2 @ ref + s2
         assert np.abs(after - after_ref).max() < 1e-9, np.abs(after - after_ref).max()

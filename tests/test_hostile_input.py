@@ -48,6 +48,14 @@ def bounce(tmp_path_factory):
     return path
 
 
+@pytest.fixture(scope="module")
+def bombs(bounce) -> dict[str, bytes]:
+    """bench/fuzz.py's bombs of ``bounce`` by name, made once a module (a worker's): making them
+    compresses hundreds of MiB of zeros (~2 s), which each test that wanted one bomb paid again.
+    Each test writes the bomb it reads to its own tmp_path (bytes: nothing can change them)."""
+    return dict(fuzz.bombs(bounce.read_bytes()))
+
+
 def rewrite(src: Path, dst: Path, edit) -> Path:
     """``src`` rewritten through the stock mcap writer, each message passed through
     ``edit(topic, bytes) -> list of (topic, bytes)``."""
@@ -98,8 +106,8 @@ def test_a_fuzz_campaign_of_2000_files_finds_no_hang_traceback_blowup_or_silent_
 # -- bounded reading -----------------------------------------------------------------------------
 @pytest.mark.slow
 @pytest.mark.parametrize("framing", ["indexed", "unindexed"])
-def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, framing):
-    for name, data in fuzz.bombs(bounce.read_bytes()):
+def test_every_decompression_bomb_is_refused_naming_the_limit(bombs, tmp_path, framing):
+    for name, data in bombs.items():
         if not name.endswith(framing) or name.startswith("tick-100MiB"):
             continue
         path = tmp_path / f"{name}.mcap"
@@ -110,8 +118,8 @@ def test_every_decompression_bomb_is_refused_naming_the_limit(bounce, tmp_path, 
                                        "damaged command record")), line
 
 
-def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bounce, tmp_path):
-    data = dict(fuzz.bombs(bounce.read_bytes()))["zstd-claims-1000-walked"]
+def test_a_bomb_in_a_cut_log_ends_what_is_read_and_export_says_so(bombs, tmp_path):
+    data = bombs["zstd-claims-1000-walked"]
     path = tmp_path / "bomb.mcap"
     path.write_bytes(data)
     assert_refused(invoke("replay", path, "--verify"), "no tick records", "declares 1,000 bytes")
@@ -204,13 +212,13 @@ def test_replay_verify_of_a_header_chunk_bomb_never_inflates_it(bounce, tmp_path
 
 
 @pytest.mark.parametrize("framing", FRAMINGS)
-def test_a_fleet_record_bomb_is_refused_at_its_first_piece(bounce, tmp_path, framing):
+def test_a_fleet_record_bomb_is_refused_at_its_first_piece(bombs, tmp_path, framing):
     """The header's chunk ends in a message on the fleet's channel of 150 MiB of zeros (within
     what a fleet record may hold, what a header may): the fleet's read takes it as it is
     inflated, a piece at a time, and the first piece is no fleet record (field 0). Cut (walked),
     the refusal ends the part read, and the chunk is then refused by the fleet's bound."""
     path = tmp_path / f"fleet-bomb-{framing}.mcap"
-    path.write_bytes(dict(fuzz.bombs(bounce.read_bytes()))[f"fleet-record-150MiB-{framing}"])
+    path.write_bytes(bombs[f"fleet-record-150MiB-{framing}"])
     before, grew_mib, said = read_in_a_fresh_process(path, "verify")
     print(f"{framing}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
           f"({said})")
@@ -284,7 +292,7 @@ def test_ships_joining_within_a_chunk_over_the_fleet_s_bound_read(tmp_path, monk
 
 
 @pytest.mark.parametrize("bomb", ["zstd-claims-true-walked", "empty-records-walked"])
-def test_replay_verify_of_a_second_chunk_bomb_in_a_cut_log_never_inflates_it(bounce, tmp_path,
+def test_replay_verify_of_a_second_chunk_bomb_in_a_cut_log_never_inflates_it(bombs, tmp_path,
                                                                              bomb):
     """A cut log (no footer: every read walks it) whose second chunk declares 64 MiB of zeros
     (or 20 MiB: millions of empty records), its size and CRC true. The fleet's read refuses
@@ -294,7 +302,7 @@ def test_replay_verify_of_a_second_chunk_bomb_in_a_cut_log_never_inflates_it(bou
     writer fills before it closes a chunk are refused, not inflated. Before, the commands'
     read inflated the whole chunk (peak RSS +64.5 MiB; the 20 MiB one +20.5 MiB)."""
     path = tmp_path / f"{bomb}.mcap"
-    path.write_bytes(dict(fuzz.bombs(bounce.read_bytes()))[bomb])
+    path.write_bytes(bombs[bomb])
     before, grew_mib, said = read_in_a_fresh_process(path, "verify")
     print(f"{bomb}: verify took the peak RSS from {before:.1f} MiB up by {grew_mib:.1f} MiB "
           f"({said})")
@@ -328,7 +336,18 @@ def _commands_log(path: Path, commands: int, id_chars: int, keyframe_interval: i
                 writer.write_block(block)
 
 
-def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
+@pytest.fixture(scope="module")
+def commands_20k(tmp_path_factory) -> Path:
+    """_commands_log's 20,000 commands of one ship with a 200-character id at tick 4 (a 4.9 MB
+    batch; keyframe interval 2), written once a module (a worker's) for the tests that read it;
+    read-only (a test that cuts it cuts a copy)."""
+    path = tmp_path_factory.mktemp("commands") / "commands.mcap"
+    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    path.chmod(0o444)
+    return path
+
+
+def test_a_tick_s_commands_past_the_fleet_s_bound_read(commands_20k, tmp_path, monkeypatch):
     """What the fleet does not bound: a tick's commands (any number a ship). 20,000 commands of
     one ship with a 200-character id are a command batch of 4.9 MB, ending a chunk over what
     a chunk of the one ship's ticks can hold (1.3 MB): every read takes it as a stream (its
@@ -338,8 +357,7 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
     the chunk ("claims 4,861,509 bytes")."""
     from touchdown.replay.verify import verify
     streamed = _streamed_chunks(monkeypatch)
-    path = tmp_path / "commands.mcap"
-    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    path = commands_20k
     res = verify(str(path))
     assert res.divergence is None and res.ticks_compared == 11, res.divergence
     assert streamed and max(streamed) > 4_000_000, streamed
@@ -359,17 +377,16 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_read(tmp_path, monkeypatch):
         assert len(r.timeline().commands) == 20_000
 
 
-def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tmp_path):
+def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(commands_20k,
+                                                                              tmp_path):
     """`touchdown recover` rewrites a log with the library's writer, which does not end the
     first chunk after the first tick: the header's chunk then holds ticks 0 to 3 and ends in
     tick 4's 20,000 commands (a 4.9 MB batch), over what a chunk of the one ship's ticks can
     hold (1.3 MB). The header's chunk is checked as every read after the fleet's reads a
     chunk: its last record a tick's commands, passed over. Before, `replay --verify` of the
     recovered log refused it ("a chunk claims 4,882,224 bytes uncompressed")."""
-    path = tmp_path / "commands.mcap"
-    _commands_log(path, 20_000, 200, keyframe_interval=2)
     recovered = tmp_path / "recovered.mcap"
-    assert invoke("recover", path, "-o", recovered).exit_code == 0
+    assert invoke("recover", commands_20k, "-o", recovered).exit_code == 0
     r = invoke("replay", recovered, "--verify")
     assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
     with LogReader(recovered) as log:
@@ -378,7 +395,8 @@ def test_a_recovered_log_whose_first_chunk_ends_in_a_tick_s_commands_verifies(tm
 
 
 @pytest.mark.parametrize("cut", [False, True])
-def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_path,
+def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(commands_20k,
+                                                                            tmp_path,
                                                                             monkeypatch, cut):
     """The chunk ending in 20,000 commands (4.9 MB) is read to its end, its size and CRC
     checked, by the first read that reaches it; the reads after it that do not want the
@@ -387,10 +405,10 @@ def test_a_tick_s_commands_past_the_fleet_s_bound_are_inflated_once_a_read(tmp_p
     commands' read), not once for every read (cut: 4 before), and finds the log identical."""
     from touchdown.logs import safe_read
     from touchdown.replay.verify import verify
-    path = tmp_path / "commands.mcap"
-    _commands_log(path, 20_000, 200, keyframe_interval=2)
+    path = commands_20k
     if cut:
-        path.write_bytes(path.read_bytes()[:-1])
+        path = tmp_path / "cut.mcap"
+        path.write_bytes(commands_20k.read_bytes()[:-1])
     ends = []
     real = safe_read._nothing_past
 
@@ -420,15 +438,17 @@ def test_a_log_of_more_commands_than_a_timeline_may_hold_is_refused(tmp_path, mo
     assert r.exit_code == 0 and "identical: ticks 0..10" in r.output, r.output
 
 
-def test_a_timeline_of_200_000_commands_holds_them_in_under_250_bytes_each(tmp_path):
+def test_a_timeline_of_50_000_commands_holds_them_in_under_250_bytes_each(tmp_path):
     """timeline() holds a log's commands in little memory: each command compact (no __dict__),
     the values commands repeat (ticks, ship ids, numbers, vectors) held once, the batch parsed
-    from where it lies in its chunk a megabyte at a time. 200,000 commands of one tick (a 9.8 MB
-    batch) written by the project's writer: timeline()'s peak (tracemalloc) was ~380 bytes a
-    command, ~130 now (held: 280, now 80)."""
+    from where it lies in its chunk a megabyte at a time. 50,000 commands of one tick (a 2.4 MB
+    batch: three pieces) written by the project's writer: timeline()'s peak (tracemalloc) was
+    ~380 bytes a command, ~130 now (held: 280, now 80). Those are per command, the same at
+    50,000, 200,000 (this test's count until session 31: 4x the time under tracemalloc) and
+    1,000,000 commands (docs/issue36/session25-timeline.txt, session26-fastpart.txt)."""
     import tracemalloc
     path = tmp_path / "commands.mcap"
-    _commands_log(path, 200_000, 8, keyframe_interval=2)
+    _commands_log(path, 50_000, 8, keyframe_interval=2)
     with LogReader(path) as r:
         r.ship_table()
         tracemalloc.start()
@@ -441,7 +461,7 @@ def test_a_timeline_of_200_000_commands_holds_them_in_under_250_bytes_each(tmp_p
     per, held_per = (peak - before) / len(commands), (held - before) / len(commands)
     print(f"timeline() of {len(commands):,} commands: peak {per:.0f} B a command, "
           f"{held_per:.0f} held")
-    assert len(commands) == 200_000 and per < 250, per
+    assert len(commands) == 50_000 and per < 250, per
     assert commands[0] == commands[-1] and commands[-1].rcs == (0.0, 0.1, 0.0)
 
 
