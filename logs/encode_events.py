@@ -370,7 +370,9 @@ def _written(ships, body: str, dt_s: float, states: np.ndarray, first_tick: int,
     ints = np.array((ticks, rows, ticks, froms, tos, kinds, rows), dtype=None)
     if ints.dtype.kind not in "iu" or ints.dtype.itemsize > 8 or ints.dtype == np.uint64:
         return None  # (a float, or a number past int64: protobuf's to refuse or write)
-    ev = ints.T.astype(np.int64)  # (E, 7), rows made keys below
+    # (E, 7), rows made keys below; C order whatever E (ints.T is Fortran-ordered, and one
+    # event's (1, 7) is both: numba would compile _encode once for each layout)
+    ev = np.ascontiguousarray(ints.T, dtype=np.int64)
     ev[:, 0] -= first_tick
     k, i = ev[:, 0], ev[:, 1]
     if (k < 0).any() or (k >= states.shape[0]).any() or (i < 0).any() or \
@@ -391,7 +393,8 @@ def _written(ships, body: str, dt_s: float, states: np.ndarray, first_tick: int,
         new = [x.encode() for pair in zip(ship_ids, player_ids) for x in pair]
         at = np.zeros(2 * n + 1, np.int64)
         np.cumsum(np.fromiter(map(len, new), np.int64, 2 * n), out=at[1:])
-        blob = np.frombuffer(b"".join(new) or b"\0", np.uint8)
+        # writable, as the table's (numba types a read-only array apart: one more compile)
+        blob = np.frombuffer(bytearray(b"".join(new) or b"\0"), np.uint8)
         ev[:, 6] = np.arange(n)
     doubles = np.empty((n, 2))
     doubles[:, 0] = v_radial
