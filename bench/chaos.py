@@ -43,6 +43,7 @@ import redis
 ROOT = Path(__file__).resolve().parents[1]
 SHARDS = 4
 GATEWAYS = 4  # writers at once
+CHECKPOINT_TICKS = 20  # the workers' --checkpoint-every (a checkpoint flushes the flight log)
 SPACING_S = 0.25  # a ship's throttles are at least this far apart (see Gateway._throttle)
 
 
@@ -347,6 +348,8 @@ class Verdict:
     lost_with_redis: int = 0
     #: a worker's lines saying a shard went back (lost to another worker, or started anew)
     backwards: list = field(default_factory=list)
+    #: what flight logs held past the world's run (logs.shards): (file, tick, what)
+    not_kept: list = field(default_factory=list)
 
     def line(self) -> str:
         maybe = sum(1 for w in self.lost if w[-1] == "a later throttle of the ship applied")
@@ -358,7 +361,9 @@ class Verdict:
                 + (f"; logs not verifying {len(self.unverified)}" if self.unverified else "")
                 + (f"; lost with Redis's data {self.lost_with_redis}" if self.lost_with_redis
                    else "")
-                + (f"; shards gone back {len(self.backwards)}" if self.backwards else ""))
+                + (f"; shards gone back {len(self.backwards)}" if self.backwards else "")
+                + (f"; applied in histories not kept {len(self.not_kept)}" if self.not_kept
+                   else ""))
 
     @property
     def ok(self) -> bool:
@@ -373,35 +378,47 @@ def _files(folder: Path) -> list[Path]:
     return sorted(folder.rglob("*.mcap")) + sorted(folder.rglob("*.partial"))
 
 
-def from_logs(folder: Path) -> tuple[dict, dict, dict]:
-    """Across every flight log, each read up to its ``superseded_after_tick``: the ticks at which
-    each ship joined, left, and each throttle value was given (value -> ship -> ticks)."""
+def from_logs(folder: Path, dropped: list | None = None) -> tuple[dict, dict, dict]:
+    """Across every flight log, each read for the ticks that are the world's (logs.shards: up
+    to its ``superseded_after_tick`` and to the first tick of any later take of its shard): the
+    ticks at which each ship joined, left, and each throttle value was given (value -> ship ->
+    ticks). ``dropped``: given a list, what the files held past their ``until`` is appended to
+    it (file, tick, what), as evidence that a fault made a history the world did not keep."""
     from touchdown.logs.reader import LogReader
-    joins: dict[str, set] = {}
-    leaves: dict[str, set] = {}
-    throttles: dict[str, dict[str, set]] = {}
+    from touchdown.logs.shards import ShardFile, take_of, world_until
+    read = []
     for path in _files(folder):
         if path.suffix == ".partial" and _empty_start(path):
             continue  # (begun by a worker SIGKILLed before it wrote anything)
         try:
             with LogReader(path) as r:
                 s = r.read_summary() if r.status.complete else None
-                upto = s.superseded_after_tick if s is not None and s.HasField(
-                    "superseded_after_tick") else float("inf")
-                tl = r.timeline()
+                mark = s.superseded_after_tick if s is not None and s.HasField(
+                    "superseded_after_tick") else None
+                read.append((ShardFile(path, take_of(r.scenario), r.start_tick, mark),
+                             r.timeline()))
         except Exception as exc:  # noqa: BLE001  (a file cut by a SIGKILL: read what is whole)
             print(f"  (a log not read: {path.name}: {type(exc).__name__}: {exc})")
             continue
-        for sp in tl.spawns:
-            if sp.tick < upto and sp.tick >= 0:
-                joins.setdefault(sp.ship_id, set()).add(sp.tick)
-        for rt in tl.retires:
-            if rt.tick < upto:
-                leaves.setdefault(rt.ship_id, set()).add(rt.tick)
+    until = world_until(f for f, _tl in read)
+    joins: dict[str, set] = {}
+    leaves: dict[str, set] = {}
+    throttles: dict[str, dict[str, set]] = {}
+    for f, tl in read:
+        upto = until[f.key]
+        found = [(sp.tick, "join", sp.ship_id, joins) for sp in tl.spawns if sp.tick >= 0]
+        found += [(rt.tick, "leave", rt.ship_id, leaves) for rt in tl.retires]
+        for tick, what, ship, into in found:
+            if tick < upto:
+                into.setdefault(ship, set()).add(tick)
+            elif dropped is not None:
+                dropped.append((f.key.name, tick, f"{what} {ship}"))
         for c in tl.commands:
+            v = f"{c.throttle:.6f}"
             if c.tick < upto:
-                v = f"{c.throttle:.6f}"
                 throttles.setdefault(v, {}).setdefault(c.ship_id, set()).add(c.tick)
+            elif dropped is not None:
+                dropped.append((f.key.name, c.tick, f"throttle {c.ship_id} {v}"))
     return joins, leaves, throttles
 
 
@@ -476,7 +493,8 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int,
     """Each entry sent found exactly once: applied in the logs, rejected on the event stream (or
     by the results stream), or superseded. ``follower``: what a gateway read as it went (else
     the streams as they are at the end)."""
-    joins, leaves, throttles = from_logs(folder)
+    not_kept: list = []
+    joins, leaves, throttles = from_logs(folder, not_kept)
     if follower is not None:
         events = list(follower.events.values())
     else:
@@ -491,7 +509,7 @@ def account(sent: list[Sent], folder: Path, client, keys, shards: int,
             rejected.setdefault(key, []).append(e)
     results = read_results(client, keys, shards) if follower is None else \
         _results_of(follower.results.values())
-    v = Verdict()
+    v = Verdict(not_kept=not_kept)
     for k in range(shards):  # each shard's seq: no hole, no repeat (from the first kept)
         nums = sorted(int(e["seq"].split(":")[1]) for e in events
                       if e.get("seq", "").startswith(f"{k}:"))
@@ -702,6 +720,13 @@ class Workers:
     def alive(self) -> list[str]:
         return [n for n, p in self.procs.items() if p.poll() is None]
 
+    def signal(self, name: str, sig: int) -> None:
+        """``sig`` to worker ``name`` (SIGSTOP, SIGCONT: a worker frozen as by a long GC pause, a
+        VM migration, or a swapped-out process)."""
+        p = self.procs.get(name)
+        if p is not None and p.poll() is None:
+            p.send_signal(sig)
+
     def stop_all(self) -> dict:
         return {n: self.term(n) for n in list(self.procs)}
 
@@ -721,7 +746,7 @@ def _until(pred, timeout: float, what: str) -> None:
 # -- the cases ----------------------------------------------------------------------------------
 #: the faults ``bench chaos`` draws from (``pause-S``, ``rollback-S``: any seconds)
 FAULTS = ("worker-kill", "takeover-kill", "pause-5", "pause-30", "aof-restart", "empty-restart",
-          "rollback-2", "failover", "reshard")
+          "rollback-2", "stale-rollback", "failover", "reshard")
 CLUSTER_FAULTS = ("failover", "reshard")
 
 
@@ -805,7 +830,8 @@ def run_session(faults: list[str], folder: Path, seconds_between: float = 6.0,
         url_args = ["--redis", server.url]
         connect = lambda: server.client(socket_timeout=120)  # noqa: E731  (blocks through pauses)
     args = [*url_args, "--prefix", prefix, "--log-dir", str(flight), "--shards", str(SHARDS),
-            "--lease", str(lease_s), "--checkpoint-every", "20", "--stats-every", "1"]
+            "--lease", str(lease_s), "--checkpoint-every", str(CHECKPOINT_TICKS),
+            "--stats-every", "1"]
     pool = Workers(folder, args, python)
     client = connect()
     gws = Gateways(GATEWAYS, connect, keys, SHARDS, rate, seed, cluster=cluster,
@@ -947,6 +973,8 @@ def inject(fault: str, ses: Session) -> None:
         ses.wiped.append((t, time.monotonic()))
         notes.append(f"    redis SIGKILLed and started from a snapshot {age:g} s old (every "
                      f"write since lost: a failover to a lagging replica, longer)")
+    elif fault == "stale-rollback":
+        _stale_rollback(ses)
     elif fault == "failover":
         i = cl.node_of(ses.keys.shard(1, "owner"))
         cl.kill(i)
@@ -960,6 +988,46 @@ def inject(fault: str, ses: Session) -> None:
         notes.append(f"    shard 1's slot moved: {moved}")
     else:
         raise ValueError(fault)
+
+
+def _stale_rollback(ses: Session) -> None:
+    """A worker frozen through a rollback and killed before it learns of it (found once under
+    load, 2026-12-02: four throttles counted twice). The owner of a shard is frozen for half a
+    lease, so that commands wait unread in Redis; Redis saves a snapshot; the owner thaws,
+    reads them, journals and applies them, and its flight log is flushed at its next
+    checkpoint; it is frozen again and Redis is started from the snapshot (the journal, the
+    reads and the checkpoint gone, the commands unread again); the other worker takes the
+    shards when the lease lapses and applies the commands again at its own ticks; the frozen
+    worker is then SIGKILLed, its log never marked superseded. Its log's ticks from the
+    successor's first tick on are a history the world did not keep (logs.shards)."""
+    server, notes, pool = ses.server, ses.notes, ses.workers
+    alive = pool.alive()
+    victim, others = alive[0], alive[1:]
+    pool.signal(victim, signal.SIGSTOP)
+    time.sleep(ses.lease_s / 2)
+    t = time.monotonic() - 0.2
+    snap = server.snapshot()
+    pool.signal(victim, signal.SIGCONT)
+    time.sleep(CHECKPOINT_TICKS * 0.1 + 0.5)  # (a checkpoint flushes its flight log)
+    pool.signal(victim, signal.SIGSTOP)
+    server.restart_from(snap)
+    ses.wiped.append((t, time.monotonic()))
+    notes.append(f"    worker {victim} frozen {ses.lease_s / 2:g} s, a snapshot taken, "
+                 f"{victim} thawed {CHECKPOINT_TICKS * 0.1 + 0.5:g} s, frozen again, redis "
+                 f"started from the snapshot")
+    if others:
+        c = server.client()
+        try:
+            _until(lambda: set(_owners(c, ses.keys, SHARDS).values()) <= {
+                o.encode() for o in others}, 60, f"{', '.join(others)} to take every shard")
+        finally:
+            c.close()
+    pool.kill(victim)
+    notes.append(f"    worker {victim} SIGKILLed once {', '.join(others) or 'nobody'} held "
+                 f"every shard")
+    name = _next_name(ses)
+    pool.start(name)
+    notes.append(f"    worker {name} started")
 
 
 def main(faults: list[str], seconds: float, rate: float, seed: int, minutes: float | None,

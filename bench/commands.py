@@ -167,9 +167,10 @@ def logs(quick: bool) -> None:
               help="a fault to inject (repeatable): worker-kill, pause-S (Redis SIGSTOPped S "
                    "seconds), takeover-kill (a worker killed, then the one taking its shards "
                    "over), aof-restart, empty-restart, rollback-S (restarted from a snapshot "
-                   "S seconds old), failover, reshard; default: worker-kill, takeover-kill, "
-                   "pause-5, pause-30, "
-                   "aof-restart, empty-restart, rollback-2, failover, reshard, each once")
+                   "S seconds old), stale-rollback (a worker frozen through a rollback, "
+                   "its shards taken, then killed), failover, reshard; default: worker-kill, "
+                   "takeover-kill, pause-5, pause-30, aof-restart, empty-restart, rollback-2, "
+                   "stale-rollback, failover, reshard, each once")
 @click.option("--minutes", type=click.FloatRange(min=0.0), default=None,
               help="sessions of three faults drawn from the seed until this much time has "
                    "passed (default: each fault once)")

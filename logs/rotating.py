@@ -37,6 +37,7 @@ from typing import Callable
 from touchdown.logs.encode import ShipTables
 from touchdown.logs.encode_events import EventMessages
 from touchdown.logs.header import ShipTable, world_header_later
+from touchdown.logs.shards import ShardTake
 from touchdown.logs.writer import QUEUE_BLOCKS, FinishedOrGone, LogWriter, Runner
 from touchdown.sim.world import Block, World
 
@@ -66,7 +67,7 @@ class RotatingLog(FinishedOrGone):
                  description: str = "", chunk_size: int | None = None,
                  flush_every_ticks: int = 200, zstd_level: int | None = None,
                  keyframe_phase: int = 0, queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
-                 tables: ShipTables | None = None):
+                 tables: ShipTables | None = None, shard: ShardTake | None = None):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -82,6 +83,7 @@ class RotatingLog(FinishedOrGone):
         self.source = source
         self.open_ended = open_ended
         self.description = description
+        self.shard = shard  # a live service's shard and its take, in every file's header
         # chunks well under the bound, so that a file's size on disk follows what it holds
         self.chunk_size = chunk_size or max(4096, min(1 << 20, max_bytes // 8))
         self.flush_every_ticks = flush_every_ticks
@@ -216,6 +218,8 @@ class RotatingLog(FinishedOrGone):
             world, self.name or world.scene.doc.get("name", self.prefix), self.source,
             self.keyframe_interval, self.open_ended, self.description, tables=self._tables,
             keyframe_phase=self.keyframe_phase)
+        if self.shard is not None:
+            self.shard.stamp(header)
         path = self._path(world.tick)
         self.directory.mkdir(parents=True, exist_ok=True)
         if self.runner is None:

@@ -80,7 +80,7 @@ class ShipState(_message.Message):
     def __init__(self, ship_id: _Optional[str] = ..., player_id: _Optional[str] = ..., landed_body_name: _Optional[str] = ..., position_m: _Optional[_Union[Vec3, _Mapping]] = ..., velocity_mps: _Optional[_Union[Vec3, _Mapping]] = ..., attitude: _Optional[_Union[Quaternion, _Mapping]] = ..., omega_body_radps: _Optional[_Union[Vec3, _Mapping]] = ..., mass_kg: _Optional[float] = ..., fuel_kg: _Optional[float] = ..., state: _Optional[_Union[SurfaceState, str]] = ..., tilt_deg: _Optional[float] = ..., surface_contact_state: _Optional[str] = ...) -> None: ...
 
 class ScenarioRecord(_message.Message):
-    __slots__ = ("log_format_version", "project_version", "name", "description", "resolved_json", "integrator", "dt_s", "ship_ids", "player_ids", "body", "source", "n_ticks", "keyframe_interval", "start_tick", "open_ended", "keyframe_phase")
+    __slots__ = ("log_format_version", "project_version", "name", "description", "resolved_json", "integrator", "dt_s", "ship_ids", "player_ids", "body", "source", "n_ticks", "keyframe_interval", "start_tick", "open_ended", "keyframe_phase", "shard", "shard_epoch", "shard_taken_us")
     LOG_FORMAT_VERSION_FIELD_NUMBER: _ClassVar[int]
     PROJECT_VERSION_FIELD_NUMBER: _ClassVar[int]
     NAME_FIELD_NUMBER: _ClassVar[int]
@@ -97,6 +97,9 @@ class ScenarioRecord(_message.Message):
     START_TICK_FIELD_NUMBER: _ClassVar[int]
     OPEN_ENDED_FIELD_NUMBER: _ClassVar[int]
     KEYFRAME_PHASE_FIELD_NUMBER: _ClassVar[int]
+    SHARD_FIELD_NUMBER: _ClassVar[int]
+    SHARD_EPOCH_FIELD_NUMBER: _ClassVar[int]
+    SHARD_TAKEN_US_FIELD_NUMBER: _ClassVar[int]
     log_format_version: int
     project_version: str
     name: str
@@ -113,7 +116,10 @@ class ScenarioRecord(_message.Message):
     start_tick: int
     open_ended: bool
     keyframe_phase: int
-    def __init__(self, log_format_version: _Optional[int] = ..., project_version: _Optional[str] = ..., name: _Optional[str] = ..., description: _Optional[str] = ..., resolved_json: _Optional[str] = ..., integrator: _Optional[str] = ..., dt_s: _Optional[float] = ..., ship_ids: _Optional[_Iterable[str]] = ..., player_ids: _Optional[_Iterable[str]] = ..., body: _Optional[str] = ..., source: _Optional[str] = ..., n_ticks: _Optional[int] = ..., keyframe_interval: _Optional[int] = ..., start_tick: _Optional[int] = ..., open_ended: _Optional[bool] = ..., keyframe_phase: _Optional[int] = ...) -> None: ...
+    shard: int
+    shard_epoch: str
+    shard_taken_us: int
+    def __init__(self, log_format_version: _Optional[int] = ..., project_version: _Optional[str] = ..., name: _Optional[str] = ..., description: _Optional[str] = ..., resolved_json: _Optional[str] = ..., integrator: _Optional[str] = ..., dt_s: _Optional[float] = ..., ship_ids: _Optional[_Iterable[str]] = ..., player_ids: _Optional[_Iterable[str]] = ..., body: _Optional[str] = ..., source: _Optional[str] = ..., n_ticks: _Optional[int] = ..., keyframe_interval: _Optional[int] = ..., start_tick: _Optional[int] = ..., open_ended: _Optional[bool] = ..., keyframe_phase: _Optional[int] = ..., shard: _Optional[int] = ..., shard_epoch: _Optional[str] = ..., shard_taken_us: _Optional[int] = ...) -> None: ...
 
 class TickBatch(_message.Message):
     __slots__ = ("tick", "t_s", "ship_count", "surface_state", "pos_m", "vel_mps", "quat", "omega_body_radps", "mass_kg", "fuel_kg", "absorbing", "sliding", "settle_ticks", "pivot_rate_radps", "pin_pos_bf_m", "pin_quat_bf", "pin_pivot_bf_m", "settle_for_s", "settle_margin", "hold_force_n", "altitude_m", "penetration_m", "cos_tilt", "v_radial_mps", "v_tangential_mps", "normal_force_n", "friction_force_n", "throttle", "rcs_torque_body_nm", "peak_penetration_m", "energy_guard_j", "input_throttle", "input_rcs", "input_hold", "ship_key")

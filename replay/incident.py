@@ -10,7 +10,8 @@ written). So the cut holds only numbers the recording holds, or numbers a replay
 identically (the keyframe-only fields between the recording's keyframes are not written: the cut
 has the same keyframe ticks), and ``touchdown replay OUT --verify`` passes on it.
 
-The logs given (files, or directories of rotated files) are one run's: the file whose first tick
+The logs given (files, or directories of rotated files) are one run's (a live shard's files of
+several takes: each only up to where a later take went on, logs.shards): the file whose first tick
 is the latest at or before the window's start holds its start, and the window goes on into the
 file that continues it (whose first tick is at or before the last tick of the one before), as
 far as the files go. The window is clipped to what they hold, and to the ship's time in the
@@ -30,6 +31,7 @@ from touchdown.logs.encode_events import event_messages
 from touchdown.logs.header import TOPIC_EVENTS, tick_arrays, world_header
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import keyframe_world, scenario_of
+from touchdown.logs.shards import ShardFile, take_of, world_until
 from touchdown.logs.writer import LogWriter
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.errors import TouchdownError
@@ -115,6 +117,31 @@ def _last_tick(reader: LogReader) -> int:
     return last
 
 
+def _world_segments(readers: list[LogReader]) -> tuple[list[Segment], list[str]]:
+    """The files as segments of the world's run, by first tick: a live shard's file read only up
+    to its ``superseded_after_tick`` and to the first tick of a later take of its shard
+    (logs.shards: what it holds after that is a history the world did not keep); a file with
+    nothing of the world's left out. And a note for each file so clipped."""
+    files = []
+    for r in readers:
+        summary = r.read_summary() if r.status.complete else None
+        mark = summary.superseded_after_tick if summary is not None and summary.HasField(
+            "superseded_after_tick") else None
+        files.append(ShardFile(r, take_of(r.scenario), r.start_tick, mark))
+    until = world_until(files)
+    segs, notes = [], []
+    for r in readers:
+        last = _last_tick(r)
+        end = until[r] - 1
+        if end < last:
+            notes.append(f"{r.path}: its ticks after {end} are superseded (its shard went on "
+                         f"from there: logs.shards)")
+            last = int(end)
+        if last >= r.start_tick:
+            segs.append(Segment(r, r.start_tick, last))
+    return sorted(segs, key=lambda s: s.first), notes
+
+
 def incident(paths: list[str], ship_id: str, around: int, before_s: float, after_s: float,
              out: str | Path) -> Cut:
     """Cut ship ``ship_id``'s ticks ``around - before .. around + after`` (seconds, as ticks of
@@ -148,8 +175,10 @@ def _cut(readers: list[LogReader], ship_id: str, around: int, before_s: float, a
         raise LogError(f"{base.path}: log format {base.log_format}: an incident cut needs format "
                        f"3 (recorded commands)")
     dt = sr.dt_s
-    segs = sorted((Segment(r, r.start_tick, _last_tick(r)) for r in readers),
-                  key=lambda s: s.first)
+    segs, notes = _world_segments(readers)
+    if not segs:
+        raise LogError(f"{base.path}: the logs hold no tick of the world's run (every file is "
+                       f"superseded)")
     for a, b in zip(segs, segs[1:]):
         if a.first == b.first:
             raise LogError(f"{a.name} and {b.name} both start at tick {a.first}: give the files "
@@ -159,7 +188,6 @@ def _cut(readers: list[LogReader], ship_id: str, around: int, before_s: float, a
         raise LogError(f"{', '.join(s.name for s in segs)}: no ship {ship_id!r} in "
                        f"{'this log' if len(segs) == 1 else 'these logs'} (ships: "
                        f"{', '.join(ids[:20])}{', ...' if len(ids) > 20 else ''})")
-    notes: list[str] = []
     lo = around - int(math.floor(before_s / dt + 0.5))
     hi = around + int(math.floor(after_s / dt + 0.5))
     held_from, held_to = segs[0].first, max(s.last for s in segs)

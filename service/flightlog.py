@@ -29,6 +29,7 @@ from typing import Callable
 
 from touchdown.logs.encode_events import EventMessages, event_messages
 from touchdown.logs.rotating import RotatingLog
+from touchdown.logs.shards import ShardTake
 from touchdown.logs.writer import LIVE_QUEUE_BLOCKS, QUEUE_BYTES
 from touchdown.sim.world import Block, World
 
@@ -64,7 +65,7 @@ class ServiceLog:
                  keyframe_phase: int = 0,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
                  retry_s: float = 2.0, zstd_level: int | None = None,
-                 first_bytes: int | None = None, tables=None):
+                 first_bytes: int | None = None, tables=None, shard: ShardTake | None = None):
         self.directory = Path(directory)
         self._world = world
         self.say = say
@@ -72,7 +73,8 @@ class ServiceLog:
                          name=name, source=source, open_ended=True, zstd_level=zstd_level,
                          keyframe_phase=keyframe_phase,
                          queue=(LIVE_QUEUE_BLOCKS, QUEUE_BYTES),  # a starved writer catches up
-                         tables=tables)  # the headers' ship tables, some known (RotatingLog)
+                         tables=tables,  # the headers' ship tables, some known (RotatingLog)
+                         shard=shard)  # the shard's take, in every header (logs.shards)
         self._niced = None  # the writers' thread last given a lower priority (native id)
         # the first file's bound (the shards' files staggered: their rotations, each a header
         # of every ship's table and a keyframe, fall on different ticks)

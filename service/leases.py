@@ -131,9 +131,8 @@ class Leases:
             if k in w.owned:
                 continue
             taken_at = time.monotonic()
-            epoch = w.store.take_lease(k, self.lease_ms)
-            if epoch:
-                fence = Fence(w.id, epoch, self.lease_ms)
+            fence = w.store.take_lease(k, self.lease_ms)
+            if fence:
                 self.fences[k] = fence
                 self.taking.add(k)  # the renewal thread renews it meanwhile
                 try:

@@ -200,7 +200,10 @@ def fenced(body: str) -> str:
 
 
 #: TAKE: a free shard's lease, and a new epoch "N:worker". KEYS owner, epoch; ARGV worker, lease
-#: ms. Returns the epoch, or nil (taken by another).
+#: ms. Returns [the epoch, Redis's TIME (seconds, microseconds)], or nil (taken by another). The
+#: time orders a shard's flight logs where the epoch's number cannot: Redis started from an
+#: older snapshot hands out a number again. (TIME last: before Redis 7, a script may not write
+#: after a non-deterministic command.)
 TAKE = """
 if not redis.call('SET', KEYS[1], ARGV[1], 'NX', 'PX', ARGV[2]) then return false end
 local e = redis.call('GET', KEYS[2])
@@ -208,7 +211,8 @@ local n = 0
 if e then n = tonumber(string.match(e, '^(%d+):')) or 0 end
 local mine = tostring(n + 1) .. ':' .. ARGV[1]
 redis.call('SET', KEYS[2], mine)
-return mine
+local t = redis.call('TIME')
+return {mine, t[1], t[2]}
 """
 
 #: Shard k's entries for the event stream, above its mark: KEYS owner, epoch, mark, events, tick;

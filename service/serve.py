@@ -64,6 +64,7 @@ from touchdown.service.commands import Rejected, Request, decode_entry, parse, s
 from touchdown.service.kinds import parts_of
 from touchdown.logs.encode import ShipTables
 from touchdown.logs.header import header_table
+from touchdown.logs.shards import ShardTake
 from touchdown.service.flightlog import ServiceLog, lower_priority
 from touchdown.service.leases import Leases
 from touchdown.service.memory import keep_freed_memory
@@ -982,7 +983,7 @@ class Worker:
         if k == 0 and not self.cfg.cluster:
             self._route_from = "0"
             store.claim_router()
-        shard = self._open_shard(k, start)
+        shard = self._open_shard(k, start, fence)
         o = _Owned(shard, fence)
         o.joined = {sid: int(v[0]) for sid, v in start.specs.items()}
         o.hashes.update(shard.hashes_of(np.arange(world.state.n), world.tick))
@@ -1041,9 +1042,9 @@ class Worker:
         return ShardStart(world, list(cp.autoland), int(cp.published), specs_json,
                           f"from its checkpoint at tick {state.tick}", True)
 
-    def _open_shard(self, k: int, start: ShardStart) -> Shard:
+    def _open_shard(self, k: int, start: ShardStart, fence: Fence) -> Shard:
         """Shard k's Shard from ``start``, with its flight log started (the file's first record:
-        the state it starts at)."""
+        the state it starts at; every file's header names the take, ``fence``: logs.shards)."""
         cfg = self.cfg
         shard = Shard(k, start.world, None, self.body, dict.fromkeys(start.autoland),
                       start.published, limits=cfg.limits,
@@ -1057,7 +1058,8 @@ class Worker:
             max_age_s=cfg.log_max_age_s, min_free_bytes=cfg.log_min_free_bytes,
             zstd_level=cfg.log_zstd_level,
             first_bytes=cfg.log_max_bytes * (k + 1) // cfg.shards,
-            tables=self._header_tables(start.world))
+            tables=self._header_tables(start.world),
+            shard=ShardTake(k, fence.epoch, fence.taken_us) if fence.taken_us else None)
         shard.log.start()
         return shard
 

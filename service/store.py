@@ -131,10 +131,13 @@ class ShardWrites:
 
 @dataclass(frozen=True)
 class Fence:
-    """What every owner-only script is given: the worker, the shard's epoch it took, the lease."""
+    """What every owner-only script is given: the worker, the shard's epoch it took, the lease;
+    and when the take happened by Redis's clock (µs since 1970; 0: not known), which orders a
+    shard's flight logs (logs.shards)."""
     worker: str
     epoch: str
     lease_ms: int
+    taken_us: int = 0
 
     def args(self) -> list:
         return [self.worker, self.epoch, self.lease_ms]
@@ -262,10 +265,13 @@ class ShardStore:
     def live_workers(self) -> int:
         return self.r.zcard(self.keys.workers) or 1
 
-    def take_lease(self, k: int, lease_ms: int) -> str | None:
-        """TAKE: shard k's lease if it is free, with a new epoch (returned), else None."""
+    def take_lease(self, k: int, lease_ms: int) -> Fence | None:
+        """TAKE: shard k's lease if it is free, with a new epoch (its fence), else None."""
         got = self._script("TAKE", self._fence_keys(k), [self.worker, lease_ms])
-        return got.decode() if isinstance(got, bytes) else got
+        if not got:
+            return None
+        epoch, sec, usec = (x.decode() if isinstance(x, bytes) else x for x in got)
+        return Fence(self.worker, epoch, lease_ms, int(sec) * 1_000_000 + int(usec))
 
     def holds_lease(self, k: int) -> bool:
         return self.r.get(self.keys.shard(k, "owner")) == self.worker.encode()

@@ -441,6 +441,46 @@ def test_an_incident_window_across_two_files_is_cut_from_both(run, tmp_path):
     assert res.identical and res.last_tick == end + 10, res.report()
 
 
+def test_an_incident_across_two_takes_of_a_shard_follows_the_later_take(tmp_path):
+    """A live shard's files of two takes (logs.shards): worker 1 took it at tick 0 and ran on to
+    tick 200 without ever marking its file (frozen, then killed); worker 2 took it later from
+    Redis's checkpoint at tick 100 and gave ship a another throttle at tick 120. A cut from tick
+    80 to 160 is worker 1's file up to tick 100 and worker 2's after it: worker 2's throttle,
+    never worker 1's, whose file holds a history the world did not keep."""
+    from touchdown.logs.shards import ShardTake
+    takes = {1: ShardTake(0, "1:w1", 1_000), 2: ShardTake(0, "2:w2", 2_000)}
+
+    def fly(take: int, start: int, directory: Path) -> None:
+        world = World.of(parse_text(SCENE, "segments.toml"))
+        log = None
+        for t in range(0, 200, 10):
+            if t == start:
+                log = RotatingLog(directory, world, keyframe_interval=KEYFRAMES,
+                                  keyframe_phase=PHASE, shard=takes[take], prefix=f"w{take}",
+                                  open_ended=True)
+                log.write_block(world.first_block())
+            if t == 30:
+                world.command("a", throttle=0.25, hold=2)
+            if t == 120:
+                world.command("a", throttle={1: 0.9, 2: 0.6}[take])
+            for block in world.blocks(t + 10, max_ticks=10):
+                if log is not None:
+                    log.write_block(block)
+        log.close()
+
+    fly(1, 0, tmp_path / "shard-000")
+    fly(2, 100, tmp_path / "shard-000")
+    out = tmp_path / "cut.mcap"
+    r = _incident(tmp_path / "shard-000", "--ship", "a", "--around", 130, "--before", "2.5",
+                  "--after", "1.5", "-o", out)
+    assert r.exit_code == 0, r.output
+    assert "spans 2 files" in r.output and "after 100 are superseded" in r.output, r.output
+    assert verify(str(out)).identical
+    with LogReader(out) as rd:
+        throttles = [(c.tick, c.throttle) for c in rd.timeline().commands]
+    assert (120, 0.6) in throttles and all(v != 0.9 for _t, v in throttles), throttles
+
+
 def test_an_incident_cut_from_a_tampered_recording_is_refused(run, tmp_path):
     """One number of the ship, one ulp off inside the window: the cut stops there, exit 1, one
     line naming the file, tick and field; nothing is written."""

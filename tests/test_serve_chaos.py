@@ -94,3 +94,26 @@ def test_a_cluster_failover_and_a_reshard_lose_and_double_nothing(tmp_path):
                       lease_s=LEASE_S, seed=7)
     # (a gateway that WAITs for a replica writes fewer: a promoted master has none for a while)
     _assert_accounted(out, least=50, stolen=False, folder=tmp_path)
+
+
+def test_a_worker_frozen_through_a_rollback_and_killed_unmarked_doubles_nothing(tmp_path):
+    """The owner of two shards frozen (SIGSTOP) for half a lease, so that commands wait unread;
+    Redis saves a snapshot; the owner thaws, applies them and flushes its flight log at its
+    next checkpoint; it is frozen again and Redis is started from the snapshot; the other
+    worker takes its shards when the lease lapses and applies the same commands at its own
+    ticks; the frozen worker is SIGKILLed without ever marking its logs superseded. Before
+    logs.shards each such command was counted twice (18 in one session); now each file is
+    read only up to the first tick of a later take of its shard."""
+    from touchdown.bench.chaos import from_logs
+    _need("redis-server")
+    out = run_session(["stale-rollback"], tmp_path, seconds_between=2.5, rate=120.0,
+                      lease_s=LEASE_S, seed=3)
+    _assert_accounted(out, folder=tmp_path)
+    # the fault did make a history the world did not keep, and it held commands the world
+    # applied again at other ticks: without the rule they would be counted twice
+    assert out.verdict.not_kept, out.verdict.line()
+    _joins, _leaves, throttles = from_logs(tmp_path / "flight")
+    again = [w for w in out.verdict.not_kept if w[2].startswith("throttle")
+             and w[2].split()[2] in throttles
+             and w[1] not in throttles[w[2].split()[2]].get(w[2].split()[1], {w[1]})]
+    assert again, out.verdict.not_kept[:10]

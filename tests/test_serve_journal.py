@@ -14,7 +14,7 @@ import redis
 
 from touchdown.service import redis_io as rio
 from touchdown.service.commands import Request
-from touchdown.service.store import Fence, JournalWrite, ShardStore
+from touchdown.service.store import JournalWrite, ShardStore
 from test_serve_ops import _ready, _server, _stop
 
 pytestmark = pytest.mark.redis
@@ -56,20 +56,19 @@ def _send(client, keys, n: int) -> list[str]:
 def test_a_lapsed_lease_nobody_took_is_taken_back_and_another_owner_is_refused(store):
     a, b = store("a"), store("b")
     client, keys = store.client, store.keys
-    epoch = a.take_lease(0, 300)
-    assert epoch == "1:a"
-    fence = Fence("a", epoch, 300)
+    fence = a.take_lease(0, 300)
+    assert fence.epoch == "1:a"
     assert b.take_lease(0, 300) is None  # held
     time.sleep(0.5)  # lapsed: nobody took it
     assert client.get(keys.shard(0, "owner")) is None
     got = a.journal([JournalWrite(0, fence, 5, [], [], -1)])
     assert got[0].code == 1 and client.get(keys.shard(0, "owner")) == b"a"  # taken back
     time.sleep(0.5)
-    assert b.take_lease(0, 300) == "2:b"  # a real new owner: a new epoch
+    assert b.take_lease(0, 300).epoch == "2:b"  # a real new owner: a new epoch
     time.sleep(0.5)  # b's lease lapsed too: a's epoch is not the shard's any more
     assert a.journal([JournalWrite(0, fence, 6, [], [], -1)])[0].code == -1
     keeper = a.lease_keeper(1.0)
-    assert keeper.renew([(0, epoch)], 300) == [0]
+    assert keeper.renew([(0, fence.epoch)], 300) == [0]
     keeper.close()
     client.delete(keys.shard(0, "epoch"))  # Redis lost the shard's state
     assert a.journal([JournalWrite(0, fence, 7, [], [], -1)])[0].code == -3
@@ -78,7 +77,7 @@ def test_a_lapsed_lease_nobody_took_is_taken_back_and_another_owner_is_refused(s
 def test_a_journal_write_whose_reply_was_lost_is_retracted_by_the_next_in_one_step(store):
     a = store("a")
     client, keys = store.client, store.keys
-    fence = Fence("a", a.take_lease(0, 5000), 5000)
+    fence = a.take_lease(0, 5000)
     ids = _send(client, keys, 3)
     got = client.xreadgroup(rio.Keys.group(0), "a", {keys.shard_commands(0): ">"})
     assert len(got[0][1]) == 3
@@ -109,7 +108,7 @@ def test_a_refused_journal_write_changes_nothing(store, tmp_path):
     acknowledged (the XADD comes first in the script)."""
     a = store("a")
     client, keys = store.client, store.keys
-    fence = Fence("a", a.take_lease(0, 5000), 5000)
+    fence = a.take_lease(0, 5000)
     ids = _send(client, keys, 2)
     client.xreadgroup(rio.Keys.group(0), "a", {keys.shard_commands(0): ">"})
     reqs = [_throttle(i) for i in ids]

@@ -39,17 +39,20 @@ def stores(redis_url):
 
 def test_a_shard_has_one_holder_and_each_holder_a_new_epoch(stores):
     a, b = stores
-    epoch_a = a.take_lease(0, LEASE_MS)
+    took_a = a.take_lease(0, LEASE_MS)
+    epoch_a = took_a.epoch
     assert epoch_a == "1:worker-a"
     assert b.take_lease(0, LEASE_MS) is None  # held: refused, whatever b asks
     assert a.holds_lease(0) and not b.holds_lease(0)
-    assert b.take_lease(1, LEASE_MS) == "1:worker-b"  # another shard is free
+    assert b.take_lease(1, LEASE_MS).epoch == "1:worker-b"  # another shard is free
     b.release(0, Fence("worker-b", epoch_a, LEASE_MS))  # not b's to release: nothing happens
     assert a.holds_lease(0)
     a.release(0, Fence("worker-a", epoch_a, LEASE_MS))
     assert not a.holds_lease(0)
-    epoch_b = b.take_lease(0, LEASE_MS)
-    assert epoch_b == "2:worker-b"  # the epoch counts every holder: an old one is told apart
+    took_b = b.take_lease(0, LEASE_MS)
+    assert took_b.epoch == "2:worker-b"  # the epoch counts every holder: an old one is told apart
+    # and Redis's clock orders the takes where a number may repeat (an older snapshot)
+    assert took_b.taken_us > took_a.taken_us > 1_700_000_000 * 1_000_000
 
 
 def test_the_first_workers_shard_count_and_scenario_are_the_services(stores):
@@ -67,7 +70,7 @@ def _requests(tick: int) -> list:
 def test_the_holders_journal_reads_back_as_written_and_a_lost_holders_is_refused(stores):
     a, b = stores
     a.ensure_group(0)
-    fence_a = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
+    fence_a = a.take_lease(0, LEASE_MS)
     got = a.journal([JournalWrite(0, fence_a, 7, _requests(7), None, -1),
                      JournalWrite(0, fence_a, 8, _requests(8), None, 7)])
     assert [(j.k, j.code, j.refused) for j in got] == [(0, 1, None), (0, 1, None)]
@@ -87,7 +90,7 @@ def test_the_holders_journal_reads_back_as_written_and_a_lost_holders_is_refused
 
 def test_a_checkpoint_is_the_holders_alone_and_what_the_next_holder_loads(stores):
     a, b = stores
-    fence_a = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
+    fence_a = a.take_lease(0, LEASE_MS)
     a.write_tables(0, {"ship-1": '[3, {"id": "ship-1"}]'}, {"ship-1": b"params"})
     assert a.checkpoint(0, fence_a, CheckpointWrite(b"state at 10", 10, 0, ())) == 1
     # b, not holding the lease, cannot overwrite it
@@ -96,7 +99,7 @@ def test_a_checkpoint_is_the_holders_alone_and_what_the_next_holder_loads(stores
     # a checkpoint counting entries that are not on the stream yet would lose them: refused
     assert a.checkpoint(0, fence_a, CheckpointWrite(b"ahead", 12, 5, ())) == -2
     a.release(0, fence_a)
-    assert b.take_lease(0, LEASE_MS) == "2:worker-b"
+    assert b.take_lease(0, LEASE_MS).epoch == "2:worker-b"
     loaded = b.load(0)
     assert loaded.blob == b"state at 10"
     assert loaded.specs == {"ship-1": [3, {"id": "ship-1"}]}
@@ -106,7 +109,7 @@ def test_a_checkpoint_is_the_holders_alone_and_what_the_next_holder_loads(stores
 
 def test_a_checkpoint_drops_the_ships_that_left(stores):
     a, _b = stores
-    fence = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
+    fence = a.take_lease(0, LEASE_MS)
     a.write_tables(0, {"s1": "[0, {}]", "s2": "[0, {}]"}, {"s1": b"p1", "s2": b"p2"})
     assert a.checkpoint(0, fence, CheckpointWrite(b"cp", 4, 0, ("s1",))) == 1
     assert set(a.load(0).specs) == {"s2"}
@@ -115,8 +118,8 @@ def test_a_checkpoint_drops_the_ships_that_left(stores):
 
 def test_renewal_keeps_this_workers_leases_and_says_which_are_anothers(stores):
     a, b = stores
-    e0 = a.take_lease(0, LEASE_MS)
-    e1 = b.take_lease(1, LEASE_MS)
+    e0 = a.take_lease(0, LEASE_MS).epoch
+    e1 = b.take_lease(1, LEASE_MS).epoch
     keeper = a.lease_keeper(timeout=2.0)
     try:
         assert keeper.renew([(0, e0), (1, e1), (2, "1:worker-a")], LEASE_MS) == [1, 0, -3]
@@ -151,7 +154,7 @@ def test_a_lost_holder_learns_the_tick_its_successor_goes_on_from(stores):
     counted twice.)"""
     a, b = stores
     a.ensure_group(0)
-    fence_a = Fence("worker-a", a.take_lease(0, LEASE_MS), LEASE_MS)
+    fence_a = a.take_lease(0, LEASE_MS)
     a.began(0, fence_a, 3)  # a's own start: kept by the rollback below
     got = a.journal([JournalWrite(0, fence_a, 7, _requests(7), None, -1),
                      JournalWrite(0, fence_a, 8, _requests(8), None, 7)])
@@ -159,7 +162,7 @@ def test_a_lost_holder_learns_the_tick_its_successor_goes_on_from(stores):
     a.r.set(a.keys.shard(0, "tick"), 6)  # the events out up to tick 6 (a snapshot's)
     assert a.successor_start(0, fence_a.epoch) == 9  # nobody else: what Redis holds
     a.release(0, fence_a)
-    fence_b = Fence("worker-b", b.take_lease(0, LEASE_MS), LEASE_MS)
+    fence_b = b.take_lease(0, LEASE_MS)
     assert fence_b.epoch == "2:worker-b"
     # b re-stepping: no began of its epoch (a's older one is not b's start)
     assert a.successor_start(0, fence_a.epoch) == 9
@@ -191,7 +194,7 @@ def test_a_released_lease_stays_free_while_the_renewals_go_on(stores):
     held = []
     try:
         for k in range(200):
-            fence = Fence("worker-a", a.take_lease(k, 10_000), 10_000)
+            fence = a.take_lease(k, 10_000)
             leases.fences[k] = fence
             worker.owned[k] = None
             time.sleep(0.001 * (k % 7))
