@@ -385,18 +385,14 @@ def from_logs(folder: Path, dropped: list | None = None) -> tuple[dict, dict, di
     ticks). ``dropped``: given a list, what the files held past their ``until`` is appended to
     it (file, tick, what), as evidence that a fault made a history the world did not keep."""
     from touchdown.logs.reader import LogReader
-    from touchdown.logs.shards import ShardFile, take_of, world_until
+    from touchdown.logs.shards import shard_file, world_until
     read = []
     for path in _files(folder):
         if path.suffix == ".partial" and _empty_start(path):
             continue  # (begun by a worker SIGKILLed before it wrote anything)
         try:
             with LogReader(path) as r:
-                s = r.read_summary() if r.status.complete else None
-                mark = s.superseded_after_tick if s is not None and s.HasField(
-                    "superseded_after_tick") else None
-                read.append((ShardFile(path, take_of(r.scenario), r.start_tick, mark),
-                             r.timeline()))
+                read.append((shard_file(r, path), r.timeline()))
         except Exception as exc:  # noqa: BLE001  (a file cut by a SIGKILL: read what is whole)
             print(f"  (a log not read: {path.name}: {type(exc).__name__}: {exc})")
             continue

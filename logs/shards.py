@@ -58,6 +58,14 @@ class ShardFile:
     superseded_after_tick: int | None = None
 
 
+def shard_file(reader, key: Hashable) -> ShardFile:
+    """What the rule needs of an open log (a logs.reader.LogReader), under ``key``."""
+    summary = reader.read_summary() if reader.status.complete else None
+    mark = summary.superseded_after_tick if summary is not None and summary.HasField(
+        "superseded_after_tick") else None
+    return ShardFile(key, take_of(reader.scenario), reader.start_tick, mark)
+
+
 def world_until(files: Iterable[ShardFile]) -> dict[Hashable, float]:
     """Each file's ``until``: the world's run is its ticks ``< until`` (``inf``: all of them)."""
     files = list(files)
@@ -76,4 +84,4 @@ def world_until(files: Iterable[ShardFile]) -> dict[Hashable, float]:
     return out
 
 
-__all__ = ["ShardTake", "ShardFile", "take_of", "world_until"]
+__all__ = ["ShardTake", "ShardFile", "take_of", "shard_file", "world_until"]

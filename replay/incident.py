@@ -31,7 +31,7 @@ from touchdown.logs.encode_events import event_messages
 from touchdown.logs.header import TOPIC_EVENTS, tick_arrays, world_header
 from touchdown.logs.reader import LogReader
 from touchdown.logs.rebuild import keyframe_world, scenario_of
-from touchdown.logs.shards import ShardFile, take_of, world_until
+from touchdown.logs.shards import shard_file, world_until
 from touchdown.logs.writer import LogWriter
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim.errors import TouchdownError
@@ -122,13 +122,7 @@ def _world_segments(readers: list[LogReader]) -> tuple[list[Segment], list[str]]
     to its ``superseded_after_tick`` and to the first tick of a later take of its shard
     (logs.shards: what it holds after that is a history the world did not keep); a file with
     nothing of the world's left out. And a note for each file so clipped."""
-    files = []
-    for r in readers:
-        summary = r.read_summary() if r.status.complete else None
-        mark = summary.superseded_after_tick if summary is not None and summary.HasField(
-            "superseded_after_tick") else None
-        files.append(ShardFile(r, take_of(r.scenario), r.start_tick, mark))
-    until = world_until(files)
+    until = world_until(shard_file(r, r) for r in readers)
     segs, notes = [], []
     for r in readers:
         last = _last_tick(r)
