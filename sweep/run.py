@@ -216,13 +216,35 @@ def _n_ticks(sw: Sweep) -> int:
     return parse(sw.case_doc(0), sw.source).params.sim.n_ticks
 
 
+def start_method() -> str:
+    """How the workers start: forked from this process where that is safe (Linux, and no other
+    thread here: a fork copies any lock another thread holds at that instant, e.g. a stream's,
+    for ever), else spawned.
+
+    Why fork: a spawned worker starts a fresh interpreter that imports numpy, numba and the
+    package again (~1.0 s of CPU here), sets up numba's typing and lowering registries at its
+    first compiled call (~0.6 s: numba imports scipy.linalg to look for a BLAS) and loads the
+    step from the kernel cache (~0.45 s): ~2 s of CPU a worker, before its first case. A forked
+    worker has all of that from this process, which loads the kernels once first
+    (:func:`sweep.fleet.ready`). The cases' numbers do not depend on it (the same machine code
+    from the same cache)."""
+    if sys.platform.startswith("linux") and threading.active_count() == 1:
+        return "fork"
+    return "spawn"
+
+
 def _run_processes(sw, parts, workers, stop, bar):
     import multiprocessing as mp
-    ctx = mp.get_context("spawn")
+    method = start_method()
+    if method == "fork":
+        from touchdown.sweep.fleet import ready
+        ready()  # the kernels loaded here, once: each forked worker has them
+    ctx = mp.get_context(method)
     flag, done = ctx.Event(), ctx.Value("q", 0)
     results = []
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                              initargs=(flag, done)) as pool:
+        # (forked at the first submit, before the pool's own threads and the progress bar's)
         futures = {pool.submit(run_chunk, sw, p) for p in parts}
         try:
             while futures:
@@ -284,25 +306,32 @@ class _Interrupt:
 
 
 class _Bar:
-    """A rich progress bar over ship-ticks, on a terminal."""
+    """A rich progress bar over ship-ticks, on a terminal; shown from its first update (its
+    refresh thread then starts: after the workers are forked, :func:`start_method`)."""
 
     def __init__(self, total: int):
         self.total = total
         self.done = 0
         self.prog = None
+        self.shown = False
+
+    def _show(self) -> None:
+        self.shown = True
         if sys.stdout.isatty():
             from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                        TimeRemainingColumn)
             self.prog = Progress(TextColumn("sweep"), BarColumn(), TextColumn("ship-ticks"),
                                  MofNCompleteColumn(), TimeRemainingColumn())
             self.prog.start()
-            self.task = self.prog.add_task("sweep", total=total)
+            self.task = self.prog.add_task("sweep", total=self.total)
 
     def add(self, k: int) -> None:
         self.set(self.done + k)
 
     def set(self, k: int) -> None:
         self.done = k
+        if not self.shown:
+            self._show()
         if self.prog is not None:
             self.prog.update(self.task, completed=k)
 

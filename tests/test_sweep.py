@@ -114,9 +114,32 @@ def test_any_split_gives_the_same_table_bit_for_bit(whole):
     sw = sweep_of()
     for chunk in (1, 5):
         assert run(sw, workers=1, chunk_cases=chunk).table().equals(whole, check_metadata=True)
-    two = run(sw, workers=2, chunk_cases=5)  # spawned processes
+    two = run(sw, workers=2, chunk_cases=5)  # worker processes (sweep.run.start_method)
     assert two.workers == "2 processes"
     assert two.table().equals(whole, check_metadata=True)
+
+
+def test_forked_and_spawned_workers_give_the_same_table(whole, tmp_path):
+    """The command line's workers are forked (its process has one thread: sweep.run.start_method);
+    a process with another thread spawns them. Both tables are the one-process table."""
+    scn = tmp_path / "env.toml"
+    scn.write_text(BASE)
+    code = ("import sys; from touchdown.cli import main; from touchdown.sweep import run; "
+            "print(run.start_method(), file=sys.stderr); sys.argv = ['touchdown'] + sys.argv[1:]; "
+            "main()")
+    busy = ("import threading; "
+            "threading.Thread(target=threading.Event().wait, daemon=True).start(); ")
+    tables = {}
+    for method, extra in (("fork", ""), ("spawn", busy)):
+        out = tmp_path / f"{method}.parquet"
+        r = subprocess.run([sys.executable, "-c", extra + code, "sweep", str(scn), "--vary",
+                            VARY[0], "--vary", VARY[1], "--workers", "2", "-o", str(out)],
+                           capture_output=True, text=True, cwd=tmp_path, timeout=600)
+        assert r.returncode == 0, r.stderr
+        assert r.stderr.splitlines()[0] == method
+        tables[method] = pq.read_table(out)
+    assert tables["fork"].equals(tables["spawn"], check_metadata=True)
+    assert tables["fork"].equals(whole, check_metadata=False)  # (its source's name differs)
 
 
 def test_a_dask_local_cluster_of_two_workers_gives_the_same_table(whole):
