@@ -24,12 +24,15 @@ import zstandard
 _local = threading.local()
 
 #: the chunks' zstd level when a writer asks for none (``touchdown record``, ``incident``,
-#: ``sweep --record``, what-if logs): 1, not the MCAP library's 3. Measured on 10,000 landers
-#: arriving (bench/mujoco_side.py's fleet, 5 s, AMD EPYC, session 29): recording 752,000
-#: ship-ticks a second of CPU at 1 against 563,000 at 3 (1.33x), for 4.3% more bytes (155.4
-#: against 149.0 MB); one lander's log 2-6% faster for 1.5% more. Until touchdown 0.8 logs were
-#: written at 3; a log reads the same at any level.
-DEFAULT_ZSTD_LEVEL = 1
+#: ``sweep --record``, what-if logs): -3, zstd's fast mode (a live service's flight logs: -8,
+#: service.serve). Measured on 10,000 landers arriving (bench/mujoco_side.py's fleet, 1 s; every
+#: tick a keyframe, 552 bytes of records a ship-tick; bench/fleet_log_parts.py, session 32, AMD
+#: EPYC, load 5-6, two rounds): zstd's CPU a ship-tick 1.49-1.54 us at 1, 1.05-1.13 at -1,
+#: 0.93 at -3, 0.76-0.82 at -5; the file 154.1, 163.9 (+6%), 179.2 (+16%), 194.3 (+26%) bytes a
+#: ship-tick. Session 29 (5 s of the same fleet): 752,000 ship-ticks a second of CPU at 1 against
+#: 563,000 at 3 (1.33x) for 4.3% more bytes. Until touchdown 0.8 logs were written at 3, then at
+#: 1; a log reads the same at any level: the same messages, only the compressed bytes differ.
+DEFAULT_ZSTD_LEVEL = -3
 
 
 class _Zstandard:
