@@ -3,10 +3,13 @@
 its content (logs.reader)."""
 from __future__ import annotations
 
+import time
+
 from touchdown.logs import LogError
 from touchdown.logs.examine import Examination, examine
 from touchdown.logs.header import TOPIC_SCENARIO
 from touchdown.logs.reader import LogReader
+from touchdown.logs.shards import take_of
 
 
 def _structure_line(x: Examination) -> str:
@@ -75,6 +78,16 @@ def report(path: str) -> tuple[list[str], bool]:
                             f"last tick {summary.last_tick}, "
                             f"{'complete' if summary.complete else 'incomplete'}"
                             f"{', ' + summary.reason if summary.reason else ''}"))
+            take = take_of(sr)
+            mark = summary is not None and summary.HasField("superseded_after_tick")
+            if take is not None or mark:
+                lines.append("  shard: " + (
+                    "" if take is None else
+                    f"{take.shard}, take {take.epoch} (granted {_utc(take.taken_us)} by Redis's "
+                    f"clock: of the shard's files, a later take's first tick ends this one's "
+                    f"run, logs.shards)") + ("; " if take is not None and mark else "")
+                    + (f"superseded after tick {summary.superseded_after_tick} (its worker "
+                       f"lost the shard)" if mark else ""))
             if not r.status.complete:
                 bad = True
                 lines.append(f"  problem: the log ends without a footer: its content was read "
@@ -89,6 +102,12 @@ def report(path: str) -> tuple[list[str], bool]:
         lines.append("  verdict: damaged")
         bad = True
     return lines, bad
+
+
+def _utc(us: int) -> str:
+    """Microseconds since 1970 as an ISO time, UTC, to the millisecond."""
+    t = time.gmtime(us // 1_000_000)
+    return time.strftime("%Y-%m-%dT%H:%M:%S", t) + f".{us // 1000 % 1000:03d}Z"
 
 
 __all__ = ["report"]

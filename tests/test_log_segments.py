@@ -470,6 +470,10 @@ def test_an_incident_across_two_takes_of_a_shard_follows_the_later_take(tmp_path
 
     fly(1, 0, tmp_path / "shard-000")
     fly(2, 100, tmp_path / "shard-000")
+    # touchdown doctor names a file's take (an operator's first look at a shard's folder)
+    doc = CliRunner().invoke(main, ["doctor", str(next((tmp_path / "shard-000").glob("w2-*")))])
+    assert ("shard: 0, take 2:w2 (granted 1970-01-01T00:00:00.002Z by Redis's clock"
+            in doc.output), doc.output
     out = tmp_path / "cut.mcap"
     r = _incident(tmp_path / "shard-000", "--ship", "a", "--around", 130, "--before", "2.5",
                   "--after", "1.5", "-o", out)
