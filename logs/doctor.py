@@ -78,16 +78,17 @@ def report(path: str) -> tuple[list[str], bool]:
                             f"last tick {summary.last_tick}, "
                             f"{'complete' if summary.complete else 'incomplete'}"
                             f"{', ' + summary.reason if summary.reason else ''}"))
+            shard = []  # a live shard's file: its take and its mark (logs.shards)
             take = take_of(sr)
-            mark = summary is not None and summary.HasField("superseded_after_tick")
-            if take is not None or mark:
-                lines.append("  shard: " + (
-                    "" if take is None else
-                    f"{take.shard}, take {take.epoch} (granted {_utc(take.taken_us)} by Redis's "
-                    f"clock: of the shard's files, a later take's first tick ends this one's "
-                    f"run, logs.shards)") + ("; " if take is not None and mark else "")
-                    + (f"superseded after tick {summary.superseded_after_tick} (its worker "
-                       f"lost the shard)" if mark else ""))
+            if take is not None:
+                shard.append(f"{take.shard}, take {take.epoch} (granted {_utc(take.taken_us)} "
+                             f"by Redis's clock: of the shard's files, a later take's first "
+                             f"tick ends this one's run, logs.shards)")
+            if summary is not None and summary.HasField("superseded_after_tick"):
+                shard.append(f"superseded after tick {summary.superseded_after_tick} (its "
+                             f"worker lost the shard)")
+            if shard:
+                lines.append("  shard: " + "; ".join(shard))
             if not r.status.complete:
                 bad = True
                 lines.append(f"  problem: the log ends without a footer: its content was read "
