@@ -1,7 +1,6 @@
 """session33_unchanged_rows.py: of bench/mujoco_side.py's arriving landers (1,000, 100 ticks), the share of ship-ticks
 whose state (and outputs) is bit-identical to the tick before (issue 36, session 33)."""
-import numpy as np, sys
-sys.path.insert(0, "/work/main/bench")
+import numpy as np
 from touchdown.sim.run import run_blocks
 from touchdown.sim.scenario import parse
 n = 1000
