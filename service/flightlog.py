@@ -90,6 +90,7 @@ class ServiceLog:
         self._next_space = 0.0
         self._closed = False
         self.removed_files = 0
+        self._retained_at: tuple[int, int] | None = None  # (files, closing) at the last _retain
 
     # -- the sink ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -119,6 +120,12 @@ class ServiceLog:
             return _serialized(events_of(world, block))
         if len(self.log.files) != files:
             self.log.max_bytes = self.opts["max_bytes"]
+        # retention again once a rotated file is finished, not only when the next begins: a
+        # file still being finished (its writer behind) is kept and counted at what it holds
+        # so far, and it grows after; its final size decides what older files must go
+        seen = (len(self.log.files), len(self.log.closing_files))
+        if seen != self._retained_at:
+            self._retained_at = seen
             self._retain()
         thread = getattr(self.log.writer, "_thread", None)
         native = getattr(thread, "native_id", None)
