@@ -67,7 +67,8 @@ class RotatingLog(FinishedOrGone):
                  description: str = "", chunk_size: int | None = None,
                  flush_every_ticks: int = 200, zstd_level: int | None = None,
                  keyframe_phase: int = 0, queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
-                 tables: ShipTables | None = None, shard: ShardTake | None = None):
+                 tables: ShipTables | None = None, shard: ShardTake | None = None,
+                 drop_cache: bool = False):
         if max_bytes <= 0:
             raise ValueError(f"max_bytes must be > 0, got {max_bytes}")
         if not prefix or "/" in prefix or os.sep in prefix:
@@ -88,6 +89,7 @@ class RotatingLog(FinishedOrGone):
         self.chunk_size = chunk_size or max(4096, min(1 << 20, max_bytes // 8))
         self.flush_every_ticks = flush_every_ticks
         self.zstd_level = zstd_level
+        self.drop_cache = drop_cache  # (LogWriter's: a live service's files, logs.page_cache)
         self.files: list[Path] = []
         self.writer: LogWriter | None = None
         # ship id -> its resolved table (world_header), and its JSON
@@ -229,7 +231,8 @@ class RotatingLog(FinishedOrGone):
         writer = LogWriter(path, header, chunk_size=self.chunk_size,
                            flush_every_ticks=self.flush_every_ticks,
                            zstd_level=self.zstd_level, resolved_json=json_of,
-                           queue=self.queue, runner=self.runner, ships=ships)
+                           queue=self.queue, runner=self.runner, ships=ships,
+                           drop_cache=self.drop_cache)
         try:
             writer.write_block(first)
         except BaseException:

@@ -26,6 +26,7 @@ from mcap_protobuf.schema import register_schema
 from touchdown.logs.encode_block import MESSAGE_HEAD_BYTES, BlockEncoder
 from touchdown.logs.encode_events import EventMessages, event_messages
 from touchdown.logs.encode import chunk_level
+from touchdown.logs.page_cache import DropWritten
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
                          TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
                          record_bytes)
@@ -210,8 +211,12 @@ class LogWriter(FinishedOrGone):
                  zstd_level: int | None = None,
                  resolved_json: Callable[[], bytes] | None = None,
                  queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
-                 runner: Runner | None = None, ships: ShipTable | None = None):
+                 runner: Runner | None = None, ships: ShipTable | None = None,
+                 drop_cache: bool = False):
         self.path = Path(path)
+        # (``drop_cache``: what is written leaves the page cache a step behind, synced first:
+        # a live service's logs, logs.page_cache)
+        self._drop = DropWritten() if drop_cache else None
         # the header's scenario JSON made on the writer's thread (logs.header.world_header_later)
         self._resolved_json = resolved_json
         self.partial = self.path.with_name(self.path.name + ".partial")
@@ -320,6 +325,8 @@ class LogWriter(FinishedOrGone):
                     self._mcap.flush()
                     self._stream.flush()
                     self.holds_a_tick = True
+                if self._drop is not None:
+                    self._drop.written(self._stream)
                 self._size = self._stream.tell()
             except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
                 self._error = exc

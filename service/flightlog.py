@@ -65,7 +65,8 @@ class ServiceLog:
                  keyframe_phase: int = 0,
                  max_total_bytes: int = 0, max_age_s: float = 0.0, min_free_bytes: int = 0,
                  retry_s: float = 2.0, zstd_level: int | None = None,
-                 first_bytes: int | None = None, tables=None, shard: ShardTake | None = None):
+                 first_bytes: int | None = None, tables=None, shard: ShardTake | None = None,
+                 drop_cache: bool = True):
         self.directory = Path(directory)
         self._world = world
         self.say = say
@@ -74,7 +75,8 @@ class ServiceLog:
                          keyframe_phase=keyframe_phase,
                          queue=(LIVE_QUEUE_BLOCKS, QUEUE_BYTES),  # a starved writer catches up
                          tables=tables,  # the headers' ship tables, some known (RotatingLog)
-                         shard=shard)  # the shard's take, in every header (logs.shards)
+                         shard=shard,  # the shard's take, in every header (logs.shards)
+                         drop_cache=drop_cache)  # written pages leave the page cache
         self._niced = None  # the writers' thread last given a lower priority (native id)
         # the first file's bound (the shards' files staggered: their rotations, each a header
         # of every ship's table and a keyframe, fall on different ticks)

@@ -125,6 +125,10 @@ class ServeConfig:
     #: -8: a quarter less CPU than -3 for 7% more bytes (a 12,500-ship shard's tick chunks:
     #: 0.69 against 0.87 ns a byte, ratio 2.57 against 2.76); the same ``zstd`` chunks
     log_zstd_level: int | None = -8
+    #: the flight logs' written pages synced and dropped from the page cache every 8 MB
+    #: (logs.page_cache): hours of logs do not fill the machine's memory, and the writes reuse
+    #: pages already in use; False: left to the kernel (written back within ~30 s, cached)
+    log_drop_cache: bool = True
     worker_id: str = ""
     max_shards: int | None = None  # at most this many shards (None: a fair share)
     read_count: int = 1000  # command entries read per shard per tick, at most
@@ -1056,7 +1060,7 @@ class Worker:
             max_bytes=cfg.log_max_bytes, name=self.scenario.name,
             source=cfg.source or "serve", max_total_bytes=cfg.log_max_total_bytes,
             max_age_s=cfg.log_max_age_s, min_free_bytes=cfg.log_min_free_bytes,
-            zstd_level=cfg.log_zstd_level,
+            zstd_level=cfg.log_zstd_level, drop_cache=cfg.log_drop_cache,
             first_bytes=cfg.log_max_bytes * (k + 1) // cfg.shards,
             tables=self._header_tables(start.world),
             shard=ShardTake(k, fence.epoch, fence.taken_us) if fence.taken_us else None)
