@@ -697,6 +697,9 @@ def incident(logs: tuple[str, ...], ship_id: str | None, around: str | None, bef
               show_default=True, help="flight-log files older than this are removed (0: kept)")
 @click.option("--log-min-free-mb", type=click.FloatRange(min=0.0), default=64.0,
               show_default=True, help="the flight log pauses below this much free disk")
+@click.option("--log-keep-cache", is_flag=True,
+              help="leave the flight logs' written pages in the page cache (by default each "
+                   "8 MB written is synced and dropped from it: docs/SERVICE.md)")
 @click.option("--max-ships", "max_ships", type=click.IntRange(min=0), default=20_000,
               show_default=True, help="ships a shard takes; a spawn past it is rejected (0: any)")
 @click.option("--max-commands-per-ship", type=click.IntRange(min=0), default=4,
@@ -724,7 +727,8 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
           events_stream: str | None, commands_stream: str | None, shards: int, lease_s: float,
           checkpoint_every: int, telemetry_hz: float, telemetry_maxlen: int | None,
           events_maxlen: int, log_max_mb: float,
-          log_keep_mb: float, log_keep_hours: float, log_min_free_mb: float, max_ships: int,
+          log_keep_mb: float, log_keep_hours: float, log_min_free_mb: float, log_keep_cache: bool,
+          max_ships: int,
           max_commands_per_ship: int, max_spawns_per_tick: int, max_commands_per_tick: int,
           max_shards: int | None, worker_id: str, metrics_port: int | None, stats_every: float,
           stats_json: str | None, results_maxlen: int, warm_only: bool) -> None:
@@ -762,6 +766,7 @@ def serve(redis_url: str, cluster_url: str | None, redis_password_file: str | No
                       log_max_total_bytes=int(log_keep_mb * (1 << 20)),
                       log_max_age_s=log_keep_hours * 3600.0,
                       log_min_free_bytes=int(log_min_free_mb * (1 << 20)), worker_id=worker_id,
+                      log_drop_cache=not log_keep_cache,
                       max_shards=max_shards, max_spawns_per_tick=max_spawns_per_tick,
                       max_commands_per_tick=max_commands_per_tick,
                       limits=Limits(max_ships=max_ships,
