@@ -94,3 +94,24 @@ def test_a_log_written_out_of_the_cache_is_the_same_log(tmp_path, monkeypatch):
     assert dropped.read_bytes() == plain.read_bytes()
     res = verify(str(dropped))
     assert res.identical, res.report()
+
+
+def test_a_services_flight_log_leaves_the_cache_and_keep_cache_leaves_it(tmp_path, monkeypatch):
+    from touchdown.service.flightlog import ServiceLog
+
+    monkeypatch.setattr(DropWritten.__init__, "__defaults__", (64 << 10,))
+    resident = {}
+    for drop in (True, False):
+        world = World.of(_scenario())
+        folder = tmp_path / f"drop-{drop}"
+        log = ServiceLog(folder, lambda: world, lambda *a: None, prefix="w", keyframe_interval=1,
+                         max_bytes=1 << 30, name="n", source="s", zstd_level=-8,
+                         drop_cache=drop)
+        log.start()
+        for block in world.blocks(40, max_ticks=1):
+            log.write_block(block)
+        log.close()
+        (path,) = folder.iterdir()
+        assert path.stat().st_size > 10 * (64 << 10)
+        resident[drop] = _resident_bytes(path) / path.stat().st_size
+    assert resident[True] < 0.5 < resident[False], resident
