@@ -27,8 +27,8 @@ STEP_BYTES = 8 << 20
 class DropWritten:
     """Keep a file's written pages out of the page cache, a step behind the writes."""
 
-    def __init__(self, step_bytes: int = STEP_BYTES):
-        self.step_bytes = step_bytes
+    def __init__(self, step_bytes: int | None = None):
+        self.step_bytes = step_bytes or STEP_BYTES
         self._dropped = 0  # [0, _dropped): synced and dropped
         self.enabled = hasattr(os, "posix_fadvise")
 

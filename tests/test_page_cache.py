@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from touchdown.logs import page_cache
 from touchdown.logs.header import scenario_message
 from touchdown.logs.page_cache import DropWritten
 from touchdown.logs.writer import LogWriter
@@ -84,8 +85,7 @@ def _record(path: Path, drop_cache: bool) -> None:
 
 
 def test_a_log_written_out_of_the_cache_is_the_same_log(tmp_path, monkeypatch):
-    # many steps in a small log: LogWriter's DropWritten() takes its step from this default
-    monkeypatch.setattr(DropWritten.__init__, "__defaults__", (64 << 10,))
+    monkeypatch.setattr(page_cache, "STEP_BYTES", 64 << 10)  # many steps in a small log
     plain, dropped = tmp_path / "plain.mcap", tmp_path / "dropped.mcap"
     _record(plain, False)
     _record(dropped, True)
@@ -99,7 +99,7 @@ def test_a_log_written_out_of_the_cache_is_the_same_log(tmp_path, monkeypatch):
 def test_a_services_flight_log_leaves_the_cache_and_keep_cache_leaves_it(tmp_path, monkeypatch):
     from touchdown.service.flightlog import ServiceLog
 
-    monkeypatch.setattr(DropWritten.__init__, "__defaults__", (64 << 10,))
+    monkeypatch.setattr(page_cache, "STEP_BYTES", 64 << 10)
     resident = {}
     for drop in (True, False):
         world = World.of(_scenario())
