@@ -155,6 +155,21 @@ def envelope(quick: bool) -> None:
 
 @bench.command()
 @QUICK
+@click.option("--cases", type=click.IntRange(min=2), default=None,
+              help="envelope cases a setting (default 2,000; 60 with --quick)")
+@click.option("--rounds", type=click.IntRange(min=1), default=2, show_default=True,
+              help="runs of each setting, the least CPU taken (the reference runs once)")
+@click.option("--out", "out_dir", default="docs", show_default=True,
+              type=click.Path(file_okay=False), help="where the table and the chart go")
+def sweep(quick: bool, cases: int | None, rounds: int, out_dir: str) -> None:
+    """The sweep's cost against its accuracy: the issue's envelope at the default settings and
+    at coarser and finer ones, CPU a case and outcomes unlike the finest's."""
+    from touchdown.bench import sweep_precision
+    sweep_precision.main(quick=quick, cases=cases, rounds=rounds, out_dir=out_dir)
+
+
+@bench.command()
+@QUICK
 def logs(quick: bool) -> None:
     """Export (Parquet, CSV, JSON Lines), view, verify and doctor of a 1,000-ship log as whole
     commands on one core, as ratios against the old per-row JSON Lines export."""
