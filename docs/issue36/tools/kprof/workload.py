@@ -34,8 +34,13 @@ elif row == "env":
             Axis("ships.initial.horizontal_speed", 0.0, 6.0),
             Axis("ships.initial.tilt_deg", 0.0, 15.0)]
     # $KPROF_SIM (KEY=VALUE,...): sim settings over the envelope's (a setting's variants, one tree)
-    doc.setdefault("sim", {}).update({kv.split("=", 1)[0]: float(kv.split("=", 1)[1]) for kv in
-                                      os.environ.get("KPROF_SIM", "").split(",") if kv})
+    def _value(text):  # a number, else a word (sim.integrator's)
+        try:
+            return float(text)
+        except ValueError:
+            return text
+    doc.setdefault("sim", {}).update({kv.split("=", 1)[0]: _value(kv.split("=", 1)[1]) for kv
+                                      in os.environ.get("KPROF_SIM", "").split(",") if kv})
     sw = Sweep.of(doc, "envelope", axes, samples=300, seed=1)
 
     def work():
