@@ -96,7 +96,7 @@ def measure(cases: int, rounds: int) -> list[dict]:
     return rows
 
 
-def table(rows: list[dict], cases: int) -> str:
+def table(rows: list[dict]) -> str:
     """The rows as a Markdown table, with the time 100,000 cases would take on two cores."""
     base = next(r for r in rows if r["label"] == "default")["ms_per_case"]
     head = ("| setting | CPU ms a case | default / it | 100,000 on 2 cores, s | outcomes off "
@@ -145,7 +145,7 @@ def main(quick: bool = False, cases: int | None = None, rounds: int = 2,
          out_dir: str | None = "docs") -> list[dict]:
     n = cases or (60 if quick else 2000)
     rows = measure(n, 1 if quick else rounds)
-    text = table(rows, n)
+    text = table(rows)
     print(f"touchdown sweep, cost against accuracy: {n:,} envelope cases a setting, one process "
           f"(least of {1 if quick else rounds} runs); {machine()}")
     print(text)
