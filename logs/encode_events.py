@@ -286,7 +286,8 @@ class EventMessages(Sequence):
 class _Names:
     """A ShipTable's ship and player ids as UTF-8, one run of bytes: key k's ship id is
     ``blob[at[2k]:at[2k + 1]]``, its player's the next; extended as ships join (a table only
-    grows), its room doubled when full."""
+    grows), its room doubled when full. (Made again for each new table: a rotating log's new
+    file with other ships than the file before's.)"""
 
     def __init__(self):
         self.count = 0
@@ -297,10 +298,26 @@ class _Names:
         n = len(ids)
         if n == self.count:
             return
-        new = [x.encode() for pair in zip(ids[self.count:n], players[self.count:n])
-               for x in pair]
+        m = 2 * (n - self.count)
+        pairs: list = [None] * m  # each ship's id, then its player's
+        pairs[0::2] = ids[self.count:n]
+        pairs[1::2] = players[self.count:n]
+        text = "\0".join(pairs)
         start = int(self.at[2 * self.count])
-        ends = start + np.cumsum(np.fromiter(map(len, new), np.int64, len(new)))
+        if text.isascii() and text.count("\0") == m - 1:
+            # ids of ASCII without NULs (a service's): one encode, the ids' ends where the NULs
+            # are, less those before them (a call an id was 5 ms of a new table at 20,000)
+            raw = np.frombuffer(text.encode("ascii"), np.uint8)
+            nul = raw == 0
+            ends = np.empty(m, np.int64)
+            ends[:-1] = np.flatnonzero(nul) - np.arange(m - 1)
+            ends[-1] = raw.shape[0] - (m - 1)
+            ends += start
+            raw = raw[~nul]
+        else:
+            new = [x.encode() for x in pairs]
+            ends = start + np.cumsum(np.fromiter(map(len, new), np.int64, len(new)))
+            raw = np.frombuffer(b"".join(new), np.uint8)
         end = int(ends[-1])
         if 2 * n + 1 > len(self.at):
             self.at = np.concatenate([self.at, np.zeros(max(len(self.at), 2 * n + 1), np.int64)])
@@ -308,7 +325,7 @@ class _Names:
             self.blob = np.concatenate([self.blob, np.empty(max(len(self.blob), end),
                                                             np.uint8)])
         self.at[2 * self.count + 1:2 * n + 1] = ends
-        self.blob[start:end] = np.frombuffer(b"".join(new), np.uint8)
+        self.blob[start:end] = raw
         self.count = n
 
 

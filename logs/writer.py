@@ -212,13 +212,16 @@ class LogWriter(FinishedOrGone):
                  resolved_json: Callable[[], bytes] | None = None,
                  queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
                  runner: Runner | None = None, ships: ShipTable | None = None,
-                 drop_cache: bool = False):
+                 drop_cache: bool = False, record: Callable[[], bytes] | None = None):
         self.path = Path(path)
         # (``drop_cache``: what is written leaves the page cache a step behind, synced first:
         # a live service's logs, logs.page_cache)
         self._drop = DropWritten() if drop_cache else None
-        # the header's scenario JSON made on the writer's thread (logs.header.world_header_later)
+        # the header's scenario JSON made on the writer's thread (logs.header.world_header_later),
+        # or (``record``) the whole header's bytes (world_record_later: ``header`` without its
+        # ships, their ids and tables left to the writer's thread as well)
         self._resolved_json = resolved_json
+        self._record = record
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.header = header
         # (``ships``: the header's, made by the caller from its own lists: reading 12,500 ids
@@ -282,8 +285,12 @@ class LogWriter(FinishedOrGone):
         that finishes the file (close(wait=False))."""
         chunk_level(self._zstd_level)
         try:
-            data = (self.header.SerializeToString() if self._resolved_json is None else
-                    record_bytes(self.header, self._resolved_json()))
+            if self._record is not None:
+                data = self._record()
+            elif self._resolved_json is None:
+                data = self.header.SerializeToString()
+            else:
+                data = record_bytes(self.header, self._resolved_json())
             self._put(TOPIC_SCENARIO, int(self.header.start_tick), data)
             self._size = self._stream.tell()
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread

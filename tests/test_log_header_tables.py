@@ -12,7 +12,8 @@ import pytest
 
 from touchdown.bench.speed import fleet_doc
 from touchdown.logs.encode import ShipTables
-from touchdown.logs.header import header_table, record_bytes, world_header, world_header_later
+from touchdown.logs.header import (header_table, record_bytes, world_header, world_header_later,
+                                   world_record_later)
 from touchdown.sim.scenario import parse, resolve
 from touchdown.sim.world import World
 
@@ -48,3 +49,33 @@ def test_header_tables_from_resolved_tables_are_the_headers_own(doc):
     later, json_of = world_header_later(world, "n", "s", 10, True, tables=ShipTables(
         {sid: header_table(world.known[sid]) for sid in world.ship_ids}))
     assert record_bytes(later, json_of()) == b.SerializeToString()
+
+
+@pytest.mark.parametrize("known", ["all", "some", "none"])
+def test_a_header_made_on_the_writers_thread_is_world_headers_own(known, monkeypatch):
+    """world_record_later's bytes (a rotating log's header: its ships' ids and tables made on
+    the writer's thread, a piece of the ships at a time) are world_header's, with every ship's
+    table cached, some (ships joined since) or none; a shard's take stamped on the header
+    after the call is in them."""
+    import touchdown.logs.header as header_mod
+    monkeypatch.setattr(header_mod, "_PIECE", 7)  # (pieces of 7: the last one short)
+    world = World.of(parse(fleet_doc(60, 60.0), "x"))
+    for sid in ("n1", "n2", "n3"):
+        world.spawn({"id": sid, "player_id": "q-" + sid, "initial": {"altitude": 4.0}})
+    for _ in world.blocks(world.tick + 3):
+        pass
+    ids = world.ship_ids[:{"all": None, "some": 40, "none": 0}[known]]
+    tables = ShipTables({sid: header_table(world.known[sid]) for sid in ids
+                         if sid in world.known and not sid.startswith("n")})
+    if known == "all":
+        world_header(world, "n", "s", 10, True, tables=tables)  # (the joined ones resolved)
+    assert len(world.ship_ids) == 63
+    later, record = world_record_later(world, "n", "s", 10, True, description="d",
+                                       tables=tables, keyframe_phase=3)
+    assert list(later.ship_ids) == [] and not later.resolved_json
+    later.shard = 2
+    whole = world_header(world, "n", "s", 10, True, description="d", tables={},
+                         keyframe_phase=3)
+    whole.shard = 2
+    assert record() == whole.SerializeToString()
+    assert list(world.ship_ids) == [sid for sid in world.ship_ids if sid in tables]

@@ -15,7 +15,8 @@ from click.testing import CliRunner
 from touchdown.cli import main
 from touchdown.logs.codec import encode_tick
 from touchdown.logs.decode import decode_tick
-from touchdown.logs.header import LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, world_header
+from touchdown.logs.header import (LOG_FORMAT_VERSION, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
+                                   world_header)
 from touchdown.logs.reader import LogReader
 from touchdown.logs.writer import LogWriter
 from touchdown.logs.rotating import RotatingLog
@@ -231,6 +232,93 @@ def test_every_block_boundary_can_end_a_file(tmp_path):
             start = r.start_tick
         assert verify(str(f), ship_id=sid).identical
         assert verify(str(f), first=start + 3).identical
+
+
+FLEET = """
+name = "fleet"
+duration = 60.0
+[[ships]]
+id = "a"
+player_id = "plåyer-a"
+[ships.initial]
+altitude = 6.0
+vertical_speed = -9.0
+[[ships]]
+id = "b"
+[ships.initial]
+state = "landed"
+east = 25.0
+[[ships]]
+id = "c"
+[ships.initial]
+altitude = 20.0
+vertical_speed = -14.0
+north = 20.0
+"""
+
+
+def test_each_rotated_files_header_and_event_ids_are_its_fleets(tmp_path):
+    """A rotating log keeps its ship table (and the events' encoded ids) from one file to the
+    next while the fleet is the one of the file before's header, and makes each header's ships
+    (their ids and tables) on its writer's thread (session 36): ships join and leave between
+    rotations (some in the middle of a file), some files begin with the fleet of the file
+    before, some ids are not ASCII. Every file verifies alone, its header is world_header's of
+    the world at its first tick, byte for byte, and its events name their ships and players."""
+    world = World.of(parse_text(FLEET, "fleet.toml"))
+    log = RotatingLog(tmp_path, world, keyframe_interval=KEYFRAMES, keyframe_phase=PHASE,
+                      max_bytes=1)
+    log.write_block(world.first_block())
+    players = dict(zip(world.ship_ids, world.params.ships.player_id))
+    headers = {0: world_header(world, "fleet", "", KEYFRAMES, keyframe_phase=PHASE)}
+    joined = 0
+    for t in range(1, 90):
+        if t % 6 == 0:  # a ship joins, falling: events in later files
+            sid = f"j{joined}-\u00e9" if joined % 2 else f"j{joined}"
+            players[sid] = f"p\u00e9-{joined % 3}" if joined % 3 else f"q{joined}"
+            world.spawn({"id": sid, "player_id": players[sid], "initial": {
+                "altitude": 2.0 + joined % 4, "vertical_speed": -6.0, "east": 9.0 * joined}})
+            joined += 1
+        if t % 14 == 0:
+            world.retire(world.ship_ids[0])
+        # files of 1 to 3 ticks: ends at blocks of the same fleet as the file's start, and not
+        ticks = 1 + t % 3
+        for block in world.blocks(world.tick + ticks, max_ticks=ticks):
+            files = len(log.files)
+            log.write_block(block)
+            if len(log.files) != files:
+                headers[world.tick] = world_header(world, "fleet", "", KEYFRAMES,
+                                                   keyframe_phase=PHASE, tables={})
+    log.close(reason="stopped")
+    assert len(log.files) >= 40 and joined >= 10
+    events = 0
+    same_fleet = 0
+    last_ids = None
+    for f in log.files:
+        res = verify(str(f))
+        assert res.identical and res.summary_compared, (f.name, res.report())
+        with LogReader(f) as r:
+            want = headers[r.start_tick]
+            assert r.scenario.SerializeToString() == want.SerializeToString(), f.name
+            table = r.ship_table()
+            ids = list(r.scenario.ship_ids)
+            same_fleet += ids == last_ids
+            last_ids = ids
+        for ev in _events(f):
+            events += 1
+            assert ev.ship_id in table and ev.ship.ship_id == ev.ship_id
+            assert ev.player_id == ev.ship.player_id == players[ev.ship_id], ev
+    assert events >= 10 and same_fleet >= 5, (events, same_fleet)
+
+
+def test_a_ship_tables_keys_of_the_ids_it_was_made_of_are_its_keys():
+    ids, players = ("x", "y", "\u00e9"), ("p", "q", "r")
+    table = ShipTable(ids, players)
+    table.add(3, {"id": "z"})
+    assert table.keys(ids).tolist() == [0, 1, 2] and table.keys(ids).dtype == np.int64
+    assert table.keys(("z", "x")).tolist() == [3, 0]
+    assert table.keys(()).tolist() == [] and table.keys(()).dtype == np.int64
+    twice = ShipTable(("x", "x"), ("p", "p"))  # (not a fleet: the look-up's keys)
+    assert twice.keys(("x", "x")).tolist() == [1, 1]
 
 
 def _rotating(directory: Path, fail_finish: bool = False):
