@@ -240,8 +240,8 @@ def world_header_later(world: World, name: str, source: str, keyframe_interval: 
                        end_tick: int | None = None, tables: dict[str, dict] | None = None,
                        keyframe_phase: int = 0) -> tuple[pb.ScenarioRecord, Callable[[], bytes]]:
     """(the header without its ``resolved_json``, the function that makes that JSON as UTF-8:
-    every ship's table joined, 13 MB at 20,000 ships, left for a writer's thread; LogWriter's
-    ``resolved_json``, record_bytes). The header of a log of ``world`` from its current tick
+    every ship's table joined, 13 MB at 20,000 ships; :func:`record_bytes` splices it in; a
+    rotating log's writer makes all of it, ships included: :func:`world_record_later`). The header of a log of ``world`` from its current tick
     (``start_tick``): the resolved scene
     with ``ships`` the tables of the ships present now (their timing keys removed: when they join,
     leave and what they are commanded is the log's own record; their ``initial`` tables are

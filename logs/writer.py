@@ -28,8 +28,7 @@ from touchdown.logs.encode_events import EventMessages, event_messages
 from touchdown.logs.encode import chunk_level
 from touchdown.logs.page_cache import DropWritten
 from touchdown.logs.header import (KEYFRAME_ONLY, LOG_FORMAT_VERSION, TOPIC_COMMANDS, TOPIC_EVENTS,
-                         TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable,
-                         record_bytes)
+                         TOPIC_FLEET, TOPIC_SCENARIO, TOPIC_SUMMARY, TOPIC_TICKS, ShipTable)
 from touchdown.logs.header import CHUNK_BYTES_MAX, tick_bytes_bound  # noqa: F401 (the writer's)
 from touchdown.proto import touchdown_pb2 as pb
 from touchdown.sim import __version__ as PROJECT_VERSION
@@ -209,7 +208,6 @@ class LogWriter(FinishedOrGone):
     def __init__(self, path: str | os.PathLike, header: pb.ScenarioRecord,
                  chunk_size: int = 1 << 20, flush_every_ticks: int = 200,
                  zstd_level: int | None = None,
-                 resolved_json: Callable[[], bytes] | None = None,
                  queue: tuple[int, int | None] = (QUEUE_BLOCKS, None),
                  runner: Runner | None = None, ships: ShipTable | None = None,
                  drop_cache: bool = False, record: Callable[[], bytes] | None = None):
@@ -217,10 +215,8 @@ class LogWriter(FinishedOrGone):
         # (``drop_cache``: what is written leaves the page cache a step behind, synced first:
         # a live service's logs, logs.page_cache)
         self._drop = DropWritten() if drop_cache else None
-        # the header's scenario JSON made on the writer's thread (logs.header.world_header_later),
-        # or (``record``) the whole header's bytes (world_record_later: ``header`` without its
-        # ships, their ids and tables left to the writer's thread as well)
-        self._resolved_json = resolved_json
+        # (``record``: the whole header's bytes, made on the writer's thread: logs.header.
+        # world_record_later, ``header`` without its ships, their ids, tables and JSON)
         self._record = record
         self.partial = self.path.with_name(self.path.name + ".partial")
         self.header = header
@@ -285,12 +281,8 @@ class LogWriter(FinishedOrGone):
         that finishes the file (close(wait=False))."""
         chunk_level(self._zstd_level)
         try:
-            if self._record is not None:
-                data = self._record()
-            elif self._resolved_json is None:
-                data = self.header.SerializeToString()
-            else:
-                data = record_bytes(self.header, self._resolved_json())
+            data = (self.header.SerializeToString() if self._record is None else
+                    self._record())
             self._put(TOPIC_SCENARIO, int(self.header.start_tick), data)
             self._size = self._stream.tell()
         except BaseException as exc:  # noqa: BLE001 - handed to the caller's thread
