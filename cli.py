@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import os
 import sys
 import tempfile
@@ -19,10 +18,11 @@ from pathlib import Path
 import click
 
 import touchdown.scenarios as builtin
+from touchdown.scenarios import parse_sets
 from touchdown.bench.commands import bench
 from touchdown.logs import LogError
 from touchdown.sim.errors import TouchdownError, UserError, WorkFailed
-from touchdown.sim.scenario import ScenarioError, load_toml, parse_text
+from touchdown.sim.scenario import load_toml, parse_text
 from touchdown.sim.settings import Integrator
 
 
@@ -45,25 +45,6 @@ class Touchdown(click.Group):
             return super().invoke(ctx)
         except TouchdownError as exc:
             raise _Told(exc) from None
-
-
-def parse_sets(sets: tuple[str, ...]) -> dict:
-    """``--set sim.dt=0.02`` -> {"sim.dt": 0.02}. Values are TOML (bare words are strings);
-    ``ships[0].mass`` and ``ships.0.mass`` both address the first ship."""
-    out = {}
-    for item in sets:
-        if "=" not in item:
-            raise UserError(f"--set {item!r}: expected KEY=VALUE")
-        given, raw = item.split("=", 1)
-        key = re.sub(r"\[(\d+)\]", r".\1", given.strip())
-        try:
-            value = load_toml(f"v = {raw}", "--set", given.strip())["v"]
-        except ScenarioError as exc:
-            if exc.problem.startswith(("arrays", "Exceeds")):
-                raise UserError(str(exc)) from None
-            value = raw  # not TOML: a bare word, taken as a string
-        out[key] = value
-    return out
 
 
 def load_scenario(spec: str, sets: tuple[str, ...] = ()):

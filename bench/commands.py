@@ -68,6 +68,41 @@ def physics(quick: bool) -> None:
 
 
 @bench.command()
+@click.option("--seed", type=int, default=101, show_default=True,
+              help="the sample's seed (the suite checks seed 35's)")
+@click.option("--starts", type=click.IntRange(min=1), default=200, show_default=True,
+              help="how many starts the sample draws")
+@click.option("--only", multiple=True, type=click.IntRange(min=0), metavar="K",
+              help="run only start K of the sample (repeatable)")
+@click.option("--rel", type=click.FloatRange(min=0.0), default=0.01, show_default=True,
+              help="how close a start must end to the reference, as a fraction of its way and "
+                   "of its largest tilt")
+@click.option("--floor-m", type=click.FloatRange(min=0.0), default=0.01, show_default=True,
+              help="... or within this distance")
+@click.option("--floor-deg", type=click.FloatRange(min=0.0), default=0.1, show_default=True,
+              help="... and this tilt")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+              help="a sim.* or contact.* scenario key for the runs, e.g. sim.stiff_substep=0.0002 "
+                   "(repeatable; the default settings otherwise)")
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+@click.option("--no-diagnosis", is_flag=True, help="do not re-run the starts that miss")
+@click.pass_context
+def starts3d(ctx: click.Context, seed: int, starts: int, only: tuple[int, ...], rel: float,
+             floor_m: float, floor_deg: float, settings: tuple[str, ...], workers: int,
+             no_diagnosis: bool) -> None:
+    """3-D touchdowns beside the 3-D per-foot reference over a seeded sample of starts (the
+    suite's check on another sample), each start that misses re-run four ways that point at a
+    cause (bench.starts3d). Exit 1 where a start misses."""
+    from touchdown.bench import starts3d as bench_starts3d
+    from touchdown.scenarios import parse_sets
+    table = parse_sets(settings)
+    missed = bench_starts3d.main(seed, starts, only,
+                                 bench_starts3d.Bound(rel, floor_deg, floor_m), table, workers,
+                                 not no_diagnosis)
+    ctx.exit(1 if missed else 0)
+
+
+@bench.command()
 @click.option("--quick", is_flag=True, help="200 files (a smoke test of the campaign itself)")
 @click.option("--files", type=click.IntRange(min=1), default=2000, show_default=True,
               help="how many hostile files to generate and run")

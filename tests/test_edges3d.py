@@ -12,6 +12,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, assume, given, settings, strategies as st
 
 from touchdown.bench import edges3d as E
+from touchdown.bench import starts3d as S
 
 
 def _ref(sc):
@@ -133,17 +134,8 @@ def test_fast_touchdowns_around_the_edge_limit(scene):
 
 
 # -- hypothesis over 3-D starts ----------------------------------------------------------------
-def _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
-           azimuth) -> E.Scene:
-    return E.Scene("h", 3.0, altitude_m=0.0, tilt_deg=tilt, heading_deg=heading, yaw_deg=yaw,
-                   vertical_speed_mps=-v_down, side_speed_mps=side,
-                   side_heading_deg=side_heading, angular_velocity=(0.0, 0.0, spin),
-                   mass_kg=mass, com_height_m=com, leg_radius_m=leg, slope_deg=slope,
-                   slope_azimuth_deg=azimuth)
-
-
-def _edge_limit_deg(com, leg) -> float:
-    return math.degrees(math.atan2(leg / math.sqrt(2.0), com))
+_start = S.scene
+_edge_limit_deg = S.edge_limit_deg
 
 
 STARTS = dict(tilt=st.one_of(st.just(0.0), st.floats(0.5, 14.0)), heading=st.floats(0.0, 360.0),
@@ -177,19 +169,9 @@ def test_3d_touchdowns_end_as_the_reference_says_at_every_tick(dt, tilt, heading
     assert (sim.first("liftoff") is not None) == (ref.first("liftoff") is not None)
 
 
-def _sampled_starts(seed: int, n: int):
-    """``n`` 3-D starts drawn from STARTS's ranges by a seeded numpy generator (a tenth upright,
-    a tenth on level ground, as STARTS weighs them): the same starts in every process, whatever
-    ran before (hypothesis mixes constants it finds in the modules loaded so far into its
-    draws, so its examples depended on the tests that ran before in the same worker)."""
-    rng = np.random.default_rng(seed)
-    u = rng.uniform
-    for _ in range(n):
-        yield dict(tilt=0.0 if u() < 0.1 else u(0.5, 14.0), heading=u(0.0, 360.0),
-                   yaw=u(0.0, 90.0), v_down=u(1.0, 8.0), side=u(0.0, 3.0),
-                   side_heading=u(0.0, 360.0), spin=u(-0.5, 0.5), mass=u(5e3, 2e4),
-                   com=u(1.5, 3.5), leg=u(1.8, 3.0), slope=0.0 if u() < 0.1 else u(0.0, 20.0),
-                   azimuth=u(0.0, 360.0))
+#: the sample the sweep below checks: the same starts in every process (bench.starts3d; `touchdown
+#: bench starts3d --seed S` runs other samples)
+_sampled_starts = S.sampled_starts
 
 
 #: A start that ends 1.7% short of the reference's slide (below).
@@ -200,26 +182,7 @@ SHORT_SLIDE_ON_13_DEG = dict(tilt=5.755882564999277, heading=0.0, yaw=48.7721091
                              slope=12.971227311254891, azimuth=119.07216668469069)
 
 
-def _follows_the_reference(start, rel=0.01) -> str:
-    """'' where the start, at the default settings, rocks to the reference's largest tilt and
-    ends where it went, to ``rel`` (and 0.1 degree, 1 cm); what differs otherwise; None where
-    the start is outside the test's scope (it lifts off or tips, comes within 3 degrees of the
-    edge limit, or is still turning toward it at the end: there the outcome depends on where
-    the ship is at 3 s, not on what it does)."""
-    sc = _start(**start)
-    ref = _ref(sc)
-    til = E.tilt_deg(ref)
-    if not (ref.first("tipped") is None and ref.first("liftoff") is None
-            and abs(float(til.max()) - _edge_limit_deg(start["com"], start["leg"])) > 3.0
-            and (til[-1] < til.max() - 0.5 or til.max() < 5.0)):
-        return None
-    sim = E.run_sim(sc, 0.05)
-    peak, peak_ref = E.peak_tilt(sim), E.peak_tilt(ref)
-    way = np.linalg.norm(E.horizontal_m(ref)[-1])
-    off = np.linalg.norm(E.horizontal_m(sim)[-1] - E.horizontal_m(ref)[-1])
-    if abs(peak - peak_ref) > max(rel * peak_ref, 0.1) or off > rel * way + 0.01:
-        return f"{start}: peak {peak:.3f} deg (ref {peak_ref:.3f}), {off:.4f} m off of {way:.3f}"
-    return ""
+_follows_the_reference = S.follows
 
 
 #: How many of each fifty of _sampled_starts(35, 200) are in the sweep's scope (142 in all):
