@@ -78,13 +78,15 @@ def physics(quick: bool) -> None:
               help="how close a start must end to the reference, as a fraction of its way and "
                    "of its largest tilt")
 @click.option("--floor-m", type=click.FloatRange(min=0.0), default=0.01, show_default=True,
-              help="... or within this distance")
+              help="a start also follows where it ends within this distance of the reference's "
+                   "end, whatever its way")
 @click.option("--floor-deg", type=click.FloatRange(min=0.0), default=0.1, show_default=True,
-              help="... and this tilt")
+              help="... and where its largest tilt is within this of the reference's")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
               help="a sim.* or contact.* scenario key for the runs, e.g. sim.stiff_substep=0.0002 "
                    "(repeatable; the default settings otherwise)")
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+              help="processes the starts are shared among")
 @click.option("--no-diagnosis", is_flag=True, help="do not re-run the starts that miss")
 @click.pass_context
 def starts3d(ctx: click.Context, seed: int, starts: int, only: tuple[int, ...], rel: float,
