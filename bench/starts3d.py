@@ -19,7 +19,7 @@ which points at a cause (:func:`diagnose`):
 - the model with finer pieces where a foot's friction is stiff (``sim.stiff_substep`` 0.2 ms
   instead of 1 ms): a stick or slip decided at the edge of a foot's cone (MODEL-NOTES 46, 58);
 - the model with 5 ms sub-steps and 1 ms in impacts (``sim.max_substep``, ``sim.impact_substep``):
-  a foot's strike or release resolved too coarsely (MODEL-NOTES 53);
+  a rock or a strike resolved too coarsely by the 25 ms (5 ms) sub-steps (MODEL-NOTES 53, 70);
 - the model with every step fine (1 ms sub-steps, 0.1 ms stiff pieces): where even that misses,
   the model and the reference differ, not the stepping.
 
@@ -169,15 +169,17 @@ def check_settings(settings: dict) -> None:
     parse(sc.doc(0.05, sim, contact), "--set")
 
 
-def diagnose(start: dict, settings: dict | None = None) -> list[tuple[str, str]]:
+def diagnose(start: dict, settings: dict | None = None,
+             mine: E.Track | None = None) -> list[tuple[str, str]]:
     """A missing start re-run each way of VARIANTS (each over ``settings``): (the variant, what
     it gives), where a reference variant gives how far its end moved from the eps 1e-6
     reference's and how far the run ends from it, and a simulation variant its verdict against
-    the reference."""
+    the reference. ``mine``: the start's run at ``settings``, where the caller has it."""
     sim0, contact = _split(settings or {})
     sc = scene(**start)
     ref = E.run_reference(sc)
-    mine = E.run_sim(sc, 0.05, sim0, contact)
+    if mine is None:
+        mine = E.run_sim(sc, 0.05, sim0, contact)
     base = compare(mine, ref)
     out = []
     for name, ref_way, sim in VARIANTS:
@@ -213,11 +215,12 @@ def run_one(job: Job) -> dict:
     ref = E.run_reference(sc)
     row = {"k": job.k, "start": job.start, "in_scope": in_scope(job.start, ref)}
     if row["in_scope"]:
-        v = compare(E.run_sim(sc, 0.05, *_split(job.settings)), ref)
+        mine = E.run_sim(sc, 0.05, *_split(job.settings))
+        v = compare(mine, ref)
         row["verdict"] = str(v)
         row["follows"] = v.follows(job.bound)
         if not row["follows"] and job.diagnosis:
-            row["diagnosis"] = diagnose(job.start, job.settings)
+            row["diagnosis"] = diagnose(job.start, job.settings, mine)
     return row
 
 

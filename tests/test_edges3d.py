@@ -5,7 +5,6 @@ tick). Each scene is described once (bench.edges3d.Scene) and run by both; the m
 runs the same way."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -134,10 +133,6 @@ def test_fast_touchdowns_around_the_edge_limit(scene):
 
 
 # -- hypothesis over 3-D starts ----------------------------------------------------------------
-_start = S.scene
-_edge_limit_deg = S.edge_limit_deg
-
-
 STARTS = dict(tilt=st.one_of(st.just(0.0), st.floats(0.5, 14.0)), heading=st.floats(0.0, 360.0),
               yaw=st.floats(0.0, 90.0), v_down=st.floats(1.0, 8.0), side=st.floats(0.0, 3.0),
               side_heading=st.floats(0.0, 360.0), spin=st.floats(-0.5, 0.5),
@@ -157,21 +152,16 @@ def test_3d_touchdowns_end_as_the_reference_says_at_every_tick(dt, tilt, heading
     lifted off or not. (Starts whose tilt in the reference comes within 3 degrees of the edge
     limit, atan(a / (sqrt(2) h)), or that are still turning toward it at the end, are left out:
     there the outcome depends on where the ship is at 3 s, not on what it does.)"""
-    sc = _start(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
+    sc = S.scene(tilt, heading, yaw, v_down, side, side_heading, spin, mass, com, leg, slope,
                 azimuth)
     ref = _ref(sc)
     til = E.tilt_deg(ref)
-    limit = _edge_limit_deg(com, leg)
+    limit = S.edge_limit_deg(com, leg)
     assume(ref.first("tipped") is not None or abs(float(til.max()) - limit) > 3.0)
     assume(ref.first("tipped") is not None or til[-1] < til.max() - 0.5 or til.max() < 5.0)
     sim = E.run_sim(sc, dt)
     assert (sim.first("tipped") is not None) == (ref.first("tipped") is not None)
     assert (sim.first("liftoff") is not None) == (ref.first("liftoff") is not None)
-
-
-#: the sample the sweep below checks: the same starts in every process (bench.starts3d; `touchdown
-#: bench starts3d --seed S` runs other samples)
-_sampled_starts = S.sampled_starts
 
 
 #: A start that ends 1.7% short of the reference's slide (below).
@@ -182,12 +172,9 @@ SHORT_SLIDE_ON_13_DEG = dict(tilt=5.755882564999277, heading=0.0, yaw=48.7721091
                              slope=12.971227311254891, azimuth=119.07216668469069)
 
 
-_follows_the_reference = S.follows
-
-
-#: How many of each fifty of _sampled_starts(35, 200) are in the sweep's scope (142 in all):
-#: the sweep runs as four tests of fifty starts, which xdist's workers share out (one test of 200
-#: was the suite's last, one worker running it alone for a minute).
+#: How many of each fifty of bench.starts3d's sample of seed 35 (200 starts) are in the sweep's
+#: scope (142 in all): the sweep runs as four tests of fifty starts, which xdist's workers share
+#: out (one test of 200 was the suite's last, one worker running it alone for a minute).
 IN_SCOPE_OF_EACH_50 = (40, 39, 32, 31)
 
 
@@ -212,8 +199,8 @@ def test_3d_touchdowns_follow_the_reference_at_the_default_tick(chunk):
     slid). Run in four chunks of fifty starts (``chunk``), each checking its own count in scope."""
     assert sum(IN_SCOPE_OF_EACH_50) == 142
     checked, misses = 0, []
-    for start in list(_sampled_starts(35, 200))[50 * chunk:50 * (chunk + 1)]:
-        verdict = _follows_the_reference(start)
+    for start in list(S.sampled_starts(35, 200))[50 * chunk:50 * (chunk + 1)]:
+        verdict = S.follows(start)
         if verdict is None:
             continue
         checked += 1
@@ -232,7 +219,7 @@ def test_a_sliding_impact_on_a_13_degree_slope_ends_where_the_reference_does():
     stretch before its stop (MODEL-NOTES 51); its drag frozen along where it slid from 5 ms
     before its stop ended 3.7 cm (1.7%) short: a foot whose slip passes zero at 19 mm/s was held,
     and at 1 ms impact sub-steps another, caught by static friction, was missed (10 cm long)."""
-    assert _follows_the_reference(SHORT_SLIDE_ON_13_DEG) == ""
+    assert S.follows(SHORT_SLIDE_ON_13_DEG) == ""
 
 
 #: Start 64 of a wider sample (session 37's `touchdown bench starts3d` campaign), inside this
@@ -245,21 +232,21 @@ STOP_UNDER_A_STRIKE = dict(tilt=0.0, heading=80.94862471047296, yaw=12.530475581
                            azimuth=145.25522630480717)
 
 
-@pytest.mark.parametrize("start", [STOP_UNDER_A_STRIKE, list(_sampled_starts(105, 119))[118]],
+@pytest.mark.parametrize("start", [STOP_UNDER_A_STRIKE, list(S.sampled_starts(105, 119))[118]],
                          ids=["wide-64", "seed105-118"])
 def test_a_foot_stopping_under_a_strike_sticks_where_the_reference_holds_it(start):
-    """Start 64's foot 0 strikes at 0.125 s under 299 kN while two others slide, and its slip stops at
-    0.128 s. Holding it there takes 0.83 of its static cone by the reference's own law at the
+    """Start 64's foot 0 strikes at 0.125 s under 299 kN while two others slide, and its slip stops
+    at 0.128 s. Holding it there takes 0.83 of its static cone by the reference's own law at the
     model's state; the model's test counted the foot's kinetic drag among the other forces,
     asked 1.03, and let it slide on at mu_k against a drive near mu_s. It never stuck again and
     the ship ended 13.8 cm short of the reference's 0.663 m, landed 0.24 s early (MODEL-NOTES
     70). Now it holds, as the reference's foot does, and the ship ends within 1%. Start 118 of
     seed 105 (2 degrees tilted, 4.1 m/s down onto 8.3 degrees) was the same decision: 3.9 cm off
     of 0.427 m before, 0.6 mm now."""
-    assert _follows_the_reference(start) == ""
+    assert S.follows(start) == ""
 
 
-#: Sample start 49 of _sampled_starts(35, 200): 2.2 m/s down onto a 14.1 degree slope; it rocks
+#: Sample start 49 of S.sampled_starts(35, 200): 2.2 m/s down onto a 14.1 degree slope; it rocks
 #: onto two more feet 0.75 s after its first touchdown.
 ROCKING_STRIKE_ON_14_DEG = dict(tilt=6.7657194836754595, heading=47.20477970513942,
                                 yaw=84.19969199500565, v_down=2.233770377107115,
@@ -279,12 +266,12 @@ def test_a_rocking_ships_later_foot_strike_follows_the_reference():
     radial speed alone deciding, 25 ms sub-steps stepped the strikes and the ship slid 1.2334 m
     (+1.8%; restarting the reference from the model's state, 12.7 mrad/s of error in that one
     stretch)."""
-    assert list(_sampled_starts(35, 50))[49] == ROCKING_STRIKE_ON_14_DEG
-    sc = _start(**ROCKING_STRIKE_ON_14_DEG)
+    assert list(S.sampled_starts(35, 50))[49] == ROCKING_STRIKE_ON_14_DEG
+    sc = S.scene(**ROCKING_STRIKE_ON_14_DEG)
     ref = _ref(sc)
     sim = E.run_sim(sc, 0.05)
     assert E.distance_m(sim) == pytest.approx(E.distance_m(ref), rel=0.01)
-    assert _follows_the_reference(ROCKING_STRIKE_ON_14_DEG) == ""
+    assert S.follows(ROCKING_STRIKE_ON_14_DEG) == ""
 
 
 def test_an_impact_converges_with_its_sub_step():
@@ -295,7 +282,7 @@ def test_an_impact_converges_with_its_sub_step():
     stiff foot's pieces are 1 ms (sim.stiff_substep). 0.8 took that foot's friction as an
     impulse after each 5 ms sub-step, missed its stop and slid 1.535 m (+14%; sim.stiff_substep
     = 0 still does); a 1 ms impact sub-step everywhere would double a touchdown sweep's cost."""
-    sc = _start(12.82672, 206.26773, 62.72895, 6.80023, 2.49824, 0.25, 0.033447, 1e4, 2.00001,
+    sc = S.scene(12.82672, 206.26773, 62.72895, 6.80023, 2.49824, 0.25, 0.033447, 1e4, 2.00001,
                 2.61494, 0.0, 0.0)
     ref = _ref(sc)
     sim = E.run_sim(sc, 0.05)
