@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from touchdown.bench.speed import fleet_doc
-from touchdown.logs.encode import ShipTables
+from touchdown.logs.encode import ShipTables, canonical_json, resolved_json_bytes
 from touchdown.logs.header import (header_table, record_bytes, world_header, world_header_later,
                                    world_record_later)
 from touchdown.sim.scenario import parse, resolve
@@ -79,3 +79,20 @@ def test_a_header_made_on_the_writers_thread_is_world_headers_own(known, monkeyp
     whole.shard = 2
     assert record() == whole.SerializeToString()
     assert list(world.ship_ids) == [sid for sid in world.ship_ids if sid in tables]
+
+
+def test_a_header_s_json_is_sorted_compact_and_one_writer_s_whole():
+    """A header's scenario is canonical_json's: keys sorted, no spaces, orjson's spelling
+    (0.00001), the same bytes whether joined from cached ship tables or written whole; a document
+    orjson cannot write (an integer past 64 bits) is the standard library's, whole, on both paths
+    (never a mix of the two spellings in one header)."""
+    resolved = {"z": 1e-05, "a": {"y": 1, "b": [0.5]},
+                "ships": [{"id": "s1", "v": 1e-05}, {"id": "s2", "v": 2.0}]}
+    assert canonical_json(resolved) == (b'{"a":{"b":[0.5],"y":1},"ships":[{"id":"s1","v":0.00001},'
+                                        b'{"id":"s2","v":2.0}],"z":0.00001}')
+    assert resolved_json_bytes(resolved, ["s1", "s2"], ShipTables()) == canonical_json(resolved)
+    big = {**resolved, "ships": [{"id": "s1", "v": 1e-05}, {"id": "s2", "seed": 2**70}]}
+    spelled = canonical_json(big)
+    assert spelled.startswith(b'{"a":{"b":[0.5],"y":1},"ships":[{"id":"s1","v":1e-05}')
+    assert json.loads(spelled) == big
+    assert resolved_json_bytes(big, ["s1", "s2"], ShipTables()) == spelled
