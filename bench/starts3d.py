@@ -157,11 +157,10 @@ def follows(start: dict, rel: float = REL, known: Reached | None = None) -> str 
     ends where it went, to ``rel`` (and 0.1 degree, 1 cm); what differs otherwise; None where
     the start is out of scope (:func:`in_scope`). ``known``: the reference's run of it, where the
     caller has it (:func:`reference_table`); else the reference runs it."""
-    sc = scene(**start)
-    ref = known if known is not None else reached(start, E.run_reference(sc))
+    ref = known if known is not None else _reached_by_reference(start)
     if not ref.in_scope:
         return None
-    v = compare(E.run_sim(sc, 0.05), ref)
+    v = compare(E.run_sim(scene(**start), 0.05), ref)
     return "" if v.follows(Bound(rel)) else f"{start}: {v}"
 
 
